@@ -1,0 +1,128 @@
+// The mdstream store (.mds), format version 1: on-disk structs.
+// docs/store-format.md describes every byte in prose; this header is the single definition
+// the writer, the reader and (later) the GPU upload code share. All integers little-endian.
+//
+// File layout:
+//   [FileHeader, 512 bytes]           offset 0
+//   [node payloads]                   one LZ4 block per node, back to back, from offset 512
+//   [section: type table]             TypeEntry[type_count]                 (uncompressed)
+//   [section: node directory]         NodeEntry[node_count]                 (uncompressed)
+//   [section: voxel lists]            VoxelRef[sum of NodeEntry::voxel_count] (uncompressed)
+//   [section: density volume]         LZ4 block of uint32 counts[dims.x*dims.y*dims.z]
+// Every section and every payload carries an XXH3-64 hash of its stored bytes; the header
+// carries an XXH3-64 hash of itself (computed with header_hash = 0).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace mds::store {
+
+inline constexpr char kMagic[8] = {'M', 'D', 'S', 'T', 'O', 'R', 'E', '\0'};
+inline constexpr uint32_t kFormatVersion = 1;
+inline constexpr uint32_t kHeaderBytes = 512;
+
+inline constexpr uint32_t kMaxNodeParticles = 65535;   // per-node indices fit in uint16
+inline constexpr uint32_t kMaxMeshletParticles = 255;  // meshlet sizes are uint8
+inline constexpr uint32_t kMaxTypes = 256;             // type indices are uint8
+inline constexpr uint32_t kQuantMax = 65535;           // 16-bit quantization: q in [0, 65535]
+
+enum HeaderFlags : uint32_t {
+  kFlagPerParticleRadius = 1u << 0,  // node payloads carry uint16 radius_q[n]
+};
+
+enum SectionId : uint32_t {
+  kSectionTypes = 0,
+  kSectionDirectory = 1,
+  kSectionVoxels = 2,
+  kSectionDensity = 3,
+  kSectionCount = 4,
+};
+
+struct Section {
+  uint64_t offset;     // byte offset of the stored bytes in the file
+  uint64_t bytes;      // stored size (compressed for the density volume)
+  uint64_t raw_bytes;  // decoded size (== bytes for uncompressed sections)
+  uint64_t hash;       // XXH3-64 of the stored bytes
+};
+static_assert(sizeof(Section) == 32);
+
+struct FileHeader {
+  char magic[8];                  // kMagic
+  uint32_t version;               // kFormatVersion
+  uint32_t header_bytes;          // kHeaderBytes
+  uint32_t flags;                 // HeaderFlags
+  uint32_t node_size_max;         // build parameter --node-size
+  uint32_t meshlet_size_max;      // build parameter --meshlet-size
+  uint32_t node_count;
+  uint64_t particle_count;
+  uint64_t meshlet_count;
+  uint32_t type_count;
+  uint32_t density_dims[3];       // voxels along x, y, z
+  double bounds_min[3];           // bounds of particle centres (all nodes)
+  double bounds_max[3];
+  double density_min[3];          // world-space box covered by the density grid
+  double density_max[3];
+  float radius_min;               // smallest particle radius in the store
+  float radius_max;               // largest; per-particle radius_q maps to [radius_min, radius_max]
+  double max_quantization_error;  // max |x_decoded - x_input| over all particles and axes
+  double max_error_over_half_step;// max of |error| / (step/2) over axes with step > 0; <= 1
+  uint64_t payload_bytes;         // sum of compressed node payloads
+  uint64_t payload_raw_bytes;     // sum of decoded node payloads
+  Section sections[kSectionCount];
+  uint8_t reserved[176];          // zero
+  uint64_t header_hash;           // XXH3-64 of these 512 bytes with header_hash = 0
+};
+static_assert(sizeof(FileHeader) == kHeaderBytes);
+static_assert(offsetof(FileHeader, sections) == 200);
+static_assert(offsetof(FileHeader, header_hash) == 504);
+
+
+
+// One entry per type (particle species). Type indices in payloads refer to this table.
+struct TypeEntry {
+  int32_t input_id;          // the id the input used (LAMMPS type, species index, MMPLD list)
+  float radius;              // radius of this type (per-particle radius overrides when present)
+  uint64_t particle_count;
+  char name[48];             // NUL-terminated species name, or empty
+};
+static_assert(sizeof(TypeEntry) == 64);
+
+// One entry per node. Nodes are stored in Morton order of their centres.
+struct NodeEntry {
+  uint64_t payload_offset;     // file offset of the LZ4 block
+  uint32_t payload_bytes;      // compressed size
+  uint32_t payload_raw_bytes;  // decoded size; must equal node_payload_bytes(...)
+  uint64_t payload_hash;       // XXH3-64 of the compressed bytes
+  uint32_t particle_count;     // 1..node_size_max
+  uint32_t meshlet_count;      // 1..particle_count
+  uint64_t first_particle;     // global index of this node's first particle (prefix sum)
+  uint64_t first_meshlet;      // global index of this node's first meshlet (prefix sum)
+  double center_min[3];        // quantization frame: x = center_min + q * step,
+  double center_max[3];        //   step = (center_max - center_min) / 65535 (0 if degenerate)
+  float max_radius;            // largest radius in the node: culling bounds = centre bounds +- max_radius
+  uint32_t voxel_first;        // first VoxelRef of this node in the voxel-list section
+  uint32_t voxel_count;        // number of density voxels this node's particles fall in
+  uint32_t reserved;           // zero
+};
+static_assert(sizeof(NodeEntry) == 112);
+
+// A density voxel touched by a node, and how many of the node's particles it holds.
+// Subtracting a node's VoxelRefs from the density volume removes that node (paper 000, §4.4).
+struct VoxelRef {
+  uint32_t voxel;   // x + dims.x * (y + dims.y * z)
+  uint32_t count;   // particles of this node whose centre lies in that voxel
+};
+static_assert(sizeof(VoxelRef) == 8);
+
+// Decoded node payload layout (before LZ4), n particles, m meshlets, particles in meshlet order:
+//   uint16 qpos[n][3]        6n bytes   quantized x, y, z in the node frame
+//   uint8  type_index[n]     n bytes    index into the type table
+//   uint16 radius_q[n]       2n bytes   only with kFlagPerParticleRadius:
+//                                       r = radius_min + q * (radius_max - radius_min) / 65535
+//   uint8  meshlet_size[m]   m bytes    1..meshlet_size_max, sum == n
+inline constexpr uint64_t node_payload_bytes(uint64_t n, uint64_t m, bool per_particle_radius) {
+  return 6 * n + n + (per_particle_radius ? 2 * n : 0) + m;
+}
+
+}  // namespace mds::store

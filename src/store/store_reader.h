@@ -1,0 +1,63 @@
+// Reading a store. The file is treated as hostile: open() validates the header hash,
+// every section's bounds and hash, and the consistency of the directory (counts, prefix
+// sums, payload ranges inside the file and outside the sections) before anything is used.
+// Payload reads are positioned (pread) and safe to call from several threads at once.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "core/result.h"
+#include "store/format.h"
+
+namespace mds::store {
+
+// A decoded node, caller-owned and reusable across decode_node() calls.
+struct NodeData {
+  std::vector<uint16_t> qpos;          // 3n
+  std::vector<uint8_t> type_index;     // n
+  std::vector<uint16_t> radius_q;      // n, or empty without kFlagPerParticleRadius
+  std::vector<uint8_t> meshlet_size;   // m
+  size_t particle_count() const { return type_index.size(); }
+};
+
+class StoreReader {
+ public:
+  static Result<std::unique_ptr<StoreReader>> open(const std::filesystem::path& path);
+  ~StoreReader();
+  StoreReader(const StoreReader&) = delete;
+  StoreReader& operator=(const StoreReader&) = delete;
+
+  const std::filesystem::path& path() const;
+  const FileHeader& header() const;
+  uint64_t file_bytes() const;
+  std::span<const TypeEntry> types() const;
+  std::span<const NodeEntry> nodes() const;
+  std::span<const VoxelRef> voxels(uint32_t node) const;  // this node's voxel list
+  std::span<const uint32_t> density_counts() const;      // dims.x*dims.y*dims.z particle counts
+
+  // Reads node `i`'s compressed bytes into `out` (resized) and checks its hash.
+  // Errc::checksum names the file, node index and byte offset on mismatch.
+  Status read_payload(uint32_t i, std::vector<uint8_t>& out) const;
+  // Decodes compressed bytes of node `i` (as read_payload gives them) into `out`,
+  // validating sizes, meshlet sums and type indices.
+  Status decode_payload(uint32_t i, std::span<const uint8_t> compressed, NodeData& out) const;
+  // read_payload + decode_payload.
+  Status read_node(uint32_t i, NodeData& out, std::vector<uint8_t>& scratch) const;
+
+ private:
+  StoreReader() = default;
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Quantization frame of a node: x = center_min + q * step.
+inline double quant_step(const NodeEntry& e, int axis) {
+  return (e.center_max[axis] - e.center_min[axis]) / double(kQuantMax);
+}
+
+}  // namespace mds::store

@@ -1,0 +1,82 @@
+// Writing a store: nodes are encoded (LZ4 + XXH3) independently, possibly on worker
+// threads, then appended in order by one writer that owns the temporary output file.
+// The file appears at its final path only after finish() succeeded (write to
+// "<path>.tmp.<pid>", fsync, rename); a writer destroyed before finish() removes it.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "core/result.h"
+#include "store/format.h"
+
+namespace mds::store {
+
+// One node's decoded content, in meshlet order. Preconditions: qpos.size() == 3n,
+// type_index.size() == n, radius_q.size() is n or 0, sum(meshlet_size) == n, 1 <= n <= 65535.
+struct NodeInput {
+  std::span<const uint16_t> qpos;
+  std::span<const uint8_t> type_index;
+  std::span<const uint16_t> radius_q;
+  std::span<const uint8_t> meshlet_size;
+  double center_min[3];
+  double center_max[3];
+  float max_radius;
+  std::span<const VoxelRef> voxels;  // sorted by voxel index, counts > 0, sum == n
+};
+
+// A node ready to append: compressed payload plus the directory fields known so far.
+struct EncodedNode {
+  std::vector<uint8_t> payload;  // LZ4 block
+  NodeEntry entry;               // offsets/prefix sums/voxel_first filled in by append()
+  std::vector<VoxelRef> voxels;
+};
+
+// Pure and thread-safe: serializes and compresses one node.
+Result<EncodedNode> encode_node(const NodeInput& node);
+
+struct StoreSummary {
+  uint32_t flags = 0;
+  uint32_t node_size_max = 0;
+  uint32_t meshlet_size_max = 0;
+  double bounds_min[3] = {0, 0, 0};
+  double bounds_max[3] = {0, 0, 0};
+  float radius_min = 0;
+  float radius_max = 0;
+  double max_quantization_error = 0;
+  double max_error_over_half_step = 0;
+  std::vector<TypeEntry> types;
+  // Density grid: dims and the world box it covers; counts has dims[0]*dims[1]*dims[2] entries.
+  uint32_t density_dims[3] = {0, 0, 0};
+  double density_min[3] = {0, 0, 0};
+  double density_max[3] = {0, 0, 0};
+  std::vector<uint32_t> density_counts;
+};
+
+class StoreWriter {
+ public:
+  // Creates the temporary file next to `path`. Fails if the directory is not writable.
+  static Result<std::unique_ptr<StoreWriter>> create(const std::filesystem::path& path);
+  ~StoreWriter();
+  StoreWriter(const StoreWriter&) = delete;
+  StoreWriter& operator=(const StoreWriter&) = delete;
+
+  // Appends the next node (nodes are numbered in append order).
+  Status append(EncodedNode&& node);
+  // Writes sections and header, fsyncs and renames to the final path.
+  Status finish(const StoreSummary& summary);
+
+  uint64_t bytes_written() const;
+  uint64_t node_count() const;
+
+ private:
+  StoreWriter() = default;
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mds::store

@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# Installs every Debian package mdstream needs to build, test and run.
+# Idempotent: when everything is present it only checks (a few seconds) and exits.
+set -euo pipefail
+
+PACKAGES=(
+  # toolchain
+  build-essential cmake pkg-config git
+  # Vulkan: loader, headers, lavapipe (software ICD), shader compiler
+  libvulkan-dev mesa-vulkan-drivers glslang-tools
+  # maths, formats, compression
+  libglm-dev libhdf5-dev liblz4-dev libxxhash-dev libzstd-dev zlib1g-dev libpng-dev libtinyexr-dev
+  # meshlet construction (kd-tree / octree)
+  libpcl-dev
+  # CLI, JSON, logging
+  libcli11-dev nlohmann-json3-dev libfmt-dev libspdlog-dev
+  # tests and benchmarks
+  libgtest-dev libgmock-dev libbenchmark-dev
+  # viewer: window + X11 testing
+  libglfw3-dev xvfb xdotool x11-apps
+  # real inputs and references for tests and tools
+  lammps python3 python3-numpy python3-scipy python3-h5py python3-mdanalysis python3-matplotlib
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "bootstrap: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+echo "bootstrap: installing ${#missing[@]} packages: ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y --no-install-recommends -qq "${missing[@]}"
+echo "bootstrap: done"
