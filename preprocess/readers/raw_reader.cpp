@@ -1,0 +1,68 @@
+// Raw float32 xyz reader (see raw_reader.h). Streams in batches with pread.
+#include "readers/raw_reader.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+
+#include "readers/reader_factories.h"
+
+namespace mds {
+
+static_assert(std::endian::native == std::endian::little, "raw reader assumes a little-endian host");
+
+namespace {
+constexpr uint64_t kBytesPerParticle = 12;
+constexpr size_t kMaxChunkParticles = size_t{1} << 20;  // bounded buffer: 12 MiB
+}  // namespace
+
+Result<std::unique_ptr<ParticleReader>> RawReader::open(const std::filesystem::path& path,
+                                                        const ReaderOptions& options) {
+  if (options.frame != 0 && options.frame != -1) {
+    return make_error(Errc::invalid_argument, "{}: raw files hold one frame; frame {} requested", path.string(),
+                      options.frame);
+  }
+  MDS_ASSIGN_OR_RETURN(BinaryFile file, BinaryFile::open(path));
+  if (file.size() % kBytesPerParticle != 0) {
+    return make_error(Errc::format,
+                      "{}: raw float32 xyz file size {} bytes is not a multiple of 12 (3 x float32 per particle)",
+                      path.string(), file.size());
+  }
+  std::unique_ptr<RawReader> r(new RawReader(std::move(file)));
+  r->info_.particle_count = r->file_.size() / kBytesPerParticle;
+  return std::unique_ptr<ParticleReader>(std::move(r));
+}
+
+Result<size_t> RawReader::read(ParticleBatch& out, size_t max_particles) {
+  out.clear();
+  const uint64_t remaining = info_.particle_count - next_;
+  const size_t n = static_cast<size_t>(std::min<uint64_t>({remaining, max_particles, kMaxChunkParticles}));
+  if (n == 0) return size_t{0};
+  buffer_.resize(n * 3);
+  const uint64_t offset = next_ * kBytesPerParticle;
+  MDS_TRY(file_.read_at(offset, buffer_.data(), n * kBytesPerParticle, "particle coordinates"));
+  out.x.resize(n);
+  out.y.resize(n);
+  out.z.resize(n);
+  out.type.assign(n, 1);
+  for (size_t i = 0; i < n; ++i) {
+    const float* p = &buffer_[3 * i];
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) {
+      const int bad = !std::isfinite(p[0]) ? 0 : (!std::isfinite(p[1]) ? 1 : 2);
+      return make_error(Errc::range, "{}: byte offset {}: particle {} has a non-finite coordinate ({})", file_.name(),
+                        offset + i * kBytesPerParticle + 4 * bad, next_ + i, p[bad]);
+    }
+    out.x[i] = p[0];
+    out.y[i] = p[1];
+    out.z[i] = p[2];
+  }
+  next_ += n;
+  return n;
+}
+
+Result<std::unique_ptr<ParticleReader>> open_raw_reader(const std::filesystem::path& path,
+                                                        const ReaderOptions& options) {
+  return RawReader::open(path, options);
+}
+
+}  // namespace mds
