@@ -1,0 +1,515 @@
+// LAMMPS text dump reader. Format: LAMMPS manual, `dump` command (atom/custom styles) and
+// "Howto triclinic" for the box; see lammps_reader.h for the box formulas.
+//
+// Headers are parsed line by line; atom lines are taken from the TextSource in large blocks
+// and parsed in parallel (one range of lines per hardware thread) with std::from_chars.
+// Frames before the requested one are skipped by counting newlines only.
+#include "readers/lammps_reader.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "readers/text_source.h"
+
+namespace mds {
+
+LammpsBox lammps_box_from_bounds(const double bounds[3][3], bool triclinic) {
+  LammpsBox b;
+  b.triclinic = triclinic;
+  for (int i = 0; i < 3; ++i) {
+    b.bound_lo[i] = bounds[i][0];
+    b.bound_hi[i] = bounds[i][1];
+    b.lo[i] = bounds[i][0];
+    b.hi[i] = bounds[i][1];
+  }
+  if (triclinic) {
+    b.xy = bounds[0][2];
+    b.xz = bounds[1][2];
+    b.yz = bounds[2][2];
+    b.lo[0] = b.bound_lo[0] - std::min({0.0, b.xy, b.xz, b.xy + b.xz});
+    b.hi[0] = b.bound_hi[0] - std::max({0.0, b.xy, b.xz, b.xy + b.xz});
+    b.lo[1] = b.bound_lo[1] - std::min(0.0, b.yz);
+    b.hi[1] = b.bound_hi[1] - std::max(0.0, b.yz);
+  }
+  return b;
+}
+
+namespace {
+
+// An atom count no real dump reaches (~10^12); larger counts are rejected before anything
+// is allocated, also in compressed files whose size does not bound the count.
+constexpr uint64_t kMaxAtoms = uint64_t{1} << 40;
+constexpr size_t kMinLinesPerThread = 16384;
+
+enum class Col : uint8_t { skip, id, type, x, y, z, radius, diameter };
+
+std::vector<std::string_view> split_ws(std::string_view s) {
+  std::vector<std::string_view> out;
+  size_t i = 0;
+  while (i < s.size()) {
+    while (i < s.size() && (is_blank(s[i]) || s[i] == '\r')) ++i;
+    size_t j = i;
+    while (j < s.size() && !is_blank(s[j]) && s[j] != '\r') ++j;
+    if (j > i) out.push_back(s.substr(i, j - i));
+    i = j;
+  }
+  return out;
+}
+
+bool starts_with_item(std::string_view line) { return line.substr(0, 5) == "ITEM:"; }
+
+struct FrameHeader {
+  uint64_t first_line = 0;   // line of the first ITEM:
+  int64_t timestep = 0;
+  uint64_t natoms = 0;
+  bool has_natoms = false;
+  LammpsBox box;
+  bool has_box = false;
+  uint64_t atoms_line = 0;   // line of ITEM: ATOMS
+  std::vector<Col> cols;
+  bool scaled = false;
+  bool has_id = false, has_type = false, has_radius = false;
+};
+
+// Picks the position columns and the roles of all columns of `ITEM: ATOMS ...`.
+Status map_columns(const std::vector<std::string_view>& names, FrameHeader& h, const std::string& file) {
+  h.cols.assign(names.size(), Col::skip);
+  static const char* kSets[4][3] = {{"x", "y", "z"}, {"xu", "yu", "zu"}, {"xs", "ys", "zs"}, {"xsu", "ysu", "zsu"}};
+  auto find = [&](std::string_view n) -> int {
+    for (size_t i = 0; i < names.size(); ++i)
+      if (names[i] == n) return static_cast<int>(i);
+    return -1;
+  };
+  int chosen = -1;
+  for (int s = 0; s < 4 && chosen < 0; ++s) {
+    int ix = find(kSets[s][0]), iy = find(kSets[s][1]), iz = find(kSets[s][2]);
+    if (ix >= 0 && iy >= 0 && iz >= 0) {
+      chosen = s;
+      h.cols[ix] = Col::x;
+      h.cols[iy] = Col::y;
+      h.cols[iz] = Col::z;
+    }
+  }
+  if (chosen < 0)
+    return make_error(Errc::format,
+                      "{}:{}: ITEM: ATOMS has no complete set of position columns (x y z, xu yu zu, xs ys zs or "
+                      "xsu ysu zsu)",
+                      file, h.atoms_line);
+  h.scaled = chosen >= 2;
+  if (int i = find("id"); i >= 0) { h.cols[i] = Col::id; h.has_id = true; }
+  if (int i = find("type"); i >= 0) { h.cols[i] = Col::type; h.has_type = true; }
+  if (int i = find("radius"); i >= 0) {
+    h.cols[i] = Col::radius;
+    h.has_radius = true;
+  } else if (int j = find("diameter"); j >= 0) {
+    h.cols[j] = Col::diameter;
+    h.has_radius = true;
+  }
+  if (h.scaled && !h.has_box)
+    return make_error(Errc::format, "{}:{}: scaled coordinates but the frame has no ITEM: BOX BOUNDS", file,
+                      h.atoms_line);
+  return {};
+}
+
+// First error found by a parsing thread.
+struct ParseError {
+  bool set = false;
+  Error error;
+};
+
+// Records the error so that later read() calls repeat it.
+#define MDS_TRY_FAIL(expr)                       \
+  do {                                           \
+    Status st_ = (expr);                         \
+    if (!st_.ok()) return fail(st_.error());     \
+  } while (0)
+
+class LammpsReader final : public ParticleReader {
+ public:
+  LammpsReader(std::unique_ptr<TextSource> src, FrameHeader h) : src_(std::move(src)), h_(std::move(h)) {
+    info_.particle_count = h_.natoms;
+    info_.timestep = h_.timestep;
+    info_.has_box = h_.has_box;
+    for (int i = 0; i < 3; ++i) {
+      info_.box_lo[i] = h_.box.bound_lo[i];
+      info_.box_hi[i] = h_.box.bound_hi[i];
+    }
+    info_.has_radius = h_.has_radius;
+    remaining_ = h_.natoms;
+  }
+
+  const FrameInfo& info() const override { return info_; }
+
+  Result<size_t> read(ParticleBatch& out, size_t max_particles) override {
+    out.clear();
+    if (failed_) return *failed_;
+    if (remaining_ == 0 || max_particles == 0) return size_t{0};
+    const size_t want = static_cast<size_t>(std::min<uint64_t>(remaining_, max_particles));
+    done_before_ = h_.natoms - remaining_;
+    size_t got = 0;
+    while (got < want) {
+      auto blk = src_->take_lines(want - got);
+      if (!blk.ok()) return fail(blk.error());
+      if (blk->lines == 0)
+        return fail(make_error(Errc::format,
+                               "{}:{}: file ends inside the frame that starts at line {}: it declares {} atoms, found {} "
+                               "(truncated file or wrong atom count)",
+                               src_->name(), src_->unterminated_line() ? src_->unterminated_line() : src_->line() + 1,
+                               h_.first_line, h_.natoms,
+                               h_.natoms - remaining_ + got));
+      if (src_->unterminated_line() != 0 && blk->first_line + blk->lines - 1 == src_->unterminated_line())
+        return fail(make_error(Errc::format, "{}:{}: last line has no end-of-line (file truncated?)", src_->name(),
+                               src_->unterminated_line()));
+      MDS_TRY_FAIL(parse_block(*blk, out, got));
+      got += blk->lines;
+    }
+    remaining_ -= got;
+    if (remaining_ == 0) MDS_TRY_FAIL(check_frame_end());
+    return got;
+  }
+
+ private:
+  Error fail(Error e) {
+    failed_ = e;
+    return e;
+  }
+
+  // After the declared atoms: end of file or the next frame's ITEM:.
+  Status check_frame_end() {
+    std::string_view line;
+    MDS_ASSIGN_OR_RETURN(bool has, src_->peek_line(line));
+    if (!has || starts_with_item(line)) return {};
+    if (trim(line).empty()) {
+      // Blank lines are allowed only at the very end.
+      while (true) {
+        MDS_ASSIGN_OR_RETURN(bool more, src_->next_line(line));
+        if (!more) return {};
+        if (!trim(line).empty()) break;
+      }
+      return make_error(Errc::format, "{}:{}: unexpected text after a blank line: '{}'", src_->name(), src_->line(),
+                        excerpt(line));
+    }
+    return make_error(Errc::format,
+                      "{}:{}: more atom lines than the {} that the frame at line {} declares (wrong atom count?)",
+                      src_->name(), src_->line() + 1, h_.natoms, h_.first_line);
+  }
+
+  Status parse_block(const LineBlock& blk, ParticleBatch& out, size_t base) {
+    const size_t n = base + blk.lines;
+    out.x.resize(n);
+    out.y.resize(n);
+    out.z.resize(n);
+    out.type.resize(n);
+    if (h_.has_id) out.id.resize(n);
+    if (h_.has_radius) out.radius.resize(n);
+    std::vector<ParseError> errs(line_parallelism());
+    parallel_line_ranges(blk, errs.size(), kMinLinesPerThread,
+                         [&](size_t part, const char* b, const char* e, size_t first, size_t lines) {
+                           parse_range(b, e, base + first, lines, blk.first_line + first, out, errs[part]);
+                         });
+    for (auto& pe : errs)
+      if (pe.set) return pe.error;
+    return {};
+  }
+
+  void parse_range(const char* p, const char* end, size_t out_index, size_t lines, uint64_t first_line,
+                   ParticleBatch& out, ParseError& err) const {
+    const Col* cols = h_.cols.data();
+    const size_t ncols = h_.cols.size();
+    double* xs = out.x.data();
+    double* ys = out.y.data();
+    double* zs = out.z.data();
+    int32_t* types = out.type.data();
+    int64_t* ids = h_.has_id ? out.id.data() : nullptr;
+    float* radii = h_.has_radius ? out.radius.data() : nullptr;
+    for (size_t li = 0; li < lines; ++li) {
+      const char* line_start = p;
+      double pos[3] = {0, 0, 0};
+      int32_t type = 1;
+      for (size_t c = 0; c < ncols; ++c) {
+        while (is_blank(*p)) ++p;
+        if (*p == '\n' || *p == '\r') {
+          set_error(err, Errc::format, first_line + li,
+                    fmt::format("expected {} columns (ITEM: ATOMS at line {}), found {}", ncols, h_.atoms_line, c));
+          return;
+        }
+        const char* tok = p;
+        if (c == 0 && *p == 'I' && std::string_view(p, static_cast<size_t>(end - p)).substr(0, 5) == "ITEM:") {
+          set_error(err, Errc::format, first_line + li,
+                    fmt::format("'ITEM:' after {} of the {} atoms that the frame at line {} declares (wrong atom "
+                                "count?)",
+                                done_before_ + out_index + li, h_.natoms, h_.first_line));
+          return;
+        }
+        std::from_chars_result r{p, std::errc()};
+        const Col role = cols[c];
+        if (role == Col::skip) {
+          while (!is_token_end(*p)) ++p;
+          continue;
+        }
+        if (*p == '+') ++p;
+        switch (role) {
+          case Col::x:
+          case Col::y:
+          case Col::z: {
+            double v;
+            r = std::from_chars(p, end, v);
+            if (r.ec == std::errc() && !std::isfinite(v)) {
+              set_error(err, Errc::range, first_line + li,
+                        fmt::format("non-finite coordinate '{}'", token_at(tok)));
+              return;
+            }
+            pos[static_cast<int>(role) - static_cast<int>(Col::x)] = v;
+            break;
+          }
+          case Col::type: {
+            r = std::from_chars(p, end, type);
+            break;
+          }
+          case Col::id: {
+            int64_t v = 0;
+            r = std::from_chars(p, end, v);
+            ids[out_index + li] = v;
+            break;
+          }
+          case Col::radius:
+          case Col::diameter: {
+            double v;
+            r = std::from_chars(p, end, v);
+            if (r.ec == std::errc() && (!std::isfinite(v) || v < 0)) {
+              set_error(err, Errc::range, first_line + li, fmt::format("invalid radius/diameter '{}'", token_at(tok)));
+              return;
+            }
+            radii[out_index + li] = static_cast<float>(role == Col::diameter ? v * 0.5 : v);
+            break;
+          }
+          case Col::skip:
+            break;
+        }
+        if (r.ec != std::errc() || !is_token_end(*r.ptr)) {
+          set_error(err, r.ec == std::errc::result_out_of_range ? Errc::range : Errc::format, first_line + li,
+                    fmt::format("bad value '{}' in column {} of {}", token_at(tok), c + 1, ncols));
+          return;
+        }
+        p = r.ptr;
+      }
+      while (is_blank(*p) || *p == '\r') ++p;
+      if (*p != '\n') {
+        size_t found = split_ws(std::string_view(line_start, static_cast<size_t>(
+                                                                 static_cast<const char*>(std::memchr(p, '\n', end - p)) -
+                                                                 line_start)))
+                           .size();
+        set_error(err, Errc::format, first_line + li,
+                  fmt::format("expected {} columns (ITEM: ATOMS at line {}), found {}", ncols, h_.atoms_line, found));
+        return;
+      }
+      ++p;
+      const size_t o = out_index + li;
+      if (h_.scaled) {
+        double c[3];
+        h_.box.scaled_to_cartesian(pos, c);
+        xs[o] = c[0];
+        ys[o] = c[1];
+        zs[o] = c[2];
+      } else {
+        xs[o] = pos[0];
+        ys[o] = pos[1];
+        zs[o] = pos[2];
+      }
+      types[o] = type;
+    }
+  }
+
+  static std::string token_at(const char* t) {
+    const char* e = t;
+    while (!is_token_end(*e) && e - t < 40) ++e;
+    return std::string(t, e);
+  }
+
+  void set_error(ParseError& err, Errc code, uint64_t line, const std::string& what) const {
+    err.set = true;
+    err.error = Error{code, fmt::format("{}:{}: {}", src_->name(), line, what)};
+  }
+
+  std::unique_ptr<TextSource> src_;
+  FrameHeader h_;
+  FrameInfo info_;
+  uint64_t remaining_ = 0;
+  uint64_t done_before_ = 0;  // atoms of the frame returned by earlier read() calls
+  std::optional<Error> failed_;
+};
+#undef MDS_TRY_FAIL
+
+// Reads the header of the next frame up to and including `ITEM: ATOMS`. Returns false at
+// the end of the file (no more frames). `after` describes what precedes (for messages).
+Result<bool> read_header(TextSource& src, FrameHeader& h, const std::string& after) {
+  h = FrameHeader{};
+  const std::string& file = src.name();
+  std::string_view line;
+  // Skip blank lines between frames.
+  while (true) {
+    MDS_ASSIGN_OR_RETURN(bool has, src.peek_line(line));
+    if (!has) return false;
+    if (!trim(line).empty()) break;
+    MDS_TRY(src.next_line(line));
+  }
+  MDS_TRY(src.next_line(line));
+  h.first_line = src.line();
+  if (!starts_with_item(line))
+    return make_error(Errc::format, "{}:{}: expected 'ITEM: TIMESTEP'{}, found '{}'", file, src.line(), after,
+                      excerpt(line));
+  bool seen_ts = false;
+  while (true) {
+    std::string_view item = trim(line.substr(5));
+    const uint64_t item_line = src.line();
+    auto value_line = [&](const char* what) -> Result<std::string_view> {
+      std::string_view v;
+      MDS_ASSIGN_OR_RETURN(bool has, src.next_line(v));
+      if (!has)
+        return make_error(Errc::format, "{}:{}: file ends after 'ITEM: {}' (truncated?)", file, item_line, what);
+      return v;
+    };
+    if (item == "TIMESTEP") {
+      if (seen_ts)
+        return make_error(Errc::format, "{}:{}: second ITEM: TIMESTEP before ITEM: ATOMS of the frame at line {}",
+                          file, item_line, h.first_line);
+      seen_ts = true;
+      MDS_ASSIGN_OR_RETURN(std::string_view v, value_line("TIMESTEP"));
+      if (!parse_int_exact(v, h.timestep))
+        return make_error(Errc::format, "{}:{}: bad timestep '{}'", file, src.line(), excerpt(v));
+    } else if (item == "NUMBER OF ATOMS") {
+      MDS_ASSIGN_OR_RETURN(std::string_view v, value_line("NUMBER OF ATOMS"));
+      bool overflow = false;
+      if (!parse_int_exact(v, h.natoms, &overflow)) {
+        if (overflow)
+          return make_error(Errc::range, "{}:{}: atom count '{}' is out of range", file, src.line(), excerpt(v));
+        return make_error(Errc::format, "{}:{}: bad atom count '{}'", file, src.line(), excerpt(v));
+      }
+      if (h.natoms > kMaxAtoms)
+        return make_error(Errc::range, "{}:{}: atom count {} is absurd (more than {})", file, src.line(), h.natoms,
+                          kMaxAtoms);
+      h.has_natoms = true;
+    } else if (item.substr(0, 10) == "BOX BOUNDS") {
+      auto flags = split_ws(item.substr(10));
+      bool tri = std::find(flags.begin(), flags.end(), "xy") != flags.end();
+      if (std::find(flags.begin(), flags.end(), "abc") != flags.end())
+        return make_error(Errc::unsupported, "{}:{}: general triclinic boxes ('abc origin') are not supported", file,
+                          item_line);
+      double b[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
+      for (int i = 0; i < 3; ++i) {
+        MDS_ASSIGN_OR_RETURN(std::string_view v, value_line("BOX BOUNDS"));
+        auto t = split_ws(v);
+        const size_t need = tri ? 3 : 2;
+        if (t.size() != need)
+          return make_error(Errc::format, "{}:{}: expected {} numbers in a {} box bounds line, found {}", file,
+                            src.line(), need, tri ? "triclinic" : "orthogonal", t.size());
+        for (size_t k = 0; k < need; ++k) {
+          if (!parse_double_exact(t[k], b[i][k]))
+            return make_error(Errc::format, "{}:{}: bad box bound '{}'", file, src.line(), excerpt(t[k]));
+          if (!std::isfinite(b[i][k]))
+            return make_error(Errc::range, "{}:{}: non-finite box bound '{}'", file, src.line(), excerpt(t[k]));
+        }
+      }
+      h.box = lammps_box_from_bounds(b, tri);
+      h.has_box = true;
+    } else if (item.substr(0, 5) == "ATOMS") {
+      h.atoms_line = item_line;
+      if (!h.has_natoms)
+        return make_error(Errc::format, "{}:{}: ITEM: ATOMS before ITEM: NUMBER OF ATOMS", file, item_line);
+      auto names = split_ws(item.substr(5));
+      if (names.empty()) return make_error(Errc::format, "{}:{}: ITEM: ATOMS lists no columns", file, item_line);
+      MDS_TRY(map_columns(names, h, file));
+      // Every atom line holds at least one character and one separator per column; counts
+      // beyond what the rest of the file could hold at half that are absurd (a slightly
+      // malformed file is left to the line checks, which give the better message).
+      if (auto rest = src.remaining_bytes()) {
+        const uint64_t min_bytes = static_cast<uint64_t>(names.size());
+        if (h.natoms > *rest / min_bytes)
+          return make_error(Errc::range,
+                            "{}:{}: frame declares {} atoms but only {} bytes remain in the file (an atom line "
+                            "needs at least {} bytes)",
+                            file, item_line, h.natoms, *rest, 2 * min_bytes);
+      }
+      return true;
+    } else if (item.substr(0, 7) == "ENTRIES") {
+      return make_error(Errc::unsupported, "{}:{}: this is a 'dump local' file (ITEM: ENTRIES), not an atom dump",
+                        file, item_line);
+    } else {
+      // Other items (UNITS, TIME, ...): skip their value lines.
+      while (true) {
+        MDS_ASSIGN_OR_RETURN(bool has, src.peek_line(line));
+        if (!has || starts_with_item(line)) break;
+        MDS_TRY(src.next_line(line));
+      }
+    }
+    MDS_ASSIGN_OR_RETURN(bool has, src.next_line(line));
+    if (!has)
+      return make_error(Errc::format, "{}:{}: file ends before 'ITEM: ATOMS' of the frame at line {} (truncated?)",
+                        file, src.line(), h.first_line);
+    if (!starts_with_item(line))
+      return make_error(Errc::format, "{}:{}: expected an ITEM: line, found '{}'", file, src.line(), excerpt(line));
+  }
+}
+
+// Skips the atom lines of a frame whose header was just read.
+Status skip_atoms(TextSource& src, const FrameHeader& h) {
+  MDS_ASSIGN_OR_RETURN(uint64_t skipped, src.skip_lines(h.natoms));
+  if (skipped < h.natoms)
+    return make_error(Errc::format,
+                      "{}:{}: file ends inside the frame that starts at line {}: it declares {} atoms, found {} "
+                      "(truncated file or wrong atom count)",
+                      src.name(), src.unterminated_line() ? src.unterminated_line() : src.line() + 1, h.first_line,
+                      h.natoms, skipped);
+  return {};
+}
+
+std::string after_frame(const FrameHeader& h) {
+  return fmt::format(" after the {} atoms of the frame at line {} (wrong atom count?)", h.natoms, h.first_line);
+}
+
+}  // namespace
+
+Result<std::unique_ptr<ParticleReader>> open_lammps_reader(const std::filesystem::path& path,
+                                                           const ReaderOptions& options) {
+  if (options.frame < -1)
+    return make_error(Errc::invalid_argument, "{}: frame {} is not valid (use >= 0, or -1 for the last)",
+                      path.string(), options.frame);
+  MDS_ASSIGN_OR_RETURN(std::unique_ptr<TextSource> src, TextSource::open(path));
+  FrameHeader h;
+  std::string after;
+  if (options.frame >= 0) {
+    for (int64_t f = 0;; ++f) {
+      MDS_ASSIGN_OR_RETURN(bool has, read_header(*src, h, after));
+      if (!has) {
+        if (f == 0) return make_error(Errc::format, "{}: no frames (empty file?)", src->name());
+        return make_error(Errc::invalid_argument, "{}: frame {} requested but the file has {} frame{}", src->name(),
+                          options.frame, f, f == 1 ? "" : "s");
+      }
+      if (f == options.frame) break;
+      MDS_TRY(skip_atoms(*src, h));
+      after = after_frame(h);
+    }
+  } else {
+    // Last frame: scan all frames, remember where the last one starts, go back there.
+    uint64_t last_offset = 0, last_line = 0;
+    int64_t frames = 0;
+    while (true) {
+      const uint64_t off = src->tell(), line = src->line();
+      MDS_ASSIGN_OR_RETURN(bool has, read_header(*src, h, after));
+      if (!has) break;
+      last_offset = off;
+      last_line = line;
+      ++frames;
+      MDS_TRY(skip_atoms(*src, h));
+      after = after_frame(h);
+    }
+    if (frames == 0) return make_error(Errc::format, "{}: no frames (empty file?)", src->name());
+    MDS_TRY(src->seek(last_offset, last_line));
+    MDS_ASSIGN_OR_RETURN(bool has, read_header(*src, h, ""));
+    if (!has) return make_error(Errc::internal, "{}: last frame vanished on re-read", src->name());
+  }
+  return std::unique_ptr<ParticleReader>(new LammpsReader(std::move(src), std::move(h)));
+}
+
+}  // namespace mds

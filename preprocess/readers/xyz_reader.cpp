@@ -1,0 +1,538 @@
+// XYZ / extended XYZ reader; formats described in xyz_reader.h.
+//
+// Like the LAMMPS reader: headers line by line, atom lines in large blocks parsed in
+// parallel with std::from_chars; species strings are mapped to type ids afterwards on one
+// thread (first seen -> 1, 2, ...; an integer species is used as the type id itself).
+#include "readers/xyz_reader.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <set>
+#include <unordered_map>
+
+#include "readers/text_source.h"
+
+namespace mds {
+
+bool parse_extxyz_comment(std::string_view s, std::map<std::string, std::string>& out) {
+  size_t i = 0;
+  auto read_value = [&](std::string& v) -> bool {
+    if (i < s.size() && (s[i] == '"' || s[i] == '\'' || s[i] == '{')) {
+      const char close = s[i] == '{' ? '}' : s[i];
+      ++i;
+      while (i < s.size() && s[i] != close) {
+        if (s[i] == '\\' && i + 1 < s.size()) ++i;
+        v.push_back(s[i++]);
+      }
+      if (i >= s.size()) return false;
+      ++i;
+      return true;
+    }
+    while (i < s.size() && !is_blank(s[i]) && s[i] != '\r') v.push_back(s[i++]);
+    return true;
+  };
+  while (i < s.size()) {
+    while (i < s.size() && (is_blank(s[i]) || s[i] == '\r')) ++i;
+    if (i >= s.size()) break;
+    std::string key;
+    if (s[i] == '"' || s[i] == '\'' || s[i] == '{') {
+      if (!read_value(key)) return false;
+    } else {
+      while (i < s.size() && !is_blank(s[i]) && s[i] != '=' && s[i] != '\r') key.push_back(s[i++]);
+    }
+    // Allow spaces around '='.
+    size_t j = i;
+    while (j < s.size() && is_blank(s[j])) ++j;
+    if (j < s.size() && s[j] == '=') {
+      i = j + 1;
+      while (i < s.size() && is_blank(s[i])) ++i;
+      std::string v;
+      if (!read_value(v)) return false;
+      out[key] = v;
+    } else {
+      out[key] = "T";
+    }
+  }
+  return true;
+}
+
+bool parse_extxyz_properties(std::string_view value, std::vector<XyzProperty>& out, std::string& error) {
+  out.clear();
+  std::vector<std::string_view> parts;
+  size_t start = 0;
+  for (size_t i = 0; i <= value.size(); ++i) {
+    if (i == value.size() || value[i] == ':') {
+      parts.push_back(trim(value.substr(start, i - start)));
+      start = i + 1;
+    }
+  }
+  if (parts.size() % 3 != 0) {
+    error = fmt::format("Properties '{}' is not a list of name:type:count triples", excerpt(value));
+    return false;
+  }
+  int col = 0;
+  for (size_t k = 0; k < parts.size(); k += 3) {
+    XyzProperty p;
+    p.name = std::string(parts[k]);
+    if (parts[k + 1].size() != 1 || std::string_view("SRIL").find(parts[k + 1][0]) == std::string_view::npos) {
+      error = fmt::format("Properties: type of '{}' must be S, R, I or L, found '{}'", p.name, parts[k + 1]);
+      return false;
+    }
+    p.type = parts[k + 1][0];
+    if (!parse_int_exact(parts[k + 2], p.count) || p.count < 1 || p.count > 1000) {
+      error = fmt::format("Properties: bad column count '{}' for '{}'", parts[k + 2], p.name);
+      return false;
+    }
+    p.first_column = col;
+    col += p.count;
+    out.push_back(std::move(p));
+  }
+  if (out.empty()) {
+    error = "Properties is empty";
+    return false;
+  }
+  return true;
+}
+
+namespace {
+
+constexpr uint64_t kMaxAtoms = uint64_t{1} << 40;
+// A well-formed atom line has at least 8 bytes ("H 0 0 0\n"); counts beyond what the rest of
+// the file could hold at half that are rejected as absurd before anything is read (a slightly
+// malformed short file is left to the line checks, which give the better message).
+constexpr uint64_t kMinAtomLineBytes = 4;
+constexpr size_t kMinLinesPerThread = 16384;
+
+std::string lower(std::string_view s) {
+  std::string r(s);
+  for (auto& c : r) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return r;
+}
+
+struct XyzHeader {
+  uint64_t first_line = 0;   // line of the atom count
+  uint64_t natoms = 0;
+  int64_t timestep = 0;
+  bool has_box = false;
+  double box_lo[3] = {0, 0, 0}, box_hi[3] = {0, 0, 0};
+  bool extended = false;     // exact column count
+  int ncols = 4;             // exact (extended) or minimum (plain)
+  int species_col = 0;       // -1: none (type 1)
+  int pos_col = 1;
+  int radius_col = -1;
+};
+
+// Reads the count and comment lines of the next frame; false at the end of the file.
+Result<bool> read_header(TextSource& src, XyzHeader& h, const std::string& after) {
+  h = XyzHeader{};
+  const std::string& file = src.name();
+  std::string_view line;
+  while (true) {
+    MDS_ASSIGN_OR_RETURN(bool has, src.next_line(line));
+    if (!has) return false;
+    if (!trim(line).empty()) break;
+  }
+  h.first_line = src.line();
+  bool overflow = false;
+  if (!parse_int_exact(line, h.natoms, &overflow)) {
+    if (overflow) return make_error(Errc::range, "{}:{}: atom count '{}' is out of range", file, src.line(), excerpt(line));
+    return make_error(Errc::format, "{}:{}: expected the atom count of a frame{}, found '{}'", file, src.line(), after,
+                      excerpt(line));
+  }
+  if (h.natoms > kMaxAtoms)
+    return make_error(Errc::range, "{}:{}: atom count {} is absurd (more than {})", file, src.line(), h.natoms, kMaxAtoms);
+  std::string_view comment;
+  MDS_ASSIGN_OR_RETURN(bool has_comment, src.next_line(comment));
+  if (!has_comment)
+    return make_error(Errc::format, "{}:{}: file ends after the atom count (no comment line; truncated?)", file,
+                      h.first_line);
+  const uint64_t cline = src.line();
+  if (auto rest = src.remaining_bytes(); rest && h.natoms > *rest / kMinAtomLineBytes)
+    return make_error(Errc::range, "{}:{}: frame declares {} atoms but only {} bytes remain in the file", file,
+                      h.first_line, h.natoms, *rest);
+
+  std::map<std::string, std::string> kv;
+  const bool looks_extended = comment.find('=') != std::string_view::npos;
+  if (looks_extended && !parse_extxyz_comment(comment, kv))
+    return make_error(Errc::format, "{}:{}: unterminated quote in the extended XYZ comment line", file, cline);
+  std::map<std::string, std::string> lkv;  // lower-cased keys
+  for (auto& [k, v] : kv) lkv[lower(k)] = v;
+
+  if (auto it = lkv.find("lattice"); it != lkv.end()) {
+    std::vector<double> v;
+    std::string_view s = it->second;
+    size_t i = 0;
+    while (i < s.size()) {
+      while (i < s.size() && (is_blank(s[i]) || s[i] == ',')) ++i;
+      size_t j = i;
+      while (j < s.size() && !is_blank(s[j]) && s[j] != ',') ++j;
+      if (j > i) {
+        double d;
+        if (!parse_double_exact(s.substr(i, j - i), d) || !std::isfinite(d))
+          return make_error(Errc::format, "{}:{}: bad Lattice value '{}'", file, cline, excerpt(s.substr(i, j - i)));
+        v.push_back(d);
+      }
+      i = j;
+    }
+    if (v.size() != 9)
+      return make_error(Errc::format, "{}:{}: Lattice needs 9 numbers, found {}", file, cline, v.size());
+    double origin[3] = {0, 0, 0};
+    if (auto o = lkv.find("origin"); o != lkv.end()) {
+      std::string_view os = o->second;
+      for (int d = 0; d < 3; ++d) {
+        while (!os.empty() && (is_blank(os.front()) || os.front() == ',')) os.remove_prefix(1);
+        size_t k = 0;
+        while (k < os.size() && !is_blank(os[k]) && os[k] != ',') ++k;
+        if (!parse_double_exact(os.substr(0, k), origin[d]) || !std::isfinite(origin[d]))
+          return make_error(Errc::format, "{}:{}: bad Origin value '{}'", file, cline, excerpt(o->second));
+        os.remove_prefix(k);
+      }
+    }
+    for (int d = 0; d < 3; ++d) {
+      h.box_lo[d] = h.box_hi[d] = origin[d];
+      for (int corner = 1; corner < 8; ++corner) {
+        double c = origin[d];
+        for (int e = 0; e < 3; ++e)
+          if (corner & (1 << e)) c += v[static_cast<size_t>(3 * e + d)];
+        h.box_lo[d] = std::min(h.box_lo[d], c);
+        h.box_hi[d] = std::max(h.box_hi[d], c);
+      }
+    }
+    h.has_box = true;
+  }
+  bool has_ts = false;
+  for (const char* k : {"timestep", "step", "time_step"}) {
+    if (auto it = lkv.find(k); it != lkv.end() && parse_int_exact(it->second, h.timestep)) {
+      has_ts = true;
+      break;
+    }
+  }
+  // LAMMPS' dump xyz writes "Atoms. Timestep: N".
+  if (size_t at = comment.find("Timestep:"); !has_ts && at != std::string_view::npos) {
+    std::string_view rest = trim(comment.substr(at + 9));
+    size_t k = 0;
+    while (k < rest.size() && !is_blank(rest[k])) ++k;
+    if (!parse_int_exact(rest.substr(0, k), h.timestep)) h.timestep = 0;
+  }
+
+  const bool has_props = lkv.count("properties") > 0;
+  if (has_props || h.has_box) {
+    std::vector<XyzProperty> props;
+    std::string err;
+    if (!parse_extxyz_properties(has_props ? std::string_view(lkv["properties"]) : "species:S:1:pos:R:3", props, err))
+      return make_error(Errc::format, "{}:{}: {}", file, cline, err);
+    h.extended = true;
+    h.ncols = props.back().first_column + props.back().count;
+    h.species_col = h.pos_col = -1;
+    for (const char* want : {"species", "element", "z", "type"}) {
+      for (auto& p : props)
+        if (lower(p.name) == want && p.count == 1 && h.species_col < 0) h.species_col = p.first_column;
+    }
+    for (auto& p : props) {
+      std::string n = lower(p.name);
+      if ((n == "pos" || n == "positions" || n == "position") && h.pos_col < 0) {
+        if (p.type != 'R' || p.count != 3)
+          return make_error(Errc::format, "{}:{}: Properties: '{}' must be R:3", file, cline, p.name);
+        h.pos_col = p.first_column;
+      }
+      if ((n == "radius" || n == "radii") && h.radius_col < 0) {
+        if (p.type != 'R' || p.count != 1)
+          return make_error(Errc::format, "{}:{}: Properties: '{}' must be R:1", file, cline, p.name);
+        h.radius_col = p.first_column;
+      }
+    }
+    if (h.pos_col < 0)
+      return make_error(Errc::format, "{}:{}: Properties has no pos:R:3 column", file, cline);
+  }
+  return true;
+}
+
+Status skip_atoms(TextSource& src, const XyzHeader& h) {
+  MDS_ASSIGN_OR_RETURN(uint64_t skipped, src.skip_lines(h.natoms));
+  if (skipped < h.natoms)
+    return make_error(Errc::format,
+                      "{}:{}: file ends inside the frame that starts at line {}: it declares {} atoms, found {} "
+                      "(truncated file or wrong atom count)",
+                      src.name(), src.unterminated_line() ? src.unterminated_line() : src.line() + 1, h.first_line,
+                      h.natoms, skipped);
+  return {};
+}
+
+std::string after_frame(const XyzHeader& h) {
+  return fmt::format(" after the {} atoms of the frame at line {} (wrong atom count?)", h.natoms, h.first_line);
+}
+
+struct ParseError {
+  bool set = false;
+  Error error;
+};
+
+class XyzReader final : public ParticleReader {
+ public:
+  XyzReader(std::unique_ptr<TextSource> src, XyzHeader h) : src_(std::move(src)), h_(h) {
+    info_.particle_count = h_.natoms;
+    info_.timestep = h_.timestep;
+    info_.has_box = h_.has_box;
+    for (int i = 0; i < 3; ++i) {
+      info_.box_lo[i] = h_.box_lo[i];
+      info_.box_hi[i] = h_.box_hi[i];
+    }
+    info_.has_radius = h_.radius_col >= 0;
+    remaining_ = h_.natoms;
+  }
+
+  const FrameInfo& info() const override { return info_; }
+
+  Result<size_t> read(ParticleBatch& out, size_t max_particles) override {
+    out.clear();
+    if (failed_) return *failed_;
+    if (remaining_ == 0 || max_particles == 0) return size_t{0};
+    const size_t want = static_cast<size_t>(std::min<uint64_t>(remaining_, max_particles));
+    size_t got = 0;
+    while (got < want) {
+      auto blk = src_->take_lines(want - got);
+      if (!blk.ok()) return fail(blk.error());
+      if (blk->lines == 0)
+        return fail(make_error(Errc::format,
+                               "{}:{}: file ends inside the frame that starts at line {}: it declares {} atoms, found {} "
+                               "(truncated file or wrong atom count)",
+                               src_->name(), src_->unterminated_line() ? src_->unterminated_line() : src_->line() + 1,
+                               h_.first_line, h_.natoms,
+                               h_.natoms - remaining_ + got));
+      Status st = parse_block(*blk, out, got, h_.natoms - remaining_ + got);
+      if (!st.ok()) return fail(st.error());
+      got += blk->lines;
+    }
+    remaining_ -= got;
+    if (remaining_ == 0) {
+      Status st = check_frame_end();
+      if (!st.ok()) return fail(st.error());
+    }
+    return got;
+  }
+
+ private:
+  Error fail(Error e) {
+    failed_ = e;
+    return e;
+  }
+
+  // After the declared atoms: end of file (blank lines allowed) or the next frame's count.
+  Status check_frame_end() {
+    std::string_view line;
+    while (true) {
+      MDS_ASSIGN_OR_RETURN(bool has, src_->peek_line(line));
+      if (!has) return {};
+      if (!trim(line).empty()) break;
+      MDS_TRY(src_->next_line(line));
+    }
+    uint64_t n;
+    if (parse_int_exact(line, n)) return {};
+    return make_error(Errc::format,
+                      "{}:{}: more atom lines than the {} that the frame at line {} declares (wrong atom count?)",
+                      src_->name(), src_->line() + 1, h_.natoms, h_.first_line);
+  }
+
+  Status parse_block(const LineBlock& blk, ParticleBatch& out, size_t base, uint64_t done_before) {
+    const size_t n = base + blk.lines;
+    out.x.resize(n);
+    out.y.resize(n);
+    out.z.resize(n);
+    out.type.resize(n);
+    if (h_.radius_col >= 0) out.radius.resize(n);
+    species_.resize(blk.lines);
+    std::vector<ParseError> errs(line_parallelism());
+    parallel_line_ranges(blk, errs.size(), kMinLinesPerThread,
+                         [&](size_t part, const char* b, const char* e, size_t first, size_t lines) {
+                           parse_range(b, e, first, base, lines, blk.first_line, done_before, out, errs[part]);
+                         });
+    for (auto& pe : errs)
+      if (pe.set) return pe.error;
+    // Species -> type ids, in file order (first seen -> next id).
+    std::string_view last;
+    int32_t last_id = 0;
+    for (size_t i = 0; i < blk.lines; ++i) {
+      std::string_view sp = species_[i];
+      if (h_.species_col < 0) {
+        out.type[base + i] = 1;
+        continue;
+      }
+      if (i > 0 && sp == last) {
+        out.type[base + i] = last_id;
+        continue;
+      }
+      auto id = species_id(sp, blk.first_line + i);
+      if (!id.ok()) return id.error();
+      last = sp;
+      last_id = *id;
+      out.type[base + i] = last_id;
+    }
+    return {};
+  }
+
+  Result<int32_t> species_id(std::string_view sp, uint64_t line) {
+    int32_t v;
+    if (parse_int_exact(sp, v)) {
+      if (auto it = info_.type_names.find(v); it != info_.type_names.end())
+        return make_error(Errc::format, "{}:{}: integer species {} collides with the id given to species '{}'",
+                          src_->name(), line, v, it->second);
+      int_ids_.insert(v);
+      return v;
+    }
+    std::string key(sp);
+    if (auto it = name_ids_.find(key); it != name_ids_.end()) return it->second;
+    while (int_ids_.count(next_id_) || info_.type_names.count(next_id_)) ++next_id_;
+    const int32_t id = next_id_++;
+    name_ids_.emplace(key, id);
+    info_.type_names[id] = key;
+    return id;
+  }
+
+  void parse_range(const char* p, const char* end, size_t first, size_t base, size_t lines, uint64_t first_line,
+                   uint64_t done_before, ParticleBatch& out, ParseError& err) {
+    const int ncols = h_.ncols;
+    const int scol = h_.species_col, pcol = h_.pos_col, rcol = h_.radius_col;
+    const int need = h_.extended ? ncols : 4;
+    for (size_t li = 0; li < lines; ++li) {
+      const size_t bi = first + li;  // index within the block
+      const uint64_t line_no = first_line + bi;
+      double pos[3] = {0, 0, 0};
+      int c = 0;
+      for (;; ++c) {
+        while (is_blank(*p)) ++p;
+        if (*p == '\n' || *p == '\r') break;
+        if (c >= need) {
+          if (h_.extended) {
+            int found = c;
+            while (*p != '\n') {
+              while (is_blank(*p) || *p == '\r') ++p;
+              if (*p == '\n') break;
+              ++found;
+              while (!is_token_end(*p)) ++p;
+            }
+            set_error(err, Errc::format, line_no,
+                      fmt::format("expected {} columns (from Properties), found {}", ncols, found));
+            return;
+          }
+          while (*p != '\n') ++p;  // plain XYZ: extra columns ignored
+          break;
+        }
+        const char* tok = p;
+        if (c == scol) {
+          while (!is_token_end(*p)) ++p;
+          species_[bi] = std::string_view(tok, static_cast<size_t>(p - tok));
+        } else if (c >= pcol && c < pcol + 3) {
+          if (*p == '+') ++p;
+          double v;
+          auto r = std::from_chars(p, end, v);
+          if (r.ec != std::errc() || !is_token_end(*r.ptr)) {
+            set_error(err, r.ec == std::errc::result_out_of_range ? Errc::range : Errc::format, line_no,
+                      fmt::format("bad coordinate '{}'", token_at(tok)));
+            return;
+          }
+          if (!std::isfinite(v)) {
+            set_error(err, Errc::range, line_no, fmt::format("non-finite coordinate '{}'", token_at(tok)));
+            return;
+          }
+          pos[c - pcol] = v;
+          p = r.ptr;
+        } else if (c == rcol) {
+          if (*p == '+') ++p;
+          double v;
+          auto r = std::from_chars(p, end, v);
+          if (r.ec != std::errc() || !is_token_end(*r.ptr) || !std::isfinite(v) || v < 0) {
+            set_error(err, r.ec == std::errc::result_out_of_range ? Errc::range : Errc::format, line_no,
+                      fmt::format("bad radius '{}'", token_at(tok)));
+            return;
+          }
+          out.radius[base + bi] = static_cast<float>(v);
+          p = r.ptr;
+        } else {
+          while (!is_token_end(*p)) ++p;
+        }
+      }
+      if (c < need) {
+        std::string hint;
+        if (c == 1) {
+          hint = fmt::format(" (atom {} of the {} that the frame at line {} declares; is the count wrong?)",
+                             done_before + bi + 1, h_.natoms, h_.first_line);
+        }
+        set_error(err, Errc::format, line_no,
+                  fmt::format("expected {} {} columns, found {}{}", h_.extended ? "exactly" : "at least", need, c, hint));
+        return;
+      }
+      while (*p != '\n') ++p;
+      ++p;
+      out.x[base + bi] = pos[0];
+      out.y[base + bi] = pos[1];
+      out.z[base + bi] = pos[2];
+    }
+  }
+
+  static std::string token_at(const char* t) {
+    const char* e = t;
+    while (!is_token_end(*e) && e - t < 40) ++e;
+    return std::string(t, e);
+  }
+
+  void set_error(ParseError& err, Errc code, uint64_t line, const std::string& what) const {
+    err.set = true;
+    err.error = Error{code, fmt::format("{}:{}: {}", src_->name(), line, what)};
+  }
+
+  std::unique_ptr<TextSource> src_;
+  XyzHeader h_;
+  FrameInfo info_;
+  uint64_t remaining_ = 0;
+  std::optional<Error> failed_;
+  std::vector<std::string_view> species_;  // per line of the current block
+  std::unordered_map<std::string, int32_t> name_ids_;
+  std::set<int32_t> int_ids_;
+  int32_t next_id_ = 1;
+};
+
+}  // namespace
+
+Result<std::unique_ptr<ParticleReader>> open_xyz_reader(const std::filesystem::path& path,
+                                                        const ReaderOptions& options) {
+  if (options.frame < -1)
+    return make_error(Errc::invalid_argument, "{}: frame {} is not valid (use >= 0, or -1 for the last)",
+                      path.string(), options.frame);
+  MDS_ASSIGN_OR_RETURN(std::unique_ptr<TextSource> src, TextSource::open(path));
+  XyzHeader h;
+  std::string after;
+  if (options.frame >= 0) {
+    for (int64_t f = 0;; ++f) {
+      MDS_ASSIGN_OR_RETURN(bool has, read_header(*src, h, after));
+      if (!has) {
+        if (f == 0) return make_error(Errc::format, "{}: no frames (empty file?)", src->name());
+        return make_error(Errc::invalid_argument, "{}: frame {} requested but the file has {} frame{}", src->name(),
+                          options.frame, f, f == 1 ? "" : "s");
+      }
+      if (f == options.frame) break;
+      MDS_TRY(skip_atoms(*src, h));
+      after = after_frame(h);
+    }
+  } else {
+    uint64_t last_offset = 0, last_line = 0;
+    int64_t frames = 0;
+    while (true) {
+      const uint64_t off = src->tell(), line = src->line();
+      MDS_ASSIGN_OR_RETURN(bool has, read_header(*src, h, after));
+      if (!has) break;
+      last_offset = off;
+      last_line = line;
+      ++frames;
+      MDS_TRY(skip_atoms(*src, h));
+      after = after_frame(h);
+    }
+    if (frames == 0) return make_error(Errc::format, "{}: no frames (empty file?)", src->name());
+    MDS_TRY(src->seek(last_offset, last_line));
+    MDS_ASSIGN_OR_RETURN(bool has, read_header(*src, h, ""));
+    if (!has) return make_error(Errc::internal, "{}: last frame vanished on re-read", src->name());
+  }
+  return std::unique_ptr<ParticleReader>(new XyzReader(std::move(src), h));
+}
+
+}  // namespace mds

@@ -1,0 +1,460 @@
+// LAMMPS text dump reader on real LAMMPS output: Debian's `lmp` runs the decks in
+// tests/data/lammps once per test program; the reader's particles are compared with an
+// independent parse of the same files, scaled/unwrapped/compressed variants with the
+// Cartesian dump of the same steps, and malformed variants of the real files must give
+// errors of the right kind that name the file and the line.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <regex>
+
+#include "readers/lammps_reader.h"
+#include "readers/reader_factories.h"
+#include "text_reader_test_util.h"
+
+namespace mds {
+namespace {
+
+using ::testing::HasSubstr;
+using textest::parse_reference_dump;
+using textest::read_all;
+using textest::read_text;
+using textest::ReadAll;
+using textest::RefFrame;
+using textest::split_lines;
+using textest::join_lines;
+using textest::write_text;
+namespace fs = std::filesystem;
+
+ReaderOptions frame_opt(int64_t f) {
+  ReaderOptions o;
+  o.format = InputFormat::lammps;
+  o.frame = f;
+  return o;
+}
+
+class LammpsReaderTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new textest::TempDir("lammps_reader");
+    ASSERT_EQ(textest::run_lammps(dir_->path(), "in.lj_small"), 0) << "lmp failed on in.lj_small";
+    ASSERT_EQ(textest::run_lammps(dir_->path(), "in.triclinic_small", /*with_log=*/true), 0)
+        << "lmp failed on in.triclinic_small";
+  }
+  static void TearDownTestSuite() {
+    delete dir_;
+    dir_ = nullptr;
+  }
+  static fs::path file(const std::string& name) { return dir_->path() / name; }
+  static std::vector<RefFrame> reference(const std::string& name) {
+    return parse_reference_dump(read_text(file(name)));
+  }
+  // Writes `text` to a new file in the temp dir and returns its path.
+  static fs::path scratch(const std::string& name, const std::string& text) {
+    fs::path p = file(name);
+    write_text(p, text);
+    return p;
+  }
+  // The first frame of the default-format dump, as lines.
+  static std::vector<std::string> first_frame_lines() {
+    auto lines = split_lines(read_text(file("dump.default.lammpstrj")));
+    const size_t n = std::stoul(lines[3]);
+    lines.resize(9 + n);
+    return lines;
+  }
+
+  static textest::TempDir* dir_;
+};
+textest::TempDir* LammpsReaderTest::dir_ = nullptr;
+
+// Expects an error of `code` whose message names the file and `file:line:`.
+void expect_error(const ReadAll& r, Errc code, const fs::path& p, uint64_t line) {
+  ASSERT_TRUE(r.error.has_value()) << "expected an error for " << p;
+  EXPECT_EQ(r.error->code, code) << r.error->message;
+  EXPECT_THAT(r.error->message, HasSubstr(p.string() + ":" + std::to_string(line) + ":"));
+}
+
+void expect_same_as_reference(const ReadAll& r, const RefFrame& ref) {
+  ASSERT_FALSE(r.error.has_value()) << r.error->message;
+  ASSERT_EQ(r.info.particle_count, ref.natoms);
+  EXPECT_EQ(r.info.timestep, ref.timestep);
+  ASSERT_EQ(r.all.size(), ref.natoms);
+  ASSERT_EQ(r.all.id.size(), ref.natoms);
+  EXPECT_TRUE(r.info.has_box);
+  for (int d = 0; d < 3; ++d) {
+    EXPECT_EQ(r.info.box_lo[d], ref.bounds[d][0]);
+    EXPECT_EQ(r.info.box_hi[d], ref.bounds[d][1]);
+  }
+  for (size_t i = 0; i < ref.natoms; ++i) {
+    ASSERT_EQ(r.all.id[i], static_cast<int64_t>(ref.col(i, "id"))) << i;
+    ASSERT_EQ(r.all.type[i], static_cast<int32_t>(ref.col(i, "type"))) << i;
+    ASSERT_EQ(r.all.x[i], ref.col(i, "x")) << i;
+    ASSERT_EQ(r.all.y[i], ref.col(i, "y")) << i;
+    ASSERT_EQ(r.all.z[i], ref.col(i, "z")) << i;
+  }
+}
+
+// Positions of two reads agree within tol (absolute), atoms in the same (id-sorted) order.
+void expect_positions_near(const ReadAll& a, const ReadAll& b, double tol) {
+  ASSERT_FALSE(a.error.has_value()) << a.error->message;
+  ASSERT_FALSE(b.error.has_value()) << b.error->message;
+  ASSERT_EQ(a.all.size(), b.all.size());
+  ASSERT_EQ(a.all.id, b.all.id);
+  EXPECT_EQ(a.all.type, b.all.type);
+  for (size_t i = 0; i < a.all.size(); ++i) {
+    ASSERT_NEAR(a.all.x[i], b.all.x[i], tol) << "id " << a.all.id[i];
+    ASSERT_NEAR(a.all.y[i], b.all.y[i], tol) << "id " << a.all.id[i];
+    ASSERT_NEAR(a.all.z[i], b.all.z[i], tol) << "id " << a.all.id[i];
+  }
+}
+
+TEST_F(LammpsReaderTest, CartesianFramesMatchIndependentParse) {
+  const auto ref = reference("dump.xyz.lammpstrj");
+  ASSERT_EQ(ref.size(), 5u);
+  for (int64_t f : {0, 1, 2, 4}) {
+    SCOPED_TRACE(f);
+    expect_same_as_reference(read_all(open_lammps_reader(file("dump.xyz.lammpstrj"), frame_opt(f))),
+                             ref[static_cast<size_t>(f)]);
+  }
+  auto last = read_all(open_lammps_reader(file("dump.xyz.lammpstrj"), frame_opt(-1)));
+  expect_same_as_reference(last, ref.back());
+  EXPECT_EQ(last.info.timestep, 200);
+  EXPECT_FALSE(last.info.has_radius);
+  EXPECT_TRUE(last.all.radius.empty());
+}
+
+TEST_F(LammpsReaderTest, SmallBatchesGiveTheSameParticles) {
+  auto big = read_all(open_lammps_reader(file("dump.xyz.lammpstrj"), frame_opt(3)));
+  auto small = read_all(open_lammps_reader(file("dump.xyz.lammpstrj"), frame_opt(3)), 333);
+  ASSERT_FALSE(small.error.has_value()) << small.error->message;
+  EXPECT_EQ(big.all.x, small.all.x);
+  EXPECT_EQ(big.all.id, small.all.id);
+  EXPECT_EQ(big.all.type, small.all.type);
+}
+
+TEST_F(LammpsReaderTest, ReadAfterTheEndReturnsZero) {
+  auto r = open_lammps_reader(file("dump.xyz.lammpstrj"), frame_opt(0));
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ParticleBatch b;
+  size_t total = 0;
+  for (int i = 0; i < 100; ++i) {
+    auto n = (*r)->read(b, 1000);
+    ASSERT_TRUE(n.ok()) << n.error().message;
+    total += *n;
+    if (*n == 0) break;
+  }
+  EXPECT_EQ(total, 4000u);
+  auto again = (*r)->read(b, 1000);
+  ASSERT_TRUE(again.ok());
+  EXPECT_EQ(*again, 0u);
+}
+
+TEST_F(LammpsReaderTest, FrameOutOfRangeIsAnError) {
+  auto r = open_lammps_reader(file("dump.xyz.lammpstrj"), frame_opt(5));
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, Errc::invalid_argument);
+  EXPECT_THAT(r.error().message, HasSubstr("5 frames"));
+  auto neg = open_lammps_reader(file("dump.xyz.lammpstrj"), frame_opt(-2));
+  ASSERT_FALSE(neg.ok());
+  EXPECT_EQ(neg.error().code, Errc::invalid_argument);
+}
+
+TEST_F(LammpsReaderTest, ScaledColumnsInAnotherOrderMatchCartesian) {
+  const double L = reference("dump.xyz.lammpstrj")[0].bounds[0][1];
+  for (int64_t f : {0, 2, -1}) {
+    SCOPED_TRACE(f);
+    auto cart = read_all(open_lammps_reader(file("dump.xyz.lammpstrj"), frame_opt(f)));
+    auto scaled = read_all(open_lammps_reader(file("dump.scaled.lammpstrj"), frame_opt(f)));
+    expect_positions_near(scaled, cart, 1e-12 * L * 10);
+  }
+}
+
+TEST_F(LammpsReaderTest, UnwrappedWithRadiusColumn) {
+  const auto ref = reference("dump.unwrapped.lammpstrj");
+  auto wrapped = read_all(open_lammps_reader(file("dump.xyz.lammpstrj"), frame_opt(-1)));
+  auto unwrapped = read_all(open_lammps_reader(file("dump.unwrapped.lammpstrj"), frame_opt(-1)));
+  ASSERT_FALSE(unwrapped.error.has_value()) << unwrapped.error->message;
+  EXPECT_TRUE(unwrapped.info.has_radius);
+  const RefFrame& last = ref.back();
+  ASSERT_EQ(unwrapped.all.radius.size(), last.natoms);
+  const double L[3] = {last.bounds[0][1] - last.bounds[0][0], last.bounds[1][1] - last.bounds[1][0],
+                       last.bounds[2][1] - last.bounds[2][0]};
+  size_t crossed = 0;
+  for (size_t i = 0; i < last.natoms; ++i) {
+    ASSERT_EQ(unwrapped.all.radius[i], static_cast<float>(last.col(i, "radius")));
+    // The deck sets diameter 1.0 for type 1 and 0.8 for type 2.
+    ASSERT_FLOAT_EQ(unwrapped.all.radius[i], unwrapped.all.type[i] == 1 ? 0.5f : 0.4f);
+    ASSERT_EQ(unwrapped.all.x[i], last.col(i, "xu"));
+    // Unwrapped minus wrapped is a whole number of box lengths.
+    const double u[3] = {unwrapped.all.x[i], unwrapped.all.y[i], unwrapped.all.z[i]};
+    const double w[3] = {wrapped.all.x[i], wrapped.all.y[i], wrapped.all.z[i]};
+    for (int d = 0; d < 3; ++d) {
+      const double k = (u[d] - w[d]) / L[d];
+      ASSERT_NEAR(k, std::round(k), 1e-9);
+      crossed += std::round(k) != 0;
+    }
+  }
+  EXPECT_GT(crossed, 0u) << "no atom crossed the periodic boundary; the unwrapped check is vacuous";
+}
+
+TEST_F(LammpsReaderTest, DiameterAndScaledUnwrapped) {
+  auto unwrapped = read_all(open_lammps_reader(file("dump.unwrapped.lammpstrj"), frame_opt(-1)));
+  auto dia = read_all(open_lammps_reader(file("dump.diameter.lammpstrj"), frame_opt(-1)));
+  expect_positions_near(dia, unwrapped, 1e-9);
+  ASSERT_TRUE(dia.info.has_radius);
+  EXPECT_EQ(dia.all.radius, unwrapped.all.radius);  // radius = diameter / 2
+}
+
+TEST_F(LammpsReaderTest, GzipAndZstdWrittenByLammps) {
+  for (int64_t f : {0, 2, -1}) {
+    SCOPED_TRACE(f);
+    auto plain = read_all(open_lammps_reader(file("dump.default.lammpstrj"), frame_opt(f)));
+    ASSERT_FALSE(plain.error.has_value()) << plain.error->message;
+    for (const char* name : {"dump.lammpstrj.gz", "dump.lammpstrj.zst"}) {
+      SCOPED_TRACE(name);
+      auto c = read_all(open_lammps_reader(file(name), frame_opt(f)));
+      ASSERT_FALSE(c.error.has_value()) << c.error->message;
+      EXPECT_EQ(c.info.timestep, plain.info.timestep);
+      EXPECT_EQ(c.all.x, plain.all.x);
+      EXPECT_EQ(c.all.y, plain.all.y);
+      EXPECT_EQ(c.all.z, plain.all.z);
+      EXPECT_EQ(c.all.type, plain.all.type);
+      EXPECT_EQ(c.all.id, plain.all.id);
+    }
+  }
+}
+
+TEST_F(LammpsReaderTest, CompressionFoundByContentNotExtension) {
+  // gzip(1) output under a name without .gz.
+  const fs::path out = file("gzipped_dump.txt");
+  std::string cmd = "gzip -c " + textest::quote(file("dump.xyz.lammpstrj").string()) + " > " +
+                    textest::quote(out.string());
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  const auto ref = reference("dump.xyz.lammpstrj");
+  expect_same_as_reference(read_all(open_lammps_reader(out, frame_opt(3))), ref[3]);
+  // zstd written by LAMMPS, renamed.
+  fs::copy_file(file("dump.lammpstrj.zst"), file("zstd_dump.lammpstrj"), fs::copy_options::overwrite_existing);
+  auto z = read_all(open_lammps_reader(file("zstd_dump.lammpstrj"), frame_opt(1)));
+  auto p = read_all(open_lammps_reader(file("dump.default.lammpstrj"), frame_opt(1)));
+  ASSERT_FALSE(z.error.has_value()) << z.error->message;
+  EXPECT_EQ(z.all.x, p.all.x);
+}
+
+TEST_F(LammpsReaderTest, TriclinicBoxAndScaledCoordinates) {
+  const auto ref = reference("tri.xyz.lammpstrj");
+  ASSERT_EQ(ref.size(), 3u);
+  EXPECT_NE(ref[0].box_flags.find("xy xz yz"), std::string::npos);
+  // LAMMPS' own statement of the box: "triclinic box = (xlo ylo zlo) to (xhi yhi zhi) with tilt (xy xz yz)".
+  const std::string log = read_text(file("log.lammps"));
+  std::smatch m;
+  const std::string num = "(-?[0-9.eE+-]+)";
+  std::regex re("triclinic box = \\(" + num + " " + num + " " + num + "\\) to \\(" + num + " " + num + " " +
+                num + "\\) with tilt \\(" + num + " " + num + " " + num + "\\)");
+  ASSERT_TRUE(std::regex_search(log, m, re)) << "no triclinic box line in log.lammps";
+  const RefFrame& f0 = ref[0];
+  const LammpsBox box = lammps_box_from_bounds(f0.bounds, true);
+  for (int d = 0; d < 3; ++d) {
+    EXPECT_NEAR(box.lo[d], std::stod(m[1 + d]), 1e-5);
+    EXPECT_NEAR(box.hi[d], std::stod(m[4 + d]), 1e-5);
+  }
+  EXPECT_NEAR(box.xy, std::stod(m[7]), 1e-5);
+  EXPECT_NEAR(box.xz, std::stod(m[8]), 1e-5);
+  EXPECT_NEAR(box.yz, std::stod(m[9]), 1e-5);
+
+  for (int64_t f : {0, 1, -1}) {
+    SCOPED_TRACE(f);
+    auto cart = read_all(open_lammps_reader(file("tri.xyz.lammpstrj"), frame_opt(f)));
+    expect_same_as_reference(cart, ref[f < 0 ? 2 : static_cast<size_t>(f)]);
+    auto scaled = read_all(open_lammps_reader(file("tri.scaled.lammpstrj"), frame_opt(f)));
+    expect_positions_near(scaled, cart, 1e-9);
+    EXPECT_EQ(scaled.info.box_lo[0], cart.info.box_lo[0]);
+    auto unwrapped = read_all(open_lammps_reader(file("tri.unwrapped.lammpstrj"), frame_opt(f)));
+    auto xsu = read_all(open_lammps_reader(file("tri.xsu.lammpstrj"), frame_opt(f)));
+    expect_positions_near(xsu, unwrapped, 1e-9);
+  }
+}
+
+TEST_F(LammpsReaderTest, TypeColumnIsOptional) {
+  auto lines = first_frame_lines();
+  lines[8] = "ITEM: ATOMS id x y z";
+  for (size_t i = 9; i < lines.size(); ++i) {
+    std::istringstream is(lines[i]);
+    std::string id, type, x, y, z;
+    is >> id >> type >> x >> y >> z;
+    lines[i] = id + " " + x + " " + y + " " + z;
+  }
+  auto r = read_all(open_lammps_reader(scratch("notype.lammpstrj", join_lines(lines)), frame_opt(0)));
+  ASSERT_FALSE(r.error.has_value()) << r.error->message;
+  ASSERT_EQ(r.all.size(), 4000u);
+  for (int32_t t : r.all.type) ASSERT_EQ(t, 1);
+}
+
+// --- malformed inputs, each derived from real LAMMPS output ---
+
+TEST_F(LammpsReaderTest, TruncatedFile) {
+  const std::string text = read_text(file("dump.default.lammpstrj"));
+  const auto ref = reference("dump.default.lammpstrj");
+  // Cut in the middle of an atom line of the first frame, and at a line boundary.
+  for (size_t cut : {text.size() / 12, text.find('\n', text.size() / 14) + 1}) {
+    const std::string part = text.substr(0, cut);
+    const fs::path p = scratch("truncated.lammpstrj", part);
+    const uint64_t line = static_cast<uint64_t>(std::count(part.begin(), part.end(), '\n')) + 1;
+    auto r = read_all(open_lammps_reader(p, frame_opt(0)));
+    expect_error(r, Errc::format, p, line);
+  }
+  // Truncated last frame: asking for the last frame fails at open.
+  const std::string part = text.substr(0, text.size() - 1000);
+  const fs::path p = scratch("truncated_last.lammpstrj", part);
+  auto r = read_all(open_lammps_reader(p, frame_opt(-1)));
+  expect_error(r, Errc::format, p, static_cast<uint64_t>(std::count(part.begin(), part.end(), '\n')) + 1);
+}
+
+TEST_F(LammpsReaderTest, TruncatedCompressedFiles) {
+  for (const char* name : {"dump.lammpstrj.gz", "dump.lammpstrj.zst"}) {
+    SCOPED_TRACE(name);
+    const std::string bytes = read_text(file(name));
+    const fs::path p = scratch(std::string("truncated_") + name, bytes.substr(0, bytes.size() / 2));
+    auto r = read_all(open_lammps_reader(p, frame_opt(-1)));
+    ASSERT_TRUE(r.error.has_value());
+    EXPECT_EQ(r.error->code, Errc::format) << r.error->message;
+    EXPECT_THAT(r.error->message, HasSubstr(p.string()));
+    EXPECT_THAT(r.error->message, HasSubstr("line"));
+    EXPECT_THAT(r.error->message, HasSubstr("truncated"));
+  }
+}
+
+TEST_F(LammpsReaderTest, NonFiniteCoordinates) {
+  int k = 0;
+  for (const char* bad : {"nan", "inf", "-inf", "NaN", "1e999"}) {
+    SCOPED_TRACE(bad);
+    auto lines = first_frame_lines();
+    const size_t atom = 1234 + 100 * static_cast<size_t>(k++);
+    std::istringstream is(lines[9 + atom]);
+    std::string id, type, x, y, z;
+    is >> id >> type >> x >> y >> z;
+    lines[9 + atom] = id + " " + type + " " + x + " " + bad + " " + z;
+    const fs::path p = scratch("nonfinite.lammpstrj", join_lines(lines));
+    expect_error(read_all(open_lammps_reader(p, frame_opt(0))), Errc::range, p, 10 + atom);
+  }
+}
+
+TEST_F(LammpsReaderTest, WrongAtomCount) {
+  const std::string text = read_text(file("dump.default.lammpstrj"));
+  auto lines = split_lines(text);
+  // Too many declared in the first of several frames: the next ITEM: comes early.
+  {
+    auto l = lines;
+    l[3] = "4001";
+    const fs::path p = scratch("count_high.lammpstrj", join_lines(l));
+    expect_error(read_all(open_lammps_reader(p, frame_opt(0))), Errc::format, p, 9 + 4000 + 1);
+    // ... and when the frame is skipped to reach a later one.
+    auto r = read_all(open_lammps_reader(p, frame_opt(1)));
+    ASSERT_TRUE(r.error.has_value());
+    EXPECT_EQ(r.error->code, Errc::format);
+    EXPECT_THAT(r.error->message, HasSubstr(p.string() + ":"));
+    EXPECT_THAT(r.error->message, HasSubstr("wrong atom count"));
+  }
+  // Too few declared: an atom line is left over where the next frame should start.
+  {
+    auto l = lines;
+    l[3] = "3999";
+    const fs::path p = scratch("count_low.lammpstrj", join_lines(l));
+    expect_error(read_all(open_lammps_reader(p, frame_opt(0))), Errc::format, p, 9 + 3999 + 1);
+    expect_error(read_all(open_lammps_reader(p, frame_opt(-1))), Errc::format, p, 9 + 3999 + 1);
+  }
+  // Too many declared in a single-frame file: the file ends early.
+  {
+    auto l = first_frame_lines();
+    l[3] = "4100";
+    const fs::path p = scratch("count_single.lammpstrj", join_lines(l));
+    expect_error(read_all(open_lammps_reader(p, frame_opt(0))), Errc::format, p, 9 + 4000 + 1);
+  }
+}
+
+TEST_F(LammpsReaderTest, MissingColumns) {
+  // No z column in the header.
+  {
+    auto l = first_frame_lines();
+    l[8] = "ITEM: ATOMS id type x y";
+    for (size_t i = 9; i < l.size(); ++i) l[i] = l[i].substr(0, l[i].rfind(' '));
+    const fs::path p = scratch("noz.lammpstrj", join_lines(l));
+    expect_error(read_all(open_lammps_reader(p, frame_opt(0))), Errc::format, p, 9);
+  }
+  // One atom line short of a column, one with a column too many.
+  for (int extra : {0, 1}) {
+    auto l = first_frame_lines();
+    const size_t atom = 2500;
+    l[9 + atom] = extra ? l[9 + atom] + " 7.5" : l[9 + atom].substr(0, l[9 + atom].rfind(' '));
+    const fs::path p = scratch("shortline.lammpstrj", join_lines(l));
+    auto r = read_all(open_lammps_reader(p, frame_opt(0)), 1000);
+    expect_error(r, Errc::format, p, 10 + atom);
+    EXPECT_THAT(r.error->message, HasSubstr(extra ? "found 6" : "found 4"));
+  }
+  // A type that is not an integer.
+  {
+    auto l = first_frame_lines();
+    l[9 + 17] = "18 1.5 0.1 0.2 0.3";
+    const fs::path p = scratch("badtype.lammpstrj", join_lines(l));
+    expect_error(read_all(open_lammps_reader(p, frame_opt(0))), Errc::format, p, 9 + 17 + 1);
+  }
+}
+
+TEST_F(LammpsReaderTest, AbsurdCounts) {
+  // 10^18: rejected at the count line, before anything is allocated.
+  {
+    auto l = first_frame_lines();
+    l[3] = "1000000000000000000";
+    const fs::path p = scratch("absurd.lammpstrj", join_lines(l));
+    expect_error(read_all(open_lammps_reader(p, frame_opt(0))), Errc::range, p, 4);
+    // Same in a gzip file.
+    const fs::path gz = file("absurd.lammpstrj.gz");
+    ASSERT_EQ(std::system(("gzip -c " + textest::quote(p.string()) + " > " + textest::quote(gz.string())).c_str()), 0);
+    expect_error(read_all(open_lammps_reader(gz, frame_opt(0))), Errc::range, gz, 4);
+  }
+  // 10^10: plausible on its own, but more than the rest of the file can hold.
+  {
+    auto l = first_frame_lines();
+    l[3] = "10000000000";
+    const fs::path p = scratch("toolarge.lammpstrj", join_lines(l));
+    expect_error(read_all(open_lammps_reader(p, frame_opt(0))), Errc::range, p, 9);
+  }
+  // Beyond 64 bits.
+  {
+    auto l = first_frame_lines();
+    l[3] = "100000000000000000000000";
+    const fs::path p = scratch("overflow.lammpstrj", join_lines(l));
+    expect_error(read_all(open_lammps_reader(p, frame_opt(0))), Errc::range, p, 4);
+  }
+}
+
+TEST_F(LammpsReaderTest, NotADumpOrEmpty) {
+  const fs::path p = scratch("garbage.lammpstrj", "hello world\n1 2 3\n");
+  expect_error(read_all(open_lammps_reader(p, frame_opt(0))), Errc::format, p, 1);
+  const fs::path e = scratch("empty.lammpstrj", "");
+  auto r = read_all(open_lammps_reader(e, frame_opt(0)));
+  ASSERT_TRUE(r.error.has_value());
+  EXPECT_EQ(r.error->code, Errc::format);
+  EXPECT_THAT(r.error->message, HasSubstr(e.string()));
+  auto missing = read_all(open_lammps_reader(file("does_not_exist.lammpstrj"), frame_opt(0)));
+  ASSERT_TRUE(missing.error.has_value());
+  EXPECT_EQ(missing.error->code, Errc::io);
+}
+
+TEST(LammpsBox, BoundsToBoxFollowsTheManual) {
+  // Orthogonal: bounds are the box.
+  const double ortho[3][3] = {{-1, 2, 0}, {0, 3, 0}, {5, 6, 0}};
+  LammpsBox o = lammps_box_from_bounds(ortho, false);
+  EXPECT_EQ(o.lo[0], -1);
+  EXPECT_EQ(o.hi[2], 6);
+  const double s[3] = {0.5, 0.25, 1.0};
+  double c[3];
+  o.scaled_to_cartesian(s, c);
+  EXPECT_DOUBLE_EQ(c[0], 0.5);
+  EXPECT_DOUBLE_EQ(c[1], 0.75);
+  EXPECT_DOUBLE_EQ(c[2], 6.0);
+}
+
+}  // namespace
+}  // namespace mds
