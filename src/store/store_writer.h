@@ -34,6 +34,10 @@ struct EncodedNode {
   std::vector<uint8_t> payload;  // LZ4 block
   NodeEntry entry;               // offsets/prefix sums/voxel_first filled in by append()
   std::vector<VoxelRef> voxels;
+  // Filled by encode_node; the writer uses them to fill TypeEntry::particle_count and to
+  // check the node against the build parameters in finish().
+  std::vector<uint64_t> type_counts;  // particles per type index (size = largest index + 1)
+  uint32_t max_meshlet_size = 0;
 };
 
 // Pure and thread-safe: serializes and compresses one node.
@@ -50,7 +54,8 @@ struct StoreSummary {
   double max_quantization_error = 0;
   double max_error_over_half_step = 0;
   std::vector<TypeEntry> types;
-  // Density grid: dims and the world box it covers; counts has dims[0]*dims[1]*dims[2] entries.
+  // Density grid: dims and the world box it covers; counts has dims[0]*dims[1]*dims[2] entries
+  // (at most 2^28). dims {0,0,0} means "no density grid": then nodes carry no VoxelRefs.
   uint32_t density_dims[3] = {0, 0, 0};
   double density_min[3] = {0, 0, 0};
   double density_max[3] = {0, 0, 0};
@@ -67,7 +72,11 @@ class StoreWriter {
 
   // Appends the next node (nodes are numbered in append order).
   Status append(EncodedNode&& node);
-  // Writes sections and header, fsyncs and renames to the final path.
+  // Writes sections and header, fsyncs and renames to the final path. The header counts,
+  // payload sums and TypeEntry::particle_count are computed from the appended nodes
+  // (summary.types[i].particle_count is ignored). Checks every node against the summary
+  // (type indices < types.size(), node/meshlet sizes <= the build parameters, radius flag)
+  // and the density volume against the voxel lists (density[v] == sum of VoxelRef counts).
   Status finish(const StoreSummary& summary);
 
   uint64_t bytes_written() const;

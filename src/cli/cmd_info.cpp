@@ -1,0 +1,154 @@
+// `mdstream info STORE [--json] [--verify]`: summary of a store (header, types, sizes,
+// quantization), as text or JSON. --verify also reads and decodes every node payload.
+#include <algorithm>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "cli/command.h"
+#include "store/store_reader.h"
+
+namespace mds::cli {
+namespace {
+
+struct InfoOptions {
+  std::string store;
+  bool json = false;
+  bool verify = false;
+};
+
+nlohmann::json vec3(const double v[3]) { return nlohmann::json::array({v[0], v[1], v[2]}); }
+
+Result<nlohmann::json> store_info(const store::StoreReader& r) {
+  const store::FileHeader& h = r.header();
+  nlohmann::json j;
+  j["file"] = r.path().string();
+  j["format_version"] = h.version;
+  j["file_bytes"] = r.file_bytes();
+  j["particles"] = h.particle_count;
+  j["nodes"] = h.node_count;
+  j["meshlets"] = h.meshlet_count;
+  j["node_size_max"] = h.node_size_max;
+  j["meshlet_size_max"] = h.meshlet_size_max;
+  j["per_particle_radius"] = (h.flags & store::kFlagPerParticleRadius) != 0;
+  j["radius_min"] = h.radius_min;
+  j["radius_max"] = h.radius_max;
+  j["bounds_min"] = vec3(h.bounds_min);
+  j["bounds_max"] = vec3(h.bounds_max);
+  j["max_quantization_error"] = h.max_quantization_error;
+  j["max_error_over_half_step"] = h.max_error_over_half_step;
+  // Quantization step of a node = its largest axis step; report max and median over nodes.
+  std::vector<double> steps;
+  steps.reserve(r.nodes().size());
+  for (const auto& e : r.nodes())
+    steps.push_back(std::max({store::quant_step(e, 0), store::quant_step(e, 1), store::quant_step(e, 2)}));
+  double step_max = 0, step_median = 0;
+  if (!steps.empty()) {
+    step_max = *std::max_element(steps.begin(), steps.end());
+    auto mid = steps.begin() + steps.size() / 2;
+    std::nth_element(steps.begin(), mid, steps.end());
+    step_median = *mid;
+  }
+  j["quantization_step"] = {{"max", step_max}, {"median", step_median}};
+  j["density_dims"] = {h.density_dims[0], h.density_dims[1], h.density_dims[2]};
+  j["density_min"] = vec3(h.density_min);
+  j["density_max"] = vec3(h.density_max);
+  j["bytes_per_particle"] = h.particle_count ? double(r.file_bytes()) / double(h.particle_count) : 0.0;
+  j["payload_bytes"] = h.payload_bytes;
+  j["payload_raw_bytes"] = h.payload_raw_bytes;
+  j["compression_ratio"] = h.payload_bytes ? double(h.payload_raw_bytes) / double(h.payload_bytes) : 0.0;
+  nlohmann::json types = nlohmann::json::array();
+  const auto ts = r.types();
+  for (size_t i = 0; i < ts.size(); ++i)
+    types.push_back({{"index", i},
+                     {"id", ts[i].input_id},
+                     {"name", std::string(ts[i].name)},
+                     {"radius", ts[i].radius},
+                     {"count", ts[i].particle_count}});
+  j["types"] = types;
+  return j;
+}
+
+Status verify_payloads(const store::StoreReader& r) {
+  store::NodeData node;
+  std::vector<uint8_t> scratch;
+  for (uint32_t i = 0; i < r.nodes().size(); ++i) MDS_TRY(r.read_node(i, node, scratch));
+  return {};
+}
+
+std::string human(const nlohmann::json& j, bool verified) {
+  auto v3 = [](const nlohmann::json& a) {
+    return fmt::format("({:.6g}, {:.6g}, {:.6g})", a[0].get<double>(), a[1].get<double>(), a[2].get<double>());
+  };
+  std::string s;
+  s += fmt::format("store            {}\n", j["file"].get<std::string>());
+  s += fmt::format("format version   {}\n", j["format_version"].get<uint32_t>());
+  s += fmt::format("file size        {} bytes ({:.3f} bytes/particle)\n", j["file_bytes"].get<uint64_t>(),
+                   j["bytes_per_particle"].get<double>());
+  s += fmt::format("particles        {}\n", j["particles"].get<uint64_t>());
+  s += fmt::format("nodes            {} (at most {} particles)\n", j["nodes"].get<uint64_t>(),
+                   j["node_size_max"].get<uint32_t>());
+  s += fmt::format("meshlets         {} (at most {} particles)\n", j["meshlets"].get<uint64_t>(),
+                   j["meshlet_size_max"].get<uint32_t>());
+  s += fmt::format("bounds           {} .. {}\n", v3(j["bounds_min"]), v3(j["bounds_max"]));
+  s += fmt::format("radius           {}, range [{:.6g}, {:.6g}]\n",
+                   j["per_particle_radius"].get<bool>() ? "per particle" : "per type", j["radius_min"].get<double>(),
+                   j["radius_max"].get<double>());
+  s += fmt::format("quantization     16 bit; step max {:.6g}, median {:.6g}; max error {:.6g} ({:.4f} of half a step)\n",
+                   j["quantization_step"]["max"].get<double>(), j["quantization_step"]["median"].get<double>(),
+                   j["max_quantization_error"].get<double>(), j["max_error_over_half_step"].get<double>());
+  s += fmt::format("density grid     {}x{}x{} over {} .. {}\n", j["density_dims"][0].get<uint32_t>(),
+                   j["density_dims"][1].get<uint32_t>(), j["density_dims"][2].get<uint32_t>(), v3(j["density_min"]),
+                   v3(j["density_max"]));
+  s += fmt::format("payloads         {} bytes LZ4 from {} bytes (ratio {:.3f})\n", j["payload_bytes"].get<uint64_t>(),
+                   j["payload_raw_bytes"].get<uint64_t>(), j["compression_ratio"].get<double>());
+  s += fmt::format("types            {}\n", j["types"].size());
+  for (const auto& t : j["types"])
+    s += fmt::format("  [{}] id {:<6} name {:<10} radius {:<8.4g} particles {}\n", t["index"].get<size_t>(),
+                     t["id"].get<int32_t>(), t["name"].get<std::string>().empty() ? "-" : t["name"].get<std::string>(),
+                     t["radius"].get<double>(), t["count"].get<uint64_t>());
+  if (verified) s += "verify           every node payload read, hash-checked and decoded: ok\n";
+  return s;
+}
+
+void setup_info(CLI::App& sub, int& exit_code) {
+  auto opt = std::make_shared<InfoOptions>();
+  sub.add_option("store", opt->store, "Store file (.mds)")->required();
+  sub.add_flag("--json", opt->json, "Print JSON instead of text");
+  sub.add_flag("--verify", opt->verify, "Also read, hash-check and decode every node payload");
+  sub.callback([opt, &exit_code] {
+    auto reader = store::StoreReader::open(opt->store);
+    if (!reader.ok()) {
+      exit_code = report("info", reader.error());
+      return;
+    }
+    if (opt->verify) {
+      Status st = verify_payloads(**reader);
+      if (!st.ok()) {
+        exit_code = report("info", st.error());
+        return;
+      }
+    }
+    auto j = store_info(**reader);
+    if (!j.ok()) {
+      exit_code = report("info", j.error());
+      return;
+    }
+    if (opt->json) {
+      if (opt->verify) (*j)["verified"] = true;
+      std::fputs((j->dump(2) + "\n").c_str(), stdout);
+    } else {
+      std::fputs(human(*j, opt->verify).c_str(), stdout);
+    }
+    exit_code = 0;
+  });
+}
+
+Registrar reg("info", "Summarize a store (.mds): counts, bounds, quantization, types, sizes", setup_info);
+
+}  // namespace
+}  // namespace mds::cli

@@ -1,0 +1,346 @@
+// Store writer: serializes and LZ4-compresses node payloads (format.h / docs/store-format.md),
+// appends them to "<path>.tmp.<pid>" through an 8 MiB buffer, then writes the type table,
+// the node directory, the voxel lists and the LZ4-compressed density volume, each with its
+// XXH3-64 hash, and finally the header (hashed with header_hash = 0), fsync and rename.
+#include "store/store_writer.h"
+
+#include <lz4.h>
+
+#include <bit>
+#include <cmath>
+#include <cstring>
+
+#include "store/file_io.h"
+#include "store/hash.h"
+
+static_assert(std::endian::native == std::endian::little, "the store format is little-endian; port the I/O first");
+
+namespace mds::store {
+
+namespace {
+
+bool finite3(const double v[3]) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }
+
+constexpr uint64_t kMaxDensityVoxels = uint64_t(1) << 28;
+
+}  // namespace
+
+Result<EncodedNode> encode_node(const NodeInput& node) {
+  const uint64_t n = node.type_index.size();
+  const uint64_t m = node.meshlet_size.size();
+  if (n < 1 || n > kMaxNodeParticles)
+    return make_error(Errc::internal, "encode_node: particle count {} outside [1, {}]", n, kMaxNodeParticles);
+  if (node.qpos.size() != 3 * n)
+    return make_error(Errc::internal, "encode_node: qpos has {} values, expected 3*{}", node.qpos.size(), n);
+  if (!node.radius_q.empty() && node.radius_q.size() != n)
+    return make_error(Errc::internal, "encode_node: radius_q has {} values, expected 0 or {}", node.radius_q.size(), n);
+  if (m < 1 || m > n) return make_error(Errc::internal, "encode_node: meshlet count {} outside [1, {}]", m, n);
+  uint64_t sum = 0;
+  uint32_t max_meshlet = 0;
+  for (uint64_t i = 0; i < m; ++i) {
+    if (node.meshlet_size[i] == 0) return make_error(Errc::internal, "encode_node: meshlet {} is empty", i);
+    sum += node.meshlet_size[i];
+    max_meshlet = std::max<uint32_t>(max_meshlet, node.meshlet_size[i]);
+  }
+  if (sum != n) return make_error(Errc::internal, "encode_node: meshlet sizes sum to {}, expected {}", sum, n);
+  if (!finite3(node.center_min) || !finite3(node.center_max))
+    return make_error(Errc::internal, "encode_node: non-finite quantization frame");
+  for (int a = 0; a < 3; ++a)
+    if (node.center_min[a] > node.center_max[a])
+      return make_error(Errc::internal, "encode_node: center_min > center_max on axis {}", a);
+  if (!std::isfinite(node.max_radius) || node.max_radius < 0)
+    return make_error(Errc::internal, "encode_node: max_radius {} is not a finite non-negative value", node.max_radius);
+  if (!node.voxels.empty()) {
+    uint64_t vsum = 0;
+    for (size_t i = 0; i < node.voxels.size(); ++i) {
+      if (node.voxels[i].count == 0) return make_error(Errc::internal, "encode_node: voxel ref {} has count 0", i);
+      if (i > 0 && node.voxels[i].voxel <= node.voxels[i - 1].voxel)
+        return make_error(Errc::internal, "encode_node: voxel refs not strictly sorted at {}", i);
+      vsum += node.voxels[i].count;
+    }
+    if (vsum != n) return make_error(Errc::internal, "encode_node: voxel counts sum to {}, expected {}", vsum, n);
+  }
+
+  const bool radius = !node.radius_q.empty();
+  const uint64_t raw_size = node_payload_bytes(n, m, radius);
+  std::vector<uint8_t> raw(raw_size);
+  uint8_t* p = raw.data();
+  std::memcpy(p, node.qpos.data(), 6 * n);
+  p += 6 * n;
+  std::memcpy(p, node.type_index.data(), n);
+  p += n;
+  if (radius) {
+    std::memcpy(p, node.radius_q.data(), 2 * n);
+    p += 2 * n;
+  }
+  std::memcpy(p, node.meshlet_size.data(), m);
+
+  EncodedNode out;
+  out.payload.resize(static_cast<size_t>(LZ4_compressBound(static_cast<int>(raw_size))));
+  int c = LZ4_compress_default(reinterpret_cast<const char*>(raw.data()), reinterpret_cast<char*>(out.payload.data()),
+                               static_cast<int>(raw_size), static_cast<int>(out.payload.size()));
+  if (c <= 0) return make_error(Errc::internal, "encode_node: LZ4 compression of {} bytes failed", raw_size);
+  out.payload.resize(static_cast<size_t>(c));
+  out.payload.shrink_to_fit();
+
+  NodeEntry& e = out.entry;
+  std::memset(&e, 0, sizeof(e));
+  e.payload_bytes = static_cast<uint32_t>(c);
+  e.payload_raw_bytes = static_cast<uint32_t>(raw_size);
+  e.payload_hash = hash_bytes(out.payload);
+  e.particle_count = static_cast<uint32_t>(n);
+  e.meshlet_count = static_cast<uint32_t>(m);
+  for (int a = 0; a < 3; ++a) {
+    e.center_min[a] = node.center_min[a];
+    e.center_max[a] = node.center_max[a];
+  }
+  e.max_radius = node.max_radius;
+  e.voxel_count = static_cast<uint32_t>(node.voxels.size());
+  out.voxels.assign(node.voxels.begin(), node.voxels.end());
+  out.max_meshlet_size = max_meshlet;
+  for (uint64_t i = 0; i < n; ++i) {
+    uint8_t t = node.type_index[i];
+    if (t >= out.type_counts.size()) out.type_counts.resize(size_t(t) + 1, 0);
+    ++out.type_counts[t];
+  }
+  return out;
+}
+
+struct StoreWriter::Impl {
+  AtomicOutput out;
+  std::unique_ptr<BufferedWriter> writer;
+  std::vector<NodeEntry> entries;
+  std::vector<VoxelRef> voxels;
+  std::vector<uint64_t> type_counts;
+  uint64_t particles = 0;
+  uint64_t meshlets = 0;
+  uint64_t payload_bytes = 0;
+  uint64_t payload_raw_bytes = 0;
+  uint32_t max_node_particles = 0;
+  uint32_t max_meshlet_size = 0;
+  bool finished = false;
+  bool failed = false;  // an I/O error left the temporary file in an unknown state
+
+  std::string name() const { return out.final_path().string(); }
+};
+
+Result<std::unique_ptr<StoreWriter>> StoreWriter::create(const std::filesystem::path& path) {
+  std::unique_ptr<StoreWriter> w(new StoreWriter());
+  w->impl_ = std::make_unique<Impl>();
+  MDS_ASSIGN_OR_RETURN(w->impl_->out, AtomicOutput::create(path));
+  w->impl_->writer = std::make_unique<BufferedWriter>(w->impl_->out.file(), size_t(8) << 20, 0);
+  // Reserve the header; it is written last.
+  std::vector<uint8_t> zeros(kHeaderBytes, 0);
+  MDS_TRY(w->impl_->writer->write(zeros.data(), zeros.size()));
+  return w;
+}
+
+StoreWriter::~StoreWriter() = default;  // AtomicOutput removes the temporary file unless committed
+
+Status StoreWriter::append(EncodedNode&& node) {
+  Impl& s = *impl_;
+  if (s.finished) return make_error(Errc::internal, "{}: append after finish", s.name());
+  if (s.failed) return make_error(Errc::internal, "{}: append after a failed write", s.name());
+  NodeEntry e = node.entry;
+  const uint64_t index = s.entries.size();
+  if (index >= 0xFFFFFFFFull) return make_error(Errc::range, "{}: more than 2^32-1 nodes", s.name());
+  if (node.payload.size() != e.payload_bytes || e.payload_bytes == 0)
+    return make_error(Errc::internal, "{}: node {}: payload has {} bytes, entry says {}", s.name(), index,
+                      node.payload.size(), e.payload_bytes);
+  if (node.voxels.size() != e.voxel_count)
+    return make_error(Errc::internal, "{}: node {}: {} voxel refs, entry says {}", s.name(), index, node.voxels.size(),
+                      e.voxel_count);
+  if (s.voxels.size() + node.voxels.size() > 0xFFFFFFFFull)
+    return make_error(Errc::range, "{}: node {}: more than 2^32-1 voxel refs in the store", s.name(), index);
+  e.payload_offset = s.writer->offset();
+  e.first_particle = s.particles;
+  e.first_meshlet = s.meshlets;
+  e.voxel_first = static_cast<uint32_t>(s.voxels.size());
+  e.reserved = 0;
+  Status st = s.writer->write(node.payload);
+  if (!st.ok()) {
+    s.failed = true;
+    return st;
+  }
+  s.particles += e.particle_count;
+  s.meshlets += e.meshlet_count;
+  s.payload_bytes += e.payload_bytes;
+  s.payload_raw_bytes += e.payload_raw_bytes;
+  s.max_node_particles = std::max(s.max_node_particles, e.particle_count);
+  s.max_meshlet_size = std::max(s.max_meshlet_size, node.max_meshlet_size);
+  if (node.type_counts.size() > s.type_counts.size()) s.type_counts.resize(node.type_counts.size(), 0);
+  for (size_t t = 0; t < node.type_counts.size(); ++t) s.type_counts[t] += node.type_counts[t];
+  s.voxels.insert(s.voxels.end(), node.voxels.begin(), node.voxels.end());
+  s.entries.push_back(e);
+  return {};
+}
+
+namespace {
+
+Status check_summary(const std::string& name, const StoreSummary& sum) {
+  if (sum.flags & ~uint32_t(kFlagPerParticleRadius))
+    return make_error(Errc::internal, "{}: unknown header flags {:#x}", name, sum.flags);
+  if (sum.node_size_max < 1 || sum.node_size_max > kMaxNodeParticles)
+    return make_error(Errc::internal, "{}: node_size_max {} outside [1, {}]", name, sum.node_size_max, kMaxNodeParticles);
+  if (sum.meshlet_size_max < 1 || sum.meshlet_size_max > kMaxMeshletParticles)
+    return make_error(Errc::internal, "{}: meshlet_size_max {} outside [1, {}]", name, sum.meshlet_size_max,
+                      kMaxMeshletParticles);
+  if (sum.types.size() > kMaxTypes) return make_error(Errc::internal, "{}: {} types (max {})", name, sum.types.size(), kMaxTypes);
+  for (size_t t = 0; t < sum.types.size(); ++t) {
+    const TypeEntry& te = sum.types[t];
+    if (!std::isfinite(te.radius) || te.radius < 0)
+      return make_error(Errc::internal, "{}: type {} radius {} is not finite and non-negative", name, t, te.radius);
+    if (std::memchr(te.name, 0, sizeof(te.name)) == nullptr)
+      return make_error(Errc::internal, "{}: type {} name is not NUL-terminated", name, t);
+  }
+  if (!finite3(sum.bounds_min) || !finite3(sum.bounds_max) || !finite3(sum.density_min) || !finite3(sum.density_max))
+    return make_error(Errc::internal, "{}: non-finite bounds", name);
+  for (int a = 0; a < 3; ++a) {
+    if (sum.bounds_min[a] > sum.bounds_max[a]) return make_error(Errc::internal, "{}: bounds_min > bounds_max on axis {}", name, a);
+    if (sum.density_min[a] > sum.density_max[a])
+      return make_error(Errc::internal, "{}: density_min > density_max on axis {}", name, a);
+  }
+  if (!std::isfinite(sum.radius_min) || !std::isfinite(sum.radius_max) || sum.radius_min < 0 || sum.radius_min > sum.radius_max)
+    return make_error(Errc::internal, "{}: radius range [{}, {}] invalid", name, sum.radius_min, sum.radius_max);
+  if (!std::isfinite(sum.max_quantization_error) || sum.max_quantization_error < 0 ||
+      !std::isfinite(sum.max_error_over_half_step) || sum.max_error_over_half_step < 0)
+    return make_error(Errc::internal, "{}: quantization error summary is not finite and non-negative", name);
+  const uint64_t product = uint64_t(sum.density_dims[0]) * sum.density_dims[1] * sum.density_dims[2];
+  const bool none = sum.density_dims[0] == 0 && sum.density_dims[1] == 0 && sum.density_dims[2] == 0;
+  if (!none && product == 0)
+    return make_error(Errc::internal, "{}: density dims {}x{}x{} mix zero and non-zero", name, sum.density_dims[0],
+                      sum.density_dims[1], sum.density_dims[2]);
+  if (product > kMaxDensityVoxels)
+    return make_error(Errc::internal, "{}: density grid of {} voxels exceeds 2^28", name, product);
+  if (sum.density_counts.size() != product)
+    return make_error(Errc::internal, "{}: density has {} counts, dims give {}", name, sum.density_counts.size(), product);
+  return {};
+}
+
+}  // namespace
+
+Status StoreWriter::finish(const StoreSummary& sum) {
+  Impl& s = *impl_;
+  const std::string name = s.name();
+  if (s.finished) return make_error(Errc::internal, "{}: finish called twice", name);
+  if (s.failed) return make_error(Errc::internal, "{}: finish after a failed write", name);
+  MDS_TRY(check_summary(name, sum));
+  const bool radius = (sum.flags & kFlagPerParticleRadius) != 0;
+  if (s.max_node_particles > sum.node_size_max)
+    return make_error(Errc::internal, "{}: a node has {} particles, node_size_max is {}", name, s.max_node_particles,
+                      sum.node_size_max);
+  if (s.max_meshlet_size > sum.meshlet_size_max)
+    return make_error(Errc::internal, "{}: a meshlet has {} particles, meshlet_size_max is {}", name, s.max_meshlet_size,
+                      sum.meshlet_size_max);
+  if (s.type_counts.size() > sum.types.size())
+    return make_error(Errc::internal, "{}: nodes use type index {}, but the type table has {} entries", name,
+                      s.type_counts.size() - 1, sum.types.size());
+  for (size_t i = 0; i < s.entries.size(); ++i) {
+    const NodeEntry& e = s.entries[i];
+    if (e.payload_raw_bytes != node_payload_bytes(e.particle_count, e.meshlet_count, radius))
+      return make_error(Errc::internal, "{}: node {}: payload layout does not match the per-particle-radius flag ({})",
+                        name, i, radius ? "set" : "clear");
+  }
+  // Density volume must equal the sum of all voxel lists.
+  const uint64_t product = sum.density_counts.size();
+  if (product == 0) {
+    if (!s.voxels.empty()) return make_error(Errc::internal, "{}: nodes carry voxel refs but there is no density grid", name);
+  } else {
+    std::vector<uint32_t> rest = sum.density_counts;
+    for (size_t i = 0; i < s.entries.size(); ++i) {
+      const NodeEntry& e = s.entries[i];
+      if (e.voxel_count == 0) return make_error(Errc::internal, "{}: node {} has no voxel refs", name, i);
+      for (uint32_t k = 0; k < e.voxel_count; ++k) {
+        const VoxelRef& v = s.voxels[e.voxel_first + k];
+        if (v.voxel >= product) return make_error(Errc::internal, "{}: node {}: voxel {} outside the grid", name, i, v.voxel);
+        if (rest[v.voxel] < v.count)
+          return make_error(Errc::internal, "{}: node {}: voxel {} refs exceed the density count", name, i, v.voxel);
+        rest[v.voxel] -= v.count;
+      }
+    }
+    for (uint64_t v = 0; v < product; ++v)
+      if (rest[v] != 0)
+        return make_error(Errc::internal, "{}: density voxel {} counts {} particles not in any node's voxel refs", name, v,
+                          rest[v]);
+  }
+
+  FileHeader h;
+  std::memset(&h, 0, sizeof(h));
+  std::memcpy(h.magic, kMagic, sizeof(kMagic));
+  h.version = kFormatVersion;
+  h.header_bytes = kHeaderBytes;
+  h.flags = sum.flags;
+  h.node_size_max = sum.node_size_max;
+  h.meshlet_size_max = sum.meshlet_size_max;
+  h.node_count = static_cast<uint32_t>(s.entries.size());
+  h.particle_count = s.particles;
+  h.meshlet_count = s.meshlets;
+  h.type_count = static_cast<uint32_t>(sum.types.size());
+  for (int a = 0; a < 3; ++a) {
+    h.density_dims[a] = sum.density_dims[a];
+    h.bounds_min[a] = sum.bounds_min[a];
+    h.bounds_max[a] = sum.bounds_max[a];
+    h.density_min[a] = sum.density_min[a];
+    h.density_max[a] = sum.density_max[a];
+  }
+  h.radius_min = sum.radius_min;
+  h.radius_max = sum.radius_max;
+  h.max_quantization_error = sum.max_quantization_error;
+  h.max_error_over_half_step = sum.max_error_over_half_step;
+  h.payload_bytes = s.payload_bytes;
+  h.payload_raw_bytes = s.payload_raw_bytes;
+
+  // Type table: copy, zero unused name bytes (deterministic files), fill counts.
+  std::vector<TypeEntry> types(sum.types.size());
+  for (size_t t = 0; t < types.size(); ++t) {
+    TypeEntry te;
+    std::memset(&te, 0, sizeof(te));
+    te.input_id = sum.types[t].input_id;
+    te.radius = sum.types[t].radius;
+    te.particle_count = t < s.type_counts.size() ? s.type_counts[t] : 0;
+    std::strncpy(te.name, sum.types[t].name, sizeof(te.name) - 1);
+    types[t] = te;
+  }
+
+  // Density volume: LZ4 block of uint32 counts (empty section when there is no grid).
+  std::vector<uint8_t> density;
+  const uint64_t density_raw = 4 * product;
+  if (product > 0) {
+    density.resize(static_cast<size_t>(LZ4_compressBound(static_cast<int>(density_raw))));
+    int c = LZ4_compress_default(reinterpret_cast<const char*>(sum.density_counts.data()),
+                                 reinterpret_cast<char*>(density.data()), static_cast<int>(density_raw),
+                                 static_cast<int>(density.size()));
+    if (c <= 0) return make_error(Errc::internal, "{}: LZ4 compression of the density volume failed", name);
+    density.resize(static_cast<size_t>(c));
+  }
+
+  auto write_section = [&](SectionId id, const void* data, uint64_t bytes, uint64_t raw) -> Status {
+    Section& sec = h.sections[id];
+    sec.offset = s.writer->offset();
+    sec.bytes = bytes;
+    sec.raw_bytes = raw;
+    sec.hash = hash_bytes({static_cast<const uint8_t*>(data), static_cast<size_t>(bytes)});
+    return s.writer->write(data, static_cast<size_t>(bytes));
+  };
+  s.failed = true;  // until everything below succeeded
+  MDS_TRY(write_section(kSectionTypes, types.data(), types.size() * sizeof(TypeEntry), types.size() * sizeof(TypeEntry)));
+  MDS_TRY(write_section(kSectionDirectory, s.entries.data(), s.entries.size() * sizeof(NodeEntry),
+                        s.entries.size() * sizeof(NodeEntry)));
+  MDS_TRY(write_section(kSectionVoxels, s.voxels.data(), s.voxels.size() * sizeof(VoxelRef),
+                        s.voxels.size() * sizeof(VoxelRef)));
+  MDS_TRY(write_section(kSectionDensity, density.data(), density.size(), density_raw));
+  MDS_TRY(s.writer->flush());
+
+  h.header_hash = 0;
+  h.header_hash = hash_bytes({reinterpret_cast<const uint8_t*>(&h), sizeof(h)});
+  MDS_TRY(s.out.file().pwrite_all(&h, sizeof(h), 0));
+  MDS_TRY(s.out.commit());
+  s.failed = false;
+  s.finished = true;
+  return {};
+}
+
+uint64_t StoreWriter::bytes_written() const { return impl_->writer->offset(); }
+uint64_t StoreWriter::node_count() const { return impl_->entries.size(); }
+
+}  // namespace mds::store
