@@ -1,0 +1,84 @@
+// The conversion pipeline: simulation dumps -> the node/meshlet store (.mds).
+//   Pass A  parse every input once, validate, spill 32-byte records to a temporary file (or
+//           keep them in memory when they fit the budget); global bounds, counts, types.
+//   Pass B  scatter the spill file into Morton-prefix bins that fit the budget (binning.h).
+//   Build   per bin: sort by Morton key, nodes (node_builder.h), then on worker threads per
+//           node: PCL meshlets (meshlet_builder.h), 16-bit quantization (quantize.h), voxel
+//           lists (density.h), store::encode_node; the calling thread appends in order.
+// Paper 000 §3.1, §4.4, §6, §7.4; paper 002 §3.3.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "convert/density.h"
+#include "core/result.h"
+#include "readers/reader.h"
+
+namespace mds::convert {
+
+inline constexpr uint64_t kDefaultMemoryBudget = 2ull << 30;
+
+struct ConvertOptions {
+  std::vector<std::filesystem::path> inputs;
+  std::filesystem::path output;
+  ReaderOptions reader;                      // format, frame, h5md group
+  uint32_t node_size = 10000;                // 1..65535
+  uint32_t meshlet_size = 16;                // 1..255
+  float radius = 0.5f;                       // default radius of every type
+  std::map<int32_t, float> radius_by_type;   // overrides per input type id
+  DensitySpec density;                       // --density-res
+  uint64_t memory_budget = kDefaultMemoryBudget;
+  unsigned threads = 2;
+  std::filesystem::path tmp_dir;             // empty: next to the output
+  bool progress = false;                     // draw a progress bar on stderr
+};
+
+struct ConvertReport {
+  uint64_t particles = 0;
+  uint64_t nodes = 0;
+  uint64_t meshlets = 0;
+  uint32_t types = 0;
+  double mean_meshlet_size = 0;
+  uint64_t file_bytes = 0;
+  double bytes_per_particle = 0;
+  uint64_t payload_bytes = 0;
+  uint64_t payload_raw_bytes = 0;
+  double compression_ratio = 0;              // payload raw / compressed
+  double max_quantization_error = 0;         // absolute, world units
+  double max_error_over_half_step = 0;       // <= 1
+  double bounds_min[3] = {0, 0, 0};
+  double bounds_max[3] = {0, 0, 0};
+  uint32_t density_dims[3] = {0, 0, 0};
+  bool per_particle_radius = false;
+  bool spilled = false;                      // records went through temporary files
+  uint64_t bins = 0;                         // bins built (1 when everything fitted in memory)
+  uint64_t partition_passes = 0;
+  uint64_t memory_budget = 0;
+  uint64_t peak_rss_bytes = 0;               // VmHWM of the process
+  double seconds_read = 0;                   // pass A
+  double seconds_partition = 0;              // pass B
+  double seconds_build = 0;                  // sort + nodes + meshlets + encode + write
+  double seconds_meshlets = 0;               // CPU time summed over workers
+  double seconds_encode = 0;                 // quantize + voxels + lz4: CPU time summed over workers
+  double seconds_sort = 0;                   // loading and sorting bins
+  double seconds_total = 0;
+  double cpu_seconds = 0;                    // process CPU time (user + system) of the conversion
+  double particles_per_second = 0;
+};
+
+// Runs the whole conversion. On error nothing is left behind (no output, no temporaries).
+Result<ConvertReport> convert(const ConvertOptions& options);
+
+// "512MiB", "2GiB", "1.5G", "800M", "65536" (bytes). Binary units (K = 1024).
+Result<uint64_t> parse_byte_size(const std::string& text);
+// "1=0.5,2=0.7"
+Result<std::map<int32_t, float>> parse_radius_by_type(const std::string& text);
+
+// Peak resident set size of this process (VmHWM), 0 when unknown.
+uint64_t peak_rss_bytes();
+
+}  // namespace mds::convert

@@ -1,0 +1,45 @@
+// Morton (Z-order) keys over a global bounding box: 21 bits per axis, 63-bit keys.
+// Sorting particles by key orders them along the Z-order space-filling curve, so any key
+// prefix of 3*L bits is an octree cell at depth L (the node hierarchy of paper 000, §3.1,
+// and the external-memory binning of the converter rely on this).
+#pragma once
+
+#include <cstdint>
+
+namespace mds::convert {
+
+inline constexpr int kMortonBitsPerAxis = 21;
+inline constexpr int kMortonBits = 3 * kMortonBitsPerAxis;  // 63
+inline constexpr uint32_t kMortonAxisMax = (1u << kMortonBitsPerAxis) - 1;
+
+// Interleaves the low 21 bits of x, y, z: bit i of x goes to bit 3i, y to 3i+1, z to 3i+2.
+uint64_t morton_encode(uint32_t x, uint32_t y, uint32_t z);
+// Inverse of morton_encode.
+void morton_decode(uint64_t key, uint32_t& x, uint32_t& y, uint32_t& z);
+
+// Maps positions inside [lo, hi] to 21-bit grid coordinates per axis and to keys.
+// Degenerate axes (hi == lo) map to 0. Positions outside the box are clamped.
+class MortonGrid {
+ public:
+  MortonGrid() = default;
+  MortonGrid(const double lo[3], const double hi[3]);
+  uint32_t cell(int axis, double v) const;
+  uint64_t key(double x, double y, double z) const {
+    return morton_encode(cell(0, x), cell(1, y), cell(2, z));
+  }
+
+ private:
+  double lo_[3] = {0, 0, 0};
+  double scale_[3] = {0, 0, 0};
+};
+
+// The 3 bits of `key` that choose the child at octree depth `level` (0 = root's children).
+inline uint32_t morton_child(uint64_t key, int level) {
+  return uint32_t(key >> (kMortonBits - 3 * (level + 1))) & 7u;
+}
+// The first `bits` bits of the key (counting from the most significant of the 63).
+inline uint64_t morton_prefix(uint64_t key, int bits) {
+  return bits == 0 ? 0 : key >> (kMortonBits - bits);
+}
+
+}  // namespace mds::convert

@@ -1,0 +1,189 @@
+// `mdstream convert INPUT... -o OUT.mds [options]`: simulation dumps -> node/meshlet store.
+// The pipeline lives in preprocess/convert/converter.{h,cpp}; this file parses options,
+// prints the summary and writes the optional JSON report.
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "cli/command.h"
+#include "convert/converter.h"
+
+namespace mds::cli {
+
+namespace {
+
+struct ConvertArgs {
+  std::vector<std::string> inputs;
+  std::string output;
+  std::string format = "auto";
+  std::string frame = "0";
+  std::string h5md_group;
+  uint32_t node_size = 10000;
+  uint32_t meshlet_size = 16;
+  float radius = 0.5f;
+  std::string radius_by_type;
+  std::string density_res;
+  std::string memory_budget = "2GiB";
+  unsigned threads = 2;
+  std::string tmp_dir;
+  bool quiet = false;
+  std::string json_report;
+};
+
+nlohmann::json report_json(const convert::ConvertReport& r, const convert::ConvertOptions& o) {
+  nlohmann::json j;
+  std::vector<std::string> inputs;
+  for (const auto& p : o.inputs) inputs.push_back(p.string());
+  j["inputs"] = inputs;
+  j["output"] = o.output.string();
+  j["particles"] = r.particles;
+  j["nodes"] = r.nodes;
+  j["meshlets"] = r.meshlets;
+  j["types"] = r.types;
+  j["mean_meshlet_size"] = r.mean_meshlet_size;
+  j["file_bytes"] = r.file_bytes;
+  j["bytes_per_particle"] = r.bytes_per_particle;
+  j["payload_bytes"] = r.payload_bytes;
+  j["payload_raw_bytes"] = r.payload_raw_bytes;
+  j["compression_ratio"] = r.compression_ratio;
+  j["max_quantization_error"] = r.max_quantization_error;
+  j["max_error_over_half_step"] = r.max_error_over_half_step;
+  j["bounds_min"] = {r.bounds_min[0], r.bounds_min[1], r.bounds_min[2]};
+  j["bounds_max"] = {r.bounds_max[0], r.bounds_max[1], r.bounds_max[2]};
+  j["density_dims"] = {r.density_dims[0], r.density_dims[1], r.density_dims[2]};
+  j["per_particle_radius"] = r.per_particle_radius;
+  j["spilled"] = r.spilled;
+  j["bins"] = r.bins;
+  j["partition_passes"] = r.partition_passes;
+  j["memory_budget"] = r.memory_budget;
+  j["peak_rss_bytes"] = r.peak_rss_bytes;
+  j["threads"] = o.threads;
+  j["node_size"] = o.node_size;
+  j["meshlet_size"] = o.meshlet_size;
+  j["seconds"] = {{"read", r.seconds_read},         {"partition", r.seconds_partition},
+                  {"build", r.seconds_build},       {"sort", r.seconds_sort},
+                  {"meshlets_cpu", r.seconds_meshlets}, {"encode_cpu", r.seconds_encode},
+                  {"total", r.seconds_total},       {"cpu", r.cpu_seconds}};
+  j["particles_per_second"] = r.particles_per_second;
+  return j;
+}
+
+void print_summary(const convert::ConvertReport& r, const convert::ConvertOptions& o) {
+  std::fprintf(stderr,
+               "wrote %s\n"
+               "  particles        %llu (%u types%s)\n"
+               "  nodes            %llu (max %u particles)\n"
+               "  meshlets         %llu (mean %.2f particles, max %u)\n"
+               "  file             %llu bytes, %.3f bytes/particle\n"
+               "  compression      %.3f (payload raw %llu -> %llu bytes)\n"
+               "  max quant. error %.6g (%.4f of half a step)\n"
+               "  density grid     %ux%ux%u\n"
+               "  memory           budget %.1f MiB, peak RSS %.1f MiB, %s, %llu bins\n"
+               "  time             %.2f s total (read %.2f, partition %.2f, build %.2f), %.2f M particles/s\n",
+               o.output.string().c_str(), static_cast<unsigned long long>(r.particles), r.types,
+               r.per_particle_radius ? ", per-particle radius" : "", static_cast<unsigned long long>(r.nodes),
+               o.node_size, static_cast<unsigned long long>(r.meshlets), r.mean_meshlet_size, o.meshlet_size,
+               static_cast<unsigned long long>(r.file_bytes), r.bytes_per_particle, r.compression_ratio,
+               static_cast<unsigned long long>(r.payload_raw_bytes), static_cast<unsigned long long>(r.payload_bytes),
+               r.max_quantization_error, r.max_error_over_half_step, r.density_dims[0], r.density_dims[1],
+               r.density_dims[2], double(r.memory_budget) / (1 << 20), double(r.peak_rss_bytes) / (1 << 20),
+               r.spilled ? "spilled to temporary files" : "in memory", static_cast<unsigned long long>(r.bins),
+               r.seconds_total, r.seconds_read, r.seconds_partition, r.seconds_build, r.particles_per_second / 1e6);
+}
+
+Result<convert::ConvertOptions> to_options(const ConvertArgs& a) {
+  convert::ConvertOptions o;
+  for (const auto& s : a.inputs) o.inputs.emplace_back(s);
+  o.output = a.output;
+  auto fmt = parse_input_format(a.format);
+  if (!fmt) return make_error(Errc::invalid_argument, "--format '{}': expected auto, lammps, xyz, h5md, mmpld or raw", a.format);
+  o.reader.format = *fmt;
+  if (a.frame == "last") {
+    o.reader.frame = -1;
+  } else {
+    try {
+      size_t used = 0;
+      const long long k = std::stoll(a.frame, &used);
+      if (used != a.frame.size() || k < 0) throw std::invalid_argument("frame");
+      o.reader.frame = k;
+    } catch (const std::exception&) {
+      return make_error(Errc::invalid_argument, "--frame '{}': expected a frame index >= 0 or 'last'", a.frame);
+    }
+  }
+  o.reader.h5md_group = a.h5md_group;
+  o.node_size = a.node_size;
+  o.meshlet_size = a.meshlet_size;
+  o.radius = a.radius;
+  if (!a.radius_by_type.empty()) {
+    MDS_ASSIGN_OR_RETURN(o.radius_by_type, convert::parse_radius_by_type(a.radius_by_type));
+  }
+  if (!a.density_res.empty()) {
+    MDS_ASSIGN_OR_RETURN(o.density, convert::parse_density_res(a.density_res));
+  }
+  MDS_ASSIGN_OR_RETURN(o.memory_budget, convert::parse_byte_size(a.memory_budget));
+  o.threads = a.threads;
+  o.tmp_dir = a.tmp_dir;
+  o.progress = !a.quiet && stderr_is_tty();
+  return o;
+}
+
+void setup_convert(CLI::App& sub, int& exit_code) {
+  auto args = std::make_shared<ConvertArgs>();
+  sub.add_option("inputs", args->inputs,
+                 "Input files (LAMMPS dump, XYZ/extended XYZ, H5MD, MMPLD, raw float32 xyz); several files are "
+                 "concatenated into one particle set, types merged by input id")
+      ->required();
+  sub.add_option("-o,--output", args->output, "Output store (.mds); written to a temporary file, renamed when complete")
+      ->required();
+  sub.add_option("--format", args->format, "Input format: auto|lammps|xyz|h5md|mmpld|raw (raw must be explicit)")
+      ->capture_default_str();
+  sub.add_option("--frame", args->frame, "Frame to convert: index K (0 = first) or 'last'")->capture_default_str();
+  sub.add_option("--h5md-group", args->h5md_group, "H5MD particle group under /particles when there are several");
+  sub.add_option("--node-size", args->node_size, "Maximum particles per node (1..65535)")->capture_default_str();
+  sub.add_option("--meshlet-size", args->meshlet_size, "Particles per meshlet (1..255)")->capture_default_str();
+  sub.add_option("--radius", args->radius, "Radius of every type without its own (--radius-by-type, MMPLD list radius)")
+      ->capture_default_str();
+  sub.add_option("--radius-by-type", args->radius_by_type, "Per-type radius, e.g. 1=0.5,2=0.7");
+  sub.add_option("--density-res", args->density_res,
+                 "Density volume: a target voxel count N (voxels close to cubic) or explicit dims AxBxC. Default: about "
+                 "1M voxels (1048576), but at most one voxel per 8 particles for small inputs");
+  sub.add_option("--memory-budget", args->memory_budget,
+                 "Peak working memory, e.g. 512MiB, 2GiB, 1.5G; inputs larger than this are partitioned through "
+                 "temporary files")
+      ->capture_default_str();
+  sub.add_option("--threads", args->threads, "Worker threads for meshlet building and encoding")->capture_default_str();
+  sub.add_option("--tmp-dir", args->tmp_dir, "Directory for temporary files (default: the output's directory)");
+  sub.add_flag("-q,--quiet", args->quiet, "Print nothing but errors");
+  sub.add_option("--json-report", args->json_report, "Also write the conversion report as JSON to this file");
+  sub.callback([args, &exit_code] {
+    auto opts = to_options(*args);
+    if (!opts.ok()) {
+      exit_code = report("convert", opts.error());
+      return;
+    }
+    auto rep = convert::convert(*opts);
+    if (!rep.ok()) {
+      exit_code = report("convert", rep.error());
+      return;
+    }
+    if (!args->json_report.empty()) {
+      std::ofstream f(args->json_report);
+      f << report_json(*rep, *opts).dump(2) << "\n";
+      if (!f) {
+        exit_code = report("convert", make_error(Errc::io, "{}: cannot write the JSON report", args->json_report));
+        return;
+      }
+    }
+    if (!args->quiet) print_summary(*rep, *opts);
+    exit_code = 0;
+  });
+}
+
+Registrar reg("convert", "Convert simulation dumps (LAMMPS, XYZ, H5MD, MMPLD, raw) to an mdstream store", setup_convert);
+
+}  // namespace
+
+}  // namespace mds::cli

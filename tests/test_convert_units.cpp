@@ -1,0 +1,517 @@
+// Unit tests of the converter's pieces: Morton keys, node building, PCL meshlets,
+// quantization, density grid, spill files and out-of-core binning, option parsing.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <filesystem>
+#include <numeric>
+#include <random>
+#include <set>
+#include <vector>
+
+#include "convert/binning.h"
+#include "convert/converter.h"
+#include "convert/density.h"
+#include "convert/meshlet_builder.h"
+#include "convert/morton.h"
+#include "convert/node_builder.h"
+#include "convert/quantize.h"
+#include "convert/spill.h"
+
+using namespace mds;
+using namespace mds::convert;
+
+namespace {
+
+std::vector<KeyedRecord> sorted_records(std::vector<SpillRecord> in, double lo[3], double hi[3]) {
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = 1e300;
+    hi[a] = -1e300;
+  }
+  for (const auto& r : in) {
+    const double p[3] = {r.x, r.y, r.z};
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], p[a]);
+      hi[a] = std::max(hi[a], p[a]);
+    }
+  }
+  MortonGrid g(lo, hi);
+  std::vector<KeyedRecord> out;
+  for (const auto& r : in) out.push_back({g.key(r.x, r.y, r.z), r});
+  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.key < b.key; });
+  return out;
+}
+
+std::vector<SpillRecord> uniform(size_t n, double ext, uint32_t seed, double offset = 0) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(0, ext);
+  std::vector<SpillRecord> v(n);
+  for (auto& r : v) r = {offset + u(rng), offset + u(rng), offset + u(rng), int32_t(rng() % 3) + 1, 0.5f};
+  return v;
+}
+
+struct Box {
+  double lo[3] = {1e300, 1e300, 1e300};
+  double hi[3] = {-1e300, -1e300, -1e300};
+  void add(double x, double y, double z) {
+    const double p[3] = {x, y, z};
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], p[a]);
+      hi[a] = std::max(hi[a], p[a]);
+    }
+  }
+  double volume() const { return (hi[0] - lo[0]) * (hi[1] - lo[1]) * (hi[2] - lo[2]); }
+  double max_extent() const { return std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]}); }
+};
+
+struct TmpDir {
+  std::filesystem::path p;
+  TmpDir() {
+    p = std::filesystem::temp_directory_path() /
+        ("mds_convert_units_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
+         std::to_string(std::random_device{}()));
+    std::filesystem::create_directories(p);
+  }
+  ~TmpDir() { std::filesystem::remove_all(p); }
+};
+
+}  // namespace
+
+// ---------------------------------------------------------------- Morton
+
+TEST(Morton, InterleavesBits) {
+  EXPECT_EQ(morton_encode(1, 0, 0), 1u);
+  EXPECT_EQ(morton_encode(0, 1, 0), 2u);
+  EXPECT_EQ(morton_encode(0, 0, 1), 4u);
+  EXPECT_EQ(morton_encode(2, 0, 0), 8u);
+  EXPECT_EQ(morton_encode(kMortonAxisMax, kMortonAxisMax, kMortonAxisMax), (1ull << 63) - 1);
+}
+
+TEST(Morton, RoundTripsRandomCoordinates) {
+  std::mt19937 rng(1);
+  for (int i = 0; i < 10000; ++i) {
+    const uint32_t x = rng() & kMortonAxisMax, y = rng() & kMortonAxisMax, z = rng() & kMortonAxisMax;
+    uint32_t a, b, c;
+    morton_decode(morton_encode(x, y, z), a, b, c);
+    ASSERT_EQ(a, x);
+    ASSERT_EQ(b, y);
+    ASSERT_EQ(c, z);
+  }
+}
+
+TEST(Morton, CubeOfSide2kMapsOntoKeyRange8k) {
+  // A Z-order property the binning relies on: the octree cell [0,2^k)^3 is exactly the key range [0, 8^k).
+  const uint32_t side = 8;
+  std::set<uint64_t> keys;
+  for (uint32_t x = 0; x < side; ++x)
+    for (uint32_t y = 0; y < side; ++y)
+      for (uint32_t z = 0; z < side; ++z) keys.insert(morton_encode(x, y, z));
+  EXPECT_EQ(keys.size(), side * side * side);
+  EXPECT_EQ(*keys.begin(), 0u);
+  EXPECT_EQ(*keys.rbegin(), uint64_t(side * side * side - 1));
+  // and child bits / prefixes agree with the cell coordinates
+  const uint64_t k = morton_encode(5u << 18, 3u << 18, 6u << 18);
+  EXPECT_EQ(morton_child(k, 0), ((5u >> 2) & 1) | (((3u >> 2) & 1) << 1) | (((6u >> 2) & 1) << 2));
+  EXPECT_EQ(morton_prefix(k, 9), morton_encode(5, 3, 6));
+}
+
+TEST(Morton, GridMapsBoundsAndClamps) {
+  const double lo[3] = {-1, 0, 10}, hi[3] = {1, 0, 20};  // y degenerate
+  MortonGrid g(lo, hi);
+  EXPECT_EQ(g.cell(0, -1), 0u);
+  EXPECT_EQ(g.cell(0, 1), kMortonAxisMax);
+  EXPECT_EQ(g.cell(0, -5), 0u);
+  EXPECT_EQ(g.cell(0, 5), kMortonAxisMax);
+  EXPECT_EQ(g.cell(1, 0), 0u);
+  EXPECT_EQ(g.cell(2, 15), 1u << 20);
+  EXPECT_LT(g.key(-0.9, 0, 10.1), g.key(0.9, 0, 19.9));
+}
+
+// ---------------------------------------------------------------- nodes
+
+static void check_partition(const std::vector<NodeRange>& nodes, size_t n, uint32_t node_size) {
+  ASSERT_FALSE(nodes.empty());
+  EXPECT_EQ(nodes.front().begin, 0u);
+  EXPECT_EQ(nodes.back().end, n);
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    EXPECT_GT(nodes[i].size(), 0u);
+    EXPECT_LE(nodes[i].size(), node_size);
+    if (i > 0) {
+      EXPECT_EQ(nodes[i].begin, nodes[i - 1].end);
+    }
+  }
+}
+
+TEST(NodeBuilder, UniformDataGivesCompactNodesWithinSize) {
+  double lo[3], hi[3];
+  auto recs = sorted_records(uniform(200000, 100.0, 7), lo, hi);
+  const uint32_t node_size = 10000;
+  auto nodes = build_nodes(recs, 0, node_size);
+  check_partition(nodes, recs.size(), node_size);
+  // Not tiny: merging keeps the mean well above a quarter of the limit.
+  EXPECT_GT(double(recs.size()) / double(nodes.size()), node_size / 4.0);
+  // Compact: node boxes tile the domain (sum ~ 1 box), where a non-spatial grouping of the
+  // same sizes would give about nodes.size() boxes.
+  double sum = 0;
+  for (const auto& nr : nodes) {
+    Box b;
+    for (size_t i = nr.begin; i < nr.end; ++i) b.add(recs[i].r.x, recs[i].r.y, recs[i].r.z);
+    sum += b.volume();
+  }
+  const double global = (hi[0] - lo[0]) * (hi[1] - lo[1]) * (hi[2] - lo[2]);
+  EXPECT_LT(sum, 1.5 * global);
+  EXPECT_GT(nodes.size(), 10u);
+}
+
+TEST(NodeBuilder, ClusteredDataNodesCoverLittleOfTheBox) {
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> g(0, 1);
+  std::vector<SpillRecord> v;
+  for (int i = 0; i < 60000; ++i) {
+    const double c = (i % 2) ? 0.0 : 1000.0;
+    v.push_back({c + g(rng), c + g(rng), c + g(rng), 1, 0.5f});
+  }
+  double lo[3], hi[3];
+  auto recs = sorted_records(v, lo, hi);
+  auto nodes = build_nodes(recs, 0, 5000);
+  check_partition(nodes, recs.size(), 5000);
+  double sum = 0;
+  for (const auto& nr : nodes) {
+    Box b;
+    for (size_t i = nr.begin; i < nr.end; ++i) b.add(recs[i].r.x, recs[i].r.y, recs[i].r.z);
+    sum += b.volume();
+  }
+  const double global = (hi[0] - lo[0]) * (hi[1] - lo[1]) * (hi[2] - lo[2]);
+  EXPECT_LT(sum, 1e-3 * global);
+}
+
+TEST(NodeBuilder, SmallInputIsOneNodeAndDuplicatesAreChunked) {
+  double lo[3], hi[3];
+  auto small = sorted_records(uniform(500, 1.0, 9), lo, hi);
+  auto n1 = build_nodes(small, 0, 10000);
+  ASSERT_EQ(n1.size(), 1u);
+  EXPECT_EQ(n1[0].size(), 500u);
+  // 25000 identical points cannot be split spatially: chunks of node_size.
+  std::vector<SpillRecord> same(25000, SpillRecord{1, 2, 3, 1, 0.5f});
+  same.push_back({0, 0, 0, 1, 0.5f});
+  auto recs = sorted_records(same, lo, hi);
+  auto n2 = build_nodes(recs, 0, 10000);
+  check_partition(n2, recs.size(), 10000);
+}
+
+TEST(NodeBuilder, NodesStayInsideTheStartCell) {
+  // Build a depth-1 cell (one bin of the out-of-core path): every node's keys share the bin prefix
+  // and each node lies inside one octree cell of some depth >= 1.
+  double lo[3], hi[3];
+  auto all = sorted_records(uniform(80000, 10.0, 11), lo, hi);
+  std::vector<KeyedRecord> bin;
+  for (const auto& r : all)
+    if (morton_prefix(r.key, 3) == 5) bin.push_back(r);
+  ASSERT_GT(bin.size(), 5000u);
+  auto nodes = build_nodes(bin, 1, 1000);
+  check_partition(nodes, bin.size(), 1000);
+  for (const auto& nr : nodes) {
+    const uint64_t a = bin[nr.begin].key, b = bin[nr.end - 1].key;
+    EXPECT_EQ(morton_prefix(a, 3), morton_prefix(b, 3));
+  }
+}
+
+// ---------------------------------------------------------------- meshlets
+
+struct MeshletStats {
+  double mean_size = 0;
+  double mean_extent = 0;
+  size_t max_size = 0;
+};
+
+static MeshletStats check_meshlets(const std::vector<double>& xyz, uint32_t msize) {
+  MeshletBuilder mb;
+  std::vector<uint32_t> order;
+  std::vector<uint8_t> sizes;
+  const size_t n = xyz.size() / 3;
+  EXPECT_TRUE(mb.build(xyz, msize, order, sizes).ok());
+  EXPECT_EQ(order.size(), n);
+  std::vector<uint8_t> seen(n, 0);
+  for (auto i : order) {
+    EXPECT_LT(i, n);
+    if (i < n) {
+      EXPECT_EQ(seen[i], 0) << "particle in two meshlets";
+      seen[i] = 1;
+    }
+  }
+  EXPECT_EQ(std::accumulate(sizes.begin(), sizes.end(), size_t(0)), n);
+  MeshletStats st;
+  size_t at = 0;
+  for (auto s : sizes) {
+    EXPECT_GE(s, 1);
+    EXPECT_LE(s, msize);
+    st.max_size = std::max<size_t>(st.max_size, s);
+    Box b;
+    for (size_t k = at; k < at + s; ++k) b.add(xyz[3 * order[k]], xyz[3 * order[k] + 1], xyz[3 * order[k] + 2]);
+    st.mean_extent += b.max_extent();
+    at += s;
+  }
+  st.mean_size = double(n) / double(sizes.size());
+  st.mean_extent /= double(sizes.size());
+  return st;
+}
+
+TEST(MeshletBuilder, PartitionsUniformNodeIntoCompactMeshletsOf16) {
+  double lo[3], hi[3];
+  auto recs = sorted_records(uniform(10000, 1.0, 5), lo, hi);
+  std::vector<double> xyz;
+  for (const auto& r : recs) xyz.insert(xyz.end(), {r.r.x, r.r.y, r.r.z});
+  auto st = check_meshlets(xyz, 16);
+  EXPECT_GT(st.mean_size, 14.0);
+  EXPECT_EQ(st.max_size, 16u);
+  // 16 of 10000 uniform points in a unit cube: a ball of radius ~0.07; random groups span ~0.9.
+  EXPECT_LT(st.mean_extent, 0.25);
+}
+
+TEST(MeshletBuilder, WorksFarFromOriginAndOnDegenerateData) {
+  // 1e6 offset with 1e-3 spacing: float-relative coordinates keep neighbourhoods meaningful.
+  double lo[3], hi[3];
+  auto recs = sorted_records(uniform(4000, 0.05, 6, 1.0e6), lo, hi);
+  std::vector<double> xyz;
+  for (const auto& r : recs) xyz.insert(xyz.end(), {r.r.x, r.r.y, r.r.z});
+  auto st = check_meshlets(xyz, 16);
+  EXPECT_GT(st.mean_size, 14.0);
+  EXPECT_LT(st.mean_extent, 0.05 * 0.4);
+  // all points identical
+  std::vector<double> same(3 * 100, 4.0);
+  auto st2 = check_meshlets(same, 16);
+  EXPECT_EQ(st2.max_size, 16u);
+  // flat (2D) data, other meshlet sizes
+  std::vector<double> flat;
+  std::mt19937 rng(2);
+  for (int i = 0; i < 3000; ++i) flat.insert(flat.end(), {double(rng() % 1000), double(rng() % 1000), 0.0});
+  check_meshlets(flat, 1);
+  check_meshlets(flat, 255);
+  check_meshlets(std::vector<double>{1, 2, 3}, 16);
+}
+
+TEST(MeshletBuilder, RejectsBadMeshletSize) {
+  MeshletBuilder mb;
+  std::vector<uint32_t> order;
+  std::vector<uint8_t> sizes;
+  std::vector<double> xyz = {0, 0, 0, 1, 1, 1};
+  EXPECT_FALSE(mb.build(xyz, 0, order, sizes).ok());
+  EXPECT_FALSE(mb.build(xyz, 256, order, sizes).ok());
+}
+
+// ---------------------------------------------------------------- quantization
+
+TEST(Quantize, ErrorAtMostHalfStepIncludingDegenerateAndHugeOffsets) {
+  std::mt19937_64 rng(8);
+  const double offsets[] = {0.0, -3.7, 1e6, -1e6, 1e9};
+  const double extents[] = {1e-6, 1.0, 37.5, 1e4};
+  QuantError total;
+  for (double off : offsets)
+    for (double ext : extents) {
+      std::uniform_real_distribution<double> u(0, ext);
+      std::vector<std::array<double, 3>> pts(2000);
+      Box b;
+      for (auto& p : pts) {
+        p = {off + u(rng), off + u(rng), off + 2.0};  // z degenerate
+        b.add(p[0], p[1], p[2]);
+      }
+      const QuantFrame f = make_frame(b.lo, b.hi);
+      EXPECT_EQ(f.step[2], 0.0);
+      QuantError e;
+      for (const auto& p : pts)
+        for (int a = 0; a < 3; ++a) {
+          const uint16_t q = quantize(f, a, p[a]);
+          e.add(f, a, p[a], q);
+          // half a step, plus the rounding of the decoded double (a few ulps of the coordinate)
+          const double ulp = std::nextafter(std::abs(p[a]), 1e308) - std::abs(p[a]);
+          if (f.step[a] > 0) {
+            ASSERT_LE(std::abs(dequantize(f, a, q) - p[a]), 0.5 * f.step[a] + 2 * ulp) << off << " " << ext;
+          } else {
+            ASSERT_EQ(dequantize(f, a, q), p[a]);
+          }
+        }
+      // the box corners are exact
+      EXPECT_EQ(quantize(f, 0, b.lo[0]), 0);
+      EXPECT_EQ(quantize(f, 0, b.hi[0]), 65535);
+      const double ulp = std::nextafter(std::abs(off) + ext, 1e308) - (std::abs(off) + ext);
+      EXPECT_LE(e.max_over_half_step, 1.0 + 4 * ulp / (ext / 65535.0));
+      total.merge(e);
+    }
+  EXPECT_GT(total.max_over_half_step, 0.9);  // the bound is tight: errors do come close to half a step
+}
+
+TEST(Quantize, RadiusMapsEndpoints) {
+  EXPECT_EQ(quantize_radius(0.5f, 0.5f, 1.5f), 0);
+  EXPECT_EQ(quantize_radius(1.5f, 0.5f, 1.5f), 65535);
+  EXPECT_EQ(quantize_radius(1.0f, 1.0f, 1.0f), 0);
+  const uint16_t q = quantize_radius(1.0f, 0.5f, 1.5f);
+  EXPECT_NEAR(0.5 + q * (1.0 / 65535.0), 1.0, 1.0 / 65535.0);
+}
+
+// ---------------------------------------------------------------- density
+
+TEST(Density, DimsAreNearCubicAndWithinTarget) {
+  const double lo[3] = {0, 0, 0};
+  {
+    const double hi[3] = {10, 10, 10};
+    auto d = choose_density_dims(lo, hi, 1000);
+    EXPECT_EQ(d, (std::array<uint32_t, 3>{10, 10, 10}));
+  }
+  {
+    const double hi[3] = {100, 10, 1};
+    auto d = choose_density_dims(lo, hi, 1000);
+    EXPECT_EQ(d, (std::array<uint32_t, 3>{100, 10, 1}));
+  }
+  {
+    const double hi[3] = {10, 10, 0};  // flat
+    auto d = choose_density_dims(lo, hi, 100);
+    EXPECT_EQ(d, (std::array<uint32_t, 3>{10, 10, 1}));
+  }
+  {
+    const double hi[3] = {1e6, 1, 1};  // needle
+    auto d = choose_density_dims(lo, hi, 8);
+    EXPECT_EQ(d, (std::array<uint32_t, 3>{8, 1, 1}));
+  }
+  {
+    const double hi[3] = {0, 0, 0};
+    auto d = choose_density_dims(lo, hi, 1000);
+    EXPECT_EQ(d, (std::array<uint32_t, 3>{1, 1, 1}));
+  }
+  std::mt19937 rng(4);
+  for (int i = 0; i < 200; ++i) {
+    const double hi[3] = {double(1 + rng() % 1000), double(1 + rng() % 1000), double(1 + rng() % 1000)};
+    const uint64_t target = 1 + rng() % 2000000;
+    auto d = choose_density_dims(lo, hi, target);
+    const uint64_t prod = uint64_t(d[0]) * d[1] * d[2];
+    EXPECT_LE(prod, target);
+    EXPECT_GE(d[0], 1u);
+    // close to the target when the box allows (all dims > 1)
+    if (d[0] > 4 && d[1] > 4 && d[2] > 4) {
+      EXPECT_GT(double(prod), 0.4 * double(target));
+      // voxels near cubic
+      const double s[3] = {hi[0] / d[0], hi[1] / d[1], hi[2] / d[2]};
+      EXPECT_LT(std::max({s[0], s[1], s[2]}) / std::min({s[0], s[1], s[2]}), 1.6);
+    }
+  }
+  EXPECT_EQ(default_density_target(80), 10u);
+  EXPECT_EQ(default_density_target(1ull << 40), kDefaultDensityVoxels);
+}
+
+TEST(Density, GridIndexAndVoxelRefs) {
+  const double lo[3] = {0, 0, 0}, hi[3] = {4, 2, 1};
+  DensityGrid g(lo, hi, {4, 2, 1});
+  EXPECT_EQ(g.voxel(0, 0, 0), 0u);
+  EXPECT_EQ(g.voxel(4, 2, 1), 7u);  // upper bound clamps into the last voxel
+  EXPECT_EQ(g.voxel(1.5, 1.5, 0.5), 1u + 4u * 1u);
+  EXPECT_EQ(g.voxel(-10, -10, -10), 0u);
+  std::vector<uint32_t> v = {5, 1, 5, 7, 1, 1};
+  std::vector<store::VoxelRef> refs;
+  voxel_refs(v, refs);
+  ASSERT_EQ(refs.size(), 3u);
+  EXPECT_EQ(refs[0].voxel, 1u);
+  EXPECT_EQ(refs[0].count, 3u);
+  EXPECT_EQ(refs[1].voxel, 5u);
+  EXPECT_EQ(refs[1].count, 2u);
+  EXPECT_EQ(refs[2].voxel, 7u);
+  EXPECT_EQ(refs[2].count, 1u);
+}
+
+TEST(Density, ParsesResolution) {
+  auto a = parse_density_res("1000000");
+  ASSERT_TRUE(a.ok());
+  EXPECT_EQ(a->target_voxels, 1000000u);
+  EXPECT_FALSE(a->explicit_dims);
+  auto b = parse_density_res("64x64x32");
+  ASSERT_TRUE(b.ok());
+  EXPECT_TRUE(b->explicit_dims);
+  EXPECT_EQ(b->dims, (std::array<uint32_t, 3>{64, 64, 32}));
+  for (const char* bad : {"", "0", "abc", "64x64", "0x1x1", "1x2x3x4", "-5", "100000x100000x100000", "8x8xq"})
+    EXPECT_FALSE(parse_density_res(bad).ok()) << bad;
+}
+
+// ---------------------------------------------------------------- options
+
+TEST(Options, ParsesByteSizesAndRadii) {
+  EXPECT_EQ(*parse_byte_size("512MiB"), 512ull << 20);
+  EXPECT_EQ(*parse_byte_size("2GiB"), 2ull << 30);
+  EXPECT_EQ(*parse_byte_size("1.5G"), 3ull << 29);
+  EXPECT_EQ(*parse_byte_size("8M"), 8ull << 20);
+  EXPECT_EQ(*parse_byte_size("65536"), 65536u);
+  for (const char* bad : {"", "abc", "12XB", "-1G", "0", "1.2.3M", "G"}) EXPECT_FALSE(parse_byte_size(bad).ok()) << bad;
+  auto r = parse_radius_by_type("1=0.5,2=0.7");
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->size(), 2u);
+  EXPECT_FLOAT_EQ(r->at(2), 0.7f);
+  for (const char* bad : {"1", "1=", "=0.5", "1=0.5,", "a=1", "1=-0.5", "1=nan", "1=0.5x"})
+    EXPECT_FALSE(parse_radius_by_type(bad).ok()) << bad;
+}
+
+// ---------------------------------------------------------------- spill + binning
+
+TEST(Binning, PartitionsSkewedSpillIntoMortonOrderedBinsAndCleansUp) {
+  TmpDir td;
+  std::filesystem::path tmp_path;
+  std::mt19937_64 rng(12);
+  std::normal_distribution<double> g(0, 1);
+  std::uniform_real_distribution<double> u(0, 1000);
+  std::vector<SpillRecord> recs;
+  for (int i = 0; i < 120000; ++i) {
+    if (i % 10 == 0) recs.push_back({u(rng), u(rng), u(rng), 1, 0.5f});
+    else recs.push_back({500 + g(rng), 500 + g(rng), 500 + g(rng), 2, 0.5f});  // 90% in a tiny blob
+  }
+  double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+  for (const auto& r : recs) {
+    lo[0] = std::min(lo[0], r.x), hi[0] = std::max(hi[0], r.x);
+    lo[1] = std::min(lo[1], r.y), hi[1] = std::max(hi[1], r.y);
+    lo[2] = std::min(lo[2], r.z), hi[2] = std::max(hi[2], r.z);
+  }
+  MortonGrid grid(lo, hi);
+  {
+    TempDir tmp(td.p);
+    auto spill_path = tmp.file("spill.rec");
+    ASSERT_TRUE(spill_path.ok());
+    tmp_path = tmp.dir();
+    auto w = SpillWriter::create(*spill_path, 4096);
+    ASSERT_TRUE(w.ok());
+    ASSERT_TRUE(w->append(recs).ok());
+    ASSERT_TRUE(w->close().ok());
+    PartitionOptions opt;
+    opt.max_bin_records = 5000;
+    opt.buffer_bytes = 256 << 10;
+    PartitionStats stats;
+    uint64_t reported = 0;
+    auto bins = partition(tmp, Bin{*spill_path, recs.size(), 0, 0}, grid, opt, stats,
+                          [&](uint64_t n) { reported += n; });
+    ASSERT_TRUE(bins.ok()) << bins.error().message;
+    EXPECT_FALSE(std::filesystem::exists(*spill_path));
+    EXPECT_GT(stats.passes, 1u);  // the blob forced recursive re-splitting
+    EXPECT_EQ(reported, stats.records_read);
+    uint64_t total = 0;
+    uint64_t prev_end = 0;  // bins are disjoint key ranges in increasing order
+    for (const auto& b : *bins) {
+      EXPECT_LE(b.count, opt.max_bin_records);
+      EXPECT_EQ(b.prefix_bits % 3, 0);
+      const uint64_t begin = b.prefix << (kMortonBits - b.prefix_bits);
+      const uint64_t end = (b.prefix + 1) << (kMortonBits - b.prefix_bits);
+      EXPECT_GE(begin, prev_end);
+      prev_end = end;
+      auto rd = SpillReader::open(b.path);
+      ASSERT_TRUE(rd.ok());
+      EXPECT_EQ(rd->count(), b.count);
+      std::vector<SpillRecord> chunk(1000);
+      for (;;) {
+        auto n = rd->read(chunk);
+        ASSERT_TRUE(n.ok());
+        if (*n == 0) break;
+        for (size_t i = 0; i < *n; ++i)
+          ASSERT_EQ(morton_prefix(grid.key(chunk[i].x, chunk[i].y, chunk[i].z), b.prefix_bits), b.prefix);
+      }
+      total += b.count;
+    }
+    EXPECT_EQ(total, recs.size());
+  }
+  EXPECT_FALSE(std::filesystem::exists(tmp_path));  // TempDir removed everything
+  EXPECT_TRUE(std::filesystem::is_empty(td.p));
+}
