@@ -1,0 +1,304 @@
+#!/usr/bin/python3
+"""Conversion benchmark: speed (particles/s), peak RSS and store size of `mdstream convert`.
+
+For each scene (porous, ablation) and size N it generates the scene with `mdstream synth`,
+then converts
+  (a) the LAMMPS text dump  (`--format lammps`), and
+  (b) the same positions as raw little-endian float32 xyz (`--format raw`; written from the
+      dump with numpy, outside the timed region),
+each REPEATS times, and reports medians. Wall time and peak RSS are measured here (os.wait4
+of the child); the converter's own --json-report supplies bytes/particle, compression ratio
+and the maximum quantization error.
+
+Writes docs/results/convert.md (table + machine info), convert.csv and convert.png
+(throughput vs N). Any failed step aborts the run without writing results.
+
+  /usr/bin/python3 tools/bench_convert.py [--build-dir build] [--sizes 1M,4M,10M] [--quick]
+
+Issue 2 targets on 2 cores: >= 5 M particles/s from LAMMPS text, >= 20 M/s from binary,
+<= 7 bytes/particle.
+"""
+import argparse
+import csv
+import datetime
+import json
+import os
+import platform
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+TARGET_TEXT = 5e6
+TARGET_BINARY = 20e6
+TARGET_BYTES = 7.0
+
+
+def parse_count(text):
+    text = text.strip()
+    mult = {"k": 1e3, "K": 1e3, "m": 1e6, "M": 1e6, "g": 1e9, "G": 1e9}.get(text[-1:], 1)
+    if mult != 1:
+        text = text[:-1]
+    return int(float(text) * mult)
+
+
+def fmt_count(n):
+    if n >= 1_000_000 and n % 1_000_000 == 0:
+        return f"{n // 1_000_000}M"
+    if n >= 1000 and n % 1000 == 0:
+        return f"{n // 1000}k"
+    return str(n)
+
+
+def run_measured(cmd, log):
+    """Runs cmd; returns (wall s, CPU s (user+sys), peak RSS bytes) of the child. Raises on failure."""
+    t0 = time.perf_counter()
+    with open(log, "wb") as out:
+        proc = subprocess.Popen(cmd, stdout=out, stderr=subprocess.STDOUT)
+        _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - t0
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    if proc.returncode != 0:
+        with open(log, "r", errors="replace") as f:
+            tail = f.read()[-2000:]
+        raise RuntimeError(f"command failed (exit {proc.returncode}): {' '.join(cmd)}\n{tail}")
+    return wall, usage.ru_utime + usage.ru_stime, usage.ru_maxrss * 1024  # Linux: ru_maxrss in KiB
+
+
+def dump_to_raw(dump, raw):
+    """Writes the positions of a single-frame `id type x y z` LAMMPS dump as float32 xyz."""
+    import numpy as np
+    with open(dump, "r") as f:
+        head = [f.readline() for _ in range(9)]
+        if not head[8].startswith("ITEM: ATOMS id type x y z"):
+            raise RuntimeError(f"{dump}: unexpected columns: {head[8].strip()}")
+        n = int(head[3])
+        xyz = np.loadtxt(f, usecols=(2, 3, 4), dtype=np.float64, max_rows=n)
+    if xyz.shape != (n, 3):
+        raise RuntimeError(f"{dump}: read {xyz.shape} positions, expected ({n}, 3)")
+    xyz.astype("<f4").tofile(raw)
+
+
+def machine_info():
+    cpu = "unknown"
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    mem = "unknown"
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemTotal"):
+                    mem = f"{int(line.split()[1]) / 1024 / 1024:.1f} GiB"
+                    break
+    except OSError:
+        pass
+    commit = "unknown"
+    try:
+        commit = subprocess.run(["git", "-C", REPO, "rev-parse", "--short", "HEAD"], capture_output=True,
+                                text=True, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", REPO, "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True).stdout.strip()
+        if dirty:
+            commit += " (with uncommitted changes)"
+    except (OSError, subprocess.CalledProcessError):
+        pass
+    return {"nproc": os.cpu_count(), "cpu": cpu, "memory": mem, "kernel": platform.release(),
+            "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"), "commit": commit}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--build-dir", default=os.path.join(REPO, "build"), help="build folder with the mdstream binary")
+    ap.add_argument("--sizes", default=None, help="comma-separated particle counts (default 1M,4M,10M)")
+    ap.add_argument("--scenes", default="porous,ablation")
+    ap.add_argument("--repeats", type=int, default=None, help="runs per measurement (default 3)")
+    ap.add_argument("--quick", action="store_true",
+                    help="small run (sizes 200k,500k, 2 repeats unless given); results go to convert_quick.*")
+    ap.add_argument("--out-dir", default=os.path.join(REPO, "docs", "results"))
+    ap.add_argument("--work-dir", default=None, help="folder for inputs/stores (default: a temporary folder)")
+    ap.add_argument("--keep", action="store_true", help="keep the generated inputs and stores")
+    ap.add_argument("--threads", type=int, default=None, help="pass --threads to convert (default: its own)")
+    args = ap.parse_args()
+    args.sizes = args.sizes or ("200k,500k" if args.quick else "1M,4M,10M")
+    args.repeats = args.repeats or (2 if args.quick else 3)
+
+    exe = os.path.join(args.build_dir, "mdstream")
+    if not os.access(exe, os.X_OK):
+        sys.exit(f"bench_convert: {exe} not found; build first (cmake --build {args.build_dir} --target mdstream)")
+    sizes = [parse_count(s) for s in args.sizes.split(",") if s]
+    scenes = [s for s in args.scenes.split(",") if s]
+    work = args.work_dir or tempfile.mkdtemp(prefix="mdstream-bench-")
+    os.makedirs(work, exist_ok=True)
+    info = machine_info()
+    load_before = os.getloadavg()
+    print(f"bench_convert: {exe}, sizes {sizes}, scenes {scenes}, {args.repeats} repeats, work dir {work}", flush=True)
+
+    rows = []
+    try:
+        for scene in scenes:
+            for n in sizes:
+                base = os.path.join(work, f"{scene}_{fmt_count(n)}")
+                dump = base + ".dump"
+                t0 = time.perf_counter()
+                subprocess.run([exe, "synth", "--scene", scene, "-n", str(n), "-o", dump, "--quiet"], check=True)
+                synth_s = time.perf_counter() - t0
+                raw = base + ".f32"
+                dump_to_raw(dump, raw)
+                for kind, path, fmt in (("lammps text", dump, "lammps"), ("raw float32", raw, "raw")):
+                    walls, cpus, rsses, reports = [], [], [], []
+                    for rep in range(args.repeats):
+                        store = base + f".{fmt}.mds"
+                        report = base + f".{fmt}.{rep}.json"
+                        cmd = [exe, "convert", path, "-o", store, "--format", fmt, "--json-report", report, "--quiet"]
+                        if args.threads:
+                            cmd += ["--threads", str(args.threads)]
+                        wall, cpu, rss = run_measured(cmd, base + f".{fmt}.{rep}.log")
+                        with open(report) as f:
+                            r = json.load(f)
+                        if r.get("particles") != n:
+                            raise RuntimeError(f"{report}: converted {r.get('particles')} particles, expected {n}")
+                        walls.append(wall)
+                        cpus.append(cpu)
+                        rsses.append(rss)
+                        reports.append(r)
+                        os.remove(store)
+                    wall = statistics.median(walls)
+                    last = reports[-1]
+                    row = {
+                        "scene": scene,
+                        "particles": n,
+                        "input": kind,
+                        "input_bytes": os.path.getsize(path),
+                        "wall_s_median": round(wall, 4),
+                        "wall_s_min": round(min(walls), 4),
+                        "wall_s_max": round(max(walls), 4),
+                        "particles_per_s": round(n / wall),
+                        "cpu_s_median": round(statistics.median(cpus), 4),
+                        "particles_per_cpu_s": round(n / statistics.median(cpus)),
+                        "reported_particles_per_s": round(statistics.median(r["particles_per_second"] for r in reports)),
+                        "peak_rss_mib": round(statistics.median(rsses) / 2**20, 1),
+                        "reported_peak_rss_mib": round(statistics.median(r["peak_rss_bytes"] for r in reports) / 2**20, 1),
+                        "bytes_per_particle": round(last["bytes_per_particle"], 4),
+                        "compression_ratio": round(last["compression_ratio"], 4),
+                        "max_quantization_error": last["max_quantization_error"],
+                        "max_error_over_half_step": last.get("max_error_over_half_step", float("nan")),
+                        "nodes": last["nodes"],
+                        "meshlets": last["meshlets"],
+                        "synth_s": round(synth_s, 3),
+                        "repeats": args.repeats,
+                    }
+                    rows.append(row)
+                    print(f"  {scene:9s} {fmt_count(n):>5s} {kind:12s} {row['particles_per_s'] / 1e6:7.2f} M/s "
+                          f"(walls {', '.join(f'{w:.2f}' for w in walls)} s)  RSS {row['peak_rss_mib']:.0f} MiB  "
+                          f"{row['bytes_per_particle']:.3f} B/particle  max err {row['max_quantization_error']:.3g}",
+                          flush=True)
+                if not args.keep:
+                    os.remove(dump)
+                    os.remove(raw)
+    finally:
+        if not args.keep and args.work_dir is None:
+            shutil.rmtree(work, ignore_errors=True)
+    load_after = os.getloadavg()
+    write_results(args, rows, info, load_before, load_after)
+
+
+def write_results(args, rows, info, load_before, load_after):
+    os.makedirs(args.out_dir, exist_ok=True)
+    stem = "convert_quick" if args.quick else "convert"
+    csv_path = os.path.join(args.out_dir, stem + ".csv")
+    with open(csv_path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        w.writeheader()
+        w.writerows(rows)
+
+    png_path = os.path.join(args.out_dir, stem + ".png")
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for (scene, kind) in sorted({(r["scene"], r["input"]) for r in rows}):
+        pts = sorted((r["particles"], r["particles_per_s"]) for r in rows if r["scene"] == scene and r["input"] == kind)
+        ax.plot([p[0] for p in pts], [p[1] / 1e6 for p in pts], marker="o",
+                linestyle="-" if kind.startswith("lammps") else "--", label=f"{scene}, {kind}")
+    ax.axhline(TARGET_TEXT / 1e6, color="gray", linewidth=0.8, linestyle=":")
+    ax.axhline(TARGET_BINARY / 1e6, color="gray", linewidth=0.8, linestyle="-.")
+    ax.set_xscale("log")
+    ax.set_xlabel("particles")
+    ax.set_ylabel("conversion throughput [M particles/s]")
+    ax.set_title(f"mdstream convert ({info['nproc']} cores; targets: text 5 M/s, binary 20 M/s)")
+    ax.legend(fontsize=8)
+    ax.grid(True, which="both", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=110)
+
+    md_path = os.path.join(args.out_dir, stem + ".md")
+    lines = []
+    lines.append("# Conversion benchmark (`mdstream convert`)\n")
+    lines.append(f"Generated by `tools/bench_convert.py{' --quick' if args.quick else ''}` on {info['date']}.\n")
+    lines.append("## Machine\n")
+    lines.append(f"- CPU: {info['cpu']} ({info['nproc']} logical cores visible)")
+    lines.append(f"- memory: {info['memory']}; kernel {info['kernel']}")
+    lines.append(f"- mdstream commit: {info['commit']}")
+    lines.append(f"- load average (1/5/15 min) at start: {load_before[0]:.2f} / {load_before[1]:.2f} / {load_before[2]:.2f}; "
+                 f"at end: {load_after[0]:.2f} / {load_after[1]:.2f} / {load_after[2]:.2f} "
+                 f"(a load above the core count means other processes shared the CPU and the throughput is understated)\n")
+    lines.append("## Method\n")
+    lines.append("Inputs are generated with `mdstream synth` (scenes `porous` and `ablation`). Each input is converted "
+                 f"{args.repeats} times with `mdstream convert IN -o OUT.mds --format lammps|raw --json-report R.json --quiet` "
+                 "(default node size 10000, meshlet size 16, memory budget 2 GiB); the table shows medians. "
+                 "Throughput = particles / wall time of the whole command (reading, partitioning, meshlets, "
+                 "quantization, LZ4, density volume, writing), measured by the script; peak RSS of the child from "
+                 "`wait4`; CPU = user + system time of the child (all its threads). Binary input = the same positions as raw little-endian float32 xyz (12 bytes/particle, one "
+                 "type), written from the dump with numpy outside the timed region. bytes/particle = store size / "
+                 "particles; compression ratio = raw payload bytes / LZ4 payload bytes; max quantization error in "
+                 "length units (half a quantization step bounds it; `err/half-step` <= 1 is the requirement).\n")
+    lines.append("## Results\n")
+    lines.append("| scene | N | input | particles/s | wall [s] (min-max) | CPU [s] | peak RSS [MiB] | bytes/particle | "
+                 "compression ratio | max quantization error | err/half-step |")
+    lines.append("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for r in rows:
+        lines.append(f"| {r['scene']} | {fmt_count(r['particles'])} | {r['input']} | "
+                     f"{r['particles_per_s'] / 1e6:.2f} M | {r['wall_s_median']:.2f} ({r['wall_s_min']:.2f}-{r['wall_s_max']:.2f}) | "
+                     f"{r['cpu_s_median']:.2f} | "
+                     f"{r['peak_rss_mib']:.0f} | {r['bytes_per_particle']:.3f} | {r['compression_ratio']:.3f} | "
+                     f"{r['max_quantization_error']:.3g} | {r['max_error_over_half_step']:.4f} |")
+    lines.append("")
+    lines.append("## Against the targets of issue 2 (2 cores)\n")
+    text = [r for r in rows if r["input"].startswith("lammps")]
+    binary = [r for r in rows if not r["input"].startswith("lammps")]
+    def verdict(ok):
+        return "met" if ok else "**not met**"
+    if text:
+        best = max(r["particles_per_s"] for r in text)
+        worst = min(r["particles_per_s"] for r in text)
+        lines.append(f"- LAMMPS text >= 5 M particles/s: {worst / 1e6:.2f}-{best / 1e6:.2f} M/s, "
+                     f"{verdict(worst >= TARGET_TEXT)} (at every size)")
+    if binary:
+        best = max(r["particles_per_s"] for r in binary)
+        worst = min(r["particles_per_s"] for r in binary)
+        lines.append(f"- binary >= 20 M particles/s: {worst / 1e6:.2f}-{best / 1e6:.2f} M/s, "
+                     f"{verdict(worst >= TARGET_BINARY)} (at every size)")
+    bmax = max(r["bytes_per_particle"] for r in rows)
+    lines.append(f"- <= 7 bytes/particle: at most {bmax:.3f}, {verdict(bmax <= TARGET_BYTES)}")
+    emax = max(r["max_error_over_half_step"] for r in rows)
+    lines.append(f"- quantization error <= half a step: max ratio {emax:.6f}, {verdict(emax <= 1.0 + 1e-6)}")
+    lines.append("")
+    lines.append(f"Raw numbers: [`{os.path.basename(csv_path)}`]({os.path.basename(csv_path)}); "
+                 f"plot: [`{os.path.basename(png_path)}`]({os.path.basename(png_path)}).\n")
+    lines.append(f"![throughput vs N]({os.path.basename(png_path)})\n")
+    with open(md_path, "w") as f:
+        f.write("\n".join(lines))
+    print(f"bench_convert: wrote {md_path}, {csv_path}, {png_path}")
+
+
+if __name__ == "__main__":
+    main()
