@@ -7,7 +7,7 @@ PACKAGES=(
   # toolchain
   build-essential cmake pkg-config git
   # Vulkan: loader, headers, lavapipe (software ICD), shader compiler
-  libvulkan-dev mesa-vulkan-drivers glslang-tools
+  libvulkan-dev mesa-vulkan-drivers glslang-tools vulkan-tools vulkan-validationlayers
   # maths, formats, compression
   libglm-dev libhdf5-dev liblz4-dev libxxhash-dev libzstd-dev zlib1g-dev libpng-dev libtinyexr-dev
   # meshlet construction (kd-tree / octree)

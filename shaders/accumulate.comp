@@ -1,0 +1,15 @@
+#version 460
+// Progressive super-sampling: adds this pass's colour (rgb, a = coverage) to the float
+// accumulation image; the final image is accum / spp.
+#extension GL_GOOGLE_include_directive : require
+#include "bindings.h"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(set = 0, binding = kBindColorImage, rgba32f) uniform readonly image2D color_image;
+layout(set = 0, binding = kBindAccumImage, rgba32f) uniform image2D accum_image;
+
+void main() {
+  ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+  if (p.x >= int(frame.viewport.x) || p.y >= int(frame.viewport.y)) return;
+  imageStore(accum_image, p, imageLoad(accum_image, p) + imageLoad(color_image, p));
+}

@@ -1,0 +1,29 @@
+// GLSL-only: the renderer's descriptor set (set 0), as laid out in gpu_types.h (kBind*).
+// A shader that writes the draw list defines MDS_DRAW_LIST_WRITABLE before including this.
+#ifndef MDS_BINDINGS_H
+#define MDS_BINDINGS_H
+#ifndef __cplusplus
+
+#include "gpu_types.h"
+
+#ifdef MDS_DRAW_LIST_WRITABLE
+#define MDS_DRAW_LIST_ACCESS
+#else
+#define MDS_DRAW_LIST_ACCESS readonly
+#endif
+
+layout(std140, set = 0, binding = kBindFrame) uniform FrameBlock { FrameUniforms frame; };
+layout(std430, set = 0, binding = kBindNodes) readonly buffer NodeBlock { GpuNode nodes[]; };
+layout(std430, set = 0, binding = kBindMeshlets) readonly buffer MeshletBlock { GpuMeshlet meshlets[]; };
+// Particle i: x = p.x & 0xffff, y = p.x >> 16, z = p.y & 0xffff, type = (p.y >> 16) & 0xff.
+layout(std430, set = 0, binding = kBindParticles) readonly buffer ParticleBlock { uvec2 particles[]; };
+layout(std430, set = 0, binding = kBindTypes) readonly buffer TypeBlock { GpuType types[]; };
+layout(std430, set = 0, binding = kBindDrawList) MDS_DRAW_LIST_ACCESS buffer DrawListBlock {
+  DrawListHeader draw_header;
+  uint draw_ids[];
+};
+// Per-particle radius_q, two uint16 per uint (only with kFramePerParticleRadius).
+layout(std430, set = 0, binding = kBindRadii) readonly buffer RadiusBlock { uint radii_q[]; };
+
+#endif
+#endif  // MDS_BINDINGS_H

@@ -1,0 +1,185 @@
+#include "render/scene.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace mds::render {
+
+glm::vec3 type_color_srgb(uint32_t type_index) {
+  static const uint32_t kTableau10[10] = {0x4E79A7, 0xF28E2B, 0xE15759, 0x76B7B2, 0x59A14F,
+                                          0xEDC948, 0xB07AA1, 0xFF9DA7, 0x9C755F, 0xBAB0AC};
+  uint32_t c = kTableau10[type_index % 10];
+  return {float((c >> 16) & 0xff) / 255.0f, float((c >> 8) & 0xff) / 255.0f, float(c & 0xff) / 255.0f};
+}
+
+float srgb_to_linear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
+float linear_to_srgb(float c) {
+  c = std::clamp(c, 0.0f, 1.0f);
+  return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
+}
+
+SceneData begin_scene(const glm::dvec3& bounds_min, const glm::dvec3& bounds_max, std::span<const float> type_radius,
+                      bool per_particle_radius, float radius_min, float radius_max) {
+  SceneData s;
+  s.origin = bounds_min;
+  s.bounds.min = bounds_min;
+  s.bounds.max = bounds_max;
+  s.per_particle_radius = per_particle_radius;
+  s.radius_min = radius_min;
+  s.radius_max = radius_max;
+  double rmax = per_particle_radius ? radius_max : 0.0;
+  for (size_t i = 0; i < type_radius.size(); ++i) {
+    gpu::GpuType t{};
+    glm::vec3 c = type_color_srgb(uint32_t(i));
+    t.color = glm::vec4(srgb_to_linear(c.r), srgb_to_linear(c.g), srgb_to_linear(c.b), 1.0f);
+    t.radius = type_radius[i];
+    s.types.push_back(t);
+    if (!per_particle_radius) rmax = std::max(rmax, double(type_radius[i]));
+  }
+  s.bounds.radius_max = rmax;
+  return s;
+}
+
+Status append_node(SceneData& s, const double center_min[3], const double center_max[3], const store::NodeData& node) {
+  const size_t n = node.particle_count();
+  if (n == 0) return make_error(Errc::format, "node {} is empty", s.nodes.size());
+  if (s.particle_count() + n > std::numeric_limits<uint32_t>::max())
+    return make_error(Errc::budget, "more than 2^32 particles: the in-memory renderer cannot index them");
+  const uint32_t node_index = uint32_t(s.nodes.size());
+  const uint32_t first_particle = uint32_t(s.particle_count());
+  double step[3];
+  for (int a = 0; a < 3; ++a) step[a] = (center_max[a] - center_min[a]) / double(store::kQuantMax);
+
+  gpu::GpuNode g{};
+  g.origin = glm::vec3(glm::dvec3(center_min[0], center_min[1], center_min[2]) - s.origin);
+  g.step = glm::vec3(step[0], step[1], step[2]);
+  g.first_particle = first_particle;
+  g.particle_count = uint32_t(n);
+  g.first_meshlet = uint32_t(s.meshlets.size());
+  glm::vec3 node_min(std::numeric_limits<float>::max()), node_max(-std::numeric_limits<float>::max());
+  float node_rmax = 0.0f;
+
+  s.particles.reserve(s.particles.size() + 4 * n);
+  for (size_t i = 0; i < n; ++i) {
+    s.particles.push_back(node.qpos[3 * i + 0]);
+    s.particles.push_back(node.qpos[3 * i + 1]);
+    s.particles.push_back(node.qpos[3 * i + 2]);
+    uint8_t t = node.type_index[i];
+    if (t >= s.types.size())
+      return make_error(Errc::format, "node {} particle {}: type index {} outside the type table ({} types)",
+                        node_index, i, t, s.types.size());
+    s.particles.push_back(t);
+  }
+  if (s.per_particle_radius) {
+    if (node.radius_q.size() != n)
+      return make_error(Errc::format, "node {}: per-particle radii missing", node_index);
+    s.radius_q.insert(s.radius_q.end(), node.radius_q.begin(), node.radius_q.end());
+  }
+
+  size_t p = 0;
+  for (size_t k = 0; k < node.meshlet_size.size(); ++k) {
+    const uint32_t count = node.meshlet_size[k];
+    if (count == 0 || p + count > n)
+      return make_error(Errc::format, "node {} meshlet {}: size {} overruns the node's {} particles", node_index, k,
+                        count, n);
+    gpu::GpuMeshlet m{};
+    m.node = node_index;
+    m.first_particle = first_particle + uint32_t(p);
+    m.particle_count = count;
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+    for (size_t i = p; i < p + count; ++i) {
+      glm::vec3 pos;
+      for (int a = 0; a < 3; ++a) {
+        double x = center_min[a] + double(node.qpos[3 * i + a]) * step[a];
+        pos[a] = float(x - s.origin[a]);
+      }
+      float r = s.per_particle_radius
+                    ? float(s.radius_min + double(node.radius_q[i]) * (s.radius_max - s.radius_min) / store::kQuantMax)
+                    : s.types[node.type_index[i]].radius;
+      lo = glm::min(lo, pos - r);
+      hi = glm::max(hi, pos + r);
+      node_rmax = std::max(node_rmax, r);
+    }
+    m.aabb_min = lo;
+    m.aabb_max = hi;
+    node_min = glm::min(node_min, lo);
+    node_max = glm::max(node_max, hi);
+    s.meshlets.push_back(m);
+    s.max_meshlet_particles = std::max(s.max_meshlet_particles, count);
+    p += count;
+  }
+  if (p != n)
+    return make_error(Errc::format, "node {}: meshlet sizes sum to {}, node has {} particles", node_index, p, n);
+  g.aabb_min = node_min;
+  g.aabb_max = node_max;
+  g.max_radius = node_rmax;
+  s.nodes.push_back(g);
+  return {};
+}
+
+Result<SceneData> load_scene(const store::StoreReader& reader) {
+  const store::FileHeader& h = reader.header();
+  std::vector<float> radii;
+  for (const auto& t : reader.types()) radii.push_back(t.radius);
+  const bool ppr = (h.flags & store::kFlagPerParticleRadius) != 0;
+  SceneData s = begin_scene({h.bounds_min[0], h.bounds_min[1], h.bounds_min[2]},
+                            {h.bounds_max[0], h.bounds_max[1], h.bounds_max[2]}, radii, ppr, h.radius_min, h.radius_max);
+  s.particles.reserve(4 * h.particle_count);
+  s.meshlets.reserve(h.meshlet_count);
+  store::NodeData node;
+  std::vector<uint8_t> scratch;
+  const auto nodes = reader.nodes();
+  for (uint32_t i = 0; i < nodes.size(); ++i) {
+    MDS_TRY(reader.read_node(i, node, scratch));
+    Status st = append_node(s, nodes[i].center_min, nodes[i].center_max, node);
+    if (!st.ok()) return make_error(st.error().code, "{}: {}", reader.path().string(), st.error().message);
+  }
+  return s;
+}
+
+Result<SceneData> scene_from_particles(std::span<const glm::dvec3> positions, std::span<const uint8_t> types,
+                                       std::span<const float> type_radius, uint32_t node_size,
+                                       uint32_t meshlet_size) {
+  if (positions.empty() || positions.size() != types.size())
+    return make_error(Errc::invalid_argument, "scene_from_particles: {} positions, {} types", positions.size(),
+                      types.size());
+  node_size = std::clamp<uint32_t>(node_size, 1, store::kMaxNodeParticles);
+  meshlet_size = std::clamp<uint32_t>(meshlet_size, 1, store::kMaxMeshletParticles);
+  glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+  for (const auto& p : positions) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  SceneData s = begin_scene(lo, hi, type_radius, false, 0.0f, 0.0f);
+  store::NodeData node;
+  for (size_t first = 0; first < positions.size(); first += node_size) {
+    const size_t n = std::min<size_t>(node_size, positions.size() - first);
+    double cmin[3], cmax[3];
+    for (int a = 0; a < 3; ++a) {
+      cmin[a] = std::numeric_limits<double>::max();
+      cmax[a] = -std::numeric_limits<double>::max();
+      for (size_t i = first; i < first + n; ++i) {
+        cmin[a] = std::min(cmin[a], positions[i][a]);
+        cmax[a] = std::max(cmax[a], positions[i][a]);
+      }
+    }
+    node.qpos.resize(3 * n);
+    node.type_index.assign(types.begin() + first, types.begin() + first + n);
+    node.radius_q.clear();
+    node.meshlet_size.clear();
+    for (size_t i = 0; i < n; ++i) {
+      for (int a = 0; a < 3; ++a) {
+        double extent = cmax[a] - cmin[a];
+        double q = extent > 0.0 ? std::round((positions[first + i][a] - cmin[a]) / extent * store::kQuantMax) : 0.0;
+        node.qpos[3 * i + a] = uint16_t(std::clamp(q, 0.0, double(store::kQuantMax)));
+      }
+    }
+    for (size_t done = 0; done < n; done += meshlet_size)
+      node.meshlet_size.push_back(uint8_t(std::min<size_t>(meshlet_size, n - done)));
+    MDS_TRY(append_node(s, cmin, cmax, node));
+  }
+  return s;
+}
+
+}  // namespace mds::render

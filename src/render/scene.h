@@ -1,0 +1,59 @@
+// GPU-ready scene arrays on the CPU: per-node quantization frames, per-meshlet records with
+// bounds computed from the decoded positions, particles as uint16x4 (x, y, z, type) and the
+// per-type colour/radius table. Everything position-like is float relative to `origin`
+// (bounds_min of the store), which keeps float precision for large coordinates.
+// Built from a store (load_scene) or from in-memory particles (scene_from_particles), both
+// through append_node() -- the same decoded-node layout the store uses.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "core/result.h"
+#include "gpu_types.h"
+#include "render/camera.h"
+#include "store/format.h"
+#include "store/store_reader.h"
+
+namespace mds::render {
+
+struct SceneData {
+  glm::dvec3 origin{0.0};
+  Bounds bounds;  // of particle centres, plus the largest radius
+  bool per_particle_radius = false;
+  float radius_min = 0.0f, radius_max = 0.0f;  // per-particle radius_q range
+  uint32_t max_meshlet_particles = 0;
+  std::vector<gpu::GpuNode> nodes;
+  std::vector<gpu::GpuMeshlet> meshlets;
+  std::vector<uint16_t> particles;  // 4 per particle: x, y, z, type
+  std::vector<uint16_t> radius_q;   // 1 per particle, or empty
+  std::vector<gpu::GpuType> types;
+
+  uint64_t particle_count() const { return particles.size() / 4; }
+};
+
+// Distinct per-type colour (Tableau 10 qualitative palette, cycled), as sRGB in [0, 1].
+glm::vec3 type_color_srgb(uint32_t type_index);
+float srgb_to_linear(float c);
+float linear_to_srgb(float c);
+
+// Starts a scene: origin, bounds, type table (radius and colour per type).
+SceneData begin_scene(const glm::dvec3& bounds_min, const glm::dvec3& bounds_max, std::span<const float> type_radius,
+                      bool per_particle_radius, float radius_min, float radius_max);
+// Appends one decoded node (store layout) with quantization frame center_min/max.
+Status append_node(SceneData& scene, const double center_min[3], const double center_max[3],
+                   const store::NodeData& node);
+
+// Decodes every node of the store (the store must fit in memory).
+Result<SceneData> load_scene(const store::StoreReader& reader);
+
+// Quantizes in-memory particles into nodes of <= node_size particles (consecutive runs, in the
+// given order) and meshlets of <= meshlet_size, exactly as a store would hold them.
+Result<SceneData> scene_from_particles(std::span<const glm::dvec3> positions, std::span<const uint8_t> types,
+                                       std::span<const float> type_radius, uint32_t node_size = 4096,
+                                       uint32_t meshlet_size = 64);
+
+}  // namespace mds::render

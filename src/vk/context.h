@@ -1,0 +1,91 @@
+// Headless Vulkan context: instance (+ Khronos validation when requested and available),
+// physical device selection, one logical device with a graphics+compute queue, the memory
+// allocator and a one-shot submit helper. No window system, no surface.
+//
+// Device selection: `device_index >= 0` picks that physical device (as listed by enumerate());
+// otherwise the first discrete GPU, then integrated, virtual, CPU (lavapipe) -- any device with
+// Vulkan >= 1.3 and a queue family supporting graphics and compute.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <vulkan/vulkan.h>
+
+#include "core/result.h"
+#include "vk/memory.h"
+
+namespace mds::vk {
+
+struct ContextOptions {
+  int device_index = -1;   // -1: automatic
+  bool validation = false; // enable VK_LAYER_KHRONOS_validation if present
+  MemoryBudget budget;
+  // Reads MDSTREAM_VALIDATION=1 from the environment.
+  static ContextOptions from_env();
+};
+
+struct DeviceInfo {
+  uint32_t index = 0;
+  std::string name;
+  VkPhysicalDeviceType type = VK_PHYSICAL_DEVICE_TYPE_OTHER;
+  uint32_t api_version = 0;
+  bool usable = false;       // Vulkan >= 1.3 with a graphics+compute queue
+  bool mesh_shader = false;  // VK_EXT_mesh_shader present
+};
+
+const char* device_type_name(VkPhysicalDeviceType t);
+
+class Context {
+ public:
+  static Result<std::unique_ptr<Context>> create(const ContextOptions& options);
+  // Lists the physical devices (creates a temporary instance).
+  static Result<std::vector<DeviceInfo>> enumerate();
+  ~Context();
+  Context(const Context&) = delete;
+  Context& operator=(const Context&) = delete;
+
+  VkInstance instance() const { return instance_; }
+  VkPhysicalDevice physical() const { return physical_; }
+  VkDevice device() const { return device_; }
+  VkQueue queue() const { return queue_; }
+  uint32_t queue_family() const { return queue_family_; }
+  const DeviceInfo& info() const { return info_; }
+  const VkPhysicalDeviceProperties& properties() const { return props_; }
+  const VkPhysicalDeviceLimits& limits() const { return props_.limits; }
+  bool timestamps() const { return timestamp_valid_bits_ > 0; }
+  double timestamp_period_ns() const { return props_.limits.timestampPeriod; }
+  bool validation_enabled() const { return validation_; }
+  // Number of validation warnings/errors reported so far (0 without validation).
+  uint64_t validation_messages() const;
+  Allocator& allocator() { return *allocator_; }
+
+  // Records `record` into a fresh primary command buffer, submits it and waits for completion.
+  Status submit_and_wait(const std::function<void(VkCommandBuffer)>& record);
+  // Submits an already recorded command buffer and waits.
+  Status submit_and_wait(VkCommandBuffer cmd);
+
+ private:
+  Context() = default;
+  struct Debug;
+
+  VkInstance instance_ = VK_NULL_HANDLE;
+  VkDebugUtilsMessengerEXT messenger_ = VK_NULL_HANDLE;
+  std::unique_ptr<Debug> debug_;
+  VkPhysicalDevice physical_ = VK_NULL_HANDLE;
+  VkDevice device_ = VK_NULL_HANDLE;
+  VkQueue queue_ = VK_NULL_HANDLE;
+  uint32_t queue_family_ = 0;
+  uint32_t timestamp_valid_bits_ = 0;
+  bool validation_ = false;
+  DeviceInfo info_;
+  VkPhysicalDeviceProperties props_{};
+  std::unique_ptr<Allocator> allocator_;
+  VkCommandPool pool_ = VK_NULL_HANDLE;
+  VkFence fence_ = VK_NULL_HANDLE;
+};
+
+}  // namespace mds::vk

@@ -1,0 +1,90 @@
+// Shader modules from embedded SPIR-V, descriptor sets, and compute/graphics pipeline helpers
+// (dynamic rendering, specialization constants).
+#pragma once
+
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include <vulkan/vulkan.h>
+
+#include "core/result.h"
+#include "vk/check.h"
+
+namespace mds::vk {
+
+// Specialization constants: add(id, value) for 4-byte scalars (uint32, int32, float, VkBool32).
+class SpecConstants {
+ public:
+  template <class T>
+  SpecConstants& add(uint32_t id, T value) {
+    static_assert(sizeof(T) == 4);
+    VkSpecializationMapEntry e{id, uint32_t(data_.size()), sizeof(T)};
+    entries_.push_back(e);
+    data_.resize(data_.size() + sizeof(T));
+    std::memcpy(data_.data() + e.offset, &value, sizeof(T));
+    return *this;
+  }
+  // Valid while this object lives and is not modified.
+  const VkSpecializationInfo* info() {
+    if (entries_.empty()) return nullptr;
+    info_ = {uint32_t(entries_.size()), entries_.data(), data_.size(), data_.data()};
+    return &info_;
+  }
+
+ private:
+  std::vector<VkSpecializationMapEntry> entries_;
+  std::vector<uint8_t> data_;
+  VkSpecializationInfo info_{};
+};
+
+// A shader module created from shaders/<name> as embedded at build time.
+Result<UniqueShaderModule> load_shader(VkDevice device, const std::string& name);
+
+// One descriptor set layout + pool + set (the renderer binds a single set).
+class DescriptorSet {
+ public:
+  static Result<DescriptorSet> create(VkDevice device, const std::vector<VkDescriptorSetLayoutBinding>& bindings);
+  DescriptorSet() = default;
+  DescriptorSet(DescriptorSet&&) = default;
+  DescriptorSet& operator=(DescriptorSet&&) = default;
+
+  void write_buffer(uint32_t binding, VkDescriptorType type, VkBuffer buffer, VkDeviceSize offset = 0,
+                    VkDeviceSize range = VK_WHOLE_SIZE);
+  void write_storage_image(uint32_t binding, VkImageView view, VkImageLayout layout = VK_IMAGE_LAYOUT_GENERAL);
+  VkDescriptorSetLayout layout() const { return layout_.get(); }
+  VkDescriptorSet set() const { return set_; }
+
+ private:
+  VkDevice device_ = VK_NULL_HANDLE;
+  UniqueDescriptorSetLayout layout_;
+  UniqueDescriptorPool pool_;
+  VkDescriptorSet set_ = VK_NULL_HANDLE;
+};
+
+Result<UniquePipelineLayout> create_pipeline_layout(VkDevice device, VkDescriptorSetLayout set_layout,
+                                                    uint32_t push_constant_bytes = 0);
+
+Result<UniquePipeline> create_compute_pipeline(VkDevice device, VkPipelineLayout layout, const std::string& shader,
+                                               SpecConstants* spec = nullptr);
+
+struct GraphicsPipelineDesc {
+  std::string vertex_shader;
+  std::string fragment_shader;
+  SpecConstants* vertex_spec = nullptr;
+  SpecConstants* fragment_spec = nullptr;
+  std::vector<VkFormat> color_formats;
+  VkFormat depth_format = VK_FORMAT_UNDEFINED;
+  bool depth_test = true;
+  bool depth_write = true;
+  VkCompareOp depth_compare = VK_COMPARE_OP_LESS;
+  VkPrimitiveTopology topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+  VkCullModeFlags cull = VK_CULL_MODE_NONE;
+};
+
+// Graphics pipeline for dynamic rendering; viewport and scissor are dynamic state.
+Result<UniquePipeline> create_graphics_pipeline(VkDevice device, VkPipelineLayout layout,
+                                                const GraphicsPipelineDesc& desc);
+
+}  // namespace mds::vk

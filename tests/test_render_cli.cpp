@@ -1,0 +1,116 @@
+// `mdstream render` end to end on real components: synth -> convert -> render (headless Vulkan
+// on the machine's device), PNG and EXR output, --stats JSON, and the error paths.
+#include <gtest/gtest.h>
+#include <tinyexr.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+int run(const std::string& args) {
+  std::string cmd = std::string(MDSTREAM_BIN) + " " + args + " 2>/tmp/mds_render_cli_err.txt";
+  int r = std::system(cmd.c_str());
+  return WIFEXITED(r) ? WEXITSTATUS(r) : -1;
+}
+
+std::string last_stderr() {
+  std::ifstream f("/tmp/mds_render_cli_err.txt");
+  return std::string(std::istreambuf_iterator<char>(f), {});
+}
+
+class RenderCli : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = fs::temp_directory_path() / ("mds_render_cli_" + std::to_string(::getpid()));
+    fs::create_directories(dir_);
+    ASSERT_EQ(run("synth --scene shell --particles 20000 -q -o " + (dir_ / "s.lammpstrj").string()), 0)
+        << last_stderr();
+    ASSERT_EQ(run("convert " + (dir_ / "s.lammpstrj").string() + " -o " + (dir_ / "s.mds").string()), 0)
+        << last_stderr();
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
+  static std::string store() { return (dir_ / "s.mds").string(); }
+  static fs::path dir_;
+};
+fs::path RenderCli::dir_;
+
+}  // namespace
+
+TEST_F(RenderCli, RendersPngWithStats) {
+  const fs::path png = dir_ / "a.png", stats = dir_ / "a.json";
+  ASSERT_EQ(run("render " + store() + " -o " + png.string() + " --no-cull --spp 2 --width 96 --height 64 --stats " +
+                stats.string()),
+            0)
+      << last_stderr();
+  ASSERT_TRUE(fs::exists(png));
+  std::ifstream f(png, std::ios::binary);
+  unsigned char h[24];
+  f.read(reinterpret_cast<char*>(h), 24);
+  EXPECT_EQ(h[1], 'P');
+  EXPECT_EQ(h[2], 'N');
+  EXPECT_EQ(h[3], 'G');
+  const uint32_t w = (h[16] << 24) | (h[17] << 16) | (h[18] << 8) | h[19];
+  const uint32_t hh = (h[20] << 24) | (h[21] << 16) | (h[22] << 8) | h[23];
+  EXPECT_EQ(w, 96u);
+  EXPECT_EQ(hh, 64u);
+  std::ifstream js(stats);
+  auto j = nlohmann::json::parse(js);
+  EXPECT_EQ(j["particles"].get<uint64_t>(), 20000u);
+  EXPECT_GT(j["meshlets"].get<uint64_t>(), 0u);
+  EXPECT_EQ(j["spp"].get<uint32_t>(), 2u);
+  EXPECT_EQ(j["width"].get<uint32_t>(), 96u);
+  EXPECT_FALSE(j["device"].get<std::string>().empty());
+  EXPECT_TRUE(j.contains("frame_ms_no_cull"));
+  EXPECT_TRUE(j["pass_ms_median"].contains("draw"));
+  EXPECT_TRUE(j["pass_ms_median"].contains("draw_list"));
+  EXPECT_TRUE(j["pass_ms_median"].contains("accumulate"));
+}
+
+TEST_F(RenderCli, ExrOutputHoldsCoverageInAlpha) {
+  for (int view = 0; view < 3; ++view) {
+    const fs::path exr = dir_ / ("v" + std::to_string(view) + ".exr");
+    ASSERT_EQ(run("render " + store() + " -o " + exr.string() + " --no-cull --spp 2 --width 80 --height 60 --view " +
+                  std::to_string(view) + (view == 1 ? " --ortho" : "")),
+              0)
+        << last_stderr();
+    float* rgba = nullptr;
+    int w = 0, h = 0;
+    const char* err = nullptr;
+    ASSERT_EQ(LoadEXR(&rgba, &w, &h, exr.c_str(), &err), TINYEXR_SUCCESS) << (err ? err : "");
+    ASSERT_EQ(w, 80);
+    ASSERT_EQ(h, 60);
+    double coverage = 0;
+    for (int i = 0; i < w * h; ++i) coverage += rgba[4 * i + 3];
+    std::free(rgba);
+    // Every default view looks at the data: a visible part of the image is covered, not all.
+    EXPECT_GT(coverage / (w * h), 0.05) << "view " << view;
+    if (view < 2) {
+      EXPECT_LT(coverage / (w * h), 0.95) << "view " << view;
+    }
+  }
+}
+
+TEST_F(RenderCli, WithoutNoCullExitsWithClearMessageAndNoOutput) {
+  const fs::path png = dir_ / "nocull.png";
+  EXPECT_NE(run("render " + store() + " -o " + png.string() + " --spp 1 --width 32 --height 32"), 0);
+  EXPECT_NE(last_stderr().find("--no-cull"), std::string::npos) << last_stderr();
+  EXPECT_FALSE(fs::exists(png));
+}
+
+TEST_F(RenderCli, BadCameraAndMissingStoreFailCleanly) {
+  const fs::path png = dir_ / "bad.png";
+  EXPECT_EQ(run("render " + store() + " -o " + png.string() + " --no-cull --camera 1,2,3"), 2);
+  EXPECT_NE(last_stderr().find("--camera"), std::string::npos);
+  EXPECT_NE(run("render " + (dir_ / "missing.mds").string() + " -o " + png.string() + " --no-cull"), 0);
+  EXPECT_NE(last_stderr().find("missing.mds"), std::string::npos) << last_stderr();
+  EXPECT_FALSE(fs::exists(png));
+}
