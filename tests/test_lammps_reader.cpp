@@ -39,21 +39,28 @@ class LammpsReaderTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new textest::TempDir("lammps_reader");
-    ASSERT_EQ(textest::run_lammps(dir_->path(), "in.lj_small"), 0) << "lmp failed on in.lj_small";
-    ASSERT_EQ(textest::run_lammps(dir_->path(), "in.triclinic_small", /*with_log=*/true), 0)
-        << "lmp failed on in.triclinic_small";
+    lj_ = new fs::path(textest::cached_lammps_run("in.lj_small"));
+    tri_ = new fs::path(textest::cached_lammps_run("in.triclinic_small", /*with_log=*/true));
+    ASSERT_FALSE(lj_->empty()) << "lmp failed on in.lj_small";
+    ASSERT_FALSE(tri_->empty()) << "lmp failed on in.triclinic_small";
   }
   static void TearDownTestSuite() {
     delete dir_;
-    dir_ = nullptr;
+    delete lj_;
+    delete tri_;
   }
-  static fs::path file(const std::string& name) { return dir_->path() / name; }
+  // Output of LAMMPS (read only).
+  static fs::path file(const std::string& name) {
+    return (name.rfind("tri", 0) == 0 || name == "log.lammps" ? *tri_ : *lj_) / name;
+  }
+  // A scratch file of this test process.
+  static fs::path tmp(const std::string& name) { return dir_->path() / name; }
   static std::vector<RefFrame> reference(const std::string& name) {
     return parse_reference_dump(read_text(file(name)));
   }
   // Writes `text` to a new file in the temp dir and returns its path.
   static fs::path scratch(const std::string& name, const std::string& text) {
-    fs::path p = file(name);
+    fs::path p = tmp(name);
     write_text(p, text);
     return p;
   }
@@ -66,8 +73,12 @@ class LammpsReaderTest : public ::testing::Test {
   }
 
   static textest::TempDir* dir_;
+  static fs::path* lj_;
+  static fs::path* tri_;
 };
 textest::TempDir* LammpsReaderTest::dir_ = nullptr;
+fs::path* LammpsReaderTest::lj_ = nullptr;
+fs::path* LammpsReaderTest::tri_ = nullptr;
 
 // Expects an error of `code` whose message names the file and `file:line:`.
 void expect_error(const ReadAll& r, Errc code, const fs::path& p, uint64_t line) {
@@ -228,15 +239,15 @@ TEST_F(LammpsReaderTest, GzipAndZstdWrittenByLammps) {
 
 TEST_F(LammpsReaderTest, CompressionFoundByContentNotExtension) {
   // gzip(1) output under a name without .gz.
-  const fs::path out = file("gzipped_dump.txt");
+  const fs::path out = tmp("gzipped_dump.txt");
   std::string cmd = "gzip -c " + textest::quote(file("dump.xyz.lammpstrj").string()) + " > " +
                     textest::quote(out.string());
   ASSERT_EQ(std::system(cmd.c_str()), 0);
   const auto ref = reference("dump.xyz.lammpstrj");
   expect_same_as_reference(read_all(open_lammps_reader(out, frame_opt(3))), ref[3]);
   // zstd written by LAMMPS, renamed.
-  fs::copy_file(file("dump.lammpstrj.zst"), file("zstd_dump.lammpstrj"), fs::copy_options::overwrite_existing);
-  auto z = read_all(open_lammps_reader(file("zstd_dump.lammpstrj"), frame_opt(1)));
+  fs::copy_file(file("dump.lammpstrj.zst"), tmp("zstd_dump.lammpstrj"), fs::copy_options::overwrite_existing);
+  auto z = read_all(open_lammps_reader(tmp("zstd_dump.lammpstrj"), frame_opt(1)));
   auto p = read_all(open_lammps_reader(file("dump.default.lammpstrj"), frame_opt(1)));
   ASSERT_FALSE(z.error.has_value()) << z.error->message;
   EXPECT_EQ(z.all.x, p.all.x);
@@ -409,7 +420,7 @@ TEST_F(LammpsReaderTest, AbsurdCounts) {
     const fs::path p = scratch("absurd.lammpstrj", join_lines(l));
     expect_error(read_all(open_lammps_reader(p, frame_opt(0))), Errc::range, p, 4);
     // Same in a gzip file.
-    const fs::path gz = file("absurd.lammpstrj.gz");
+    const fs::path gz = tmp("absurd.lammpstrj.gz");
     ASSERT_EQ(std::system(("gzip -c " + textest::quote(p.string()) + " > " + textest::quote(gz.string())).c_str()), 0);
     expect_error(read_all(open_lammps_reader(gz, frame_opt(0))), Errc::range, gz, 4);
   }
@@ -437,7 +448,7 @@ TEST_F(LammpsReaderTest, NotADumpOrEmpty) {
   ASSERT_TRUE(r.error.has_value());
   EXPECT_EQ(r.error->code, Errc::format);
   EXPECT_THAT(r.error->message, HasSubstr(e.string()));
-  auto missing = read_all(open_lammps_reader(file("does_not_exist.lammpstrj"), frame_opt(0)));
+  auto missing = read_all(open_lammps_reader(tmp("does_not_exist.lammpstrj"), frame_opt(0)));
   ASSERT_TRUE(missing.error.has_value());
   EXPECT_EQ(missing.error->code, Errc::io);
 }

@@ -43,17 +43,22 @@ class XyzReaderTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new textest::TempDir("xyz_reader");
-    ASSERT_EQ(textest::run_lammps(dir_->path(), "in.lj_small"), 0) << "lmp failed on in.lj_small";
+    lj_ = new fs::path(textest::cached_lammps_run("in.lj_small"));
+    ASSERT_FALSE(lj_->empty()) << "lmp failed on in.lj_small";
     frames_ = new std::vector<RefFrame>(parse_reference_dump(read_text(file("dump.unwrapped.lammpstrj"))));
   }
   static void TearDownTestSuite() {
     delete frames_;
     delete dir_;
+    delete lj_;
   }
-  static fs::path file(const std::string& name) { return dir_->path() / name; }
+  // Output of LAMMPS (read only).
+  static fs::path file(const std::string& name) { return *lj_ / name; }
+  // A scratch file of this test process.
+  static fs::path tmp(const std::string& name) { return dir_->path() / name; }
   static fs::path scratch(const std::string& name, const std::string& text) {
-    write_text(file(name), text);
-    return file(name);
+    write_text(tmp(name), text);
+    return tmp(name);
   }
   static const char* element(int type) { return type == 1 ? "Ar" : "Kr"; }
 
@@ -73,9 +78,11 @@ class XyzReaderTest : public ::testing::Test {
   }
 
   static textest::TempDir* dir_;
+  static fs::path* lj_;
   static std::vector<RefFrame>* frames_;
 };
 textest::TempDir* XyzReaderTest::dir_ = nullptr;
+fs::path* XyzReaderTest::lj_ = nullptr;
 std::vector<RefFrame>* XyzReaderTest::frames_ = nullptr;
 
 TEST_F(XyzReaderTest, LammpsDumpXyzMatchesCustomDump) {
@@ -161,7 +168,7 @@ TEST_F(XyzReaderTest, MultiFrameAndGzip) {
   std::string s;
   for (size_t k = 0; k < 3; ++k) s += extended_frame(k, 4000 - 100 * k);
   const fs::path p = scratch("multi.xyz", s);
-  const fs::path gz = file("multi_xyz.gz");
+  const fs::path gz = tmp("multi_xyz.gz");
   ASSERT_EQ(std::system(("gzip -c " + textest::quote(p.string()) + " > " + textest::quote(gz.string())).c_str()), 0);
   for (const fs::path& path : {p, gz}) {
     SCOPED_TRACE(path.string());

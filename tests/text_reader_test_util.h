@@ -6,7 +6,9 @@
 
 #include <stdlib.h>
 
+#include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -76,6 +78,30 @@ inline int run_lammps(const fs::path& dir, const std::string& deck, bool with_lo
   std::string cmd = "cd " + quote(dir.string()) + " && lmp -in " + quote(deck_path) +
                     (with_log ? " -log log.lammps" : " -log none") + " -screen none";
   return std::system(cmd.c_str());
+}
+
+// The outputs of `lmp -in <deck>`, run once and shared by all test processes (CTest runs
+// every test case in its own process): kept in <tmp>/mds_lmp_<hash of the deck>, created
+// atomically (run in a private directory, then renamed). Returns an empty path when lmp fails.
+inline fs::path cached_lammps_run(const std::string& deck, bool with_log = false) {
+  const std::string deck_path = std::string(MDSTREAM_SOURCE_DIR) + "/tests/data/lammps/" + deck;
+  const std::string key = read_text(deck_path) + (with_log ? "+log" : "");
+  char name[64];
+  std::snprintf(name, sizeof name, "mds_lmp_%016zx", std::hash<std::string>{}(key));
+  const fs::path final_dir = fs::temp_directory_path() / name;
+  if (fs::exists(final_dir / ".complete")) return final_dir;
+  std::string tmpl = (fs::temp_directory_path() / "mds_lmp_run_XXXXXX").string();
+  if (::mkdtemp(tmpl.data()) == nullptr) return {};
+  const fs::path tmp = tmpl;
+  std::error_code ec;
+  if (run_lammps(tmp, deck, with_log) != 0) {
+    fs::remove_all(tmp, ec);
+    return {};
+  }
+  write_text(tmp / ".complete", deck + "\n");
+  fs::rename(tmp, final_dir, ec);
+  if (ec) fs::remove_all(tmp, ec);  // another process finished first; use its copy
+  return fs::exists(final_dir / ".complete") ? final_dir : fs::path{};
 }
 
 // All particles of one frame, read in batches of `batch`.
