@@ -7,6 +7,8 @@
 #include <lz4.h>
 
 #include "store/hash.h"
+#include "store/payload_codec.h"
+#include "store/section_codec.h"
 #include "store/store_reader.h"
 #include "store/store_writer.h"
 #include "store_test_helpers.h"
@@ -22,7 +24,8 @@ struct Image {
   std::vector<std::vector<uint8_t>> payloads;
   std::vector<TypeEntry> types;
   std::vector<NodeEntry> nodes;
-  std::vector<VoxelRef> voxels;
+  std::vector<VoxelRef> voxels;       // decoded voxel lists
+  std::vector<uint8_t> voxel_block;   // stored voxel section (fix_layout re-encodes it from `voxels`)
   std::vector<uint8_t> density;
   std::vector<uint8_t> trailing;
 };
@@ -39,7 +42,9 @@ Image parse(const std::vector<uint8_t>& b) {
   std::memcpy(&im.h, b.data(), sizeof(FileHeader));
   im.types = slice<TypeEntry>(b, im.h.sections[kSectionTypes]);
   im.nodes = slice<NodeEntry>(b, im.h.sections[kSectionDirectory]);
-  im.voxels = slice<VoxelRef>(b, im.h.sections[kSectionVoxels]);
+  im.voxel_block = slice<uint8_t>(b, im.h.sections[kSectionVoxels]);
+  im.voxels.resize(im.h.sections[kSectionVoxels].raw_bytes / sizeof(VoxelRef));
+  EXPECT_TRUE(decode_voxel_section(im.voxel_block, im.voxels).ok());
   im.density = slice<uint8_t>(b, im.h.sections[kSectionDensity]);
   for (const auto& e : im.nodes)
     im.payloads.emplace_back(b.begin() + long(e.payload_offset), b.begin() + long(e.payload_offset + e.payload_bytes));
@@ -48,6 +53,10 @@ Image parse(const std::vector<uint8_t>& b) {
 
 // Makes offsets, sizes and hashes consistent with the content.
 void fix_layout(Image& im) {
+  auto block = encode_voxel_section(im.voxels);
+  EXPECT_TRUE(block.ok());
+  im.voxel_block = *block;
+  im.h.sections[kSectionVoxels].raw_bytes = im.voxels.size() * sizeof(VoxelRef);
   uint64_t off = kHeaderBytes, total = 0;
   for (size_t i = 0; i < im.nodes.size(); ++i) {
     im.nodes[i].payload_offset = off;
@@ -58,11 +67,11 @@ void fix_layout(Image& im) {
   }
   im.h.payload_bytes = total;
   const uint64_t sizes[4] = {im.types.size() * sizeof(TypeEntry), im.nodes.size() * sizeof(NodeEntry),
-                             im.voxels.size() * sizeof(VoxelRef), im.density.size()};
+                             im.voxel_block.size(), im.density.size()};
   for (int s = 0; s < 4; ++s) {
     im.h.sections[s].offset = off;
     im.h.sections[s].bytes = sizes[s];
-    if (s != kSectionDensity) im.h.sections[s].raw_bytes = sizes[s];
+    if (s == kSectionTypes || s == kSectionDirectory) im.h.sections[s].raw_bytes = sizes[s];
     off += sizes[s];
   }
 }
@@ -76,7 +85,7 @@ uint64_t hash_vec(const std::vector<T>& v) {
 void seal(Image& im) {
   im.h.sections[kSectionTypes].hash = hash_vec(im.types);
   im.h.sections[kSectionDirectory].hash = hash_vec(im.nodes);
-  im.h.sections[kSectionVoxels].hash = hash_vec(im.voxels);
+  im.h.sections[kSectionVoxels].hash = hash_vec(im.voxel_block);
   im.h.sections[kSectionDensity].hash = hash_vec(im.density);
   im.h.header_hash = 0;
   im.h.header_hash = hash_bytes({reinterpret_cast<const uint8_t*>(&im.h), sizeof(im.h)});
@@ -92,7 +101,7 @@ std::vector<uint8_t> serialize(const Image& im) {
   for (const auto& p : im.payloads) put(p.data(), p.size());
   put(im.types.data(), im.types.size() * sizeof(TypeEntry));
   put(im.nodes.data(), im.nodes.size() * sizeof(NodeEntry));
-  put(im.voxels.data(), im.voxels.size() * sizeof(VoxelRef));
+  put(im.voxel_block.data(), im.voxel_block.size());
   put(im.density.data(), im.density.size());
   put(im.trailing.data(), im.trailing.size());
   return b;
@@ -277,8 +286,15 @@ TEST_F(Corruption, SectionLies) {
                     {"sections[0].offset"});
   expect_open_error(with([](Image& im) { im.h.sections[kSectionTypes].offset = 0; }), Errc::range,
                     {"sections[0].offset"});  // overlapping the header
+  // Voxel section: decoded size not a multiple of 8, more refs than particles, or a block that
+  // does not decode to the declared size.
+  expect_open_error(with([](Image& im) { im.h.sections[kSectionVoxels].raw_bytes += 4; }), Errc::format,
+                    {"sections[2].raw_bytes", "byte 280"});
+  expect_open_error(with([](Image& im) { im.h.sections[kSectionVoxels].raw_bytes = 8 * (im.h.particle_count + 1); }),
+                    Errc::format, {"sections[2].raw_bytes"});
   expect_open_error(with([](Image& im) { im.h.sections[kSectionVoxels].raw_bytes += 8; }), Errc::format,
-                    {"sections[2]"});
+                    {"voxel lists at byte", "LZ4"});
+  expect_open_error(with([](Image& im) { im.h.sections[kSectionVoxels].raw_bytes = 0; }), Errc::format, {"sections[2].bytes"});
   expect_open_error(with([](Image& im) { im.trailing = {1, 2, 3}; }), Errc::format, {"after the last section"});
   expect_open_error(with([](Image& im) {
                       // move the payload/section boundary: payloads claim one byte of the type table
@@ -302,7 +318,25 @@ TEST_F(Corruption, DirectoryLies) {
   expect_open_error(with([](Image& im) { im.nodes[2].payload_offset = 0; }), Errc::range, {"node 2", "payload_offset"});
   expect_open_error(with([](Image& im) { im.nodes[0].payload_bytes += 1; }), Errc::range, {"node 1", "payload_offset"});
   expect_open_error(with([](Image& im) { im.nodes[2].payload_bytes = 0xFFFFFFF0u; }), Errc::range, {"node 2", "payload_bytes"});
-  expect_open_error(with([](Image& im) { im.nodes[0].payload_raw_bytes -= 1; }), Errc::format, {"node 0", "payload_raw_bytes"});
+  expect_open_error(with([](Image& im) {
+                      const NodeEntry& e = im.nodes[0];
+                      im.nodes[0].payload_raw_bytes = uint32_t(node_payload_max_bytes(e.particle_count, e.meshlet_count, true) + 1);
+                    }),
+                    Errc::format, {"node 0", "payload_raw_bytes"});
+  expect_open_error(with([](Image& im) {
+                      const NodeEntry& e = im.nodes[0];
+                      im.nodes[0].payload_raw_bytes = uint32_t(node_payload_fixed_bytes(e.particle_count, e.meshlet_count, true) - 1);
+                    }),
+                    Errc::format, {"node 0", "payload_raw_bytes"});
+  {  // a raw size inside the bounds but not the block's: caught when the node is read
+    auto err = try_all(serialize(with([](Image& im) {
+      im.nodes[0].payload_raw_bytes -= 1;
+      im.h.payload_raw_bytes -= 1;
+    })));
+    ASSERT_TRUE(err.has_value());
+    EXPECT_EQ(err->code, Errc::format) << err->message;
+    EXPECT_NE(err->message.find("node 0 payload at byte 512: LZ4"), std::string::npos) << err->message;
+  }
   expect_open_error(with([](Image& im) { im.nodes[1].particle_count = 0; }), Errc::range, {"node 1", "particle_count", at(1, 24)});
   expect_open_error(with([](Image& im) {
                       im.nodes[0].particle_count += 1;  // 31 > node_size_max 30
@@ -328,6 +362,7 @@ TEST_F(Corruption, VoxelAndDensityLies) {
   auto with = [&](auto mutate) {
     Image im = parse(good_);
     mutate(im);
+    fix_layout(im);  // re-encodes the voxel section from the (lying) refs
     seal(im);
     return im;
   };
@@ -338,25 +373,24 @@ TEST_F(Corruption, VoxelAndDensityLies) {
   ASSERT_GE(parse(good_).nodes[0].voxel_count, 2u);
   expect_open_error(with([](Image& im) { std::swap(im.voxels[0], im.voxels[1]); }), Errc::format,
                     {"node 0", "voxel ref 1", "not strictly ascending"});
+  // Voxel block that is not valid LZ4.
+  {
+    Image im = parse(good_);
+    std::fill(im.voxel_block.begin(), im.voxel_block.end(), 0xFF);
+    seal(im);
+    expect_open_error(im, Errc::format, {"voxel lists at byte", "LZ4"});
+  }
   // Density volume that decodes fine but disagrees with the voxel lists.
   expect_open_error(with([](Image& im) {
                       std::vector<uint32_t> counts(8);
-                      LZ4_decompress_safe(reinterpret_cast<const char*>(im.density.data()), reinterpret_cast<char*>(counts.data()),
-                                          int(im.density.size()), 32);
+                      ASSERT_TRUE(decode_density_section(im.density, counts).ok());
                       counts[7] += 1;
-                      im.density.assign(size_t(LZ4_compressBound(32)), 0);
-                      int c = LZ4_compress_default(reinterpret_cast<const char*>(counts.data()),
-                                                   reinterpret_cast<char*>(im.density.data()), 32, int(im.density.size()));
-                      im.density.resize(size_t(c));
-                      fix_layout(im);
+                      im.density = *encode_density_section(counts);
                     }),
                     Errc::range, {"density volume", "voxel 7"});
   // Density block that is not valid LZ4.
-  expect_open_error(with([](Image& im) {
-                      std::fill(im.density.begin(), im.density.end(), 0xFF);
-                      fix_layout(im);
-                    }),
-                    Errc::format, {"density volume", "LZ4"});
+  expect_open_error(with([](Image& im) { std::fill(im.density.begin(), im.density.end(), 0xFF); }), Errc::format,
+                    {"density volume", "LZ4"});
 }
 
 // Payloads whose hashes match but whose content is wrong: decode must reject them.
@@ -391,34 +425,120 @@ TEST_F(Corruption, PayloadContentLies) {
     return st.error();
   };
   const uint32_t n = base.nodes[1].particle_count, m = base.nodes[1].meshlet_count;
-  {  // type index beyond the type table
+  // Node 1's decoded payload replaced by `raw` (sizes and hashes made consistent).
+  auto error_with_raw = [&](const std::vector<uint8_t>& raw, uint32_t node = 1) {
     Image im = base;
+    im.payloads[node] = compress(raw);
+    im.h.payload_raw_bytes += raw.size();
+    im.h.payload_raw_bytes -= im.nodes[node].payload_raw_bytes;
+    im.nodes[node].payload_raw_bytes = uint32_t(raw.size());
+    return read_error(im, node);
+  };
+  auto expect_payload_error = [&](const std::vector<uint8_t>& raw, Errc code, const std::string& needle, uint32_t node = 1) {
+    auto e = error_with_raw(raw, node);
+    ASSERT_TRUE(e.has_value()) << needle;
+    EXPECT_EQ(e->code, code) << e->message;
+    EXPECT_NE(e->message.find("bad.mds: node " + std::to_string(node) + " payload at byte"), std::string::npos)
+        << e->message;
+    EXPECT_NE(e->message.find(needle), std::string::npos) << e->message;
+  };
+  // Offsets of the arrays (format.h, "Decoded node payload layout"; the fixture has radii).
+  const size_t base_x = m, widths = 7 * m, type_base = 9 * m, type_bits = 10 * m;
+  const size_t stream = node_payload_fixed_bytes(n, m, true);
+  {
     auto raw = decode_raw(1);
-    raw[6 * n + 2] = 200;
-    im.payloads[1] = compress(raw);
-    auto e = read_error(im, 1);
-    ASSERT_TRUE(e.has_value());
-    EXPECT_EQ(e->code, Errc::range);
-    EXPECT_NE(e->message.find("node 1 payload at byte"), std::string::npos) << e->message;
-    EXPECT_NE(e->message.find("type index 200"), std::string::npos) << e->message;
+    ASSERT_TRUE(error_with_raw(raw) == std::nullopt) << "the unmodified payload must decode";
+  }
+  {  // type index beyond the type table, re-encoded validly otherwise
+    NodeData d;
+    auto raw = decode_raw(1);
+    ASSERT_TRUE(decode_payload_raw(raw, {n, m, true, 3, 8}, d).ok());
+    d.type_index[2] = 200;
+    NodeInput in;
+    in.qpos = d.qpos;
+    in.type_index = d.type_index;
+    in.radius_q = d.radius_q;
+    in.meshlet_size = d.meshlet_size;
+    encode_payload(in, raw);
+    expect_payload_error(raw, Errc::range, "particle 2 has type index 200");
+  }
+  {  // type base + offset beyond the table (and beyond 255: not truncated to a byte)
+    auto raw = decode_raw(1);
+    raw[type_base] = 255;
+    expect_payload_error(raw, Errc::range, "particle 0 has type index 25");
   }
   {  // meshlet sizes that do not sum to n
-    Image im = base;
     auto raw = decode_raw(1);
-    raw[raw.size() - m] += 1;
-    im.payloads[1] = compress(raw);
-    auto e = read_error(im, 1);
-    ASSERT_TRUE(e.has_value());
-    EXPECT_NE(e->message.find("meshlet"), std::string::npos) << e->message;
+    raw[m - 1] += 1;
+    expect_payload_error(raw, Errc::range, "meshlet sizes sum to");
   }
   {  // an empty meshlet
-    Image im = base;
     auto raw = decode_raw(1);
-    raw[raw.size() - 1] = 0;
+    raw[m - 1] = 0;
+    expect_payload_error(raw, Errc::range, "meshlet " + std::to_string(m - 1) + " has 0 particles");
+  }
+  {  // a meshlet larger than meshlet_size_max
+    auto raw = decode_raw(1);
+    raw[0] = 9;
+    expect_payload_error(raw, Errc::range, "meshlet 0 has 9 particles (allowed 1..8)");
+  }
+  {  // axis width above 16 bits, and the reserved bit 15
+    auto raw = decode_raw(1);
+    raw[widths] = uint8_t((raw[widths] & ~31) | 17);
+    expect_payload_error(raw, Errc::range, "meshlet 0 bit widths");
+    raw = decode_raw(1);
+    raw[widths + 1] |= 0x80;
+    expect_payload_error(raw, Errc::range, "meshlet 0 bit widths");
+  }
+  {  // type width above 8 bits
+    auto raw = decode_raw(1);
+    raw[type_bits + 1] = 9;
+    expect_payload_error(raw, Errc::range, "meshlet 1 type offsets of 9 bits");
+  }
+  {  // base + offset beyond 65535 on x
+    auto raw = decode_raw(1);
+    ASSERT_GT(raw[widths] & 31, 0) << "meshlet 0 of the fixture spans a range on x";
+    raw[base_x] = 0xFF;
+    raw[base_x + 1] = 0xFF;
+    expect_payload_error(raw, Errc::range, "meshlet 0 axis x: base 65535");
+  }
+  {  // bit stream one byte longer / shorter than the widths give
+    auto raw = decode_raw(1);
+    raw.push_back(0);
+    expect_payload_error(raw, Errc::format, "bit stream has");
+    raw = decode_raw(1);
+    raw.pop_back();
+    expect_payload_error(raw, Errc::format, "bit stream has");
+  }
+  {  // a decoded payload shorter than its fixed arrays
+    auto raw = decode_raw(1);
+    raw.resize(stream - 1);
+    Image im = base;
     im.payloads[1] = compress(raw);
-    auto e = read_error(im, 1);
-    ASSERT_TRUE(e.has_value());
-    EXPECT_NE(e->message.find("meshlet"), std::string::npos) << e->message;
+    im.h.payload_raw_bytes -= im.nodes[1].payload_raw_bytes - raw.size();
+    im.nodes[1].payload_raw_bytes = uint32_t(raw.size());
+    fix_layout(im);
+    seal(im);
+    expect_open_error(im, Errc::format, {"node 1", "payload_raw_bytes", "outside"});  // rejected by open()
+  }
+  {  // non-zero padding bits, in a node whose stream does not end on a byte boundary
+    int tested = 0;
+    for (uint32_t i = 0; i < 3; ++i) {
+      auto raw = decode_raw(i);
+      const uint32_t ni = base.nodes[i].particle_count, mi = base.nodes[i].meshlet_count;
+      uint64_t bits = 0;
+      for (uint32_t j = 0; j < mi; ++j) {
+        uint16_t w;
+        std::memcpy(&w, raw.data() + 7 * mi + 2 * j, 2);
+        bits += uint64_t(raw[j]) * ((w & 31) + ((w >> 5) & 31) + ((w >> 10) & 31) + raw[10 * mi + j]);
+      }
+      ASSERT_EQ(raw.size(), node_payload_fixed_bytes(ni, mi, true) + (bits + 7) / 8) << "node " << i;
+      if (bits % 8 == 0) continue;
+      raw.back() |= 0x80;
+      expect_payload_error(raw, Errc::format, "padding bits", i);
+      ++tested;
+    }
+    EXPECT_GT(tested, 0) << "every fixture node's bit stream is byte-aligned; change the fixture";
   }
   {  // not an LZ4 block
     Image im = base;

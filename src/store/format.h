@@ -7,8 +7,8 @@
 //   [node payloads]                   one LZ4 block per node, back to back, from offset 512
 //   [section: type table]             TypeEntry[type_count]                 (uncompressed)
 //   [section: node directory]         NodeEntry[node_count]                 (uncompressed)
-//   [section: voxel lists]            VoxelRef[sum of NodeEntry::voxel_count] (uncompressed)
-//   [section: density volume]         LZ4 block of uint32 counts[dims.x*dims.y*dims.z]
+//   [section: voxel lists]            LZ4 block of VoxelRef[sum of NodeEntry::voxel_count] (delta + byte planes)
+//   [section: density volume]         LZ4 block of uint32 counts[dims.x*dims.y*dims.z] (byte planes)
 // Every section and every payload carries an XXH3-64 hash of its stored bytes; the header
 // carries an XXH3-64 hash of itself (computed with header_hash = 0).
 #pragma once
@@ -41,7 +41,7 @@ enum SectionId : uint32_t {
 
 struct Section {
   uint64_t offset;     // byte offset of the stored bytes in the file
-  uint64_t bytes;      // stored size (compressed for the density volume)
+  uint64_t bytes;      // stored size (compressed for the voxel lists and the density volume)
   uint64_t raw_bytes;  // decoded size (== bytes for uncompressed sections)
   uint64_t hash;       // XXH3-64 of the stored bytes
 };
@@ -92,7 +92,7 @@ static_assert(sizeof(TypeEntry) == 64);
 struct NodeEntry {
   uint64_t payload_offset;     // file offset of the LZ4 block
   uint32_t payload_bytes;      // compressed size
-  uint32_t payload_raw_bytes;  // decoded size; must equal node_payload_bytes(...)
+  uint32_t payload_raw_bytes;  // decoded size, in [node_payload_fixed_bytes, node_payload_max_bytes]
   uint64_t payload_hash;       // XXH3-64 of the compressed bytes
   uint32_t particle_count;     // 1..node_size_max
   uint32_t meshlet_count;      // 1..particle_count
@@ -115,14 +115,40 @@ struct VoxelRef {
 };
 static_assert(sizeof(VoxelRef) == 8);
 
-// Decoded node payload layout (before LZ4), n particles, m meshlets, particles in meshlet order:
-//   uint16 qpos[n][3]        6n bytes   quantized x, y, z in the node frame
-//   uint8  type_index[n]     n bytes    index into the type table
-//   uint16 radius_q[n]       2n bytes   only with kFlagPerParticleRadius:
-//                                       r = radius_min + q * (radius_max - radius_min) / 65535
-//   uint8  meshlet_size[m]   m bytes    1..meshlet_size_max, sum == n
-inline constexpr uint64_t node_payload_bytes(uint64_t n, uint64_t m, bool per_particle_radius) {
-  return 6 * n + n + (per_particle_radius ? 2 * n : 0) + m;
+// Decoded node payload layout (before LZ4), n particles, m meshlets, particles in meshlet order.
+// Positions are stored per meshlet as offsets from the meshlet's smallest quantized coordinate,
+// bit-packed with a per-meshlet, per-axis bit width (the offsets of 16 spatially close particles
+// need ~13 instead of 16 bits, and LZ4 alone finds almost nothing in 16-bit coordinates); type
+// indices likewise as offsets from the meshlet's smallest type. docs/results/store-layout.md
+// has the measurements behind this choice. Arrays, back to back, no padding:
+//   uint8  meshlet_size[m]        m bytes   1..meshlet_size_max, sum == n
+//   uint16 meshlet_base[3][m]     6m bytes  plane per axis: smallest qpos of the meshlet on x, y, z
+//   uint16 meshlet_bits[m]        2m bytes  bits 0-4 / 5-9 / 10-14: width of the x / y / z offsets,
+//                                           each 0..16; bit 15 zero
+//   uint8  meshlet_type_base[m]   m bytes   smallest type index of the meshlet
+//   uint8  meshlet_type_bits[m]   m bytes   width of the type offsets, 0..8
+//   uint16 radius_q[n]            2n bytes  only with kFlagPerParticleRadius:
+//                                           r = radius_min + q * (radius_max - radius_min) / 65535
+//   uint8  bits[]                 the rest  bit stream, LSB first: for each meshlet j in order, the x
+//                                           offsets of its particles (wx bits each), then y, then z,
+//                                           then the type offsets (wt bits each); zero-padded to a byte
+// qpos[k][a] = meshlet_base[a][j] + offset (must be <= 65535); type = type_base[j] + offset.
+inline constexpr uint32_t kMaxAxisBits = 16;
+inline constexpr uint32_t kMaxTypeBits = 8;
+// Size of everything before the bit stream.
+inline constexpr uint64_t node_payload_fixed_bytes(uint64_t n, uint64_t m, bool per_particle_radius) {
+  return 11 * m + (per_particle_radius ? 2 * n : 0);
 }
+// Largest decoded payload: full-width offsets (3 * 16 + 8 bits per particle).
+inline constexpr uint64_t node_payload_max_bytes(uint64_t n, uint64_t m, bool per_particle_radius) {
+  return node_payload_fixed_bytes(n, m, per_particle_radius) + 7 * n;
+}
+
+// Voxel-list section (decoded size 8 * R for R refs), before LZ4: byte planes of
+//   uint32 delta[R]  = voxel[i] - voxel[i-1] (mod 2^32, voxel[-1] = 0), then of uint32 count[R];
+// plane b of an array holds byte b (little-endian) of every element. Density volume, before LZ4:
+// the 4 byte planes of uint32 counts[dims product]. Both are single LZ4 blocks, so a store holds
+// at most kMaxVoxelRefs voxel refs.
+inline constexpr uint64_t kMaxVoxelRefs = 0x7E000000ull / 8;  // LZ4_MAX_INPUT_SIZE / 8
 
 }  // namespace mds::store

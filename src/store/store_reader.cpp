@@ -15,6 +15,8 @@
 
 #include "store/file_io.h"
 #include "store/hash.h"
+#include "store/payload_codec.h"
+#include "store/section_codec.h"
 
 static_assert(std::endian::native == std::endian::little, "the store format is little-endian; port the I/O first");
 
@@ -162,10 +164,17 @@ Status StoreReader::Impl::check_sections() {
   if (sd.bytes != uint64_t(h.node_count) * sizeof(NodeEntry) || sd.raw_bytes != sd.bytes)
     return size_error(kSectionDirectory, uint64_t(h.node_count) * sizeof(NodeEntry), "node_count * 112");
   const Section& sv = h.sections[kSectionVoxels];
-  if (sv.bytes % sizeof(VoxelRef) != 0 || sv.raw_bytes != sv.bytes)
-    return size_error(kSectionVoxels, sv.bytes - sv.bytes % sizeof(VoxelRef), "a multiple of 8, raw_bytes == bytes");
-  if (sv.bytes / sizeof(VoxelRef) > h.particle_count)
-    return size_error(kSectionVoxels, h.particle_count * sizeof(VoxelRef), "at most one voxel ref per particle");
+  const uint64_t refs = sv.raw_bytes / sizeof(VoxelRef);
+  if (sv.raw_bytes % sizeof(VoxelRef) != 0 || refs > h.particle_count || refs > kMaxVoxelRefs)
+    return make_error(Errc::format,
+                      "{}: field sections[2].raw_bytes at byte {}: voxel lists decode to {} bytes (must be 8 * refs, at most "
+                      "one ref per particle and {} refs)",
+                      name, section_field_offset(kSectionVoxels, offsetof(Section, raw_bytes)), sv.raw_bytes, kMaxVoxelRefs);
+  if (refs == 0 ? sv.bytes != 0
+                : (sv.bytes == 0 || sv.bytes > uint64_t(LZ4_compressBound(int(sv.raw_bytes))) ||
+                   sv.raw_bytes > lz4_max_decoded(sv.bytes)))
+    return size_error(kSectionVoxels, refs == 0 ? 0 : uint64_t(LZ4_compressBound(int(sv.raw_bytes))),
+                      "an LZ4 block of the voxel lists");
   const Section& sn = h.sections[kSectionDensity];
   if (sn.raw_bytes != 4 * product)
     return make_error(Errc::format, "{}: field sections[3].raw_bytes at byte {}: density volume decodes to {} bytes, dims give {}",
@@ -238,10 +247,12 @@ Status StoreReader::Impl::check_directory() {
     if (e.payload_offset != offset)
       return NODE_ERR(Errc::range, payload_offset, "payload at byte {}, expected {} (payloads are contiguous in node order)",
                       e.payload_offset, offset);
-    const uint64_t raw = node_payload_bytes(e.particle_count, e.meshlet_count, radius);
-    if (e.payload_raw_bytes != raw)
-      return NODE_ERR(Errc::format, payload_raw_bytes, "{}, expected {} for {} particles and {} meshlets", e.payload_raw_bytes,
-                      raw, e.particle_count, e.meshlet_count);
+    const uint64_t raw = e.payload_raw_bytes;
+    const uint64_t raw_min = node_payload_fixed_bytes(e.particle_count, e.meshlet_count, radius);
+    const uint64_t raw_max = node_payload_max_bytes(e.particle_count, e.meshlet_count, radius);
+    if (raw < raw_min || raw > raw_max)
+      return NODE_ERR(Errc::format, payload_raw_bytes, "{} outside [{}, {}] for {} particles and {} meshlets", raw, raw_min,
+                      raw_max, e.particle_count, e.meshlet_count);
     if (e.payload_bytes < 1 || e.payload_bytes > uint64_t(LZ4_compressBound(int(raw))) ||
         raw > lz4_max_decoded(e.payload_bytes))
       return NODE_ERR(Errc::range, payload_bytes, "{} is not a valid LZ4 block size for {} decoded bytes", e.payload_bytes, raw);
@@ -298,11 +309,8 @@ Status StoreReader::Impl::check_voxels_and_density(std::span<const uint8_t> bloc
   if (product == 0) return {};
   const uint64_t dbase = h.sections[kSectionDensity].offset;
   density.resize(product);  // product <= 2^28 and <= 255 * section bytes (checked)
-  int got = LZ4_decompress_safe(reinterpret_cast<const char*>(block.data()), reinterpret_cast<char*>(density.data()),
-                                static_cast<int>(block.size()), static_cast<int>(4 * product));
-  if (got != static_cast<int>(4 * product))
-    return make_error(Errc::format, "{}: density volume at byte {}: LZ4 block is corrupt (decoded {} of {} bytes)", name, dbase,
-                      got, 4 * product);
+  Status st = decode_density_section(block, density);
+  if (!st.ok()) return make_error(st.error().code, "{}: density volume at byte {}: {}", name, dbase, st.error().message);
   // Each node's refs: strictly ascending voxel indices inside the grid, counts summing to the
   // node's particle count; subtracting all refs from the density volume must leave zero.
   for (size_t i = 0; i < nodes.size(); ++i) {
@@ -357,8 +365,16 @@ Result<std::unique_ptr<StoreReader>> StoreReader::open(const std::filesystem::pa
   MDS_TRY(s.read_section(kSectionTypes, s.types.data()));
   s.nodes.resize(h.node_count);
   MDS_TRY(s.read_section(kSectionDirectory, s.nodes.data()));
-  s.voxels.resize(h.sections[kSectionVoxels].bytes / sizeof(VoxelRef));
-  MDS_TRY(s.read_section(kSectionVoxels, s.voxels.data()));
+  {
+    // raw_bytes <= 255 * bytes + 16 and bytes <= file size (checked).
+    std::vector<uint8_t> block(h.sections[kSectionVoxels].bytes);
+    MDS_TRY(s.read_section(kSectionVoxels, block.data()));
+    s.voxels.resize(h.sections[kSectionVoxels].raw_bytes / sizeof(VoxelRef));
+    Status st = decode_voxel_section(block, s.voxels);
+    if (!st.ok())
+      return make_error(st.error().code, "{}: voxel lists at byte {}: {}", s.name, h.sections[kSectionVoxels].offset,
+                        st.error().message);
+  }
   std::vector<uint8_t> density_block(h.sections[kSectionDensity].bytes);
   MDS_TRY(s.read_section(kSectionDensity, density_block.data()));
   MDS_TRY(s.check_types());
@@ -404,8 +420,6 @@ Status StoreReader::decode_payload(uint32_t i, std::span<const uint8_t> compress
   if (compressed.size() != e.payload_bytes)
     return make_error(Errc::invalid_argument, "{}: node {} payload at byte {}: got {} compressed bytes, directory says {}",
                       s.name, i, at, compressed.size(), e.payload_bytes);
-  const bool radius = (s.header.flags & kFlagPerParticleRadius) != 0;
-  const size_t n = e.particle_count, m = e.meshlet_count;
   thread_local std::vector<uint8_t> raw;
   raw.resize(e.payload_raw_bytes);
   int got = LZ4_decompress_safe(reinterpret_cast<const char*>(compressed.data()), reinterpret_cast<char*>(raw.data()),
@@ -413,35 +427,10 @@ Status StoreReader::decode_payload(uint32_t i, std::span<const uint8_t> compress
   if (got != static_cast<int>(raw.size()))
     return make_error(Errc::format, "{}: node {} payload at byte {}: LZ4 block is corrupt (decoded {} of {} bytes)", s.name, i,
                       at, got, raw.size());
-  const uint8_t* p = raw.data();
-  out.qpos.resize(3 * n);
-  std::memcpy(out.qpos.data(), p, 6 * n);
-  p += 6 * n;
-  out.type_index.assign(p, p + n);
-  p += n;
-  if (radius) {
-    out.radius_q.resize(n);
-    std::memcpy(out.radius_q.data(), p, 2 * n);
-    p += 2 * n;
-  } else {
-    out.radius_q.clear();
-  }
-  out.meshlet_size.assign(p, p + m);
-  const uint32_t types = s.header.type_count;
-  for (size_t k = 0; k < n; ++k)
-    if (out.type_index[k] >= types)
-      return make_error(Errc::range, "{}: node {} payload at byte {}: particle {} has type index {} (type table has {})", s.name,
-                        i, at, k, out.type_index[k], types);
-  uint64_t sum = 0;
-  for (size_t k = 0; k < m; ++k) {
-    if (out.meshlet_size[k] < 1 || out.meshlet_size[k] > s.header.meshlet_size_max)
-      return make_error(Errc::range, "{}: node {} payload at byte {}: meshlet {} has {} particles (allowed 1..{})", s.name, i, at,
-                        k, out.meshlet_size[k], s.header.meshlet_size_max);
-    sum += out.meshlet_size[k];
-  }
-  if (sum != n)
-    return make_error(Errc::range, "{}: node {} payload at byte {}: meshlet sizes sum to {}, node has {} particles", s.name, i,
-                      at, sum, n);
+  const PayloadLimits lim{e.particle_count, e.meshlet_count, (s.header.flags & kFlagPerParticleRadius) != 0,
+                          s.header.type_count, s.header.meshlet_size_max};
+  Status st = decode_payload_raw(raw, lim, out);
+  if (!st.ok()) return make_error(st.error().code, "{}: node {} payload at byte {}: {}", s.name, i, at, st.error().message);
   return {};
 }
 

@@ -1,7 +1,7 @@
-// Store writer: serializes and LZ4-compresses node payloads (format.h / docs/store-format.md),
-// appends them to "<path>.tmp.<pid>" through an 8 MiB buffer, then writes the type table,
-// the node directory, the voxel lists and the LZ4-compressed density volume, each with its
-// XXH3-64 hash, and finally the header (hashed with header_hash = 0), fsync and rename.
+// Store writer: serializes (payload_codec.h) and LZ4-compresses node payloads (format.h /
+// docs/store-format.md), appends them to "<path>.tmp.<pid>" through an 8 MiB buffer, then writes
+// the type table, the node directory, and the LZ4-compressed voxel lists and density volume
+// (section_codec.h), each with its XXH3-64 hash, and finally the header (hashed with header_hash = 0), fsync and rename.
 #include "store/store_writer.h"
 
 #include <lz4.h>
@@ -12,6 +12,8 @@
 
 #include "store/file_io.h"
 #include "store/hash.h"
+#include "store/payload_codec.h"
+#include "store/section_codec.h"
 
 static_assert(std::endian::native == std::endian::little, "the store format is little-endian; port the I/O first");
 
@@ -62,18 +64,9 @@ Result<EncodedNode> encode_node(const NodeInput& node) {
   }
 
   const bool radius = !node.radius_q.empty();
-  const uint64_t raw_size = node_payload_bytes(n, m, radius);
-  std::vector<uint8_t> raw(raw_size);
-  uint8_t* p = raw.data();
-  std::memcpy(p, node.qpos.data(), 6 * n);
-  p += 6 * n;
-  std::memcpy(p, node.type_index.data(), n);
-  p += n;
-  if (radius) {
-    std::memcpy(p, node.radius_q.data(), 2 * n);
-    p += 2 * n;
-  }
-  std::memcpy(p, node.meshlet_size.data(), m);
+  thread_local std::vector<uint8_t> raw;
+  encode_payload(node, raw);
+  const uint64_t raw_size = raw.size();
 
   EncodedNode out;
   out.payload.resize(static_cast<size_t>(LZ4_compressBound(static_cast<int>(raw_size))));
@@ -98,6 +91,7 @@ Result<EncodedNode> encode_node(const NodeInput& node) {
   e.voxel_count = static_cast<uint32_t>(node.voxels.size());
   out.voxels.assign(node.voxels.begin(), node.voxels.end());
   out.max_meshlet_size = max_meshlet;
+  out.per_particle_radius = radius;
   for (uint64_t i = 0; i < n; ++i) {
     uint8_t t = node.type_index[i];
     if (t >= out.type_counts.size()) out.type_counts.resize(size_t(t) + 1, 0);
@@ -118,6 +112,7 @@ struct StoreWriter::Impl {
   uint64_t payload_raw_bytes = 0;
   uint32_t max_node_particles = 0;
   uint32_t max_meshlet_size = 0;
+  uint64_t radius_nodes = 0;  // nodes encoded with per-particle radii
   bool finished = false;
   bool failed = false;  // an I/O error left the temporary file in an unknown state
 
@@ -150,8 +145,11 @@ Status StoreWriter::append(EncodedNode&& node) {
   if (node.voxels.size() != e.voxel_count)
     return make_error(Errc::internal, "{}: node {}: {} voxel refs, entry says {}", s.name(), index, node.voxels.size(),
                       e.voxel_count);
-  if (s.voxels.size() + node.voxels.size() > 0xFFFFFFFFull)
-    return make_error(Errc::range, "{}: node {}: more than 2^32-1 voxel refs in the store", s.name(), index);
+  if (s.voxels.size() + node.voxels.size() > kMaxVoxelRefs)
+    return make_error(Errc::range,
+                      "{}: node {}: more than {} voxel refs in the store (the format's limit; use a coarser --density-res "
+                      "or larger nodes)",
+                      s.name(), index, kMaxVoxelRefs);
   e.payload_offset = s.writer->offset();
   e.first_particle = s.particles;
   e.first_meshlet = s.meshlets;
@@ -168,6 +166,7 @@ Status StoreWriter::append(EncodedNode&& node) {
   s.payload_raw_bytes += e.payload_raw_bytes;
   s.max_node_particles = std::max(s.max_node_particles, e.particle_count);
   s.max_meshlet_size = std::max(s.max_meshlet_size, node.max_meshlet_size);
+  s.radius_nodes += node.per_particle_radius ? 1 : 0;
   if (node.type_counts.size() > s.type_counts.size()) s.type_counts.resize(node.type_counts.size(), 0);
   for (size_t t = 0; t < node.type_counts.size(); ++t) s.type_counts[t] += node.type_counts[t];
   s.voxels.insert(s.voxels.end(), node.voxels.begin(), node.voxels.end());
@@ -235,11 +234,15 @@ Status StoreWriter::finish(const StoreSummary& sum) {
   if (s.type_counts.size() > sum.types.size())
     return make_error(Errc::internal, "{}: nodes use type index {}, but the type table has {} entries", name,
                       s.type_counts.size() - 1, sum.types.size());
+  if (s.radius_nodes != (radius ? s.entries.size() : 0))
+    return make_error(Errc::internal, "{}: {} of {} nodes carry per-particle radii, but the per-particle-radius flag is {}", name,
+                      s.radius_nodes, s.entries.size(), radius ? "set" : "clear");
   for (size_t i = 0; i < s.entries.size(); ++i) {
     const NodeEntry& e = s.entries[i];
-    if (e.payload_raw_bytes != node_payload_bytes(e.particle_count, e.meshlet_count, radius))
-      return make_error(Errc::internal, "{}: node {}: payload layout does not match the per-particle-radius flag ({})",
-                        name, i, radius ? "set" : "clear");
+    if (e.payload_raw_bytes < node_payload_fixed_bytes(e.particle_count, e.meshlet_count, radius) ||
+        e.payload_raw_bytes > node_payload_max_bytes(e.particle_count, e.meshlet_count, radius))
+      return make_error(Errc::internal, "{}: node {}: decoded payload size {} impossible for its counts", name, i,
+                        e.payload_raw_bytes);
   }
   // Density volume must equal the sum of all voxel lists.
   const uint64_t product = sum.density_counts.size();
@@ -302,17 +305,13 @@ Status StoreWriter::finish(const StoreSummary& sum) {
     types[t] = te;
   }
 
-  // Density volume: LZ4 block of uint32 counts (empty section when there is no grid).
-  std::vector<uint8_t> density;
+  // Voxel lists and density volume: LZ4 blocks of byte planes (section_codec.h).
+  auto voxel_block = encode_voxel_section(s.voxels);
+  if (!voxel_block.ok()) return make_error(voxel_block.error().code, "{}: {}", name, voxel_block.error().message);
+  auto density_block = encode_density_section(sum.density_counts);
+  if (!density_block.ok()) return make_error(density_block.error().code, "{}: {}", name, density_block.error().message);
+  const std::vector<uint8_t>& density = *density_block;
   const uint64_t density_raw = 4 * product;
-  if (product > 0) {
-    density.resize(static_cast<size_t>(LZ4_compressBound(static_cast<int>(density_raw))));
-    int c = LZ4_compress_default(reinterpret_cast<const char*>(sum.density_counts.data()),
-                                 reinterpret_cast<char*>(density.data()), static_cast<int>(density_raw),
-                                 static_cast<int>(density.size()));
-    if (c <= 0) return make_error(Errc::internal, "{}: LZ4 compression of the density volume failed", name);
-    density.resize(static_cast<size_t>(c));
-  }
 
   auto write_section = [&](SectionId id, const void* data, uint64_t bytes, uint64_t raw) -> Status {
     Section& sec = h.sections[id];
@@ -326,8 +325,7 @@ Status StoreWriter::finish(const StoreSummary& sum) {
   MDS_TRY(write_section(kSectionTypes, types.data(), types.size() * sizeof(TypeEntry), types.size() * sizeof(TypeEntry)));
   MDS_TRY(write_section(kSectionDirectory, s.entries.data(), s.entries.size() * sizeof(NodeEntry),
                         s.entries.size() * sizeof(NodeEntry)));
-  MDS_TRY(write_section(kSectionVoxels, s.voxels.data(), s.voxels.size() * sizeof(VoxelRef),
-                        s.voxels.size() * sizeof(VoxelRef)));
+  MDS_TRY(write_section(kSectionVoxels, voxel_block->data(), voxel_block->size(), s.voxels.size() * sizeof(VoxelRef)));
   MDS_TRY(write_section(kSectionDensity, density.data(), density.size(), density_raw));
   MDS_TRY(s.writer->flush());
 

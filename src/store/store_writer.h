@@ -38,6 +38,7 @@ struct EncodedNode {
   // check the node against the build parameters in finish().
   std::vector<uint64_t> type_counts;  // particles per type index (size = largest index + 1)
   uint32_t max_meshlet_size = 0;
+  bool per_particle_radius = false;  // the payload carries radius_q
 };
 
 // Pure and thread-safe: serializes and compresses one node.

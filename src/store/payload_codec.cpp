@@ -1,0 +1,225 @@
+// Node payload codec: quantized positions and type indices of each meshlet stored as offsets
+// from the meshlet minimum, bit-packed with per-meshlet, per-axis widths (the layout of
+// format.h / docs/store-format.md; the measurements that chose it are in
+// docs/results/store-layout.md). Meshlets are the spatially compact groups of paper 000, §6
+// ("Meshlet generation"), so their offsets need few bits. Decoding validates everything.
+#include "store/payload_codec.h"
+
+#include <algorithm>
+#include <bit>
+#include <cstring>
+
+namespace mds::store {
+
+namespace {
+
+inline uint16_t load16(const uint8_t* p) {
+  uint16_t v;
+  std::memcpy(&v, p, 2);
+  return v;
+}
+
+inline void store16(uint8_t* p, uint16_t v) { std::memcpy(p, &v, 2); }
+
+// Appends little-endian, LSB-first bit fields to a byte vector.
+class BitWriter {
+ public:
+  explicit BitWriter(std::vector<uint8_t>& out) : out_(out) {}
+  void put(uint32_t value, unsigned width) {
+    acc_ |= uint64_t(value) << bits_;
+    bits_ += width;
+    while (bits_ >= 8) {
+      out_.push_back(uint8_t(acc_));
+      acc_ >>= 8;
+      bits_ -= 8;
+    }
+  }
+  void flush() {
+    if (bits_ > 0) out_.push_back(uint8_t(acc_));
+    acc_ = 0;
+    bits_ = 0;
+  }
+
+ private:
+  std::vector<uint8_t>& out_;
+  uint64_t acc_ = 0;
+  unsigned bits_ = 0;
+};
+
+// Reads runs of bit fields of <= 16 bits from a stream whose total length the caller checked
+// against the widths, so no field extends past `size` bytes. Runs whose last field ends at
+// least 8 bytes before the end read 8 bytes per field without a bounds test.
+class BitReader {
+ public:
+  BitReader(const uint8_t* data, size_t size) : data_(data), size_(size) {}
+
+  // Calls sink(e, value) for e in [0, count), each value `width` bits wide.
+  template <class Sink>
+  void run(size_t count, unsigned width, Sink&& sink) {
+    const uint64_t mask = (uint64_t(1) << width) - 1;
+    uint64_t pos = pos_;
+    const uint64_t end = pos + uint64_t(count) * width;
+    if ((end >> 3) + 8 <= size_) {
+      for (size_t e = 0; e < count; ++e, pos += width) {
+        uint64_t word;
+        std::memcpy(&word, data_ + (pos >> 3), 8);
+        sink(e, uint32_t((word >> (pos & 7)) & mask));
+      }
+    } else {
+      for (size_t e = 0; e < count; ++e, pos += width) {
+        const uint64_t byte = pos >> 3;
+        uint64_t word = 0;
+        std::memcpy(&word, data_ + byte, std::min<uint64_t>(8, size_ - byte));
+        sink(e, uint32_t((word >> (pos & 7)) & mask));
+      }
+    }
+    pos_ = end;
+  }
+
+ private:
+  const uint8_t* data_;
+  size_t size_;
+  uint64_t pos_ = 0;
+};
+
+}  // namespace
+
+void encode_payload(const NodeInput& node, std::vector<uint8_t>& raw) {
+  const size_t n = node.type_index.size(), m = node.meshlet_size.size();
+  const bool radius = !node.radius_q.empty();
+  const size_t fixed = node_payload_fixed_bytes(n, m, radius);
+  raw.assign(fixed, 0);
+  raw.reserve(fixed + 7 * n);
+  uint8_t* sizes = raw.data();
+  uint8_t* base = sizes + m;
+  uint8_t* widths = base + 6 * m;
+  uint8_t* type_base = widths + 2 * m;
+  uint8_t* type_bits = type_base + m;
+  std::memcpy(sizes, node.meshlet_size.data(), m);
+  if (radius) std::memcpy(type_bits + m, node.radius_q.data(), 2 * n);
+  size_t k0 = 0;
+  for (size_t j = 0; j < m; ++j) {
+    const size_t end = k0 + node.meshlet_size[j];
+    uint16_t w = 0;
+    for (int a = 0; a < 3; ++a) {
+      uint16_t lo = 0xFFFF, hi = 0;
+      for (size_t k = k0; k < end; ++k) {
+        lo = std::min(lo, node.qpos[3 * k + a]);
+        hi = std::max(hi, node.qpos[3 * k + a]);
+      }
+      store16(base + 2 * (a * m + j), lo);
+      w = uint16_t(w | (std::bit_width(unsigned(hi - lo)) << (5 * a)));
+    }
+    store16(widths + 2 * j, w);
+    uint8_t tlo = 0xFF, thi = 0;
+    for (size_t k = k0; k < end; ++k) {
+      tlo = std::min(tlo, node.type_index[k]);
+      thi = std::max(thi, node.type_index[k]);
+    }
+    type_base[j] = tlo;
+    type_bits[j] = uint8_t(std::bit_width(unsigned(thi - tlo)));
+    k0 = end;
+  }
+  // The bit stream (appending may reallocate: re-derive pointers from offsets only).
+  BitWriter bw(raw);
+  k0 = 0;
+  for (size_t j = 0; j < m; ++j) {
+    const size_t end = k0 + node.meshlet_size[j];
+    const uint16_t w = load16(raw.data() + 7 * m + 2 * j);
+    for (int a = 0; a < 3; ++a) {
+      const unsigned wa = (w >> (5 * a)) & 31u;
+      const uint16_t b = load16(raw.data() + m + 2 * (a * m + j));
+      for (size_t k = k0; k < end; ++k) bw.put(uint32_t(node.qpos[3 * k + a] - b), wa);
+    }
+    const uint8_t tb = raw[9 * m + j], tw = raw[10 * m + j];
+    for (size_t k = k0; k < end; ++k) bw.put(uint32_t(node.type_index[k] - tb), tw);
+    k0 = end;
+  }
+  bw.flush();
+}
+
+Status decode_payload_raw(std::span<const uint8_t> raw, const PayloadLimits& lim, NodeData& out) {
+  const size_t n = lim.particle_count, m = lim.meshlet_count;
+  const size_t fixed = node_payload_fixed_bytes(n, m, lim.per_particle_radius);
+  if (raw.size() < fixed)
+    return make_error(Errc::format, "decoded payload has {} bytes, fewer than the {} of its fixed arrays", raw.size(), fixed);
+  const uint8_t* sizes = raw.data();
+  const uint8_t* base = sizes + m;
+  const uint8_t* widths = base + 6 * m;
+  const uint8_t* type_base = widths + 2 * m;
+  const uint8_t* type_bits = type_base + m;
+  const uint8_t* radius = type_bits + m;
+  const uint8_t* stream = raw.data() + fixed;
+  const size_t stream_bytes = raw.size() - fixed;
+
+  // Meshlet sizes and widths first: they decide how much of the stream is read.
+  uint64_t sum = 0, bits = 0;
+  for (size_t j = 0; j < m; ++j) {
+    if (sizes[j] < 1 || sizes[j] > lim.meshlet_size_max)
+      return make_error(Errc::range, "meshlet {} has {} particles (allowed 1..{})", j, sizes[j], lim.meshlet_size_max);
+    sum += sizes[j];
+    const uint16_t w = load16(widths + 2 * j);
+    const unsigned wx = w & 31u, wy = (w >> 5) & 31u, wz = (w >> 10) & 31u;
+    if ((w >> 15) != 0 || wx > kMaxAxisBits || wy > kMaxAxisBits || wz > kMaxAxisBits)
+      return make_error(Errc::range, "meshlet {} bit widths {:#06x}: x {} y {} z {} (each at most {}, bit 15 zero)", j, w, wx,
+                        wy, wz, kMaxAxisBits);
+    if (type_bits[j] > kMaxTypeBits)
+      return make_error(Errc::range, "meshlet {} type offsets of {} bits (at most {})", j, type_bits[j], kMaxTypeBits);
+    bits += uint64_t(sizes[j]) * (wx + wy + wz + type_bits[j]);
+  }
+  if (sum != n) return make_error(Errc::range, "meshlet sizes sum to {}, node has {} particles", sum, n);
+  if ((bits + 7) / 8 != stream_bytes)
+    return make_error(Errc::format, "bit stream has {} bytes, the meshlet bit widths give {} bits", stream_bytes, bits);
+  if (bits % 8 != 0 && (stream[stream_bytes - 1] >> (bits % 8)) != 0)
+    return make_error(Errc::format, "padding bits of the bit stream's last byte are not zero");
+
+  out.meshlet_size.assign(sizes, sizes + m);
+  out.qpos.resize(3 * n);
+  out.type_index.resize(n);
+  if (lim.per_particle_radius) {
+    out.radius_q.resize(n);
+    std::memcpy(out.radius_q.data(), radius, 2 * n);
+  } else {
+    out.radius_q.clear();
+  }
+  BitReader br(stream, stream_bytes);
+  uint16_t* q = out.qpos.data();
+  uint8_t* t = out.type_index.data();
+  size_t k0 = 0;
+  for (size_t j = 0; j < m; ++j) {
+    const size_t c = sizes[j];
+    const uint16_t w = load16(widths + 2 * j);
+    for (unsigned a = 0; a < 3; ++a) {
+      const unsigned wa = (w >> (5 * a)) & 31u;
+      const uint32_t b = load16(base + 2 * (a * m + j));
+      uint32_t any = 0;
+      uint16_t* qa = q + 3 * k0 + a;
+      br.run(c, wa, [&](size_t e, uint32_t off) {
+        const uint32_t v = b + off;
+        any |= v;
+        qa[3 * e] = uint16_t(v);
+      });
+      if (any > kQuantMax)
+        return make_error(Errc::range, "meshlet {} axis {}: base {} plus a {}-bit offset exceeds {}", j, "xyz"[a], b, wa,
+                          kQuantMax);
+    }
+    const uint32_t tb = type_base[j];
+    const unsigned tw = type_bits[j];
+    uint32_t tmax = 0;
+    br.run(c, tw, [&](size_t e, uint32_t off) {
+      const uint32_t v = tb + off;
+      tmax = std::max(tmax, v);
+      t[k0 + e] = uint8_t(v);
+    });
+    if (tmax >= lim.type_count) {  // name the first offending particle: t < tb means tb + offset wrapped past 255
+      for (size_t e = 0; e < c; ++e)
+        if (t[k0 + e] >= lim.type_count || uint32_t(t[k0 + e]) < tb)
+          return make_error(Errc::range, "particle {} has type index {} (type table has {})", k0 + e,
+                            t[k0 + e] < tb ? uint32_t(t[k0 + e]) + 256 : uint32_t(t[k0 + e]), lim.type_count);
+    }
+    k0 += c;
+  }
+  return {};
+}
+
+}  // namespace mds::store
