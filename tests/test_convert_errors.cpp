@@ -132,7 +132,7 @@ TEST(ConvertErrors, BadOptionsExitWithUsageCode) {
   for (const std::string& opt :
        {"--node-size 0"s, "--node-size 70000"s, "--meshlet-size 0"s, "--meshlet-size 256"s, "--radius -1"s,
         "--radius-by-type 1=abc"s, "--density-res 0x4x4"s, "--density-res foo"s, "--memory-budget 12XB"s,
-        "--format pdb"s, "--frame -3"s, "--frame first"s, "--threads 0"s}) {
+        "--format pdb"s, "--frame -3"s, "--frame first"s, "--threads 0"s, "--meshlet-builder kdtree"s}) {
     auto r = convert(td, base + opt);
     EXPECT_EQ(r.code, 2) << opt << ": " << r.err;
     EXPECT_NE(r.err.find("error"), std::string::npos) << opt;
@@ -172,6 +172,8 @@ TEST(ConvertErrors, SucceedsAndPrintsSummary) {
   EXPECT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.err.find("bytes/particle"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("max quant. error"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("pcl builder"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("x spacing"), std::string::npos) << r.err;
   EXPECT_TRUE(fs::exists(td.p / "o.mds"));
   EXPECT_TRUE(leftovers(td.p, {"ok.dump", "o.mds"}).empty());
 }

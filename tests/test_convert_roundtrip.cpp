@@ -210,7 +210,18 @@ TEST(ConvertRoundTrip, InMemoryLammpsDumpDecodesToTheInput) {
   auto rd = store::StoreReader::open(opt.output);
   ASSERT_TRUE(rd.ok());
   for (const auto& t : (*rd)->types()) EXPECT_FLOAT_EQ(t.radius, t.input_id == 2 ? 0.7f : 0.5f);
-  EXPECT_EQ(listing(td.p), (std::vector<fs::path>{"in.lammpstrj", "out.mds"}));
+  EXPECT_GT(rep->meshlet_diag_over_spacing, 0.0);
+  // the octree meshlet builder: same particles, same nodes, other meshlets
+  opt.output = td.p / "octree.mds";
+  opt.meshlet_builder = convert::MeshletBuilderKind::octree;
+  auto rep2 = convert::convert(opt);
+  ASSERT_TRUE(rep2.ok()) << rep2.error().message;
+  EXPECT_EQ(rep2->meshlet_builder, convert::MeshletBuilderKind::octree);
+  EXPECT_EQ(rep2->nodes, rep->nodes);
+  EXPECT_GT(rep2->mean_meshlet_size, 8.0);
+  EXPECT_GT(rep2->meshlet_diag_over_spacing, 0.0);
+  check_store(opt.output, input, opt, false);
+  EXPECT_EQ(listing(td.p), (std::vector<fs::path>{"in.lammpstrj", "octree.mds", "out.mds"}));
 }
 
 TEST(ConvertRoundTrip, BudgetSmallerThanAQuarterOfTheInputSpillsAndBins) {
@@ -231,8 +242,16 @@ TEST(ConvertRoundTrip, BudgetSmallerThanAQuarterOfTheInputSpillsAndBins) {
   EXPECT_TRUE(rep->spilled);
   EXPECT_GT(rep->bins, 1u);
   check_store(opt.output, input, opt, true);
+  // the same out of core with octree meshlets
+  opt.output = td.p / "big-octree.mds";
+  opt.meshlet_builder = convert::MeshletBuilderKind::octree;
+  auto rep2 = convert::convert(opt);
+  ASSERT_TRUE(rep2.ok()) << rep2.error().message;
+  EXPECT_TRUE(rep2->spilled);
+  EXPECT_EQ(rep2->nodes, rep->nodes);
+  check_store(opt.output, input, opt, true);
   // temporaries are gone
-  EXPECT_EQ(listing(td.p), (std::vector<fs::path>{"big.lammpstrj", "big.mds"}));
+  EXPECT_EQ(listing(td.p), (std::vector<fs::path>{"big-octree.mds", "big.lammpstrj", "big.mds"}));
 }
 
 TEST(ConvertRoundTrip, SeveralInputsThroughTheCliWithJsonReport) {
@@ -243,7 +262,8 @@ TEST(ConvertRoundTrip, SeveralInputsThroughTheCliWithJsonReport) {
   write_lammps(td.p / "b.dump", b, false);
   const std::string cmd = std::string(MDSTREAM_BIN) + " convert " + (td.p / "a.dump").string() + " " +
                           (td.p / "b.dump").string() + " -o " + (td.p / "ab.mds").string() +
-                          " --node-size 3000 --meshlet-size 32 --density-res 16x16x8 --threads 3 --quiet --json-report " +
+                          " --node-size 3000 --meshlet-size 32 --meshlet-builder octree --density-res 16x16x8 --threads 3 --quiet "
+                          "--json-report " +
                           (td.p / "r.json").string() + " 2>" + (td.p / "err.txt").string();
   ASSERT_EQ(run(cmd), 0);
   std::ifstream ef(td.p / "err.txt");
@@ -256,6 +276,10 @@ TEST(ConvertRoundTrip, SeveralInputsThroughTheCliWithJsonReport) {
   EXPECT_GT(j["bytes_per_particle"].get<double>(), 0.0);
   EXPECT_GT(j["compression_ratio"].get<double>(), 0.0);
   EXPECT_GT(j["peak_rss_bytes"].get<uint64_t>(), 0u);
+  EXPECT_EQ(j["meshlet_builder"], "octree");
+  EXPECT_GT(j["meshlet_quality"]["diag_over_spacing"].get<double>(), 0.0);
+  EXPECT_NEAR(j["meshlet_quality"]["mean_size"].get<double>(),
+              double(all.size()) / j["meshlets"].get<double>(), 1e-9);
   convert::ConvertOptions opt;
   opt.node_size = 3000;
   opt.meshlet_size = 32;

@@ -1,5 +1,6 @@
-// Unit tests of the converter's pieces: Morton keys, node building, PCL meshlets,
-// quantization, density grid, spill files and out-of-core binning, option parsing.
+// Unit tests of the converter's pieces: Morton keys, radix sort, octree partition and node
+// building, both meshlet builders and their quality measure, quantization, density grid, spill
+// files and out-of-core binning, option parsing.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -15,15 +16,28 @@
 #include "convert/converter.h"
 #include "convert/density.h"
 #include "convert/meshlet_builder.h"
+#include "convert/meshlet_quality.h"
 #include "convert/morton.h"
 #include "convert/node_builder.h"
 #include "convert/quantize.h"
+#include "convert/radix_sort.h"
 #include "convert/spill.h"
 
 using namespace mds;
 using namespace mds::convert;
 
 namespace {
+
+struct KeyedRecord {
+  uint64_t key;
+  SpillRecord r;
+};
+
+std::vector<uint64_t> keys_of(const std::vector<KeyedRecord>& recs) {
+  std::vector<uint64_t> k;
+  for (const auto& r : recs) k.push_back(r.key);
+  return k;
+}
 
 std::vector<KeyedRecord> sorted_records(std::vector<SpillRecord> in, double lo[3], double hi[3]) {
   for (int a = 0; a < 3; ++a) {
@@ -118,14 +132,17 @@ TEST(Morton, CubeOfSide2kMapsOntoKeyRange8k) {
 }
 
 TEST(Morton, GridMapsBoundsAndClamps) {
-  const double lo[3] = {-1, 0, 10}, hi[3] = {1, 0, 20};  // y degenerate
+  const double lo[3] = {-1, 0, 10}, hi[3] = {1, 0, 20};  // y degenerate, z the longest axis
   MortonGrid g(lo, hi);
-  EXPECT_EQ(g.cell(0, -1), 0u);
-  EXPECT_EQ(g.cell(0, 1), kMortonAxisMax);
-  EXPECT_EQ(g.cell(0, -5), 0u);
-  EXPECT_EQ(g.cell(0, 5), kMortonAxisMax);
-  EXPECT_EQ(g.cell(1, 0), 0u);
+  EXPECT_EQ(g.cell(2, 10), 0u);
+  EXPECT_EQ(g.cell(2, 20), kMortonAxisMax);
   EXPECT_EQ(g.cell(2, 15), 1u << 20);
+  // cubic cells: x (extent 2 of 10) uses a fifth of the range
+  EXPECT_EQ(g.cell(0, -1), 0u);
+  EXPECT_EQ(g.cell(0, 1), uint32_t(2.0 / 10.0 * double(1u << kMortonBitsPerAxis)));
+  EXPECT_EQ(g.cell(0, -5), 0u);
+  EXPECT_EQ(g.cell(0, 50), kMortonAxisMax);
+  EXPECT_EQ(g.cell(1, 0), 0u);
   EXPECT_LT(g.key(-0.9, 0, 10.1), g.key(0.9, 0, 19.9));
 }
 
@@ -148,7 +165,7 @@ TEST(NodeBuilder, UniformDataGivesCompactNodesWithinSize) {
   double lo[3], hi[3];
   auto recs = sorted_records(uniform(200000, 100.0, 7), lo, hi);
   const uint32_t node_size = 10000;
-  auto nodes = build_nodes(recs, 0, node_size);
+  auto nodes = build_nodes(keys_of(recs), 0, node_size);
   check_partition(nodes, recs.size(), node_size);
   // Not tiny: merging keeps the mean well above a quarter of the limit.
   EXPECT_GT(double(recs.size()) / double(nodes.size()), node_size / 4.0);
@@ -175,7 +192,7 @@ TEST(NodeBuilder, ClusteredDataNodesCoverLittleOfTheBox) {
   }
   double lo[3], hi[3];
   auto recs = sorted_records(v, lo, hi);
-  auto nodes = build_nodes(recs, 0, 5000);
+  auto nodes = build_nodes(keys_of(recs), 0, 5000);
   check_partition(nodes, recs.size(), 5000);
   double sum = 0;
   for (const auto& nr : nodes) {
@@ -190,14 +207,14 @@ TEST(NodeBuilder, ClusteredDataNodesCoverLittleOfTheBox) {
 TEST(NodeBuilder, SmallInputIsOneNodeAndDuplicatesAreChunked) {
   double lo[3], hi[3];
   auto small = sorted_records(uniform(500, 1.0, 9), lo, hi);
-  auto n1 = build_nodes(small, 0, 10000);
+  auto n1 = build_nodes(keys_of(small), 0, 10000);
   ASSERT_EQ(n1.size(), 1u);
   EXPECT_EQ(n1[0].size(), 500u);
   // 25000 identical points cannot be split spatially: chunks of node_size.
   std::vector<SpillRecord> same(25000, SpillRecord{1, 2, 3, 1, 0.5f});
   same.push_back({0, 0, 0, 1, 0.5f});
   auto recs = sorted_records(same, lo, hi);
-  auto n2 = build_nodes(recs, 0, 10000);
+  auto n2 = build_nodes(keys_of(recs), 0, 10000);
   check_partition(n2, recs.size(), 10000);
 }
 
@@ -210,12 +227,48 @@ TEST(NodeBuilder, NodesStayInsideTheStartCell) {
   for (const auto& r : all)
     if (morton_prefix(r.key, 3) == 5) bin.push_back(r);
   ASSERT_GT(bin.size(), 5000u);
-  auto nodes = build_nodes(bin, 1, 1000);
+  auto nodes = build_nodes(keys_of(bin), 1, 1000);
   check_partition(nodes, bin.size(), 1000);
   for (const auto& nr : nodes) {
     const uint64_t a = bin[nr.begin].key, b = bin[nr.end - 1].key;
     EXPECT_EQ(morton_prefix(a, 3), morton_prefix(b, 3));
   }
+}
+
+// ---------------------------------------------------------------- radix sort
+
+TEST(RadixSort, MatchesStableSortOnUniformClusteredAndEqualKeys) {
+  std::mt19937_64 rng(21);
+  auto check = [](std::vector<uint64_t> keys, unsigned threads) {
+    std::vector<uint32_t> idx(keys.size());
+    std::iota(idx.begin(), idx.end(), 0u);
+    std::vector<std::pair<uint64_t, uint32_t>> ref;
+    for (size_t i = 0; i < keys.size(); ++i) ref.push_back({keys[i], uint32_t(i)});
+    std::stable_sort(ref.begin(), ref.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+    std::vector<uint64_t> kt(keys.size());
+    std::vector<uint32_t> it(keys.size());
+    radix_sort_pairs(keys, idx, kt, it, threads);
+    ASSERT_EQ(keys.size(), ref.size());
+    for (size_t i = 0; i < ref.size(); ++i) {
+      ASSERT_EQ(keys[i], ref[i].first) << "at " << i << ", " << threads << " threads";
+      ASSERT_EQ(idx[i], ref[i].second) << "at " << i << " (stability), " << threads << " threads";
+    }
+  };
+  std::vector<uint64_t> uniform_keys(300000), clustered(400000), narrow(200000), equal(100000, 12345);
+  for (auto& k : uniform_keys) k = rng() >> 1;  // 63-bit Morton keys
+  // 95% in one tiny cell (forces MSD recursion inside a bucket), many duplicates, plus outliers.
+  for (size_t i = 0; i < clustered.size(); ++i)
+    clustered[i] = (i % 20 == 0) ? (rng() >> 1) : ((uint64_t(5) << 59) | (rng() % 70000) * 977);
+  for (auto& k : narrow) k = (uint64_t(1) << 62) + (rng() % 1000);  // shared prefix: most digits skipped
+  for (unsigned threads : {1u, 2u, 3u}) {
+    check(uniform_keys, threads);
+    check(clustered, threads);
+    check(narrow, threads);
+    check(equal, threads);
+  }
+  check({}, 2);
+  check({7}, 2);
+  check({9, 3, 3, 1, 9, 0}, 2);
 }
 
 // ---------------------------------------------------------------- meshlets
@@ -224,14 +277,36 @@ struct MeshletStats {
   double mean_size = 0;
   double mean_extent = 0;
   size_t max_size = 0;
+  MeshletQuality quality;
 };
 
-static MeshletStats check_meshlets(const std::vector<double>& xyz, uint32_t msize) {
-  MeshletBuilder mb;
+// Keys and interleaved positions of sorted records.
+struct NodeData {
+  std::vector<uint64_t> keys;
+  std::vector<double> xyz;
+};
+static NodeData node_data(const std::vector<KeyedRecord>& recs) {
+  NodeData d;
+  for (const auto& r : recs) {
+    d.keys.push_back(r.key);
+    d.xyz.insert(d.xyz.end(), {r.r.x, r.r.y, r.r.z});
+  }
+  return d;
+}
+static NodeData node_data(const std::vector<SpillRecord>& v) {
+  double lo[3], hi[3];
+  return node_data(sorted_records(v, lo, hi));
+}
+
+// Builds meshlets and checks they partition the node: every index exactly once, sizes 1..msize.
+static MeshletStats check_meshlets(MeshletBuilderKind kind, const NodeData& d, uint32_t msize) {
+  auto mb = make_meshlet_builder(kind);
   std::vector<uint32_t> order;
   std::vector<uint8_t> sizes;
+  const auto& xyz = d.xyz;
   const size_t n = xyz.size() / 3;
-  EXPECT_TRUE(mb.build(xyz, msize, order, sizes).ok());
+  auto st0 = mb->build(d.keys, xyz, msize, order, sizes);
+  EXPECT_TRUE(st0.ok()) << (st0.ok() ? "" : st0.error().message);
   EXPECT_EQ(order.size(), n);
   std::vector<uint8_t> seen(n, 0);
   for (auto i : order) {
@@ -255,50 +330,122 @@ static MeshletStats check_meshlets(const std::vector<double>& xyz, uint32_t msiz
   }
   st.mean_size = double(n) / double(sizes.size());
   st.mean_extent /= double(sizes.size());
+  add_meshlet_quality(xyz, order, sizes, st.quality);
   return st;
 }
 
+constexpr MeshletBuilderKind kBothBuilders[] = {MeshletBuilderKind::pcl, MeshletBuilderKind::octree};
+
 TEST(MeshletBuilder, PartitionsUniformNodeIntoCompactMeshletsOf16) {
-  double lo[3], hi[3];
-  auto recs = sorted_records(uniform(10000, 1.0, 5), lo, hi);
-  std::vector<double> xyz;
-  for (const auto& r : recs) xyz.insert(xyz.end(), {r.r.x, r.r.y, r.r.z});
-  auto st = check_meshlets(xyz, 16);
-  EXPECT_GT(st.mean_size, 14.0);
-  EXPECT_EQ(st.max_size, 16u);
+  const NodeData d = node_data(uniform(10000, 1.0, 5));
+  auto pcl = check_meshlets(MeshletBuilderKind::pcl, d, 16);
+  EXPECT_GT(pcl.mean_size, 14.0);
+  EXPECT_EQ(pcl.max_size, 16u);
   // 16 of 10000 uniform points in a unit cube: a ball of radius ~0.07; random groups span ~0.9.
-  EXPECT_LT(st.mean_extent, 0.25);
+  EXPECT_LT(pcl.mean_extent, 0.25);
+  auto oct = check_meshlets(MeshletBuilderKind::octree, d, 16);
+  EXPECT_EQ(oct.max_size, 16u);
+  EXPECT_GT(oct.mean_size, 8.0);  // binary-halves merging keeps leaves above half the capacity on average
+  EXPECT_LT(oct.mean_extent, 0.25);
 }
 
-TEST(MeshletBuilder, WorksFarFromOriginAndOnDegenerateData) {
-  // 1e6 offset with 1e-3 spacing: float-relative coordinates keep neighbourhoods meaningful.
-  double lo[3], hi[3];
-  auto recs = sorted_records(uniform(4000, 0.05, 6, 1.0e6), lo, hi);
+TEST(MeshletBuilder, BothWorkFarFromOriginAndOnDegenerateData) {
+  for (auto kind : kBothBuilders) {
+    SCOPED_TRACE(meshlet_builder_name(kind));
+    // 1e6 offset with 1e-3 spacing: float-relative coordinates keep neighbourhoods meaningful.
+    auto st = check_meshlets(kind, node_data(uniform(4000, 0.05, 6, 1.0e6)), 16);
+    EXPECT_GT(st.mean_size, kind == MeshletBuilderKind::pcl ? 14.0 : 8.0);
+    EXPECT_LT(st.mean_extent, 0.05 * 0.4);
+    // all points identical: keys equal, chunks of the capacity
+    auto st2 = check_meshlets(kind, node_data(std::vector<SpillRecord>(100, SpillRecord{4, 4, 4, 1, 0.5f})), 16);
+    EXPECT_EQ(st2.max_size, 16u);
+    // flat (2D) data, other meshlet sizes
+    std::vector<SpillRecord> flat;
+    std::mt19937 rng(2);
+    for (int i = 0; i < 3000; ++i) flat.push_back({double(rng() % 1000), double(rng() % 1000), 0.0, 1, 0.5f});
+    const NodeData fd = node_data(flat);
+    check_meshlets(kind, fd, 1);
+    check_meshlets(kind, fd, 255);
+    check_meshlets(kind, fd, 7);
+    check_meshlets(kind, node_data(std::vector<SpillRecord>{{1, 2, 3, 1, 0.5f}}), 16);
+  }
+}
+
+TEST(MeshletBuilder, RejectsBadArguments) {
+  for (auto kind : kBothBuilders) {
+    auto mb = make_meshlet_builder(kind);
+    std::vector<uint32_t> order;
+    std::vector<uint8_t> sizes;
+    std::vector<double> xyz = {0, 0, 0, 1, 1, 1};
+    std::vector<uint64_t> keys = {0, 7};
+    EXPECT_FALSE(mb->build(keys, xyz, 0, order, sizes).ok());
+    EXPECT_FALSE(mb->build(keys, xyz, 256, order, sizes).ok());
+    EXPECT_FALSE(mb->build(std::vector<uint64_t>{0}, xyz, 16, order, sizes).ok());  // key count != n
+  }
+  EXPECT_EQ(parse_meshlet_builder("pcl"), MeshletBuilderKind::pcl);
+  EXPECT_EQ(parse_meshlet_builder("octree"), MeshletBuilderKind::octree);
+  EXPECT_FALSE(parse_meshlet_builder("kdtree").has_value());
+}
+
+TEST(MeshletQuality, MeasuresDiagonalOverSpacingOnALattice) {
+  // 4x4x4 lattice of spacing 1 in 2x2x2 blocks of 8: node box 3^3 over 64 particles gives a
+  // spacing of (27/64)^(1/3) = 0.75; each block's diagonal is sqrt(3).
   std::vector<double> xyz;
-  for (const auto& r : recs) xyz.insert(xyz.end(), {r.r.x, r.r.y, r.r.z});
-  auto st = check_meshlets(xyz, 16);
-  EXPECT_GT(st.mean_size, 14.0);
-  EXPECT_LT(st.mean_extent, 0.05 * 0.4);
-  // all points identical
-  std::vector<double> same(3 * 100, 4.0);
-  auto st2 = check_meshlets(same, 16);
-  EXPECT_EQ(st2.max_size, 16u);
-  // flat (2D) data, other meshlet sizes
-  std::vector<double> flat;
-  std::mt19937 rng(2);
-  for (int i = 0; i < 3000; ++i) flat.insert(flat.end(), {double(rng() % 1000), double(rng() % 1000), 0.0});
-  check_meshlets(flat, 1);
-  check_meshlets(flat, 255);
-  check_meshlets(std::vector<double>{1, 2, 3}, 16);
+  std::vector<uint32_t> order;
+  for (int z = 0; z < 4; ++z)
+    for (int y = 0; y < 4; ++y)
+      for (int x = 0; x < 4; ++x) xyz.insert(xyz.end(), {double(x), double(y), double(z)});
+  for (int b = 0; b < 8; ++b)
+    for (int k = 0; k < 8; ++k) {
+      const int x = 2 * (b & 1) + (k & 1), y = 2 * ((b >> 1) & 1) + ((k >> 1) & 1), z = 2 * (b >> 2) + (k >> 2);
+      order.push_back(uint32_t(x + 4 * y + 16 * z));
+    }
+  std::vector<uint8_t> sizes(8, 8);
+  MeshletQuality q;
+  add_meshlet_quality(xyz, order, sizes, q);
+  EXPECT_NEAR(q.mean_diag_over_spacing(), std::sqrt(3.0) / 0.75, 1e-9);
+  EXPECT_DOUBLE_EQ(q.mean_size(), 8.0);
+  // Stripes (one x-row of 4 per meshlet, 16 meshlets) on the same lattice: diagonal 3.
+  std::vector<uint32_t> rows(64);
+  std::iota(rows.begin(), rows.end(), 0u);
+  MeshletQuality q2;
+  add_meshlet_quality(xyz, rows, std::vector<uint8_t>(16, 4), q2);
+  EXPECT_NEAR(q2.mean_diag_over_spacing(), 3.0 / 0.75, 1e-9);
+  EXPECT_DOUBLE_EQ(q2.mean_size(), 4.0);
+  // A flat node measures over its 2 non-degenerate axes; a point-like node is not measured.
+  const double lo[3] = {0, 0, 5}, hi[3] = {4, 9, 5};
+  EXPECT_NEAR(mean_spacing(lo, hi, 4), 3.0, 1e-12);
+  EXPECT_EQ(mean_spacing(lo, lo, 10), 0.0);
 }
 
-TEST(MeshletBuilder, RejectsBadMeshletSize) {
-  MeshletBuilder mb;
-  std::vector<uint32_t> order;
-  std::vector<uint8_t> sizes;
-  std::vector<double> xyz = {0, 0, 0, 1, 1, 1};
-  EXPECT_FALSE(mb.build(xyz, 0, order, sizes).ok());
-  EXPECT_FALSE(mb.build(xyz, 256, order, sizes).ok());
+// The octree builder trades meshlet fill for speed; its compactness stays within a stated
+// factor of the PCL builder's: diag/spacing at most 1.25x PCL's and mean size at least 0.55x.
+TEST(MeshletQuality, OctreeBuilderWithinFactorOfPclOnUniformAndClusteredNodes) {
+  std::mt19937_64 rng(8);
+  std::normal_distribution<double> g(0, 1);
+  std::vector<SpillRecord> clustered;
+  for (int i = 0; i < 10000; ++i) {
+    const double c = 10.0 * double(i % 5);  // 5 Gaussian blobs on a line
+    clustered.push_back({c + g(rng), 0.3 * g(rng), 0.3 * g(rng), 1, 0.5f});
+  }
+  for (const auto& input : {uniform(10000, 1.0, 17), clustered}) {
+    const NodeData d = node_data(input);
+    const auto pcl = check_meshlets(MeshletBuilderKind::pcl, d, 16);
+    const auto oct = check_meshlets(MeshletBuilderKind::octree, d, 16);
+    std::printf("  pcl: diag/spacing %.3f mean size %.2f; octree: diag/spacing %.3f mean size %.2f\n",
+                pcl.quality.mean_diag_over_spacing(), pcl.quality.mean_size(), oct.quality.mean_diag_over_spacing(),
+                oct.quality.mean_size());
+    EXPECT_LT(oct.quality.mean_diag_over_spacing(), 1.25 * pcl.quality.mean_diag_over_spacing());
+    EXPECT_GT(oct.quality.mean_size(), 0.55 * pcl.quality.mean_size());
+    // Both far better than a grouping that ignores space (16 consecutive input indices).
+    std::vector<uint32_t> arbitrary(input.size());
+    std::iota(arbitrary.begin(), arbitrary.end(), 0u);
+    std::vector<double> raw;
+    for (const auto& r : input) raw.insert(raw.end(), {r.x, r.y, r.z});
+    MeshletQuality bad;
+    add_meshlet_quality(raw, arbitrary, std::vector<uint8_t>(input.size() / 16, 16), bad);
+    EXPECT_GT(bad.mean_diag_over_spacing(), 3.0 * pcl.quality.mean_diag_over_spacing());
+  }
 }
 
 // ---------------------------------------------------------------- quantization

@@ -1,19 +1,23 @@
 #!/usr/bin/python3
-"""Conversion benchmark: speed (particles/s), peak RSS and store size of `mdstream convert`.
+"""Conversion benchmark: speed (particles/s), peak RSS, store size and meshlet quality of `mdstream convert`.
 
 For each scene (porous, ablation) and size N it generates the scene with `mdstream synth`,
 then converts
   (a) the LAMMPS text dump  (`--format lammps`), and
   (b) the same positions as raw little-endian float32 xyz (`--format raw`; written from the
-      dump with numpy, outside the timed region),
-each REPEATS times, and reports medians. Wall time and peak RSS are measured here (os.wait4
-of the child); the converter's own --json-report supplies bytes/particle, compression ratio
-and the maximum quantization error.
+      dump by a child process, outside the timed region),
+with each meshlet builder (`--meshlet-builder pcl` and `octree`), each REPEATS times, and
+reports medians. Wall time is measured here; peak RSS is the converter's own VmHWM from its
+--json-report (the wait4 ru_maxrss of a child also counts the memory of this Python process
+at fork time, so it is recorded only as `wait4_maxrss_mib`); the report also supplies
+bytes/particle, compression ratio, the maximum quantization error, the meshlet quality
+(mean meshlet bounding-box diagonal / node particle spacing, mean meshlet size) and the
+per-stage times.
 
 Writes docs/results/convert.md (table + machine info), convert.csv and convert.png
 (throughput vs N). Any failed step aborts the run without writing results.
 
-  /usr/bin/python3 tools/bench_convert.py [--build-dir build] [--sizes 1M,4M,10M] [--quick]
+  /usr/bin/python3 tools/bench_convert.py [--build-dir build] [--sizes 1M,4M,10M] [--builders pcl,octree] [--quick]
 
 Issue 2 targets on 2 cores: >= 5 M particles/s from LAMMPS text, >= 20 M/s from binary,
 <= 7 bytes/particle.
@@ -68,18 +72,33 @@ def run_measured(cmd, log):
     return wall, usage.ru_utime + usage.ru_stime, usage.ru_maxrss * 1024  # Linux: ru_maxrss in KiB
 
 
+DUMP_TO_RAW = r"""
+import sys
+import numpy as np
+dump, raw = sys.argv[1], sys.argv[2]
+with open(dump, "rb") as f:
+    head = [f.readline() for _ in range(9)]
+    if not head[8].startswith(b"ITEM: ATOMS id type x y z"):
+        sys.exit(f"{dump}: unexpected columns: {head[8].strip()}")
+    n = int(head[3])
+    with open(raw, "wb") as out:
+        done = 0
+        while done < n:
+            lines = f.readlines(64 << 20)
+            if not lines:
+                break
+            v = np.array(b" ".join(lines).split(), dtype=np.float64).reshape(-1, 5)
+            v[:, 2:5].astype("<f4").tofile(out)
+            done += v.shape[0]
+if done != n:
+    sys.exit(f"{dump}: read {done} positions, expected {n}")
+"""
+
+
 def dump_to_raw(dump, raw):
-    """Writes the positions of a single-frame `id type x y z` LAMMPS dump as float32 xyz."""
-    import numpy as np
-    with open(dump, "r") as f:
-        head = [f.readline() for _ in range(9)]
-        if not head[8].startswith("ITEM: ATOMS id type x y z"):
-            raise RuntimeError(f"{dump}: unexpected columns: {head[8].strip()}")
-        n = int(head[3])
-        xyz = np.loadtxt(f, usecols=(2, 3, 4), dtype=np.float64, max_rows=n)
-    if xyz.shape != (n, 3):
-        raise RuntimeError(f"{dump}: read {xyz.shape} positions, expected ({n}, 3)")
-    xyz.astype("<f4").tofile(raw)
+    """Writes the positions of a single-frame `id type x y z` LAMMPS dump as float32 xyz.
+    Runs in a child process so that this process stays small (see the RSS note above)."""
+    subprocess.run([sys.executable, "-c", DUMP_TO_RAW, dump, raw], check=True)
 
 
 def machine_info():
@@ -127,6 +146,7 @@ def main():
     ap.add_argument("--work-dir", default=None, help="folder for inputs/stores (default: a temporary folder)")
     ap.add_argument("--keep", action="store_true", help="keep the generated inputs and stores")
     ap.add_argument("--threads", type=int, default=None, help="pass --threads to convert (default: its own)")
+    ap.add_argument("--builders", default="pcl,octree", help="meshlet builders to compare (default pcl,octree)")
     args = ap.parse_args()
     args.sizes = args.sizes or ("200k,500k" if args.quick else "1M,4M,10M")
     args.repeats = args.repeats or (2 if args.quick else 3)
@@ -136,6 +156,7 @@ def main():
         sys.exit(f"bench_convert: {exe} not found; build first (cmake --build {args.build_dir} --target mdstream)")
     sizes = [parse_count(s) for s in args.sizes.split(",") if s]
     scenes = [s for s in args.scenes.split(",") if s]
+    builders = [b for b in args.builders.split(",") if b]
     work = args.work_dir or tempfile.mkdtemp(prefix="mdstream-bench-")
     os.makedirs(work, exist_ok=True)
     info = machine_info()
@@ -153,15 +174,18 @@ def main():
                 synth_s = time.perf_counter() - t0
                 raw = base + ".f32"
                 dump_to_raw(dump, raw)
-                for kind, path, fmt in (("lammps text", dump, "lammps"), ("raw float32", raw, "raw")):
+                for (kind, path, fmt), builder in ((k, b) for k in (("lammps text", dump, "lammps"),
+                                                                     ("raw float32", raw, "raw")) for b in builders):
                     walls, cpus, rsses, reports = [], [], [], []
                     for rep in range(args.repeats):
-                        store = base + f".{fmt}.mds"
-                        report = base + f".{fmt}.{rep}.json"
-                        cmd = [exe, "convert", path, "-o", store, "--format", fmt, "--json-report", report, "--quiet"]
+                        tag = f"{fmt}.{builder}"
+                        store = base + f".{tag}.mds"
+                        report = base + f".{tag}.{rep}.json"
+                        cmd = [exe, "convert", path, "-o", store, "--format", fmt, "--meshlet-builder", builder,
+                               "--json-report", report, "--quiet"]
                         if args.threads:
                             cmd += ["--threads", str(args.threads)]
-                        wall, cpu, rss = run_measured(cmd, base + f".{fmt}.{rep}.log")
+                        wall, cpu, rss = run_measured(cmd, base + f".{tag}.{rep}.log")
                         with open(report) as f:
                             r = json.load(f)
                         if r.get("particles") != n:
@@ -173,10 +197,13 @@ def main():
                         os.remove(store)
                     wall = statistics.median(walls)
                     last = reports[-1]
+                    def med(key):
+                        return round(statistics.median(r["seconds"][key] for r in reports), 4)
                     row = {
                         "scene": scene,
                         "particles": n,
                         "input": kind,
+                        "meshlet_builder": builder,
                         "input_bytes": os.path.getsize(path),
                         "wall_s_median": round(wall, 4),
                         "wall_s_min": round(min(walls), 4),
@@ -185,21 +212,31 @@ def main():
                         "cpu_s_median": round(statistics.median(cpus), 4),
                         "particles_per_cpu_s": round(n / statistics.median(cpus)),
                         "reported_particles_per_s": round(statistics.median(r["particles_per_second"] for r in reports)),
-                        "peak_rss_mib": round(statistics.median(rsses) / 2**20, 1),
-                        "reported_peak_rss_mib": round(statistics.median(r["peak_rss_bytes"] for r in reports) / 2**20, 1),
+                        "peak_rss_mib": round(statistics.median(r["peak_rss_bytes"] for r in reports) / 2**20, 1),
+                        "wait4_maxrss_mib": round(statistics.median(rsses) / 2**20, 1),
                         "bytes_per_particle": round(last["bytes_per_particle"], 4),
                         "compression_ratio": round(last["compression_ratio"], 4),
                         "max_quantization_error": last["max_quantization_error"],
                         "max_error_over_half_step": last.get("max_error_over_half_step", float("nan")),
                         "nodes": last["nodes"],
                         "meshlets": last["meshlets"],
+                        "meshlet_mean_size": round(last["meshlet_quality"]["mean_size"], 3),
+                        "meshlet_diag_over_spacing": round(last["meshlet_quality"]["diag_over_spacing"], 3),
+                        "read_s": med("read"),
+                        "sort_s": med("sort"),
+                        "build_s": med("build"),
+                        "gather_cpu_s": med("gather_cpu"),
+                        "meshlets_cpu_s": med("meshlets_cpu"),
+                        "encode_cpu_s": med("encode_cpu"),
+                        "finish_s": med("finish"),
                         "synth_s": round(synth_s, 3),
                         "repeats": args.repeats,
                     }
                     rows.append(row)
-                    print(f"  {scene:9s} {fmt_count(n):>5s} {kind:12s} {row['particles_per_s'] / 1e6:7.2f} M/s "
+                    print(f"  {scene:9s} {fmt_count(n):>5s} {kind:12s} {builder:6s} {row['particles_per_s'] / 1e6:7.2f} M/s "
                           f"(walls {', '.join(f'{w:.2f}' for w in walls)} s)  RSS {row['peak_rss_mib']:.0f} MiB  "
-                          f"{row['bytes_per_particle']:.3f} B/particle  max err {row['max_quantization_error']:.3g}",
+                          f"{row['bytes_per_particle']:.3f} B/particle  meshlets {row['meshlet_mean_size']:.2f} "
+                          f"x {row['meshlet_diag_over_spacing']:.2f}  max err {row['max_quantization_error']:.3g}",
                           flush=True)
                 if not args.keep:
                     os.remove(dump)
@@ -225,10 +262,11 @@ def write_results(args, rows, info, load_before, load_after):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(7, 4.5))
-    for (scene, kind) in sorted({(r["scene"], r["input"]) for r in rows}):
-        pts = sorted((r["particles"], r["particles_per_s"]) for r in rows if r["scene"] == scene and r["input"] == kind)
-        ax.plot([p[0] for p in pts], [p[1] / 1e6 for p in pts], marker="o",
-                linestyle="-" if kind.startswith("lammps") else "--", label=f"{scene}, {kind}")
+    for (scene, kind, builder) in sorted({(r["scene"], r["input"], r["meshlet_builder"]) for r in rows}):
+        pts = sorted((r["particles"], r["particles_per_s"]) for r in rows
+                     if r["scene"] == scene and r["input"] == kind and r["meshlet_builder"] == builder)
+        ax.plot([p[0] for p in pts], [p[1] / 1e6 for p in pts], marker="o" if builder == "pcl" else "s",
+                linestyle="-" if kind.startswith("lammps") else "--", label=f"{scene}, {kind}, {builder}")
     ax.axhline(TARGET_TEXT / 1e6, color="gray", linewidth=0.8, linestyle=":")
     ax.axhline(TARGET_BINARY / 1e6, color="gray", linewidth=0.8, linestyle="-.")
     ax.set_xscale("log")
@@ -253,40 +291,48 @@ def write_results(args, rows, info, load_before, load_after):
                  f"(a load above the core count means other processes shared the CPU and the throughput is understated)\n")
     lines.append("## Method\n")
     lines.append("Inputs are generated with `mdstream synth` (scenes `porous` and `ablation`). Each input is converted "
-                 f"{args.repeats} times with `mdstream convert IN -o OUT.mds --format lammps|raw --json-report R.json --quiet` "
+                 f"{args.repeats} times with `mdstream convert IN -o OUT.mds --format lammps|raw --meshlet-builder pcl|octree "
+                 "--json-report R.json --quiet` "
                  "(default node size 10000, meshlet size 16, memory budget 2 GiB); the table shows medians. "
-                 "Throughput = particles / wall time of the whole command (reading, partitioning, meshlets, "
-                 "quantization, LZ4, density volume, writing), measured by the script; peak RSS of the child from "
-                 "`wait4`; CPU = user + system time of the child (all its threads). Binary input = the same positions as raw little-endian float32 xyz (12 bytes/particle, one "
-                 "type), written from the dump with numpy outside the timed region. bytes/particle = store size / "
-                 "particles; compression ratio = raw payload bytes / LZ4 payload bytes; max quantization error in "
-                 "length units (half a quantization step bounds it; `err/half-step` <= 1 is the requirement).\n")
+                 "Throughput = particles / wall time of the whole command (reading, sorting, meshlets, "
+                 "quantization, compression, density volume, writing), measured by the script; CPU = user + system "
+                 "time of the child (all its threads); peak RSS = the converter's VmHWM (its JSON report). "
+                 "Binary input = the same positions as raw little-endian float32 xyz (12 bytes/particle, one "
+                 "type), written from the dump outside the timed region. bytes/particle = store size / "
+                 "particles; max quantization error in length units (`err/half-step` <= 1 is the requirement). "
+                 "Meshlet quality: `diag/spacing` = mean over meshlets of the meshlet's bounding-box diagonal divided "
+                 "by its node's mean particle spacing (node box volume / particles)^(1/3) (lower = more compact), "
+                 "`size` = mean particles per meshlet (capacity 16). Stage columns (medians, from the report): read = "
+                 "parse + validate (wall), sort = Morton keys + radix sort (wall), meshlets / encode = CPU seconds "
+                 "summed over the worker threads.\n")
     lines.append("## Results\n")
-    lines.append("| scene | N | input | particles/s | wall [s] (min-max) | CPU [s] | peak RSS [MiB] | bytes/particle | "
-                 "compression ratio | max quantization error | err/half-step |")
-    lines.append("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    lines.append("| scene | N | input | meshlets | particles/s | wall [s] (min-max) | CPU [s] | peak RSS [MiB] | bytes/particle | "
+                 "meshlet size | diag/spacing | read [s] | sort [s] | meshlets CPU [s] | encode CPU [s] | err/half-step |")
+    lines.append("|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
-        lines.append(f"| {r['scene']} | {fmt_count(r['particles'])} | {r['input']} | "
+        lines.append(f"| {r['scene']} | {fmt_count(r['particles'])} | {r['input']} | {r['meshlet_builder']} | "
                      f"{r['particles_per_s'] / 1e6:.2f} M | {r['wall_s_median']:.2f} ({r['wall_s_min']:.2f}-{r['wall_s_max']:.2f}) | "
                      f"{r['cpu_s_median']:.2f} | "
-                     f"{r['peak_rss_mib']:.0f} | {r['bytes_per_particle']:.3f} | {r['compression_ratio']:.3f} | "
-                     f"{r['max_quantization_error']:.3g} | {r['max_error_over_half_step']:.4f} |")
+                     f"{r['peak_rss_mib']:.0f} | {r['bytes_per_particle']:.3f} | {r['meshlet_mean_size']:.2f} | "
+                     f"{r['meshlet_diag_over_spacing']:.2f} | {r['read_s']:.2f} | {r['sort_s']:.2f} | "
+                     f"{r['meshlets_cpu_s']:.2f} | {r['encode_cpu_s']:.2f} | {r['max_error_over_half_step']:.4f} |")
     lines.append("")
     lines.append("## Against the targets of issue 2 (2 cores)\n")
-    text = [r for r in rows if r["input"].startswith("lammps")]
-    binary = [r for r in rows if not r["input"].startswith("lammps")]
     def verdict(ok):
         return "met" if ok else "**not met**"
-    if text:
-        best = max(r["particles_per_s"] for r in text)
-        worst = min(r["particles_per_s"] for r in text)
-        lines.append(f"- LAMMPS text >= 5 M particles/s: {worst / 1e6:.2f}-{best / 1e6:.2f} M/s, "
-                     f"{verdict(worst >= TARGET_TEXT)} (at every size)")
-    if binary:
-        best = max(r["particles_per_s"] for r in binary)
-        worst = min(r["particles_per_s"] for r in binary)
-        lines.append(f"- binary >= 20 M particles/s: {worst / 1e6:.2f}-{best / 1e6:.2f} M/s, "
-                     f"{verdict(worst >= TARGET_BINARY)} (at every size)")
+    for builder in sorted({r["meshlet_builder"] for r in rows}):
+        text = [r for r in rows if r["input"].startswith("lammps") and r["meshlet_builder"] == builder]
+        binary = [r for r in rows if not r["input"].startswith("lammps") and r["meshlet_builder"] == builder]
+        if text:
+            best = max(r["particles_per_s"] for r in text)
+            worst = min(r["particles_per_s"] for r in text)
+            lines.append(f"- `{builder}` meshlets, LAMMPS text >= 5 M particles/s: {worst / 1e6:.2f}-{best / 1e6:.2f} M/s, "
+                         f"{verdict(worst >= TARGET_TEXT)} (at every size)")
+        if binary:
+            best = max(r["particles_per_s"] for r in binary)
+            worst = min(r["particles_per_s"] for r in binary)
+            lines.append(f"- `{builder}` meshlets, binary >= 20 M particles/s: {worst / 1e6:.2f}-{best / 1e6:.2f} M/s, "
+                         f"{verdict(worst >= TARGET_BINARY)} (at every size)")
     bmax = max(r["bytes_per_particle"] for r in rows)
     lines.append(f"- <= 7 bytes/particle: at most {bmax:.3f}, {verdict(bmax <= TARGET_BYTES)}")
     emax = max(r["max_error_over_half_step"] for r in rows)

@@ -1,29 +1,26 @@
-// The conversion pipeline driver (see converter.h): pass A (parse + spill), pass B
-// (Morton-prefix binning), per-bin build on worker threads, ordered append to the store.
+// The conversion pipeline driver (see converter.h): pass A (input_scan.h), pass B
+// (Morton-prefix binning, binning.h), per bin: Morton keys + parallel radix sort
+// (radix_sort.h), then nodes/meshlets/encoding on worker threads with an ordered append
+// (node_encoder.h).
 #include "convert/converter.h"
 
 #include <sys/resource.h>
-#include <time.h>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
-#include <condition_variable>
 #include <cstring>
 #include <fstream>
 #include <limits>
-#include <mutex>
-#include <optional>
 #include <thread>
-#include <unordered_map>
 
+#include "convert/big_buffer.h"
 #include "convert/binning.h"
-#include "convert/meshlet_builder.h"
+#include "convert/input_scan.h"
 #include "convert/morton.h"
-#include "convert/node_builder.h"
+#include "convert/node_encoder.h"
 #include "convert/progress.h"
-#include "convert/quantize.h"
+#include "convert/radix_sort.h"
 #include "convert/spill.h"
 #include "store/store_writer.h"
 
@@ -34,72 +31,19 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
-// CPU time of the calling thread / of the whole process (robust to other load on the machine).
-double thread_cpu_seconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
-}
 double process_cpu_seconds() {
   rusage ru{};
   getrusage(RUSAGE_SELF, &ru);
   return double(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) + 1e-6 * double(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
 }
 
-// Memory model of the budget (bytes per particle of each working set).
-constexpr uint64_t kRecordBytes = sizeof(KeyedRecord);   // a bin in memory
+// Memory model of the budget (bytes per particle of each working set). The readers' and the
+// store writer's own fixed I/O buffers (about 8 MiB each) are outside this model.
+constexpr uint64_t kBinBytesPerParticle = sizeof(SpillRecord) + 2 * (8 + 4);  // records + keys/perm, double-buffered
 constexpr uint64_t kBatchBytesPerParticle = 48;           // ParticleBatch (x,y,z,type,radius,id)
-constexpr uint64_t kWorkerBytesPerParticle = 192;         // per-node scratch: xyz, PCL cloud + kd-tree, qpos, ...
+constexpr uint64_t kWorkerBytesPerParticle = 192;         // per-node scratch: xyz, qpos, types, voxels, payload, ...
 constexpr uint64_t kInFlightBytesPerParticle = 24;        // an encoded node waiting to be appended
-constexpr unsigned kWindowPerThread = 4;                  // encoded nodes in flight per worker
-
-struct TypeStat {
-  float radius = 0;
-  uint64_t count = 0;
-  std::string name;
-};
-
-// Input type id -> uint8 index: a dense table when the ids span a small range, else a hash map.
-class TypeLut {
- public:
-  explicit TypeLut(const std::vector<int32_t>& sorted_ids) {
-    if (sorted_ids.empty()) return;
-    lo_ = sorted_ids.front();
-    const int64_t span = int64_t(sorted_ids.back()) - lo_ + 1;
-    if (span <= (1 << 16)) {
-      dense_.assign(size_t(span), 0);
-      for (size_t i = 0; i < sorted_ids.size(); ++i) dense_[size_t(int64_t(sorted_ids[i]) - lo_)] = uint8_t(i);
-    } else {
-      for (size_t i = 0; i < sorted_ids.size(); ++i) map_[sorted_ids[i]] = uint8_t(i);
-    }
-  }
-  uint8_t operator()(int32_t id) const {
-    if (!dense_.empty()) return dense_[size_t(int64_t(id) - lo_)];
-    return map_.at(id);
-  }
-
- private:
-  int64_t lo_ = 0;
-  std::vector<uint8_t> dense_;
-  std::unordered_map<int32_t, uint8_t> map_;
-};
-
-// Everything pass A learns about the input.
-struct InputScan {
-  uint64_t count = 0;
-  double lo[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
-                  std::numeric_limits<double>::infinity()};
-  double hi[3] = {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
-                  -std::numeric_limits<double>::infinity()};
-  bool per_particle_radius = false;
-  float prad_min = std::numeric_limits<float>::infinity();
-  float prad_max = 0;
-  std::map<int32_t, TypeStat> types;
-  bool in_memory = true;
-  std::vector<KeyedRecord> memory;        // in-memory path
-  std::optional<SpillWriter> spill;       // spill path
-  std::filesystem::path spill_path;
-};
+constexpr uint64_t kMaxBinRecords = std::numeric_limits<uint32_t>::max();  // permutation indices are uint32
 
 // The budget split (see the memory model above).
 struct BudgetPlan {
@@ -140,340 +84,63 @@ Status check_options(const ConvertOptions& o) {
 Result<BudgetPlan> plan_budget(const ConvertOptions& o, uint64_t density_voxels) {
   BudgetPlan p;
   const uint64_t b = o.memory_budget;
-  p.batch_particles = size_t(std::clamp<uint64_t>(b / 64 / kBatchBytesPerParticle, 256, 65536));
+  p.batch_particles = size_t(std::clamp<uint64_t>(b / 64 / kBatchBytesPerParticle / kReadAheadBatches, 256, 65536));
   p.spill_buffer_bytes = size_t(std::clamp<uint64_t>(b / 16, 64 << 10, 4 << 20));
   p.partition_buffer_bytes = size_t(std::clamp<uint64_t>(b / 4, 256 << 10, 256ull << 20));
   const uint64_t density_bytes = 2 * 4 * density_voxels;  // global counts + store summary copy
   const uint64_t workers = uint64_t(o.threads) * o.node_size * kWorkerBytesPerParticle;
   const uint64_t in_flight = uint64_t(o.threads) * kWindowPerThread * o.node_size * kInFlightBytesPerParticle;
-  const uint64_t fixed = density_bytes + workers + in_flight + p.batch_particles * kBatchBytesPerParticle +
-                         p.spill_buffer_bytes;
-  const uint64_t need = fixed + 2 * kRecordBytes * o.node_size;
+  const uint64_t fixed = density_bytes + workers + in_flight +
+                         kReadAheadBatches * p.batch_particles * kBatchBytesPerParticle + p.spill_buffer_bytes;
+  const uint64_t need = fixed + 2 * kBinBytesPerParticle * o.node_size;
   if (b < need)
     return make_error(Errc::budget,
                       "--memory-budget {} bytes is too small: node size {}, {} threads and {} density voxels need at "
                       "least {} bytes ({:.1f} MiB)",
                       b, o.node_size, o.threads, density_voxels, need, double(need) / (1 << 20));
-  p.max_bin_records = (b - fixed) / 2 / kRecordBytes;
+  p.max_bin_records = std::min((b - fixed) / kBinBytesPerParticle, kMaxBinRecords);
   return p;
 }
 
-// ---------------------------------------------------------------- pass A
-
-float type_radius(const ConvertOptions& o, const FrameInfo& info, int32_t id) {
-  if (auto it = o.radius_by_type.find(id); it != o.radius_by_type.end()) return it->second;
-  if (auto it = info.type_radius.find(id); it != info.type_radius.end() && it->second > 0 && std::isfinite(it->second))
-    return it->second;
-  return o.radius;
-}
-
-Status spill_memory(InputScan& s, TempDir& tmp, const BudgetPlan& plan) {
-  MDS_ASSIGN_OR_RETURN(s.spill_path, tmp.file("spill.rec"));
-  MDS_ASSIGN_OR_RETURN(SpillWriter w, SpillWriter::create(s.spill_path, plan.spill_buffer_bytes));
-  for (const auto& kr : s.memory) MDS_TRY(w.append(kr.r));
-  s.memory = {};
-  s.spill.emplace(std::move(w));
-  s.in_memory = false;
-  return {};
-}
-
-Status pass_a(const ConvertOptions& o, std::vector<std::unique_ptr<ParticleReader>>& readers, const BudgetPlan& plan,
-              TempDir& tmp, InputScan& s, Progress& progress) {
-  uint64_t declared = 0;
-  for (const auto& r : readers) declared += r->info().particle_count;
-  s.in_memory = declared <= plan.max_bin_records;
-  if (s.in_memory) {
-    s.memory.reserve(size_t(declared));
-  } else {
-    MDS_ASSIGN_OR_RETURN(s.spill_path, tmp.file("spill.rec"));
-    MDS_ASSIGN_OR_RETURN(SpillWriter w, SpillWriter::create(s.spill_path, plan.spill_buffer_bytes));
-    s.spill.emplace(std::move(w));
-  }
-  progress.stage("read", declared);
-  ParticleBatch batch;
-  batch.reserve(plan.batch_particles);
-  for (size_t f = 0; f < readers.size(); ++f) {
-    ParticleReader& reader = *readers[f];
-    const auto& path = o.inputs[f];
-    const FrameInfo& info = reader.info();
-    uint64_t index = 0;  // particle index within this input
-    int32_t last_id = 0;
-    TypeStat* last = nullptr;
-    for (;;) {
-      MDS_ASSIGN_OR_RETURN(size_t n, reader.read(batch, plan.batch_particles));
-      if (n == 0) break;
-      if (batch.x.size() != n || batch.y.size() != n || batch.z.size() != n || batch.type.size() != n ||
-          (!batch.radius.empty() && batch.radius.size() != n))
-        return make_error(Errc::internal, "{}: reader returned inconsistent batch sizes", path.string());
-      const bool has_radius = !batch.radius.empty();
-      s.per_particle_radius = s.per_particle_radius || has_radius;
-      for (size_t i = 0; i < n; ++i, ++index) {
-        SpillRecord r{batch.x[i], batch.y[i], batch.z[i], batch.type[i], 0.0f};
-        if (!std::isfinite(r.x) || !std::isfinite(r.y) || !std::isfinite(r.z))
-          return make_error(Errc::range, "{}: particle {}: non-finite coordinate ({}, {}, {})", path.string(), index,
-                            r.x, r.y, r.z);
-        if (!last || r.type != last_id) {
-          auto it = s.types.find(r.type);
-          if (it == s.types.end()) {
-            if (s.types.size() >= store::kMaxTypes)
-              return make_error(Errc::unsupported, "{}: particle {}: type {} is the {}th distinct type; at most {} are "
-                                "supported", path.string(), index, r.type, s.types.size() + 1, store::kMaxTypes);
-            it = s.types.emplace(r.type, TypeStat{type_radius(o, info, r.type), 0, {}}).first;
-          }
-          last = &it->second;
-          last_id = r.type;
-        }
-        ++last->count;
-        if (has_radius) {
-          const float rad = batch.radius[i];
-          if (!std::isfinite(rad) || rad < 0)
-            return make_error(Errc::range, "{}: particle {}: invalid radius {}", path.string(), index, rad);
-          r.radius = rad;
-        } else {
-          r.radius = last->radius;
-        }
-        s.prad_min = std::min(s.prad_min, r.radius);
-        s.prad_max = std::max(s.prad_max, r.radius);
-        s.lo[0] = std::min(s.lo[0], r.x);
-        s.lo[1] = std::min(s.lo[1], r.y);
-        s.lo[2] = std::min(s.lo[2], r.z);
-        s.hi[0] = std::max(s.hi[0], r.x);
-        s.hi[1] = std::max(s.hi[1], r.y);
-        s.hi[2] = std::max(s.hi[2], r.z);
-        if (s.in_memory) {
-          if (s.memory.size() >= plan.max_bin_records) MDS_TRY(spill_memory(s, tmp, plan));
-        }
-        if (s.in_memory) {
-          s.memory.push_back({0, r});
-        } else {
-          MDS_TRY(s.spill->append(r));
-        }
-      }
-      s.count += n;
-      progress.update(s.count);
-    }
-    if (index != info.particle_count)
-      return make_error(Errc::format, "{}: frame declares {} particles but {} were read", path.string(),
-                        info.particle_count, index);
-    for (const auto& [id, name] : reader.type_names()) {
-      auto it = s.types.find(id);
-      if (it != s.types.end() && it->second.name.empty()) it->second.name = name;
-    }
-    readers[f].reset();  // release the reader's buffers and file
-  }
-  if (s.spill) MDS_TRY(s.spill->close());
-  progress.finish();
-  if (s.count == 0) {
-    std::string names;
-    for (const auto& p : o.inputs) names += (names.empty() ? "" : ", ") + p.string();
-    return make_error(Errc::format, "{}: no particles in the input", names);
-  }
-  return {};
-}
-
-// ---------------------------------------------------------------- build
-
-struct BuildContext {
-  const ConvertOptions* options = nullptr;
-  MortonGrid grid;
-  DensityGrid density;
-  TypeLut* lut = nullptr;
-  std::vector<float> type_radius;  // by type index
-  bool per_particle_radius = false;
-  float radius_min = 0, radius_max = 0;
+// Morton keys of the records and the sort permutation, sorted by key (both in `keys`/`perm`).
+struct SortBuffers {
+  BigVector<uint64_t> keys, keys_tmp;
+  BigVector<uint32_t> perm, perm_tmp;
+  void release() { *this = SortBuffers{}; }
 };
 
-struct NodeResult {
-  store::EncodedNode encoded;
-  QuantError error;
-  uint32_t meshlets = 0;
-  double t_meshlets = 0, t_encode = 0;
-};
-
-// Per-worker scratch, reused across nodes.
-struct Worker {
-  MeshletBuilder meshlets;
-  std::vector<double> xyz;
-  std::vector<uint32_t> order;
-  std::vector<uint8_t> sizes;
-  std::vector<uint16_t> qpos;
-  std::vector<uint8_t> type_index;
-  std::vector<uint16_t> radius_q;
-  std::vector<uint32_t> voxels;
-  std::vector<store::VoxelRef> refs;
-};
-
-Result<NodeResult> build_node(const BuildContext& ctx, Worker& w, std::span<const KeyedRecord> recs) {
-  NodeResult res;
+void key_and_sort(std::span<const SpillRecord> recs, const MortonGrid& grid, unsigned threads, SortBuffers& sb) {
   const size_t n = recs.size();
-  const double t0 = thread_cpu_seconds();
-  w.xyz.resize(3 * n);
-  double lo[3] = {recs[0].r.x, recs[0].r.y, recs[0].r.z};
-  double hi[3] = {lo[0], lo[1], lo[2]};
-  for (size_t i = 0; i < n; ++i) {
-    const SpillRecord& r = recs[i].r;
-    w.xyz[3 * i] = r.x;
-    w.xyz[3 * i + 1] = r.y;
-    w.xyz[3 * i + 2] = r.z;
-    lo[0] = std::min(lo[0], r.x), hi[0] = std::max(hi[0], r.x);
-    lo[1] = std::min(lo[1], r.y), hi[1] = std::max(hi[1], r.y);
-    lo[2] = std::min(lo[2], r.z), hi[2] = std::max(hi[2], r.z);
-  }
-  MDS_TRY(w.meshlets.build(w.xyz, ctx.options->meshlet_size, w.order, w.sizes));
-  const double t1 = thread_cpu_seconds();
-  res.t_meshlets = t1 - t0;
-
-  const QuantFrame frame = make_frame(lo, hi);
-  w.qpos.resize(3 * n);
-  w.type_index.resize(n);
-  w.radius_q.resize(ctx.per_particle_radius ? n : 0);
-  w.voxels.resize(n);
-  float max_radius = 0;
-  for (size_t k = 0; k < n; ++k) {
-    const SpillRecord& r = recs[w.order[k]].r;
-    const double p[3] = {r.x, r.y, r.z};
-    for (int a = 0; a < 3; ++a) {
-      const uint16_t q = quantize(frame, a, p[a]);
-      w.qpos[3 * k + a] = q;
-      res.error.add(frame, a, p[a], q);
-    }
-    const uint8_t t = (*ctx.lut)(r.type);
-    w.type_index[k] = t;
-    if (ctx.per_particle_radius) {
-      w.radius_q[k] = quantize_radius(r.radius, ctx.radius_min, ctx.radius_max);
-      max_radius = std::max(max_radius, r.radius);
-    } else {
-      max_radius = std::max(max_radius, ctx.type_radius[t]);
-    }
-    w.voxels[k] = ctx.density.voxel(r.x, r.y, r.z);
-  }
-  voxel_refs(w.voxels, w.refs);
-
-  store::NodeInput in;
-  in.qpos = w.qpos;
-  in.type_index = w.type_index;
-  in.radius_q = w.radius_q;
-  in.meshlet_size = w.sizes;
-  for (int a = 0; a < 3; ++a) {
-    in.center_min[a] = lo[a];
-    in.center_max[a] = hi[a];
-  }
-  in.max_radius = max_radius;
-  in.voxels = w.refs;
-  MDS_ASSIGN_OR_RETURN(res.encoded, store::encode_node(in));
-  res.meshlets = uint32_t(w.sizes.size());
-  res.t_encode = thread_cpu_seconds() - t1;
-  return res;
-}
-
-struct BuildTotals {
-  uint64_t nodes = 0, meshlets = 0, particles = 0;
-  uint64_t payload_bytes = 0, payload_raw_bytes = 0;
-  QuantError error;
-  double t_meshlets = 0, t_encode = 0;
-  std::vector<uint32_t> density;
-};
-
-// Builds the nodes of one sorted bin on the worker threads; appends them in order.
-Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<Worker>>& workers,
-                 std::span<const KeyedRecord> recs, int start_level, store::StoreWriter& writer, BuildTotals& tot,
-                 Progress& progress) {
-  const std::vector<NodeRange> nodes = build_nodes(recs, start_level, ctx.options->node_size);
-  const size_t window = workers.size() * kWindowPerThread;
-  std::vector<std::optional<Result<NodeResult>>> slots(nodes.size());
-  std::mutex mu;
-  std::condition_variable cv_ready, cv_space;
-  size_t appended = 0;
-  bool abort = false;
-  std::atomic<size_t> next{0};
-
-  auto work = [&](Worker& w) {
-    for (;;) {
-      const size_t i = next.fetch_add(1);
-      if (i >= nodes.size()) return;
-      {
-        std::unique_lock lock(mu);
-        cv_space.wait(lock, [&] { return abort || i < appended + window; });
-        if (abort) return;
-      }
-      auto r = build_node(ctx, w, recs.subspan(nodes[i].begin, nodes[i].size()));
-      {
-        std::lock_guard lock(mu);
-        slots[i].emplace(std::move(r));
-      }
-      cv_ready.notify_all();
+  sb.keys.resize(n);
+  sb.perm.resize(n);
+  auto fill = [&](size_t b, size_t e) {
+    for (size_t i = b; i < e; ++i) {
+      sb.keys[i] = grid.key(recs[i].x, recs[i].y, recs[i].z);
+      sb.perm[i] = uint32_t(i);
     }
   };
-  std::vector<std::thread> threads;
-  threads.reserve(workers.size());
-  for (auto& w : workers) threads.emplace_back(work, std::ref(*w));
-
-  Status status;
-  for (size_t i = 0; i < nodes.size(); ++i) {
-    std::optional<Result<NodeResult>> r;
-    {
-      std::unique_lock lock(mu);
-      cv_ready.wait(lock, [&] { return slots[i].has_value(); });
-      r = std::move(slots[i]);
-      slots[i].reset();
-    }
-    if (!r->ok()) {
-      status = r->error();
-      break;
-    }
-    NodeResult& nr = r->value();
-    tot.payload_bytes += nr.encoded.payload.size();
-    tot.payload_raw_bytes += nr.encoded.entry.payload_raw_bytes;
-    tot.meshlets += nr.meshlets;
-    tot.particles += nodes[i].size();
-    tot.error.merge(nr.error);
-    tot.t_meshlets += nr.t_meshlets;
-    tot.t_encode += nr.t_encode;
-    for (const auto& v : nr.encoded.voxels) tot.density[v.voxel] += v.count;
-    Status st = writer.append(std::move(nr.encoded));
-    if (!st.ok()) {
-      status = st;
-      break;
-    }
-    ++tot.nodes;
-    {
-      std::lock_guard lock(mu);
-      appended = i + 1;
-    }
-    cv_space.notify_all();
-    progress.update(tot.particles);
+  if (threads > 1 && n >= (1u << 16)) {
+    std::vector<std::thread> pool;
+    for (unsigned t = 1; t < threads; ++t) pool.emplace_back(fill, n * t / threads, n * (t + 1) / threads);
+    fill(0, n / threads);
+    for (auto& th : pool) th.join();
+  } else {
+    fill(0, n);
   }
-  {
-    std::lock_guard lock(mu);
-    abort = true;
-  }
-  cv_space.notify_all();
-  for (auto& t : threads) t.join();
-  return status;
+  sb.keys_tmp.resize(n);
+  sb.perm_tmp.resize(n);
+  radix_sort_pairs(sb.keys, sb.perm, sb.keys_tmp, sb.perm_tmp, threads);
 }
 
-void fill_keys_and_sort(std::vector<KeyedRecord>& recs, const MortonGrid& grid) {
-  for (auto& kr : recs) kr.key = grid.key(kr.r.x, kr.r.y, kr.r.z);
-  std::sort(recs.begin(), recs.end(), [](const KeyedRecord& a, const KeyedRecord& b) { return a.key < b.key; });
-}
-
-Result<std::vector<KeyedRecord>> load_bin(const Bin& bin) {
+Status load_bin(const Bin& bin, BigVector<SpillRecord>& recs) {
   MDS_ASSIGN_OR_RETURN(SpillReader reader, SpillReader::open(bin.path));
   if (reader.count() != bin.count)
     return make_error(Errc::internal, "{}: expected {} records, found {}", bin.path.string(), bin.count,
                       reader.count());
-  std::vector<KeyedRecord> recs(size_t(bin.count));
-  std::vector<SpillRecord> chunk(std::min<size_t>(size_t(bin.count), 1 << 15));
-  size_t at = 0;
-  for (;;) {
-    MDS_ASSIGN_OR_RETURN(size_t n, reader.read(chunk));
-    if (n == 0) break;
-    if (at + n > recs.size()) return make_error(Errc::internal, "{}: bin grew while reading", bin.path.string());
-    for (size_t i = 0; i < n; ++i) recs[at + i].r = chunk[i];
-    at += n;
-  }
-  if (at != recs.size()) return make_error(Errc::internal, "{}: bin is short", bin.path.string());
-  return recs;
+  recs.resize(size_t(bin.count));
+  MDS_ASSIGN_OR_RETURN(size_t n, reader.read(recs));
+  if (n != recs.size()) return make_error(Errc::internal, "{}: bin is short", bin.path.string());
+  return {};
 }
 
 }  // namespace
@@ -486,6 +153,7 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   MDS_TRY(check_options(o));
   ConvertReport rep;
   rep.memory_budget = o.memory_budget;
+  rep.meshlet_builder = o.meshlet_builder;
   Progress progress(o.progress);
 
   // Open every input first: a missing or malformed file fails before any work.
@@ -511,14 +179,25 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   // ---- pass A
   auto t = Clock::now();
   InputScan scan;
-  MDS_TRY(pass_a(o, readers, plan, tmp, scan, progress));
+  {
+    ScanOptions so;
+    so.inputs = o.inputs;
+    so.radius = o.radius;
+    so.radius_by_type = o.radius_by_type;
+    so.batch_particles = plan.batch_particles;
+    so.spill_buffer_bytes = plan.spill_buffer_bytes;
+    so.max_memory_records = plan.max_bin_records;
+    MDS_TRY(scan_inputs(so, readers, tmp, scan, progress));
+  }
   rep.seconds_read = seconds_since(t);
   rep.particles = scan.count;
   rep.spilled = !scan.in_memory;
 
+  const MortonGrid grid(scan.lo, scan.hi);
   BuildContext ctx;
-  ctx.options = &o;
-  ctx.grid = MortonGrid(scan.lo, scan.hi);
+  ctx.node_size = o.node_size;
+  ctx.meshlet_size = o.meshlet_size;
+  ctx.meshlet_builder = o.meshlet_builder;
   std::array<uint32_t, 3> dims =
       o.density.explicit_dims
           ? o.density.dims
@@ -536,17 +215,21 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
 
   BuildTotals tot;
   tot.density.assign(size_t(ctx.density.voxel_count()), 0);
-  std::vector<std::unique_ptr<Worker>> workers;
-  for (unsigned i = 0; i < o.threads; ++i) workers.push_back(std::make_unique<Worker>());
+  std::vector<std::unique_ptr<NodeWorker>> workers;
+  for (unsigned i = 0; i < o.threads; ++i) workers.push_back(std::make_unique<NodeWorker>(o.meshlet_builder));
+  SortBuffers sb;
 
   if (scan.in_memory) {
     // ---- everything fits: one bin, the root cell
     t = Clock::now();
     progress.stage("build", scan.count);
-    fill_keys_and_sort(scan.memory, ctx.grid);
+    key_and_sort(scan.memory, grid, o.threads, sb);
+    sb.keys_tmp = {};
+    sb.perm_tmp = {};
     rep.seconds_sort += seconds_since(t);
-    MDS_TRY(build_bin(ctx, workers, scan.memory, 0, *writer, tot, progress));
+    MDS_TRY(build_bin(ctx, workers, sb.keys, sb.perm, scan.memory, 0, *writer, tot, progress));
     scan.memory = {};
+    sb.release();
     rep.bins = 1;
     rep.seconds_build = seconds_since(t);
   } else {
@@ -560,7 +243,7 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
     uint64_t scattered = 0;
     MDS_ASSIGN_OR_RETURN(
         std::vector<Bin> bins,
-        partition(tmp, Bin{scan.spill_path, scan.count, 0, 0}, ctx.grid, popt, pstats, [&](uint64_t n) {
+        partition(tmp, Bin{scan.spill_path, scan.count, 0, 0}, grid, popt, pstats, [&](uint64_t n) {
           scattered += n;
           progress.update(std::min(scattered, scan.count));
         }));
@@ -570,16 +253,17 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
 
     t = Clock::now();
     progress.stage("build", scan.count);
+    BigVector<SpillRecord> recs;
     for (const Bin& bin : bins) {
       auto ts = Clock::now();
-      MDS_ASSIGN_OR_RETURN(std::vector<KeyedRecord> recs, load_bin(bin));
+      MDS_TRY(load_bin(bin, recs));
       std::error_code ec;
       std::filesystem::remove(bin.path, ec);
-      fill_keys_and_sort(recs, ctx.grid);
+      key_and_sort(recs, grid, o.threads, sb);
       rep.seconds_sort += seconds_since(ts);
-      if (!recs.empty() && morton_prefix(recs.front().key, bin.prefix_bits) != bin.prefix)
+      if (!recs.empty() && morton_prefix(sb.keys.front(), bin.prefix_bits) != bin.prefix)
         return make_error(Errc::internal, "bin {} holds a record outside its Morton cell", bin.path.string());
-      MDS_TRY(build_bin(ctx, workers, recs, bin.prefix_bits / 3, *writer, tot, progress));
+      MDS_TRY(build_bin(ctx, workers, sb.keys, sb.perm, recs, bin.prefix_bits / 3, *writer, tot, progress));
     }
     rep.seconds_build = seconds_since(t);
   }
@@ -589,6 +273,7 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
     return make_error(Errc::internal, "built {} particles of {}", tot.particles, scan.count);
 
   // ---- summary and finish
+  t = Clock::now();
   store::StoreSummary sum;
   sum.flags = scan.per_particle_radius ? uint32_t(store::kFlagPerParticleRadius) : 0u;
   sum.node_size_max = o.node_size;
@@ -619,6 +304,7 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   }
   sum.density_counts = std::move(tot.density);
   MDS_TRY(writer->finish(sum));
+  rep.seconds_finish = seconds_since(t);
 
   std::error_code ec;
   rep.file_bytes = std::filesystem::file_size(o.output, ec);
@@ -627,6 +313,7 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   rep.meshlets = tot.meshlets;
   rep.types = uint32_t(scan.types.size());
   rep.mean_meshlet_size = tot.meshlets ? double(tot.particles) / double(tot.meshlets) : 0;
+  rep.meshlet_diag_over_spacing = tot.quality.mean_diag_over_spacing();
   rep.bytes_per_particle = double(rep.file_bytes) / double(rep.particles);
   rep.payload_bytes = tot.payload_bytes;
   rep.payload_raw_bytes = tot.payload_raw_bytes;
@@ -639,8 +326,10 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
     rep.density_dims[a] = ctx.density.dims()[a];
   }
   rep.per_particle_radius = scan.per_particle_radius;
+  rep.seconds_gather = tot.t_gather;
   rep.seconds_meshlets = tot.t_meshlets;
   rep.seconds_encode = tot.t_encode;
+  rep.seconds_append = tot.t_append;
   rep.seconds_total = seconds_since(t_start);
   rep.cpu_seconds = process_cpu_seconds() - cpu_start;
   rep.particles_per_second = rep.seconds_total > 0 ? double(rep.particles) / rep.seconds_total : 0;

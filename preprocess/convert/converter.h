@@ -2,9 +2,11 @@
 //   Pass A  parse every input once, validate, spill 32-byte records to a temporary file (or
 //           keep them in memory when they fit the budget); global bounds, counts, types.
 //   Pass B  scatter the spill file into Morton-prefix bins that fit the budget (binning.h).
-//   Build   per bin: sort by Morton key, nodes (node_builder.h), then on worker threads per
-//           node: PCL meshlets (meshlet_builder.h), 16-bit quantization (quantize.h), voxel
-//           lists (density.h), store::encode_node; the calling thread appends in order.
+//           Reading runs on its own thread, one batch ahead of the validation (input_scan.h).
+//   Build   per bin: Morton keys + parallel radix sort of (key, index) (radix_sort.h), nodes
+//           (node_builder.h), then on worker threads per node: meshlets (meshlet_builder.h:
+//           PCL kd-tree or octree leaves), 16-bit quantization (quantize.h), voxel lists
+//           (density.h), store::encode_node; the calling thread appends in order (node_encoder.h).
 // Paper 000 §3.1, §4.4, §6, §7.4; paper 002 §3.3.
 #pragma once
 
@@ -15,6 +17,7 @@
 #include <vector>
 
 #include "convert/density.h"
+#include "convert/meshlet_builder.h"
 #include "core/result.h"
 #include "readers/reader.h"
 
@@ -28,6 +31,7 @@ struct ConvertOptions {
   ReaderOptions reader;                      // format, frame, h5md group
   uint32_t node_size = 10000;                // 1..65535
   uint32_t meshlet_size = 16;                // 1..255
+  MeshletBuilderKind meshlet_builder = MeshletBuilderKind::pcl;
   float radius = 0.5f;                       // default radius of every type
   std::map<int32_t, float> radius_by_type;   // overrides per input type id
   DensitySpec density;                       // --density-res
@@ -42,7 +46,10 @@ struct ConvertReport {
   uint64_t nodes = 0;
   uint64_t meshlets = 0;
   uint32_t types = 0;
+  MeshletBuilderKind meshlet_builder = MeshletBuilderKind::pcl;
   double mean_meshlet_size = 0;
+  double meshlet_diag_over_spacing = 0;      // meshlet quality (meshlet_quality.h): mean meshlet AABB
+                                             // diagonal / node particle spacing; lower is more compact
   uint64_t file_bytes = 0;
   double bytes_per_particle = 0;
   uint64_t payload_bytes = 0;
@@ -62,9 +69,12 @@ struct ConvertReport {
   double seconds_read = 0;                   // pass A
   double seconds_partition = 0;              // pass B
   double seconds_build = 0;                  // sort + nodes + meshlets + encode + write
-  double seconds_meshlets = 0;               // CPU time summed over workers
-  double seconds_encode = 0;                 // quantize + voxels + lz4: CPU time summed over workers
-  double seconds_sort = 0;                   // loading and sorting bins
+  double seconds_sort = 0;                   // loading bins, Morton keys and radix sort (wall)
+  double seconds_gather = 0;                 // gathering node records, voxel index: CPU summed over workers
+  double seconds_meshlets = 0;               // meshlet building: CPU time summed over workers
+  double seconds_encode = 0;                 // quantize + voxel lists + quality + lz4: CPU summed over workers
+  double seconds_append = 0;                 // appending encoded nodes to the store (CPU, calling thread)
+  double seconds_finish = 0;                 // store sections, fsync and rename (wall)
   double seconds_total = 0;
   double cpu_seconds = 0;                    // process CPU time (user + system) of the conversion
   double particles_per_second = 0;

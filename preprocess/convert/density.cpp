@@ -109,4 +109,33 @@ void voxel_refs(std::vector<uint32_t>& voxels, std::vector<store::VoxelRef>& out
   }
 }
 
+void voxel_refs_in_box(std::span<const uint32_t> coords, const std::array<uint32_t, 3>& dims,
+                       const uint32_t box_lo[3], const uint32_t box_hi[3], std::vector<uint32_t>& scratch,
+                       std::vector<store::VoxelRef>& out) {
+  out.clear();
+  const size_t n = coords.size() / 3;
+  const uint64_t wx = uint64_t(box_hi[0]) - box_lo[0] + 1, wy = uint64_t(box_hi[1]) - box_lo[1] + 1,
+                 wz = uint64_t(box_hi[2]) - box_lo[2] + 1;
+  const uint64_t volume = wx * wy * wz;
+  if (volume > 8 * uint64_t(n) + 4096) {
+    scratch.resize(n);
+    for (size_t i = 0; i < n; ++i)
+      scratch[i] = coords[3 * i] + dims[0] * (coords[3 * i + 1] + dims[1] * coords[3 * i + 2]);
+    voxel_refs(scratch, out);
+    return;
+  }
+  scratch.assign(size_t(volume), 0);
+  for (size_t i = 0; i < n; ++i)
+    ++scratch[size_t((coords[3 * i] - box_lo[0]) +
+                     wx * ((coords[3 * i + 1] - box_lo[1]) + wy * uint64_t(coords[3 * i + 2] - box_lo[2])))];
+  // z-major, then y, then x: increasing global index x + dims.x * (y + dims.y * z).
+  size_t at = 0;
+  for (uint64_t z = 0; z < wz; ++z)
+    for (uint64_t y = 0; y < wy; ++y) {
+      const uint32_t row = uint32_t(box_lo[0] + dims[0] * ((box_lo[1] + y) + dims[1] * (box_lo[2] + z)));
+      for (uint64_t x = 0; x < wx; ++x, ++at)
+        if (scratch[at]) out.push_back({row + uint32_t(x), scratch[at]});
+    }
+}
+
 }  // namespace mds::convert

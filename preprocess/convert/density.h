@@ -41,18 +41,19 @@ class DensityGrid {
   uint32_t voxel(double x, double y, double z) const {
     return cell(0, x) + dims_[0] * (cell(1, y) + dims_[1] * cell(2, z));
   }
-  uint64_t voxel_count() const { return uint64_t(dims_[0]) * dims_[1] * dims_[2]; }
-  const std::array<uint32_t, 3>& dims() const { return dims_; }
-  const double* lo() const { return lo_; }
-  const double* hi() const { return hi_; }
-
- private:
+  // Voxel coordinate along axis a (clamped to the grid).
   uint32_t cell(int a, double v) const {
     const double c = (v - lo_[a]) * scale_[a];
     if (!(c > 0)) return 0;
     const uint32_t i = uint32_t(c);
     return i >= dims_[a] ? dims_[a] - 1 : i;
   }
+  uint64_t voxel_count() const { return uint64_t(dims_[0]) * dims_[1] * dims_[2]; }
+  const std::array<uint32_t, 3>& dims() const { return dims_; }
+  const double* lo() const { return lo_; }
+  const double* hi() const { return hi_; }
+
+ private:
   std::array<uint32_t, 3> dims_ = {1, 1, 1};
   double lo_[3] = {0, 0, 0};
   double hi_[3] = {0, 0, 0};
@@ -61,5 +62,13 @@ class DensityGrid {
 
 // Sorts `voxels` (one voxel index per particle; modified) and run-length encodes them.
 void voxel_refs(std::vector<uint32_t>& voxels, std::vector<store::VoxelRef>& out);
+
+// The same list from per-particle voxel coordinates (3 per particle, interleaved) inside the box
+// [box_lo, box_hi] of voxel coordinates: counted in a dense array over the box when the box
+// holds at most about 8 voxels per particle (nodes are compact, so almost always), else sorted.
+// `scratch` is reused between calls.
+void voxel_refs_in_box(std::span<const uint32_t> coords, const std::array<uint32_t, 3>& dims,
+                       const uint32_t box_lo[3], const uint32_t box_hi[3], std::vector<uint32_t>& scratch,
+                       std::vector<store::VoxelRef>& out);
 
 }  // namespace mds::convert

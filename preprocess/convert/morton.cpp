@@ -1,6 +1,7 @@
 // Morton keys: bit interleaving by the classic "magic bits" spreading.
 #include "convert/morton.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace mds::convert {
@@ -40,12 +41,15 @@ void morton_decode(uint64_t key, uint32_t& x, uint32_t& y, uint32_t& z) {
 }
 
 MortonGrid::MortonGrid(const double lo[3], const double hi[3]) {
+  // Cubic cells: one scale for all axes, from the largest extent, so that octree cells (nodes,
+  // octree meshlets) are cubes also in elongated boxes. Cells are [lo + i*extent/2^21, ...);
+  // the largest axis's hi maps to the last cell.
+  double extent = 0;
   for (int a = 0; a < 3; ++a) {
     lo_[a] = lo[a];
-    const double extent = hi[a] - lo[a];
-    // Cells are [lo + i*extent/2^21, ...); hi itself maps to the last cell.
-    scale_[a] = extent > 0 ? double(1u << kMortonBitsPerAxis) / extent : 0.0;
+    extent = std::max(extent, hi[a] - lo[a]);
   }
+  for (int a = 0; a < 3; ++a) scale_[a] = extent > 0 ? double(1u << kMortonBitsPerAxis) / extent : 0.0;
 }
 
 uint32_t MortonGrid::cell(int axis, double v) const {

@@ -17,8 +17,9 @@ uint64_t morton_encode(uint32_t x, uint32_t y, uint32_t z);
 // Inverse of morton_encode.
 void morton_decode(uint64_t key, uint32_t& x, uint32_t& y, uint32_t& z);
 
-// Maps positions inside [lo, hi] to 21-bit grid coordinates per axis and to keys.
-// Degenerate axes (hi == lo) map to 0. Positions outside the box are clamped.
+// Maps positions inside [lo, hi] to 21-bit grid coordinates per axis and to keys. The grid is
+// cubic: every axis uses the scale of the largest extent (shorter axes use part of the range),
+// so octree cells are cubes. Degenerate axes (hi == lo) map to 0; positions outside are clamped.
 class MortonGrid {
  public:
   MortonGrid() = default;

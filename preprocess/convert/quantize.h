@@ -18,6 +18,8 @@ struct QuantFrame {
   double min[3];
   double max[3];
   double step[3];
+  double inv_step[3];       // 1 / step (0 on a degenerate axis)
+  double inv_half_step[3];  // 2 / step (0 on a degenerate axis)
 };
 
 inline QuantFrame make_frame(const double lo[3], const double hi[3]) {
@@ -26,14 +28,20 @@ inline QuantFrame make_frame(const double lo[3], const double hi[3]) {
     f.min[a] = lo[a];
     f.max[a] = hi[a];
     f.step[a] = (hi[a] - lo[a]) / double(store::kQuantMax);  // same expression as store::quant_step
+    f.inv_step[a] = f.step[a] > 0 ? 1.0 / f.step[a] : 0.0;
+    f.inv_half_step[a] = 2.0 * f.inv_step[a];
   }
   return f;
 }
 
+// Round to nearest (ties up) of (v - min) / step, clamped to [0, 65535]. Multiplying by the
+// inverse step differs from the division by at most an ulp, so the decoding error stays at most
+// half a step up to double rounding (QuantError measures it exactly).
 inline uint16_t quantize(const QuantFrame& f, int axis, double v) {
-  if (!(f.step[axis] > 0)) return 0;
-  const double q = std::nearbyint((v - f.min[axis]) / f.step[axis]);
-  return uint16_t(std::clamp(q, 0.0, double(store::kQuantMax)));
+  const double t = (v - f.min[axis]) * f.inv_step[axis] + 0.5;  // 0.5 on a degenerate axis -> 0
+  if (!(t > 0)) return 0;
+  if (t >= double(store::kQuantMax)) return uint16_t(store::kQuantMax);
+  return uint16_t(t);
 }
 
 inline double dequantize(const QuantFrame& f, int axis, uint16_t q) { return f.min[axis] + double(q) * f.step[axis]; }
@@ -46,7 +54,7 @@ struct QuantError {
   void add(const QuantFrame& f, int axis, double v, uint16_t q) {
     const double err = std::abs(dequantize(f, axis, q) - v);
     max_abs = std::max(max_abs, err);
-    if (f.step[axis] > 0) max_over_half_step = std::max(max_over_half_step, err / (0.5 * f.step[axis]));
+    max_over_half_step = std::max(max_over_half_step, err * f.inv_half_step[axis]);
   }
   void merge(const QuantError& o) {
     max_abs = std::max(max_abs, o.max_abs);

@@ -20,13 +20,6 @@ struct SpillRecord {
 };
 static_assert(sizeof(SpillRecord) == 32);
 
-// A record with its Morton key, the unit the per-bin build sorts (40 bytes).
-struct KeyedRecord {
-  uint64_t key;
-  SpillRecord r;
-};
-static_assert(sizeof(KeyedRecord) == 40);
-
 // A uniquely named directory, created lazily on first use; removed recursively on destruction.
 class TempDir {
  public:

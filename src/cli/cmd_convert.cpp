@@ -23,6 +23,7 @@ struct ConvertArgs {
   std::string h5md_group;
   uint32_t node_size = 10000;
   uint32_t meshlet_size = 16;
+  std::string meshlet_builder = "pcl";
   float radius = 0.5f;
   std::string radius_by_type;
   std::string density_res;
@@ -44,6 +45,8 @@ nlohmann::json report_json(const convert::ConvertReport& r, const convert::Conve
   j["meshlets"] = r.meshlets;
   j["types"] = r.types;
   j["mean_meshlet_size"] = r.mean_meshlet_size;
+  j["meshlet_builder"] = convert::meshlet_builder_name(r.meshlet_builder);
+  j["meshlet_quality"] = {{"mean_size", r.mean_meshlet_size}, {"diag_over_spacing", r.meshlet_diag_over_spacing}};
   j["file_bytes"] = r.file_bytes;
   j["bytes_per_particle"] = r.bytes_per_particle;
   j["payload_bytes"] = r.payload_bytes;
@@ -65,8 +68,10 @@ nlohmann::json report_json(const convert::ConvertReport& r, const convert::Conve
   j["meshlet_size"] = o.meshlet_size;
   j["seconds"] = {{"read", r.seconds_read},         {"partition", r.seconds_partition},
                   {"build", r.seconds_build},       {"sort", r.seconds_sort},
-                  {"meshlets_cpu", r.seconds_meshlets}, {"encode_cpu", r.seconds_encode},
-                  {"total", r.seconds_total},       {"cpu", r.cpu_seconds}};
+                  {"gather_cpu", r.seconds_gather}, {"meshlets_cpu", r.seconds_meshlets},
+                  {"encode_cpu", r.seconds_encode}, {"append_cpu", r.seconds_append},
+                  {"finish", r.seconds_finish},     {"total", r.seconds_total},
+                  {"cpu", r.cpu_seconds}};
   j["particles_per_second"] = r.particles_per_second;
   return j;
 }
@@ -76,22 +81,27 @@ void print_summary(const convert::ConvertReport& r, const convert::ConvertOption
                "wrote %s\n"
                "  particles        %llu (%u types%s)\n"
                "  nodes            %llu (max %u particles)\n"
-               "  meshlets         %llu (mean %.2f particles, max %u)\n"
+               "  meshlets         %llu (%s builder, mean %.2f particles, max %u; bbox diagonal %.2f x spacing)\n"
                "  file             %llu bytes, %.3f bytes/particle\n"
                "  compression      %.3f (payload raw %llu -> %llu bytes)\n"
                "  max quant. error %.6g (%.4f of half a step)\n"
                "  density grid     %ux%ux%u\n"
                "  memory           budget %.1f MiB, peak RSS %.1f MiB, %s, %llu bins\n"
-               "  time             %.2f s total (read %.2f, partition %.2f, build %.2f), %.2f M particles/s\n",
+               "  time             %.2f s total (read %.2f, partition %.2f, build %.2f of which sort %.2f), "
+               "%.2f M particles/s, CPU %.2f s\n"
+               "  build CPU        gather %.2f s, meshlets %.2f s, encode %.2f s, append %.2f s\n",
                o.output.string().c_str(), static_cast<unsigned long long>(r.particles), r.types,
                r.per_particle_radius ? ", per-particle radius" : "", static_cast<unsigned long long>(r.nodes),
-               o.node_size, static_cast<unsigned long long>(r.meshlets), r.mean_meshlet_size, o.meshlet_size,
+               o.node_size, static_cast<unsigned long long>(r.meshlets), convert::meshlet_builder_name(r.meshlet_builder),
+               r.mean_meshlet_size, o.meshlet_size, r.meshlet_diag_over_spacing,
                static_cast<unsigned long long>(r.file_bytes), r.bytes_per_particle, r.compression_ratio,
                static_cast<unsigned long long>(r.payload_raw_bytes), static_cast<unsigned long long>(r.payload_bytes),
                r.max_quantization_error, r.max_error_over_half_step, r.density_dims[0], r.density_dims[1],
                r.density_dims[2], double(r.memory_budget) / (1 << 20), double(r.peak_rss_bytes) / (1 << 20),
                r.spilled ? "spilled to temporary files" : "in memory", static_cast<unsigned long long>(r.bins),
-               r.seconds_total, r.seconds_read, r.seconds_partition, r.seconds_build, r.particles_per_second / 1e6);
+               r.seconds_total, r.seconds_read, r.seconds_partition, r.seconds_build, r.seconds_sort,
+               r.particles_per_second / 1e6, r.cpu_seconds, r.seconds_gather, r.seconds_meshlets, r.seconds_encode,
+               r.seconds_append);
 }
 
 Result<convert::ConvertOptions> to_options(const ConvertArgs& a) {
@@ -116,6 +126,9 @@ Result<convert::ConvertOptions> to_options(const ConvertArgs& a) {
   o.reader.h5md_group = a.h5md_group;
   o.node_size = a.node_size;
   o.meshlet_size = a.meshlet_size;
+  auto mb = convert::parse_meshlet_builder(a.meshlet_builder);
+  if (!mb) return make_error(Errc::invalid_argument, "--meshlet-builder '{}': expected pcl or octree", a.meshlet_builder);
+  o.meshlet_builder = *mb;
   o.radius = a.radius;
   if (!a.radius_by_type.empty()) {
     MDS_ASSIGN_OR_RETURN(o.radius_by_type, convert::parse_radius_by_type(a.radius_by_type));
@@ -144,6 +157,10 @@ void setup_convert(CLI::App& sub, int& exit_code) {
   sub.add_option("--h5md-group", args->h5md_group, "H5MD particle group under /particles when there are several");
   sub.add_option("--node-size", args->node_size, "Maximum particles per node (1..65535)")->capture_default_str();
   sub.add_option("--meshlet-size", args->meshlet_size, "Particles per meshlet (1..255)")->capture_default_str();
+  sub.add_option("--meshlet-builder", args->meshlet_builder,
+                 "Meshlet builder: pcl (greedy PCL kd-tree neighbourhoods) or octree (leaves of the implicit octree "
+                 "over Morton keys: much faster, smaller meshlets; compare the quality in the summary)")
+      ->capture_default_str();
   sub.add_option("--radius", args->radius, "Radius of every type without its own (--radius-by-type, MMPLD list radius)")
       ->capture_default_str();
   sub.add_option("--radius-by-type", args->radius_by_type, "Per-type radius, e.g. 1=0.5,2=0.7");

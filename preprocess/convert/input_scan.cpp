@@ -1,0 +1,238 @@
+// Pass A with a read-ahead thread (see input_scan.h).
+#include "convert/input_scan.h"
+
+#include <cmath>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <thread>
+
+#include "store/format.h"
+
+namespace mds::convert {
+
+namespace {
+
+// A batch travelling from the reader thread to the consumer.
+struct Filled {
+  size_t slot = 0;
+  size_t file = 0;
+  size_t n = 0;              // 0: end of that file
+  std::optional<Error> error;
+};
+
+// Ring of batches: the reader thread takes free slots and queues filled ones in order.
+class ReadAhead {
+ public:
+  ReadAhead(std::vector<std::unique_ptr<ParticleReader>>& readers, size_t batch_particles)
+      : readers_(readers), batch_particles_(batch_particles), batches_(kReadAheadBatches) {
+    for (size_t i = 0; i < batches_.size(); ++i) {
+      batches_[i].reserve(batch_particles);
+      free_.push_back(i);
+    }
+    thread_ = std::thread([this] { run(); });
+  }
+  ~ReadAhead() {
+    {
+      std::lock_guard lock(mu_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+  ReadAhead(const ReadAhead&) = delete;
+  ReadAhead& operator=(const ReadAhead&) = delete;
+
+  Filled next() {
+    std::unique_lock lock(mu_);
+    cv_.wait(lock, [&] { return !filled_.empty(); });
+    Filled f = filled_.front();
+    filled_.pop_front();
+    return f;
+  }
+  const ParticleBatch& batch(size_t slot) const { return batches_[slot]; }
+  void release(size_t slot) {
+    {
+      std::lock_guard lock(mu_);
+      free_.push_back(slot);
+    }
+    cv_.notify_all();
+  }
+
+ private:
+  void run() {
+    for (size_t f = 0; f < readers_.size(); ++f) {
+      for (;;) {
+        size_t slot;
+        {
+          std::unique_lock lock(mu_);
+          cv_.wait(lock, [&] { return stop_ || !free_.empty(); });
+          if (stop_) return;
+          slot = free_.front();
+          free_.pop_front();
+        }
+        Filled item{slot, f, 0, std::nullopt};
+        auto r = readers_[f]->read(batches_[slot], batch_particles_);
+        if (r.ok()) item.n = *r;
+        else item.error = r.error();
+        const bool done = !r.ok() || item.n == 0;
+        {
+          std::lock_guard lock(mu_);
+          filled_.push_back(std::move(item));
+        }
+        cv_.notify_all();
+        if (!r.ok()) return;
+        if (done) break;  // the consumer owns readers_[f] from here on
+      }
+    }
+  }
+
+  std::vector<std::unique_ptr<ParticleReader>>& readers_;
+  size_t batch_particles_;
+  std::vector<ParticleBatch> batches_;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::deque<size_t> free_;
+  std::deque<Filled> filled_;
+  bool stop_ = false;
+  std::thread thread_;
+};
+
+float type_radius(const ScanOptions& o, const FrameInfo& info, int32_t id) {
+  if (auto it = o.radius_by_type.find(id); it != o.radius_by_type.end()) return it->second;
+  if (auto it = info.type_radius.find(id); it != info.type_radius.end() && it->second > 0 && std::isfinite(it->second))
+    return it->second;
+  return o.radius;
+}
+
+Status spill_memory(InputScan& s, TempDir& tmp, const ScanOptions& o) {
+  MDS_ASSIGN_OR_RETURN(s.spill_path, tmp.file("spill.rec"));
+  MDS_ASSIGN_OR_RETURN(SpillWriter w, SpillWriter::create(s.spill_path, o.spill_buffer_bytes));
+  MDS_TRY(w.append(s.memory));
+  s.memory = {};
+  s.spill.emplace(std::move(w));
+  s.in_memory = false;
+  return {};
+}
+
+// Validates and stores one batch (records of file `path`, particles from `index`).
+Status consume(const ScanOptions& o, const FrameInfo& info, const std::filesystem::path& path, const ParticleBatch& batch,
+               size_t n, uint64_t& index, TempDir& tmp, InputScan& s) {
+  if (batch.x.size() != n || batch.y.size() != n || batch.z.size() != n || batch.type.size() != n ||
+      (!batch.radius.empty() && batch.radius.size() != n))
+    return make_error(Errc::internal, "{}: reader returned inconsistent batch sizes", path.string());
+  const bool has_radius = !batch.radius.empty();
+  s.per_particle_radius = s.per_particle_radius || has_radius;
+  if (s.in_memory && s.memory.size() + n > o.max_memory_records) MDS_TRY(spill_memory(s, tmp, o));
+  SpillRecord* out = nullptr;
+  if (s.in_memory) {
+    const size_t at = s.memory.size();
+    s.memory.resize(at + n);  // capacity reserved: no reallocation; default-init: no zero fill
+    out = s.memory.data() + at;
+  }
+  double lo[3] = {s.lo[0], s.lo[1], s.lo[2]}, hi[3] = {s.hi[0], s.hi[1], s.hi[2]};
+  float rmin = s.prad_min, rmax = s.prad_max;
+  int32_t last_id = 0;
+  TypeStat* last = nullptr;
+  uint64_t last_count = 0;  // particles of `last` not yet added to its count
+  for (size_t i = 0; i < n; ++i) {
+    SpillRecord r{batch.x[i], batch.y[i], batch.z[i], batch.type[i], 0.0f};
+    if (!std::isfinite(r.x) || !std::isfinite(r.y) || !std::isfinite(r.z))
+      return make_error(Errc::range, "{}: particle {}: non-finite coordinate ({}, {}, {})", path.string(), index + i,
+                        r.x, r.y, r.z);
+    if (!last || r.type != last_id) {
+      if (last) last->count += last_count;
+      last_count = 0;
+      auto it = s.types.find(r.type);
+      if (it == s.types.end()) {
+        if (s.types.size() >= store::kMaxTypes)
+          return make_error(Errc::unsupported, "{}: particle {}: type {} is the {}th distinct type; at most {} are "
+                            "supported", path.string(), index + i, r.type, s.types.size() + 1, store::kMaxTypes);
+        it = s.types.emplace(r.type, TypeStat{type_radius(o, info, r.type), 0, {}}).first;
+      }
+      last = &it->second;
+      last_id = r.type;
+    }
+    ++last_count;
+    if (has_radius) {
+      const float rad = batch.radius[i];
+      if (!std::isfinite(rad) || rad < 0)
+        return make_error(Errc::range, "{}: particle {}: invalid radius {}", path.string(), index + i, rad);
+      r.radius = rad;
+    } else {
+      r.radius = last->radius;
+    }
+    rmin = std::min(rmin, r.radius);
+    rmax = std::max(rmax, r.radius);
+    lo[0] = std::min(lo[0], r.x), hi[0] = std::max(hi[0], r.x);
+    lo[1] = std::min(lo[1], r.y), hi[1] = std::max(hi[1], r.y);
+    lo[2] = std::min(lo[2], r.z), hi[2] = std::max(hi[2], r.z);
+    if (out) out[i] = r;
+    else MDS_TRY(s.spill->append(r));
+  }
+  if (last) last->count += last_count;
+  for (int a = 0; a < 3; ++a) s.lo[a] = lo[a], s.hi[a] = hi[a];
+  s.prad_min = rmin;
+  s.prad_max = rmax;
+  index += n;
+  s.count += n;
+  return {};
+}
+
+}  // namespace
+
+Status scan_inputs(const ScanOptions& o, std::vector<std::unique_ptr<ParticleReader>>& readers, TempDir& tmp,
+                   InputScan& s, Progress& progress) {
+  uint64_t declared = 0;
+  std::vector<FrameInfo> infos;
+  for (const auto& r : readers) {
+    declared += r->info().particle_count;
+    infos.push_back(r->info());
+  }
+  s.in_memory = declared <= o.max_memory_records;
+  if (s.in_memory) {
+    s.memory.reserve(size_t(declared));
+  } else {
+    MDS_ASSIGN_OR_RETURN(s.spill_path, tmp.file("spill.rec"));
+    MDS_ASSIGN_OR_RETURN(SpillWriter w, SpillWriter::create(s.spill_path, o.spill_buffer_bytes));
+    s.spill.emplace(std::move(w));
+  }
+  progress.stage("read", declared);
+  {
+    ReadAhead ahead(readers, o.batch_particles);
+    std::vector<uint64_t> index(readers.size(), 0);
+    size_t files_done = 0;
+    while (files_done < readers.size()) {
+      const Filled f = ahead.next();
+      const auto& path = o.inputs[f.file];
+      if (f.error) return *f.error;
+      if (f.n == 0) {
+        if (index[f.file] != infos[f.file].particle_count)
+          return make_error(Errc::format, "{}: frame declares {} particles but {} were read", path.string(),
+                            infos[f.file].particle_count, index[f.file]);
+        for (const auto& [id, name] : readers[f.file]->type_names()) {
+          auto it = s.types.find(id);
+          if (it != s.types.end() && it->second.name.empty()) it->second.name = name;
+        }
+        readers[f.file].reset();  // release the reader's buffers and file
+        ahead.release(f.slot);
+        ++files_done;
+        continue;
+      }
+      Status st = consume(o, infos[f.file], path, ahead.batch(f.slot), f.n, index[f.file], tmp, s);
+      ahead.release(f.slot);
+      MDS_TRY(st);
+      progress.update(s.count);
+    }
+  }
+  if (s.spill) MDS_TRY(s.spill->close());
+  progress.finish();
+  if (s.count == 0) {
+    std::string names;
+    for (const auto& p : o.inputs) names += (names.empty() ? "" : ", ") + p.string();
+    return make_error(Errc::format, "{}: no particles in the input", names);
+  }
+  return {};
+}
+
+}  // namespace mds::convert

@@ -1,0 +1,63 @@
+// Pass A of the converter: parse every input once, validate, collect bounds, counts and types,
+// and keep the 32-byte records in memory (when the declared count fits the budget) or spill
+// them to a temporary file (spill.h). Reading overlaps with the processing of the previous
+// batch: a reader thread fills a small ring of ParticleBatches (kReadAheadBatches) while the
+// calling thread validates and stores the batch before.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "convert/big_buffer.h"
+#include "convert/progress.h"
+#include "convert/spill.h"
+#include "core/result.h"
+#include "readers/reader.h"
+
+namespace mds::convert {
+
+inline constexpr size_t kReadAheadBatches = 3;  // batches alive at once (one processed, two read ahead)
+
+struct TypeStat {
+  float radius = 0;
+  uint64_t count = 0;
+  std::string name;
+};
+
+struct ScanOptions {
+  std::vector<std::filesystem::path> inputs;   // names for messages, one per reader
+  float radius = 0.5f;                         // default radius of every type
+  std::map<int32_t, float> radius_by_type;
+  size_t batch_particles = 65536;
+  size_t spill_buffer_bytes = 4 << 20;
+  uint64_t max_memory_records = 0;             // more than this: spill
+};
+
+// Everything pass A learns about the input.
+struct InputScan {
+  uint64_t count = 0;
+  double lo[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+                  std::numeric_limits<double>::infinity()};
+  double hi[3] = {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
+                  -std::numeric_limits<double>::infinity()};
+  bool per_particle_radius = false;
+  float prad_min = std::numeric_limits<float>::infinity();
+  float prad_max = 0;
+  std::map<int32_t, TypeStat> types;
+  bool in_memory = true;
+  BigVector<SpillRecord> memory;          // in-memory path
+  std::optional<SpillWriter> spill;       // spill path (closed at the end of pass A)
+  std::filesystem::path spill_path;
+};
+
+// Reads every reader to its end (readers are released as they finish).
+Status scan_inputs(const ScanOptions& o, std::vector<std::unique_ptr<ParticleReader>>& readers, TempDir& tmp,
+                   InputScan& s, Progress& progress);
+
+}  // namespace mds::convert

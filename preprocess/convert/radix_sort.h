@@ -1,0 +1,21 @@
+// Parallel radix sort of (Morton key, index) pairs: the converter sorts each in-memory bin by
+// key (paper 000, §6: particles ordered along the Z-order curve before nodes and meshlets).
+// One parallel MSD pass on the highest 11 varying key bits scatters the pairs into up to 2048
+// buckets (each thread histograms and scatters its own contiguous segment, so the pass is
+// stable); the buckets, mostly cache-sized, are then sorted independently by the threads:
+// LSD passes over their remaining varying bits (8-bit digits, stable), or another MSD pass
+// when a bucket is still large (clustered data). Bits equal in every key of a range (for
+// example the shared Morton prefix of an out-of-core bin) are skipped. O(n) per pass.
+#pragma once
+
+#include <cstdint>
+#include <span>
+
+namespace mds::convert {
+
+// Sorts `keys` ascending and permutes `idx` alongside (stable); the result is in keys/idx.
+// `keys_tmp`/`idx_tmp` are scratch of the same size. All four spans have the same length.
+void radix_sort_pairs(std::span<uint64_t> keys, std::span<uint32_t> idx, std::span<uint64_t> keys_tmp,
+                      std::span<uint32_t> idx_tmp, unsigned threads);
+
+}  // namespace mds::convert
