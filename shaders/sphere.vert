@@ -1,85 +1,32 @@
 #version 460
-// Vertex-pulling sphere billboards. Instance = one meshlet of the draw list; vertex index
-// 4*i + corner = corner of particle i of that meshlet (indexed draw, 6 indices per particle).
-// The quad conservatively bounds the projected sphere:
-//  - perspective: per screen axis, the slopes of the two tangent planes through the eye,
-//    s = (a z -/+ r sqrt(a^2 + z^2 - r^2)) / (z^2 - r^2) for centre (a, z) (z = view distance)
-//    (Mara & McGuire 2013, "2D polyhedral bounds of a clipped, perspective-projected 3D sphere");
-//  - orthographic: centre +- r.
-// It is placed at the sphere's nearest view distance (z - r) so that the fragment shader's
-// depth_greater promise holds, and grown by half a pixel on every side: sub-pixel spheres get a
-// quad of at least one pixel, so every jittered sample that hits the sphere is rasterized and the
-// exact ray test in the fragment shader keeps only those -- over spp jittered passes a sub-pixel
-// sphere contributes exactly its expected covered area (its "effective sub-pixel area").
+// Sphere billboards as quads, pulled from the pre-pass's sprite records (sphere_prepass.comp
+// computes the conservative rectangle, its depth and the view-space sphere): one non-indexed,
+// non-instanced draw, six vertices per sprite (two triangles), so the vertex stage only loads.
+// kQuadList: vertex index / 6 indexes quad_ids[] (the sprites the point path cannot draw);
+// otherwise it is the sprite index itself (quad-only path).
 #extension GL_GOOGLE_include_directive : require
 #include "bindings.h"
+
+layout(constant_id = 0) const bool kQuadList = false;
 
 layout(location = 0) flat out vec4 v_center_radius;  // view space
 layout(location = 1) flat out vec3 v_color;
 
-void emit_outside() { gl_Position = vec4(2.0, 2.0, 2.0, 1.0); }  // beyond x = w: clipped
-
-vec3 project(vec3 v) {
-  vec4 c = frame.proj * vec4(v, 1.0);
-  return c.xyz / c.w;
-}
-
 void main() {
-  uint meshlet_id = draw_ids[gl_InstanceIndex];
-  GpuMeshlet m = meshlets[meshlet_id];
-  uint local = uint(gl_VertexIndex) >> 2;
-  uint corner = uint(gl_VertexIndex) & 3u;
-  v_center_radius = vec4(0.0);
-  v_color = vec3(0.0);
-  if (local >= m.particle_count) { emit_outside(); return; }
-
-  uint pi = m.first_particle + local;
-  uvec2 raw = particles[pi];
-  uvec3 q = uvec3(raw.x & 0xffffu, raw.x >> 16, raw.y & 0xffffu);
-  uint type = (raw.y >> 16) & 0xffu;
-  GpuNode node = nodes[m.node];
-  vec3 world = node.origin + vec3(q) * node.step;
-  float r = types[type].radius;
-  if ((frame.counts.z & kFramePerParticleRadius) != 0u) {
-    uint w = radii_q[pi >> 1];
-    uint rq = (pi & 1u) != 0u ? (w >> 16) : (w & 0xffffu);
-    r = frame.radius_range.x + float(rq) * frame.radius_range.y / 65535.0;
+  uint v = uint(gl_VertexIndex);
+  uint q = v / 6u;
+  uint k = v - 6u * q;
+  GpuSprite s = sprites[kQuadList ? quad_ids[q] : q];
+  if ((s.flags & (kSpriteHidden | kSpriteSmall)) != 0u) {
+    gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // beyond x = w: clipped
+    v_center_radius = vec4(0.0);
+    v_color = vec3(0.0);
+    return;
   }
-  vec3 c = (frame.view * vec4(world, 1.0)).xyz;
-  float zc = -c.z;  // view distance of the centre
-  float near = frame.radius_range.z;
-  bool ortho = (frame.counts.z & kFrameOrtho) != 0u;
-  if (zc + r <= near || r <= 0.0) { emit_outside(); return; }
-
-  vec2 ndc_lo, ndc_hi;
-  float zq = max(zc - r, near);
-  if (ortho) {
-    vec3 a = project(vec3(c.xy - r, -zq));
-    vec3 b = project(vec3(c.xy + r, -zq));
-    ndc_lo = min(a.xy, b.xy);
-    ndc_hi = max(a.xy, b.xy);
-  } else if (zc - r <= near) {
-    // The sphere crosses the near plane: cover the whole viewport.
-    ndc_lo = vec2(-1.0);
-    ndc_hi = vec2(1.0);
-  } else {
-    float denom = zc * zc - r * r;
-    vec2 t = sqrt(max(c.xy * c.xy + denom, 0.0));
-    vec2 s_lo = (c.xy * zc - r * t) / denom;
-    vec2 s_hi = (c.xy * zc + r * t) / denom;
-    vec3 a = project(vec3(s_lo * zq, -zq));
-    vec3 b = project(vec3(s_hi * zq, -zq));
-    ndc_lo = min(a.xy, b.xy);
-    ndc_hi = max(a.xy, b.xy);
-  }
-  // Half a pixel of margin on every side (viewport.zw = 1/size; 1 NDC unit = size/2 pixels).
-  ndc_lo -= frame.viewport.zw;
-  ndc_hi += frame.viewport.zw;
-  ndc_lo = max(ndc_lo, vec2(-1.01));
-  ndc_hi = min(ndc_hi, vec2(1.01));
-  float zndc = max(project(vec3(0.0, 0.0, -zq)).z, 0.0);
-  vec2 xy = vec2((corner & 1u) != 0u ? ndc_hi.x : ndc_lo.x, (corner & 2u) != 0u ? ndc_hi.y : ndc_lo.y);
-  gl_Position = vec4(xy, zndc, 1.0);
-  v_center_radius = vec4(c, r);
-  v_color = types[type].color.rgb;
+  // Triangles (0, 1, 2) and (2, 1, 3) of the corners 0 = lo.x lo.y, 1 = hi.x lo.y, 2 = lo.x hi.y, 3 = hi.
+  uint corner = k < 3u ? k : (k == 3u ? 2u : (k == 4u ? 1u : 3u));
+  vec2 xy = vec2((corner & 1u) != 0u ? s.rect.z : s.rect.x, (corner & 2u) != 0u ? s.rect.w : s.rect.y);
+  gl_Position = vec4(xy, s.zndc, 1.0);
+  v_center_radius = s.center_radius;
+  v_color = types[s.flags & 0xffu].color.rgb;
 }

@@ -1,5 +1,6 @@
 // GLSL-only: the renderer's descriptor set (set 0), as laid out in gpu_types.h (kBind*).
 // A shader that writes the draw list defines MDS_DRAW_LIST_WRITABLE before including this.
+// (bindings are declared only; a shader that uses none of a binding does not reference it)
 #ifndef MDS_BINDINGS_H
 #define MDS_BINDINGS_H
 #ifndef __cplusplus
@@ -24,6 +25,20 @@ layout(std430, set = 0, binding = kBindDrawList) MDS_DRAW_LIST_ACCESS buffer Dra
 };
 // Per-particle radius_q, two uint16 per uint (only with kFramePerParticleRadius).
 layout(std430, set = 0, binding = kBindRadii) readonly buffer RadiusBlock { uint radii_q[]; };
+// Sprite records and their draw commands; the pre-pass defines MDS_SPRITES_WRITABLE.
+#ifdef MDS_SPRITES_WRITABLE
+#define MDS_SPRITES_ACCESS
+#else
+#define MDS_SPRITES_ACCESS readonly
+#endif
+layout(std430, set = 0, binding = kBindSprites) MDS_SPRITES_ACCESS buffer SpriteBlock { GpuSprite sprites[]; };
+layout(std430, set = 0, binding = kBindSpriteDraw) MDS_SPRITES_ACCESS buffer SpriteDrawBlock {
+  SpriteDrawHeader sprite_draw;
+  uint quad_ids[];
+};
+// Compute rasterization of small sprites: [0, W*H) nearest depth bits (atomicMin), [W*H, 2*W*H)
+// the sprite index at that depth; 0xffffffff = empty.
+layout(std430, set = 0, binding = kBindVisibility) coherent buffer VisibilityBlock { uint visibility[]; };
 
 #endif
 #endif  // MDS_BINDINGS_H

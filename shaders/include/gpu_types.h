@@ -35,6 +35,14 @@ MDS_CONST(uint, kBindDrawList, 5);    // DrawListHeader + uint meshlet_ids[]
 MDS_CONST(uint, kBindRadii, 6);       // uint[] = two uint16 radius_q per uint (optional)
 MDS_CONST(uint, kBindColorImage, 7);  // rgba32f storage image: the pass's colour target
 MDS_CONST(uint, kBindAccumImage, 8);  // rgba32f storage image: the accumulation image
+MDS_CONST(uint, kBindSprites, 9);     // GpuSprite[]: per-particle glyph records of the list being drawn
+MDS_CONST(uint, kBindSpriteDraw, 10); // SpriteDrawHeader + uint quad_ids[] (sprites drawn as quads)
+MDS_CONST(uint, kBindVisibility, 11); // uint[2 * W * H]: nearest small-sprite depth bits, then its sprite index
+
+// GpuSprite.flags
+MDS_CONST(uint, kSpriteHidden, 0x100u);  // nothing to draw (behind the near plane, radius 0)
+MDS_CONST(uint, kSpriteQuad, 0x200u);    // drawn as a quad (point path: too large or centre off screen)
+MDS_CONST(uint, kSpriteSmall, 0x400u);   // rasterized in compute into the visibility buffer
 
 // FrameUniforms.flags
 MDS_CONST(uint, kFrameOrtho, 1u);
@@ -83,8 +91,11 @@ MDS_STRUCT(GpuType) {
   uint pad2;
 };
 
-// Head of a draw list buffer: one VkDrawIndexedIndirectCommand, then meshlet ids, one per
-// instance. The compute pass fills it; the draw reads it with vkCmdDrawIndexedIndirect.
+// Head of a draw list buffer: then meshlet ids. A list builder (compute) resets the header and
+// appends ids with atomicAdd(instance_count, 1): instance_count is the list length. The draw
+// pass turns the list into sprites (sprite_args.comp, sphere_prepass.comp) and draws those;
+// the remaining fields keep the VkDrawIndexedIndirectCommand layout for one-instance-per-
+// meshlet consumers (index_count = 6 * max_meshlet_particles).
 MDS_STRUCT(DrawListHeader) {
   uint index_count;     // 6 * max_meshlet_particles (two triangles per particle)
   uint instance_count;  // number of meshlets in the list (atomic counter)
@@ -96,7 +107,42 @@ MDS_STRUCT(DrawListHeader) {
   uint pad2;
 };
 
+// One particle's glyph, computed once per pass by the sprite pre-pass (sphere_prepass.comp) so
+// that the vertex stages only load: screen rectangle, view-space sphere and billboard depth.
+MDS_STRUCT(GpuSprite) {
+  vec4 rect;           // NDC x_lo, y_lo, x_hi, y_hi, incl. the half-pixel margin
+  vec4 center_radius;  // view space centre, radius
+  float zndc;          // billboard depth (the sphere's nearest view distance)
+  uint flags;          // bits 0..7: type; kSpriteHidden, kSpriteQuad
+  uint pad0;
+  uint pad1;
+};
+
+// Indirect commands of the sprite draws, derived from a draw list (sprite_args.comp) and
+// filled by the pre-pass: two VkDrawIndirectCommand (points: one vertex per sprite; quads: six
+// vertices per sprite) and the pre-pass's VkDispatchIndirectCommand (one thread per list entry).
+// capacity (sprites the buffers hold) is written once by the host. After the header: quad_ids
+// [capacity], then the first sprite of each list entry [list length] (sprite_raster_id.comp).
+MDS_STRUCT(SpriteDrawHeader) {
+  uint point_vertex_count;  // sprites written (atomic counter)
+  uint point_instance_count;
+  uint point_first_vertex;
+  uint point_first_instance;
+  uint quad_vertex_count;   // 6 * quads (atomic counter)
+  uint quad_instance_count;
+  uint quad_first_vertex;
+  uint quad_first_instance;
+  uint dispatch_x;
+  uint dispatch_y;
+  uint dispatch_z;
+  uint capacity;
+};
+
 #ifdef __cplusplus
+static_assert(sizeof(GpuSprite) == 48);
+static_assert(sizeof(SpriteDrawHeader) == 48);
+static_assert(offsetof(SpriteDrawHeader, quad_vertex_count) == 16);
+static_assert(offsetof(SpriteDrawHeader, dispatch_x) == 32);
 static_assert(sizeof(FrameUniforms) == 240);
 static_assert(offsetof(FrameUniforms, viewport) == 192);
 static_assert(offsetof(FrameUniforms, counts) == 224);
