@@ -99,11 +99,22 @@ TEST_F(RenderCli, ExrOutputHoldsCoverageInAlpha) {
   }
 }
 
-TEST_F(RenderCli, WithoutNoCullExitsWithClearMessageAndNoOutput) {
-  const fs::path png = dir_ / "nocull.png";
-  EXPECT_NE(run("render " + store() + " -o " + png.string() + " --spp 1 --width 32 --height 32"), 0);
-  EXPECT_NE(last_stderr().find("--no-cull"), std::string::npos) << last_stderr();
-  EXPECT_FALSE(fs::exists(png));
+// Without --no-cull the occlusion culling loop runs (render/culling) and reports its statistics.
+TEST_F(RenderCli, WithoutNoCullRendersWithCullingStats) {
+  const fs::path png = dir_ / "cull.png", stats = dir_ / "cull.json";
+  ASSERT_EQ(run("render " + store() + " -o " + png.string() + " --spp 3 --width 32 --height 32 --stats " +
+                stats.string()),
+            0)
+      << last_stderr();
+  EXPECT_TRUE(fs::exists(png));
+  std::ifstream f(stats);
+  nlohmann::json j = nlohmann::json::parse(f);
+  EXPECT_EQ(j["no_cull"], false);
+  EXPECT_EQ(j["iterations"], 3);
+  EXPECT_GE(j["culled_fraction"].get<double>(), 0.0);
+  EXPECT_LE(j["culled_fraction"].get<double>(), 1.0);
+  EXPECT_EQ(j["parameters"]["acceptance"], "normal");
+  EXPECT_NE(run("render " + store() + " -o " + png.string() + " --acceptance coin"), 0);
 }
 
 TEST_F(RenderCli, BadCameraAndMissingStoreFailCleanly) {

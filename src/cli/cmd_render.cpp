@@ -1,6 +1,7 @@
 // `mdstream render STORE -o IMAGE.png|.exr --no-cull [options]`: headless Vulkan rendering of a
-// store as ray-cast sphere glyphs with progressive super-sampling. This version renders every
-// particle (--no-cull, the reference); the probabilistic occlusion culling loop comes next.
+// store as ray-cast sphere glyphs with progressive super-sampling, with the probabilistic
+// occlusion culling loop of paper 000 (render/culling/cull_loop.h), or every particle with
+// --no-cull (the reference).
 #include <unistd.h>
 
 #include <cstdio>
@@ -32,6 +33,9 @@ struct RenderOptions {
   int view = 0;
   bool ortho = false;
   bool no_cull = false;
+  std::string acceptance = "normal";
+  double cocc = MDS_CULL_C_OCC_DEFAULT;
+  uint32_t budget = 0, converge_iterations = 4, bins = 0, n_budget = MDS_CULL_N_BUDGET_DEFAULT, seed = 1;
   double fov = 40.0;
   uint32_t width = 1920, height = 1080, spp = 64;
   int device = -1;
@@ -80,9 +84,9 @@ Status write_text_atomically(const std::filesystem::path& path, const std::strin
 }
 
 Status run_render(const RenderOptions& o) {
-  if (!o.no_cull)
-    return make_error(Errc::unsupported,
-                      "occlusion culling is not implemented yet; pass --no-cull to render every particle");
+  if (o.acceptance != "normal" && o.acceptance != "random")
+    return make_error(Errc::invalid_argument, "--acceptance '{}': expected normal or random", o.acceptance);
+  if (!(o.cocc > 0.0 && o.cocc < 1.0)) return make_error(Errc::invalid_argument, "--cocc {}: expected (0, 1)", o.cocc);
   if (o.fov <= 0.0 || o.fov >= 180.0)
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.fov);
   MDS_ASSIGN_OR_RETURN(glm::vec3 background, parse_rgb(o.background));
@@ -107,6 +111,18 @@ Status run_render(const RenderOptions& o) {
   rs.height = o.height;
   rs.spp = o.spp;
   rs.background_srgb = background;
+  rs.cull = !o.no_cull;
+  rs.cull_settings.c_occ = o.cocc;
+  rs.cull_settings.acceptance = o.acceptance == "random" ? MDS_CULL_ACCEPT_RANDOM : MDS_CULL_ACCEPT_NORMAL;
+  rs.cull_settings.budget = o.budget;
+  rs.cull_settings.converge_iterations = o.converge_iterations;
+  rs.cull_settings.bins = o.bins;
+  rs.cull_settings.n_budget = o.n_budget;
+  rs.cull_settings.seed = o.seed;
+  if (rs.cull) {
+    MDS_ASSIGN_OR_RETURN(render::culling::DensityVolume vol, render::culling::density_from_store(*reader, scene));
+    rs.density = std::make_shared<const render::culling::DensityVolume>(std::move(vol));
+  }
   MDS_ASSIGN_OR_RETURN(auto renderer, render::Renderer::create(*ctx, scene, rs));
   render::RenderStats stats;
   MDS_ASSIGN_OR_RETURN(render::FrameImage image, renderer->render(camera, &stats));
@@ -125,8 +141,39 @@ Status run_render(const RenderOptions& o) {
     j["spp"] = stats.spp;
     j["width"] = stats.width;
     j["height"] = stats.height;
-    j["no_cull"] = true;
-    j["frame_ms_no_cull"] = stats.frame_ms_median;
+    j["no_cull"] = o.no_cull;
+    j["view"] = o.camera.empty() ? o.view : -1;
+    if (o.no_cull) {
+      j["frame_ms_no_cull"] = stats.frame_ms_median;
+    } else {
+      const auto& c = stats.cull;
+      j["meshlets_culled"] = c.meshlets_culled;
+      j["culled_fraction"] = stats.meshlets ? double(c.meshlets_culled) / double(stats.meshlets) : 0.0;
+      j["iterations"] = c.iterations;
+      j["iterations_to_converge"] = c.iterations_to_converge;
+      j["samples_to_converge"] = c.samples_to_converge;
+      j["converged"] = c.converged;
+      j["frame_ms_during_culling"] = c.frame_ms_during_culling;
+      j["frame_ms_after_convergence"] = c.frame_ms_after_convergence;
+      j["time_to_converge_ms"] = c.time_to_converge_ms;
+      j["class_counts"] = {{"P", c.class_counts.size() == 4 ? c.class_counts[0] : 0},
+                           {"L", c.class_counts.size() == 4 ? c.class_counts[1] : 0},
+                           {"M", c.class_counts.size() == 4 ? c.class_counts[2] : 0},
+                           {"O", c.class_counts.size() == 4 ? c.class_counts[3] : 0}};
+      j["changed_per_iteration"] = c.changed_per_iteration;
+      j["culled_per_iteration"] = c.culled_per_iteration;
+      j["parameters"] = {{"cocc", o.cocc},
+                         {"acceptance", o.acceptance},
+                         {"occluder_budget", c.budget},
+                         {"converge_iterations", o.converge_iterations},
+                         {"histogram_bins", c.bins},
+                         {"n_budget", o.n_budget},
+                         {"seed", o.seed},
+                         {"spp", stats.spp},
+                         {"width", stats.width},
+                         {"height", stats.height},
+                         {"view", o.camera.empty() ? o.view : -1}};
+    }
     j["pass_ms_median"] = stats.pass_ms_median;
     j["wall_ms"] = stats.wall_ms;
     j["upload_bytes"] = stats.upload_bytes;
@@ -140,6 +187,11 @@ Status run_render(const RenderOptions& o) {
     j["validation_messages"] = ctx->validation_messages();
     MDS_TRY(write_text_atomically(o.stats, j.dump(2) + "\n"));
   }
+  if (!o.no_cull)
+    std::fprintf(stderr, "mdstream render: culled %llu of %llu meshlets (%.1f %%), %s after %u iterations\n",
+                 (unsigned long long)stats.cull.meshlets_culled, (unsigned long long)stats.meshlets,
+                 stats.meshlets ? 100.0 * double(stats.cull.meshlets_culled) / double(stats.meshlets) : 0.0,
+                 stats.cull.converged ? "converged" : "not converged", stats.cull.iterations);
   std::fprintf(stderr, "mdstream render: %s: %llu particles, %llu meshlets, %ux%u, %u spp, %.2f ms/pass (GPU), %s\n",
                o.output.c_str(), (unsigned long long)stats.particles, (unsigned long long)stats.meshlets, stats.width,
                stats.height, stats.spp, stats.frame_ms_median, stats.device.c_str());
@@ -151,6 +203,23 @@ void setup_render(CLI::App& sub, int& exit_code) {
   sub.add_option("store", opt->store, "Store file (.mds)")->required();
   sub.add_option("-o,--output", opt->output, "Output image (.png: 8-bit sRGB; .exr: float linear RGBA)")->required();
   sub.add_flag("--no-cull", opt->no_cull, "Render every particle (no occlusion culling; the reference)");
+  sub.add_option("--acceptance", opt->acceptance,
+                 "Sample acceptance of Algorithm 1: normal (Eq. 21, normal approximation) or random (50:50 coin)")
+      ->capture_default_str();
+  sub.add_option("--cocc", opt->cocc, "Confidence threshold of occlusion class O (paper: 0.95)")->capture_default_str();
+  sub.add_option("--occluder-budget", opt->budget, "Occluder meshlets sampled per culling iteration (0: max(2 per node, meshlets / 16))")
+      ->capture_default_str();
+  sub.add_option("--converge-iterations", opt->converge_iterations,
+                 "Culling has converged after this many iterations without class changes")
+      ->check(CLI::Range(1u, 1000000u))
+      ->capture_default_str();
+  sub.add_option("--histogram-bins", opt->bins, "Density histogram bins per pixel (0: as many as fit, <= 64)")
+      ->check(CLI::Range(0u, 64u))
+      ->capture_default_str();
+  sub.add_option("--n-budget", opt->n_budget, "N_budget of Eq. 21 (samples we are willing to wait for)")
+      ->check(CLI::Range(1u, 1000000u))
+      ->capture_default_str();
+  sub.add_option("--seed", opt->seed, "Random seed of occluder selection and sample acceptance")->capture_default_str();
   sub.add_option("--spp", opt->spp, "Jittered samples per pixel (progressive super-sampling)")
       ->check(CLI::Range(1u, 65536u))
       ->capture_default_str();

@@ -1,7 +1,11 @@
 #include "render/renderer.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cstddef>
+#include <cstdlib>
 #include <cstring>
+#include <numeric>
 
 #include "gpu_types.h"
 #include "vk/commands.h"
@@ -28,21 +32,33 @@ struct Renderer::Impl {
   float radius_min = 0, radius_max = 0;
   uint64_t upload_bytes = 0;
 
-  vk::Buffer nodes, meshlets, particles, types, radii, draw_list, indices, frame_ubo;
+  vk::Buffer nodes, meshlets, particles, types, radii, draw_list, frame_ubo;
+  vk::Buffer sprites, sprite_draw;  // pre-pass output: GpuSprite per listed particle, draw commands
+  vk::Buffer visibility;            // compute rasterization of small sprites (depth bits, index)
+  bool vis_bytes_ok = true;         // the visibility buffer fits maxStorageBufferRange
+  bool point_sprites = false;       // small on-screen sprites drawn as points (see create_pipelines)
+  float small_px = 0.0f;            // sprites up to this size rasterized in compute (0: none)
   vk::Image color, depth, accum;
   vk::DescriptorSet set;
   vk::UniquePipelineLayout layout;
-  vk::UniquePipeline draw_list_pipe, sphere_pipe, accum_pipe;
+  vk::UniquePipeline draw_list_pipe, sprite_args_pipe, prepass_pipe, raster_id_pipe, sphere_pipe, point_pipe,
+      resolve_pipe, accum_pipe;
   vk::FrameSlot slot;
   vk::TimestampPool timestamps;
   vk::DeferredDestroyer destroyer;
   uint64_t frame_index = 0;
   bool rendered = false;
+  std::unique_ptr<culling::CullLoop> cull;  // occlusion culling (RenderSettings::cull)
+  bool cull_active = false;                 // record a culling iteration in this pass
+  uint32_t cull_iteration = 0;
+  std::function<void(uint32_t)> iteration_hook;
 
   Status upload(const SceneData& scene);
   Status create_targets();
   Status create_pipelines();
   void record_pass(VkCommandBuffer cmd, bool first);
+  void record_sprite_prepass(VkCommandBuffer cmd);
+  void record_sprite_draws(VkCommandBuffer cmd);
 };
 
 Status Renderer::Impl::upload(const SceneData& scene) {
@@ -79,15 +95,18 @@ Status Renderer::Impl::upload(const SceneData& scene) {
                        vk::Buffer::create(alloc, sizeof(gpu::DrawListHeader) + 4ull * scene.meshlets.size(),
                                           ssbo | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                                           vk::MemoryIntent::device_local, "draw list"));
-  std::vector<uint16_t> idx(6 * size_t(max_meshlet));
-  for (uint32_t i = 0; i < max_meshlet; ++i) {
-    const uint16_t b = uint16_t(4 * i);
-    const uint16_t q[6] = {b, uint16_t(b + 1), uint16_t(b + 2), uint16_t(b + 2), uint16_t(b + 1), uint16_t(b + 3)};
-    std::memcpy(&idx[6 * i], q, sizeof(q));
-  }
-  MDS_ASSIGN_OR_RETURN(indices, vk::Buffer::create(alloc, idx.size() * sizeof(uint16_t),
-                                                   VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                                                   vk::MemoryIntent::device_local, "billboard indices"));
+  // Sprites: one per particle of a draw list; a list holds each meshlet at most once, so the
+  // scene's particle count bounds it.
+  const uint64_t sprite_capacity = std::max<uint64_t>(particle_count, 1);
+  MDS_TRY(check_range(sprite_capacity * sizeof(gpu::GpuSprite), "sprite records"));
+  MDS_ASSIGN_OR_RETURN(sprites, vk::Buffer::create(alloc, sprite_capacity * sizeof(gpu::GpuSprite), ssbo,
+                                                   vk::MemoryIntent::device_local, "sprite records"));
+  MDS_ASSIGN_OR_RETURN(sprite_draw,
+                       vk::Buffer::create(alloc, sizeof(gpu::SpriteDrawHeader) + 4 * (sprite_capacity + meshlet_count),
+                                          ssbo | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, vk::MemoryIntent::device_local,
+                                          "sprite draw commands"));
+  gpu::SpriteDrawHeader sprite_head{};
+  sprite_head.capacity = uint32_t(sprite_capacity);
   MDS_ASSIGN_OR_RETURN(frame_ubo, vk::Buffer::create(alloc, sizeof(gpu::FrameUniforms),
                                                      VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, vk::MemoryIntent::upload,
                                                      "frame uniforms"));
@@ -98,7 +117,7 @@ Status Renderer::Impl::upload(const SceneData& scene) {
   MDS_TRY(ring.upload_span(particles, 0, std::span<const uint16_t>(scene.particles)));
   MDS_TRY(ring.upload_span(types, 0, std::span<const gpu::GpuType>(scene.types)));
   MDS_TRY(ring.upload_span(radii, 0, std::span<const uint16_t>(radii_padded)));
-  MDS_TRY(ring.upload_span(indices, 0, std::span<const uint16_t>(idx)));
+  MDS_TRY(ring.upload_span(sprite_draw, 0, std::span<const gpu::SpriteDrawHeader>(&sprite_head, 1)));
   MDS_TRY(ring.flush());
   upload_bytes = ring.bytes_uploaded();
   return {};
@@ -118,6 +137,12 @@ Status Renderer::Impl::create_targets() {
                                                    VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT |
                                                        VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
                                                    VK_IMAGE_ASPECT_COLOR_BIT, "accumulation image"));
+  const uint64_t vis_bytes = 8ull * w * h;  // depth bits + sprite index per pixel
+  if (vis_bytes > ctx->limits().maxStorageBufferRange) vis_bytes_ok = false;
+  MDS_ASSIGN_OR_RETURN(visibility,
+                       vk::Buffer::create(alloc, vis_bytes_ok ? vis_bytes : 8,
+                                          VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                          vk::MemoryIntent::device_local, "small-sprite visibility buffer"));
   return {};
 }
 
@@ -132,7 +157,9 @@ Status Renderer::Impl::create_pipelines() {
                                       b(gpu::kBindMeshlets, SSBO), b(gpu::kBindParticles, SSBO),
                                       b(gpu::kBindTypes, SSBO), b(gpu::kBindDrawList, SSBO), b(gpu::kBindRadii, SSBO),
                                       b(gpu::kBindColorImage, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE),
-                                      b(gpu::kBindAccumImage, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE)}));
+                                      b(gpu::kBindAccumImage, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE),
+                                      b(gpu::kBindSprites, SSBO), b(gpu::kBindSpriteDraw, SSBO),
+                                      b(gpu::kBindVisibility, SSBO)}));
   set.write_buffer(gpu::kBindFrame, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, frame_ubo.get());
   set.write_buffer(gpu::kBindNodes, SSBO, nodes.get());
   set.write_buffer(gpu::kBindMeshlets, SSBO, meshlets.get());
@@ -142,16 +169,115 @@ Status Renderer::Impl::create_pipelines() {
   set.write_buffer(gpu::kBindRadii, SSBO, radii.get());
   set.write_storage_image(gpu::kBindColorImage, color.view());
   set.write_storage_image(gpu::kBindAccumImage, accum.view());
+  set.write_buffer(gpu::kBindSprites, SSBO, sprites.get());
+  set.write_buffer(gpu::kBindSpriteDraw, SSBO, sprite_draw.get());
+  set.write_buffer(gpu::kBindVisibility, SSBO, visibility.get());
   MDS_ASSIGN_OR_RETURN(layout, vk::create_pipeline_layout(dev, set.layout()));
   MDS_ASSIGN_OR_RETURN(draw_list_pipe, vk::create_compute_pipeline(dev, layout, "draw_list_all.comp"));
   MDS_ASSIGN_OR_RETURN(accum_pipe, vk::create_compute_pipeline(dev, layout, "accumulate.comp"));
+  // Sprites: a compute pre-pass computes every glyph once, the vertex stages only load (on
+  // lavapipe vertex processing and primitive setup run mostly on one thread, compute on all).
+  // Sprites up to kSmallSpritePx pixels are rasterized by compute (all threads) into a
+  // visibility buffer and resolved by one full-screen pass: on lavapipe primitive setup costs
+  // about 1 us per glyph on one thread, more than ray casting a few pixels. The others are
+  // drawn as quads, or as point sprites (one vertex and primitive each) when enabled: points
+  // larger than 1 pixel need the largePoints feature enabled at device creation (vk/context.cpp
+  // does not yet), so they are off by default; MDSTREAM_SPRITES=points turns them on where the
+  // point size range allows, MDSTREAM_SMALL_PX=<pixels> overrides the compute threshold (0: off).
+  constexpr float kSmallSpritePx = 16.0f;
+  const float max_point = ctx->limits().pointSizeRange[1];
+  point_sprites = false;
+  if (const char* e = std::getenv("MDSTREAM_SPRITES")) point_sprites = max_point >= 8.0f && std::string(e) == "points";
+  small_px = vis_bytes_ok ? kSmallSpritePx : 0.0f;
+  if (const char* e = std::getenv("MDSTREAM_SMALL_PX")) small_px = vis_bytes_ok ? float(std::atof(e)) : 0.0f;
+  MDS_ASSIGN_OR_RETURN(sprite_args_pipe, vk::create_compute_pipeline(dev, layout, "sprite_args.comp"));
+  MDS_ASSIGN_OR_RETURN(raster_id_pipe, vk::create_compute_pipeline(dev, layout, "sprite_raster_id.comp"));
+  vk::SpecConstants prepass_spec;
+  prepass_spec.add(0u, VkBool32(point_sprites)).add(1u, max_point).add(2u, small_px);
+  MDS_ASSIGN_OR_RETURN(prepass_pipe, vk::create_compute_pipeline(dev, layout, "sphere_prepass.comp", &prepass_spec));
+  vk::SpecConstants quad_spec;
+  quad_spec.add(0u, VkBool32(point_sprites));  // quads come from the quad list
   vk::GraphicsPipelineDesc g;
   g.vertex_shader = "sphere.vert";
   g.fragment_shader = "sphere.frag";
+  g.vertex_spec = &quad_spec;
   g.color_formats = {kColorFormat};
   g.depth_format = kDepthFormat;
   MDS_ASSIGN_OR_RETURN(sphere_pipe, vk::create_graphics_pipeline(dev, layout, g));
+  if (point_sprites) {
+    vk::GraphicsPipelineDesc gp = g;
+    gp.vertex_shader = "sphere_point.vert";
+    gp.vertex_spec = nullptr;
+    gp.topology = VK_PRIMITIVE_TOPOLOGY_POINT_LIST;
+    MDS_ASSIGN_OR_RETURN(point_pipe, vk::create_graphics_pipeline(dev, layout, gp));
+  }
+  vk::GraphicsPipelineDesc gr = g;
+  gr.vertex_shader = "fullscreen.vert";
+  gr.fragment_shader = "sphere_resolve.frag";
+  gr.vertex_spec = nullptr;
+  MDS_ASSIGN_OR_RETURN(resolve_pipe, vk::create_graphics_pipeline(dev, layout, gr));
   return {};
+}
+
+// The draw list (DrawListHeader.instance_count meshlet ids, written by a compute pass and made
+// visible to compute reads) -> sprite records and the sprite draw commands.
+void Renderer::Impl::record_sprite_prepass(VkCommandBuffer cmd) {
+  VkDescriptorSet ds = set.set();
+  // The previous draw's reads of the sprites and commands are done before they are rewritten.
+  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT,
+                     VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT,
+                     VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                     VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+  if (small_px > 0.0f) {  // empty visibility buffer (after the previous resolve read it)
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
+    vkCmdFillBuffer(cmd, visibility.get(), 0, VK_WHOLE_SIZE, 0xffffffffu);
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+  }
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, sprite_args_pipe);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &ds, 0, nullptr);
+  vkCmdDispatch(cmd, 1, 1, 1);
+  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                     VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
+                         VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, prepass_pipe);
+  vkCmdDispatchIndirect(cmd, sprite_draw.get(), offsetof(gpu::SpriteDrawHeader, dispatch_x));
+  if (small_px > 0.0f) {  // second raster pass: the index of the nearest small sprite per pixel
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, raster_id_pipe);
+    vkCmdDispatchIndirect(cmd, sprite_draw.get(), offsetof(gpu::SpriteDrawHeader, dispatch_x));
+  }
+  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
+                         VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+                     VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+}
+
+// Inside a rendering scope: the resolve of the compute-rasterized small sprites, then the other
+// sprites as points (when enabled) and quads.
+void Renderer::Impl::record_sprite_draws(VkCommandBuffer cmd) {
+  VkDescriptorSet ds = set.set();
+  if (small_px > 0.0f) {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, resolve_pipe);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &ds, 0, nullptr);
+    vkCmdDraw(cmd, 3, 1, 0, 0);
+  }
+  if (point_sprites) {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, point_pipe);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &ds, 0, nullptr);
+    vkCmdDrawIndirect(cmd, sprite_draw.get(), offsetof(gpu::SpriteDrawHeader, point_vertex_count), 1,
+                      sizeof(VkDrawIndirectCommand));
+  }
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, sphere_pipe);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &ds, 0, nullptr);
+  vkCmdDrawIndirect(cmd, sprite_draw.get(), offsetof(gpu::SpriteDrawHeader, quad_vertex_count), 1,
+                    sizeof(VkDrawIndirectCommand));
 }
 
 void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first) {
@@ -170,7 +296,10 @@ void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first) {
                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
   }
 
-  // 1. Draw list (no cull: every meshlet).
+  // 0. One culling iteration (select, sample, update, pyramid, classify, histogram) until converged.
+  if (cull && cull_active) cull->record_iteration(cmd, &timestamps, cull_iteration);
+
+  // 1. Draw list (no cull: every meshlet; cull: every meshlet not in O).
   timestamps.begin(cmd, "draw_list");
   gpu::DrawListHeader head{};
   head.index_count = 6 * max_meshlet;
@@ -181,15 +310,24 @@ void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first) {
   vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, draw_list_pipe);
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &ds, 0, nullptr);
-  vkCmdDispatch(cmd, (meshlet_count + 63) / 64, 1, 1);
+  if (cull) {
+    cull->record_draw_list(cmd);  // the potentially visible set: every meshlet not in O
+  } else {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, draw_list_pipe);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &ds, 0, nullptr);
+    vkCmdDispatch(cmd, (meshlet_count + 63) / 64, 1, 1);
+  }
   vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT,
                      VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
   timestamps.end(cmd);
 
-  // 2. Draw the listed meshlets into colour + depth.
+  // 2. Sprites of the listed meshlets.
+  timestamps.begin(cmd, "prepass");
+  record_sprite_prepass(cmd);
+  timestamps.end(cmd);
+
+  // 3. Draw the sprites into colour + depth.
   timestamps.begin(cmd, "draw");
   vk::image_barrier(cmd, color.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                     VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
@@ -226,14 +364,11 @@ void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first) {
   VkRect2D sc{{0, 0}, {w, h}};
   vkCmdSetViewport(cmd, 0, 1, &vp);
   vkCmdSetScissor(cmd, 0, 1, &sc);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, sphere_pipe);
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &ds, 0, nullptr);
-  vkCmdBindIndexBuffer(cmd, indices.get(), 0, VK_INDEX_TYPE_UINT16);
-  vkCmdDrawIndexedIndirect(cmd, draw_list.get(), 0, 1, sizeof(VkDrawIndexedIndirectCommand));
+  record_sprite_draws(cmd);
   vkCmdEndRendering(cmd);
   timestamps.end(cmd);
 
-  // 3. Accumulate.
+  // 4. Accumulate.
   timestamps.begin(cmd, "accumulate");
   vk::image_barrier(cmd, color.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
                     VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
@@ -272,6 +407,14 @@ Result<std::unique_ptr<Renderer>> Renderer::create(vk::Context& ctx, const Scene
   MDS_TRY(m.create_pipelines());
   MDS_ASSIGN_OR_RETURN(m.slot, vk::FrameSlot::create(ctx));
   MDS_ASSIGN_OR_RETURN(m.timestamps, vk::TimestampPool::create(ctx));
+  if (settings.cull) {
+    culling::SceneBuffers sb{m.nodes.get(), m.meshlets.get(), m.particles.get(),
+                             m.types.get(), m.radii.get(),    m.draw_list.get()};
+    std::shared_ptr<const culling::DensityVolume> vol = settings.density;
+    if (!vol) vol = std::make_shared<culling::DensityVolume>(culling::density_from_scene(scene));
+    MDS_ASSIGN_OR_RETURN(m.cull, culling::CullLoop::create(ctx, scene, *vol, sb, settings.width, settings.height,
+                                                           settings.cull_settings));
+  }
   return r;
 }
 
@@ -294,11 +437,51 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
   MDS_ASSIGN_OR_RETURN(fresh, vk::TimestampPool::create(*m.ctx));
   m.timestamps = std::move(fresh);
 
+  CullStats cs;
+  std::vector<double> frame_ms;  // GPU time per pass, summed per frame
+  std::vector<bool> frame_culled;
+  uint32_t quiet = 0;
+  auto collect_frame = [&]() -> Status {
+    std::map<std::string, size_t> before;
+    for (const auto& [name, v] : m.timestamps.samples()) before[name] = v.size();
+    MDS_TRY(m.timestamps.collect());
+    double sum = 0.0;
+    bool any = false;
+    for (const auto& [name, v] : m.timestamps.samples()) {
+      for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i) sum += v[i], any = true;
+    }
+    if (any) frame_ms.push_back(sum);
+    return {};
+  };
+  auto after_iteration = [&]() {  // the previous pass (with a culling iteration) has completed
+    const gpu::CullCounters c = m.cull->counters();
+    cs.changed_per_iteration.push_back(c.changed);
+    cs.culled_per_iteration.push_back(c.class_count[MDS_CULL_CLASS_O]);
+    cs.class_counts.assign(c.class_count, c.class_count + 4);
+    if (m.iteration_hook) m.iteration_hook(m.cull_iteration);
+    ++m.cull_iteration;
+    quiet = c.changed == 0 ? quiet + 1 : 0;
+    if (quiet >= std::max(1u, m.cull->settings().converge_iterations)) {  // Sect. 5.3
+      m.cull_active = false;
+      cs.converged = true;
+      cs.iterations_to_converge = m.cull_iteration;
+      cs.samples_to_converge = m.cull_iteration;
+      cs.time_to_converge_ms =
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    }
+  };
+  if (m.cull) {
+    MDS_TRY(m.cull->begin_view(camera));
+    m.cull_active = true;
+    m.cull_iteration = 0;
+  }
+  bool pending_iteration = false;
   for (uint32_t s = 0; s < m.settings.spp; ++s) {
     const glm::dvec2 jitter_px = halton_jitter(s);
     const glm::dmat4 proj = projection_matrix(camera, aspect, {2.0 * jitter_px.x / w, 2.0 * jitter_px.y / h});
     MDS_ASSIGN_OR_RETURN(VkCommandBuffer cmd, m.slot.begin());
-    MDS_TRY(m.timestamps.collect());  // previous pass has completed (begin() waited)
+    MDS_TRY(collect_frame());  // previous pass has completed (begin() waited)
+    if (pending_iteration) after_iteration();
     m.destroyer.collect(m.frame_index);
     gpu::FrameUniforms fu{};
     fu.view = glm::mat4(view);
@@ -309,13 +492,28 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     fu.counts = glm::uvec4(m.meshlet_count, m.max_meshlet, m.flags | (camera.ortho ? gpu::kFrameOrtho : 0u), s);
     std::memcpy(m.frame_ubo.mapped(), &fu, sizeof(fu));
     m.frame_ubo.flush();
+    pending_iteration = m.cull && m.cull_active;
+    frame_culled.push_back(pending_iteration);
     m.record_pass(cmd, s == 0);
     MDS_TRY(m.slot.submit(m.ctx->queue()));
     ++m.frame_index;
   }
   MDS_TRY(m.slot.wait());
-  MDS_TRY(m.timestamps.collect());
+  MDS_TRY(collect_frame());
+  if (pending_iteration) after_iteration();
   m.rendered = true;
+  if (m.cull) {
+    cs.enabled = true;
+    cs.iterations = m.cull_iteration;
+    cs.bins = m.cull->bins();
+    cs.budget = m.cull->budget();
+    if (!cs.class_counts.empty()) cs.meshlets_culled = cs.class_counts[MDS_CULL_CLASS_O];
+    std::vector<double> during, after;
+    for (size_t f = 0; f < frame_ms.size() && f < frame_culled.size(); ++f)
+      (frame_culled[f] ? during : after).push_back(frame_ms[f]);
+    cs.frame_ms_during_culling = vk::median(during);
+    cs.frame_ms_after_convergence = vk::median(after);
+  }
 
   MDS_ASSIGN_OR_RETURN(std::vector<std::byte> raw, vk::read_image(*m.ctx, m.accum, VK_IMAGE_LAYOUT_GENERAL, 16));
   FrameImage img;
@@ -345,9 +543,14 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     stats->device_bytes = m.ctx->allocator().peak(vk::MemoryIntent::device_local);
     stats->near = camera.near;
     stats->far = camera.far;
+    stats->cull = cs;
   }
   return img;
 }
+
+culling::CullLoop* Renderer::cull_loop() { return impl_->cull.get(); }
+
+void Renderer::set_iteration_hook(std::function<void(uint32_t)> hook) { impl_->iteration_hook = std::move(hook); }
 
 Result<std::vector<float>> Renderer::read_last_depth() {
   Impl& m = *impl_;

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -19,6 +20,8 @@
 
 #include "core/result.h"
 #include "render/camera.h"
+#include "render/culling/cull_loop.h"
+#include "render/culling/density_volume.h"
 #include "render/scene.h"
 #include "vk/context.h"
 
@@ -29,6 +32,27 @@ struct RenderSettings {
   uint32_t height = 1080;
   uint32_t spp = 64;
   glm::vec3 background_srgb{0.12f, 0.12f, 0.13f};  // default: dark grey
+  bool cull = false;                                 // probabilistic occlusion culling (false: --no-cull)
+  culling::CullSettings cull_settings;
+  std::shared_ptr<const culling::DensityVolume> density;  // from the store; null: built from the scene
+};
+
+// Culling loop statistics of one render() (RenderStats::cull).
+struct CullStats {
+  bool enabled = false;
+  bool converged = false;
+  uint32_t iterations = 0;
+  uint32_t iterations_to_converge = 0;
+  uint32_t samples_to_converge = 0;
+  uint32_t bins = 0;
+  uint32_t budget = 0;
+  uint64_t meshlets_culled = 0;
+  std::vector<uint32_t> class_counts;  // P, L, M, O after the last classification
+  std::vector<uint32_t> changed_per_iteration;
+  std::vector<uint32_t> culled_per_iteration;
+  double time_to_converge_ms = 0.0;
+  double frame_ms_during_culling = 0.0;
+  double frame_ms_after_convergence = 0.0;
 };
 
 // Linear RGBA, row-major from the top-left; rgb already averaged over spp and composited over
@@ -54,6 +78,7 @@ struct RenderStats {
   uint64_t upload_bytes = 0;
   uint64_t device_bytes = 0;
   double near = 0.0, far = 0.0;
+  CullStats cull;
 };
 
 class Renderer {
@@ -69,6 +94,10 @@ class Renderer {
   Result<FrameImage> render(const Camera& camera, RenderStats* stats = nullptr);
   // Depth buffer (z_ndc, 1 = background) of the last pass, row-major from the top-left.
   Result<std::vector<float>> read_last_depth();
+  // The culling loop (null without RenderSettings::cull).
+  culling::CullLoop* cull_loop();
+  // Called after each culling iteration has completed on the GPU, with its index.
+  void set_iteration_hook(std::function<void(uint32_t)> hook);
 
  private:
   Renderer() = default;

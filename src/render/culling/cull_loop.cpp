@@ -1,0 +1,552 @@
+// The probabilistic occlusion culling loop on the GPU (paper 000, Sect. 3-5, Algorithm 1).
+// See cull_loop.h; shaders: shaders/cull_*.comp, cull_sample.vert/.frag.
+#include "render/culling/cull_loop.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "gpu_types.h"
+#include "vk/commands.h"
+#include "vk/pipeline.h"
+#include "vk/staging.h"
+
+namespace mds::render::culling {
+
+namespace {
+constexpr VkFormat kSampleFormat = VK_FORMAT_R32G32_SFLOAT;
+constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+constexpr VkBufferUsageFlags kSsbo =
+    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+
+void compute_barrier(VkCommandBuffer cmd) {
+  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+                     VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+                     VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT |
+                         VK_ACCESS_2_TRANSFER_READ_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT);
+}
+}  // namespace
+
+uint32_t bins_for(uint32_t width, uint32_t height, uint64_t max_storage_range, uint32_t requested) {
+  const uint64_t per_bin = uint64_t(width) * height * sizeof(float);
+  uint64_t fit = per_bin > 0 ? max_storage_range / per_bin : 0;
+  uint64_t bins = std::min<uint64_t>(fit, MDS_CULL_HISTOGRAM_BINS);
+  if (requested > 0) bins = std::min<uint64_t>(bins, requested);
+  return uint32_t(bins);
+}
+
+struct CullLoop::Impl {
+  vk::Context* ctx = nullptr;
+  CullSettings settings;
+  uint32_t width = 0, height = 0, bins = 0, budget = 0, levels = 0;
+  uint32_t meshlet_count = 0, node_count = 0, max_meshlet = 0, frame_flags = 0;
+  float radius_min = 0, radius_max = 0;
+  uint64_t pyramid_texels = 0;
+  SceneBuffers scene;
+  Camera camera;
+  glm::dvec3 origin{0.0};
+  gpu::CullUniforms uniforms{};
+  glm::dmat4 view{1.0}, proj{1.0};
+
+  vk::Buffer cull_ubo, frame_ubo, histogram, hist_range, pixel_state, pyramid, volume, volume_init;
+  vk::Buffer meshlet_voxel_first, voxel_refs, meshlet_class, node_class, counters, counters_host;
+  vk::Buffer occluder_list, indices;
+  vk::Image sample_image, depth;
+  vk::DescriptorSet set0_sample, set0_draw, set1;
+  vk::UniquePipelineLayout layout;
+  vk::UniquePipeline reset_pipe, histogram_pipe, select_pipe, update_pipe, pyramid_pipe, classify_pipe,
+      draw_list_pipe, sample_pipe;
+
+  Status create_buffers(const SceneData& scene_data, const DensityVolume& vol);
+  Status create_sets();
+  Status create_pipelines();
+  void bind(VkCommandBuffer cmd, VkPipelineBindPoint bp, VkPipeline pipe, const vk::DescriptorSet& s0) const;
+  void push(VkCommandBuffer cmd, uint32_t mode) const;
+  void write_uniforms(uint32_t iteration);
+  void write_frame_uniforms(uint32_t iteration);
+  void record_update(VkCommandBuffer cmd);
+  void record_pyramid(VkCommandBuffer cmd);
+  void record_histogram(VkCommandBuffer cmd, uint32_t mode);
+  template <class T>
+  Result<std::vector<T>> read(const vk::Buffer& b, size_t count) {
+    MDS_ASSIGN_OR_RETURN(auto raw, vk::read_buffer(*ctx, b, 0, count * sizeof(T)));
+    std::vector<T> v(count);
+    std::memcpy(v.data(), raw.data(), count * sizeof(T));
+    return v;
+  }
+};
+
+Status CullLoop::Impl::create_buffers(const SceneData& s, const DensityVolume& vol) {
+  auto& alloc = ctx->allocator();
+  const uint64_t px = uint64_t(width) * height;
+  auto make = [&](vk::Buffer& b, uint64_t bytes, const char* what, VkBufferUsageFlags extra = 0) -> Status {
+    if (bytes > ctx->limits().maxStorageBufferRange)
+      return make_error(Errc::budget, "culling: {} need {} bytes, more than maxStorageBufferRange ({})", what, bytes,
+                        ctx->limits().maxStorageBufferRange);
+    MDS_ASSIGN_OR_RETURN(b, vk::Buffer::create(alloc, std::max<uint64_t>(bytes, 16), kSsbo | extra,
+                                               vk::MemoryIntent::device_local, what));
+    return {};
+  };
+  levels = 1;
+  pyramid_texels = px;
+  for (uint32_t w = width, h = height; w > 1 || h > 1; ++levels) {
+    w = (w + 1) / 2;
+    h = (h + 1) / 2;
+    pyramid_texels += uint64_t(w) * h;
+  }
+  MDS_TRY(make(histogram, px * bins * sizeof(float), "density histograms"));
+  MDS_TRY(make(hist_range, px * 8, "histogram ranges"));
+  MDS_TRY(make(pixel_state, px * 32, "cull/accumulation buffers"));
+  MDS_TRY(make(pyramid, pyramid_texels * 8, "confidence pyramid"));
+  MDS_TRY(make(volume, vol.counts.size() * 4, "density volume"));
+  MDS_TRY(make(volume_init, vol.counts.size() * 4, "density volume (initial)"));
+  MeshletVoxels mv = meshlet_voxels(s, vol);
+  MDS_TRY(make(meshlet_voxel_first, mv.first.size() * 4, "meshlet voxel index"));
+  MDS_TRY(make(voxel_refs, mv.refs.size() * 8, "meshlet voxel refs"));
+  MDS_TRY(make(meshlet_class, uint64_t(meshlet_count) * 4, "meshlet classes"));
+  MDS_TRY(make(node_class, uint64_t(node_count) * 4, "node classes"));
+  MDS_TRY(make(counters, sizeof(gpu::CullCounters), "cull counters"));
+  MDS_TRY(make(occluder_list, sizeof(gpu::DrawListHeader) + 4ull * meshlet_count, "occluder list",
+               VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT));
+  MDS_ASSIGN_OR_RETURN(counters_host, vk::Buffer::create(alloc, sizeof(gpu::CullCounters),
+                                                         VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                                         vk::MemoryIntent::readback, "cull counters (host)"));
+  MDS_ASSIGN_OR_RETURN(cull_ubo, vk::Buffer::create(alloc, sizeof(gpu::CullUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
+                                                    vk::MemoryIntent::upload, "cull uniforms"));
+  MDS_ASSIGN_OR_RETURN(frame_ubo, vk::Buffer::create(alloc, sizeof(gpu::FrameUniforms),
+                                                     VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, vk::MemoryIntent::upload,
+                                                     "sampling frame uniforms"));
+  std::vector<uint16_t> idx(6 * size_t(max_meshlet));
+  for (uint32_t i = 0; i < max_meshlet; ++i) {
+    const uint16_t b = uint16_t(4 * i);
+    const uint16_t q[6] = {b, uint16_t(b + 1), uint16_t(b + 2), uint16_t(b + 2), uint16_t(b + 1), uint16_t(b + 3)};
+    std::memcpy(&idx[6 * i], q, sizeof(q));
+  }
+  MDS_ASSIGN_OR_RETURN(indices, vk::Buffer::create(alloc, idx.size() * 2,
+                                                   VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                                   vk::MemoryIntent::device_local, "sampling billboard indices"));
+  MDS_ASSIGN_OR_RETURN(sample_image, vk::Image::create_2d(alloc, width, height, kSampleFormat,
+                                                          VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT |
+                                                              VK_IMAGE_USAGE_STORAGE_BIT |
+                                                              VK_IMAGE_USAGE_TRANSFER_DST_BIT,
+                                                          VK_IMAGE_ASPECT_COLOR_BIT, "occlusion sample image"));
+  MDS_ASSIGN_OR_RETURN(depth, vk::Image::create_2d(alloc, width, height, kDepthFormat,
+                                                   VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                                                   VK_IMAGE_ASPECT_DEPTH_BIT, "occlusion sample depth"));
+  MDS_ASSIGN_OR_RETURN(vk::StagingRing ring, vk::StagingRing::create(*ctx));
+  MDS_TRY(ring.upload_span(volume_init, 0, std::span<const int32_t>(vol.counts)));
+  MDS_TRY(ring.upload_span(meshlet_voxel_first, 0, std::span<const uint32_t>(mv.first)));
+  MDS_TRY(ring.upload_span(voxel_refs, 0, std::span<const glm::uvec2>(mv.refs)));
+  MDS_TRY(ring.upload_span(indices, 0, std::span<const uint16_t>(idx)));
+  MDS_TRY(ring.flush());
+
+  gpu::CullUniforms& u = uniforms;
+  u.viewport = glm::vec4(float(width), float(height), 1.0f / float(width), 1.0f / float(height));
+  u.grid_origin = glm::vec4(glm::vec3(vol.origin), 0.0f);
+  u.grid_cell = glm::vec4(glm::vec3(vol.cell), float(1.0 / (vol.cell.x * vol.cell.y * vol.cell.z)));
+  u.grid_dims = glm::uvec4(uint32_t(vol.dims.x), uint32_t(vol.dims.y), uint32_t(vol.dims.z), bins);
+  u.thresholds = glm::vec4(float(settings.c_occ), float(settings.c_medium), 0.0f, 0.0f);
+  u.params = glm::uvec4(uint32_t(settings.acceptance), settings.n_budget, budget, 0u);
+  u.counts = glm::uvec4(meshlet_count, node_count, 0u, settings.seed);
+  u.pyramid = glm::uvec4(levels, 0u, 0u, 0u);
+  return {};
+}
+
+Status CullLoop::Impl::create_sets() {
+  VkDevice dev = ctx->device();
+  auto b = [](uint32_t binding, VkDescriptorType type) {
+    return VkDescriptorSetLayoutBinding{binding, type, 1, VK_SHADER_STAGE_ALL, nullptr};
+  };
+  const VkDescriptorType SSBO = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, UBO = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+  const std::vector<VkDescriptorSetLayoutBinding> s0 = {
+      b(gpu::kBindFrame, UBO),      b(gpu::kBindNodes, SSBO),    b(gpu::kBindMeshlets, SSBO),
+      b(gpu::kBindParticles, SSBO), b(gpu::kBindTypes, SSBO),    b(gpu::kBindDrawList, SSBO),
+      b(gpu::kBindRadii, SSBO)};
+  for (vk::DescriptorSet* s : {&set0_sample, &set0_draw}) {
+    MDS_ASSIGN_OR_RETURN(*s, vk::DescriptorSet::create(dev, s0));
+    s->write_buffer(gpu::kBindFrame, UBO, frame_ubo.get());
+    s->write_buffer(gpu::kBindNodes, SSBO, scene.nodes);
+    s->write_buffer(gpu::kBindMeshlets, SSBO, scene.meshlets);
+    s->write_buffer(gpu::kBindParticles, SSBO, scene.particles);
+    s->write_buffer(gpu::kBindTypes, SSBO, scene.types);
+    s->write_buffer(gpu::kBindRadii, SSBO, scene.radii);
+  }
+  set0_sample.write_buffer(gpu::kBindDrawList, SSBO, occluder_list.get());
+  set0_draw.write_buffer(gpu::kBindDrawList, SSBO, scene.draw_list != VK_NULL_HANDLE ? scene.draw_list
+                                                                                      : occluder_list.get());
+  MDS_ASSIGN_OR_RETURN(set1, vk::DescriptorSet::create(
+                                 dev, {b(gpu::kCullUniforms, UBO), b(gpu::kCullHistogram, SSBO),
+                                       b(gpu::kCullHistRange, SSBO), b(gpu::kCullPixelState, SSBO),
+                                       b(gpu::kCullPyramid, SSBO), b(gpu::kCullVolume, SSBO),
+                                       b(gpu::kCullMeshletVoxels, SSBO), b(gpu::kCullVoxelRefs, SSBO),
+                                       b(gpu::kCullMeshletClass, SSBO), b(gpu::kCullNodeClass, SSBO),
+                                       b(gpu::kCullCounters, SSBO),
+                                       b(gpu::kCullSampleImage, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE)}));
+  set1.write_buffer(gpu::kCullUniforms, UBO, cull_ubo.get());
+  set1.write_buffer(gpu::kCullHistogram, SSBO, histogram.get());
+  set1.write_buffer(gpu::kCullHistRange, SSBO, hist_range.get());
+  set1.write_buffer(gpu::kCullPixelState, SSBO, pixel_state.get());
+  set1.write_buffer(gpu::kCullPyramid, SSBO, pyramid.get());
+  set1.write_buffer(gpu::kCullVolume, SSBO, volume.get());
+  set1.write_buffer(gpu::kCullMeshletVoxels, SSBO, meshlet_voxel_first.get());
+  set1.write_buffer(gpu::kCullVoxelRefs, SSBO, voxel_refs.get());
+  set1.write_buffer(gpu::kCullMeshletClass, SSBO, meshlet_class.get());
+  set1.write_buffer(gpu::kCullNodeClass, SSBO, node_class.get());
+  set1.write_buffer(gpu::kCullCounters, SSBO, counters.get());
+  set1.write_storage_image(gpu::kCullSampleImage, sample_image.view());
+  return {};
+}
+
+Status CullLoop::Impl::create_pipelines() {
+  VkDevice dev = ctx->device();
+  VkDescriptorSetLayout sl[2] = {set0_sample.layout(), set1.layout()};
+  VkPushConstantRange pc{VK_SHADER_STAGE_ALL, 0, sizeof(gpu::CullPush)};
+  VkPipelineLayoutCreateInfo li{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+  li.setLayoutCount = 2;
+  li.pSetLayouts = sl;
+  li.pushConstantRangeCount = 1;
+  li.pPushConstantRanges = &pc;
+  VkPipelineLayout pl = VK_NULL_HANDLE;
+  MDS_VK_TRY(vkCreatePipelineLayout(dev, &li, nullptr, &pl));
+  layout = vk::UniquePipelineLayout(dev, pl);
+  MDS_ASSIGN_OR_RETURN(reset_pipe, vk::create_compute_pipeline(dev, layout, "cull_reset.comp"));
+  MDS_ASSIGN_OR_RETURN(histogram_pipe, vk::create_compute_pipeline(dev, layout, "cull_histogram.comp"));
+  MDS_ASSIGN_OR_RETURN(select_pipe, vk::create_compute_pipeline(dev, layout, "cull_select.comp"));
+  MDS_ASSIGN_OR_RETURN(update_pipe, vk::create_compute_pipeline(dev, layout, "cull_update.comp"));
+  MDS_ASSIGN_OR_RETURN(pyramid_pipe, vk::create_compute_pipeline(dev, layout, "cull_pyramid.comp"));
+  MDS_ASSIGN_OR_RETURN(classify_pipe, vk::create_compute_pipeline(dev, layout, "cull_classify.comp"));
+  MDS_ASSIGN_OR_RETURN(draw_list_pipe, vk::create_compute_pipeline(dev, layout, "cull_draw_list.comp"));
+  vk::GraphicsPipelineDesc g;
+  g.vertex_shader = "cull_sample.vert";
+  g.fragment_shader = "cull_sample.frag";
+  g.color_formats = {kSampleFormat};
+  g.depth_format = kDepthFormat;
+  MDS_ASSIGN_OR_RETURN(sample_pipe, vk::create_graphics_pipeline(dev, layout, g));
+  return {};
+}
+
+void CullLoop::Impl::bind(VkCommandBuffer cmd, VkPipelineBindPoint bp, VkPipeline pipe,
+                          const vk::DescriptorSet& s0) const {
+  VkDescriptorSet sets[2] = {s0.set(), set1.set()};
+  vkCmdBindPipeline(cmd, bp, pipe);
+  vkCmdBindDescriptorSets(cmd, bp, layout, 0, 2, sets, 0, nullptr);
+}
+
+void CullLoop::Impl::push(VkCommandBuffer cmd, uint32_t mode) const {
+  gpu::CullPush p{mode, 0, 0, 0};
+  vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_ALL, 0, sizeof(p), &p);
+}
+
+void CullLoop::Impl::write_uniforms(uint32_t iteration) {
+  uniforms.counts.z = iteration;
+  std::memcpy(cull_ubo.mapped(), &uniforms, sizeof(uniforms));
+  cull_ubo.flush();
+}
+
+void CullLoop::Impl::write_frame_uniforms(uint32_t iteration) {
+  // The sampling pass's own jitter sequence: Halton(2,3) from index 1 (index 0 = pixel centre).
+  const glm::dvec2 j = halton_jitter(iteration + 1);
+  const double aspect = double(width) / double(height);
+  const glm::dmat4 p = projection_matrix(camera, aspect, {2.0 * j.x / width, 2.0 * j.y / height});
+  gpu::FrameUniforms fu{};
+  fu.view = glm::mat4(view);
+  fu.proj = glm::mat4(p);
+  fu.inv_proj = glm::mat4(glm::inverse(p));
+  fu.viewport = glm::vec4(float(width), float(height), 1.0f / float(width), 1.0f / float(height));
+  fu.radius_range = glm::vec4(radius_min, radius_max - radius_min, float(camera.near), float(camera.far));
+  fu.counts = glm::uvec4(meshlet_count, max_meshlet, frame_flags | (camera.ortho ? gpu::kFrameOrtho : 0u), iteration);
+  std::memcpy(frame_ubo.mapped(), &fu, sizeof(fu));
+  frame_ubo.flush();
+}
+
+void CullLoop::Impl::record_update(VkCommandBuffer cmd) {
+  bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, update_pipe, set0_sample);
+  push(cmd, 0);
+  vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1);
+  compute_barrier(cmd);
+}
+
+void CullLoop::Impl::record_pyramid(VkCommandBuffer cmd) {
+  bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pyramid_pipe, set0_sample);
+  uint32_t w = width, h = height;
+  for (uint32_t l = 1; l < levels; ++l) {
+    w = (w + 1) / 2;
+    h = (h + 1) / 2;
+    push(cmd, l);
+    vkCmdDispatch(cmd, (w + 7) / 8, (h + 7) / 8, 1);
+    compute_barrier(cmd);
+  }
+}
+
+void CullLoop::Impl::record_histogram(VkCommandBuffer cmd, uint32_t mode) {
+  bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, histogram_pipe, set0_sample);
+  push(cmd, mode);
+  vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1);
+  compute_barrier(cmd);
+}
+
+Result<std::unique_ptr<CullLoop>> CullLoop::create(vk::Context& ctx, const SceneData& scene,
+                                                   const DensityVolume& volume, const SceneBuffers& buffers,
+                                                   uint32_t width, uint32_t height, const CullSettings& settings) {
+  if (scene.meshlets.empty()) return make_error(Errc::invalid_argument, "culling: the scene has no meshlets");
+  if (volume.counts.size() != size_t(volume.dims.x) * volume.dims.y * volume.dims.z || volume.counts.empty())
+    return make_error(Errc::invalid_argument, "culling: density volume dims/counts mismatch");
+  if (settings.acceptance != MDS_CULL_ACCEPT_NORMAL && settings.acceptance != MDS_CULL_ACCEPT_RANDOM)
+    return make_error(Errc::invalid_argument, "culling: acceptance mode {} not available on the GPU",
+                      settings.acceptance);
+  std::unique_ptr<CullLoop> loop(new CullLoop());
+  loop->impl_ = std::make_unique<Impl>();
+  Impl& m = *loop->impl_;
+  m.ctx = &ctx;
+  m.settings = settings;
+  m.width = width;
+  m.height = height;
+  m.scene = buffers;
+  m.origin = scene.origin;
+  m.meshlet_count = uint32_t(scene.meshlets.size());
+  m.node_count = uint32_t(scene.nodes.size());
+  m.max_meshlet = scene.max_meshlet_particles;
+  m.frame_flags = scene.per_particle_radius ? gpu::kFramePerParticleRadius : 0u;
+  m.radius_min = scene.radius_min;
+  m.radius_max = scene.radius_max;
+  m.bins = bins_for(width, height, ctx.limits().maxStorageBufferRange, settings.bins);
+  if (m.bins == 0)
+    return make_error(Errc::budget, "culling: one histogram bin for {}x{} pixels exceeds maxStorageBufferRange ({})",
+                      width, height, ctx.limits().maxStorageBufferRange);
+  // Default budget: 2 meshlets per node (paper Table 6), at least 1/16 of the meshlets so that a
+  // view converges within a few dozen iterations at our node sizes.
+  m.budget = settings.budget > 0 ? settings.budget
+                                 : std::max<uint32_t>({1u, 2 * m.node_count, m.meshlet_count / 16});
+  MDS_TRY(m.create_buffers(scene, volume));
+  MDS_TRY(m.create_sets());
+  MDS_TRY(m.create_pipelines());
+  return loop;
+}
+
+CullLoop::~CullLoop() = default;
+
+uint32_t CullLoop::bins() const { return impl_->bins; }
+uint32_t CullLoop::budget() const { return impl_->budget; }
+uint32_t CullLoop::pyramid_levels() const { return impl_->levels; }
+const CullSettings& CullLoop::settings() const { return impl_->settings; }
+
+Status CullLoop::begin_view(const Camera& camera) {
+  Impl& m = *impl_;
+  if (!(camera.near > 0.0 && camera.far > camera.near))
+    return make_error(Errc::invalid_argument, "culling: begin_view needs fitted near/far planes");
+  m.camera = camera;
+  const double aspect = double(m.width) / double(m.height);
+  m.view = view_matrix(camera, m.origin);
+  m.proj = projection_matrix(camera, aspect);
+  gpu::CullUniforms& u = m.uniforms;
+  u.view = glm::mat4(m.view);
+  u.inv_view = glm::mat4(glm::inverse(m.view));
+  u.proj = glm::mat4(m.proj);
+  const double focal_px = 0.5 * m.height * std::abs(m.proj[1][1]);
+  const double pixel_w = 2.0 / (std::abs(m.proj[0][0]) * m.width), pixel_h = 2.0 / (std::abs(m.proj[1][1]) * m.height);
+  u.camera = glm::vec4(float(focal_px), float(pixel_w * pixel_h), float(camera.near), float(camera.far));
+  u.params.w = camera.ortho ? gpu::kCullOrtho : 0u;
+  m.write_uniforms(0);
+  gpu::CullCounters c{};
+  c.class_count[MDS_CULL_CLASS_P] = m.meshlet_count;
+  return m.ctx->submit_and_wait([&](VkCommandBuffer cmd) {
+    vkCmdFillBuffer(cmd, m.meshlet_class.get(), 0, VK_WHOLE_SIZE, 0);
+    vkCmdFillBuffer(cmd, m.node_class.get(), 0, VK_WHOLE_SIZE, 0);
+    vkCmdUpdateBuffer(cmd, m.counters.get(), 0, sizeof(c), &c);
+    VkBufferCopy bc{0, 0, m.volume.size()};
+    vkCmdCopyBuffer(cmd, m.volume_init.get(), m.volume.get(), 1, &bc);
+    compute_barrier(cmd);
+    m.bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, m.reset_pipe, m.set0_sample);
+    m.push(cmd, 0);
+    vkCmdDispatch(cmd, (m.width + 7) / 8, (m.height + 7) / 8, 1);
+    compute_barrier(cmd);
+    m.record_histogram(cmd, 1);
+  });
+}
+
+void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint32_t iteration) {
+  Impl& m = *impl_;
+  m.write_uniforms(iteration);
+  m.write_frame_uniforms(iteration);
+  auto begin = [&](const char* name) {
+    if (ts) ts->begin(cmd, name);
+  };
+  auto end = [&]() {
+    if (ts) ts->end(cmd);
+  };
+
+  // select (Sect. 5.2)
+  begin("select");
+  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
+                              VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                     VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT,
+                     VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
+  gpu::DrawListHeader head{};
+  head.index_count = 6 * m.max_meshlet;
+  vkCmdUpdateBuffer(cmd, m.occluder_list.get(), 0, sizeof(head), &head);
+  vkCmdFillBuffer(cmd, m.counters.get(), offsetof(gpu::CullCounters, selected), 4, 0);
+  compute_barrier(cmd);
+  m.bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, m.select_pipe, m.set0_sample);
+  vkCmdDispatch(cmd, (m.meshlet_count + 63) / 64, 1, 1);
+  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT,
+                     VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+  end();
+
+  // sample (Sect. 3.2): one jittered depth sample per pixel of the occluders.
+  begin("sample");
+  vk::image_barrier(cmd, m.sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                    VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                    VK_ACCESS_2_SHADER_STORAGE_READ_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                    VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
+  vk::image_barrier(cmd, m.depth.get(), VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                    VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+                    VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+                    VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+                    VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
+  VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  ca.imageView = m.sample_image.view();
+  ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  ca.clearValue.color = {{float(MDS_CULL_DEPTH_EMPTY), 0.0f, 0.0f, 0.0f}};
+  VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  da.imageView = m.depth.view();
+  da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  da.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  da.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  da.clearValue.depthStencil = {1.0f, 0};
+  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+  ri.renderArea = {{0, 0}, {m.width, m.height}};
+  ri.layerCount = 1;
+  ri.colorAttachmentCount = 1;
+  ri.pColorAttachments = &ca;
+  ri.pDepthAttachment = &da;
+  vkCmdBeginRendering(cmd, &ri);
+  VkViewport vp{0.0f, 0.0f, float(m.width), float(m.height), 0.0f, 1.0f};
+  VkRect2D sc{{0, 0}, {m.width, m.height}};
+  vkCmdSetViewport(cmd, 0, 1, &vp);
+  vkCmdSetScissor(cmd, 0, 1, &sc);
+  m.bind(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, m.sample_pipe, m.set0_sample);
+  vkCmdBindIndexBuffer(cmd, m.indices.get(), 0, VK_INDEX_TYPE_UINT16);
+  vkCmdDrawIndexedIndirect(cmd, m.occluder_list.get(), 0, 1, sizeof(VkDrawIndexedIndirectCommand));
+  vkCmdEndRendering(cmd);
+  vk::image_barrier(cmd, m.sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                    VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                    VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                    VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+  end();
+
+  begin("update");  // Algorithm 1
+  m.record_update(cmd);
+  end();
+  begin("pyramid");  // Eq. 23
+  m.record_pyramid(cmd);
+  end();
+
+  begin("classify");  // Sect. 5.1, nodes then meshlets; Sect. 4.4 volume updates
+  vkCmdFillBuffer(cmd, m.counters.get(), 0, offsetof(gpu::CullCounters, selected), 0);
+  vkCmdFillBuffer(cmd, m.counters.get(), offsetof(gpu::CullCounters, node_class_count), 16, 0);
+  compute_barrier(cmd);
+  m.bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, m.classify_pipe, m.set0_sample);
+  m.push(cmd, 0);
+  vkCmdDispatch(cmd, (m.node_count + 63) / 64, 1, 1);
+  compute_barrier(cmd);
+  m.push(cmd, 1);
+  vkCmdDispatch(cmd, (m.meshlet_count + 63) / 64, 1, 1);
+  compute_barrier(cmd);
+  end();
+
+  begin("histogram");  // Eq. 9-11 after the volume update (no-op when nothing reached O)
+  m.record_histogram(cmd, 0);
+  end();
+
+  VkBufferCopy bc{0, 0, sizeof(gpu::CullCounters)};
+  vkCmdCopyBuffer(cmd, m.counters.get(), m.counters_host.get(), 1, &bc);
+  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+}
+
+void CullLoop::record_draw_list(VkCommandBuffer cmd) {
+  Impl& m = *impl_;
+  m.bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, m.draw_list_pipe, m.set0_draw);
+  vkCmdDispatch(cmd, (m.meshlet_count + 63) / 64, 1, 1);
+}
+
+gpu::CullCounters CullLoop::counters() const {
+  gpu::CullCounters c{};
+  impl_->counters_host.invalidate();
+  std::memcpy(&c, impl_->counters_host.mapped(), sizeof(c));
+  return c;
+}
+
+Result<std::vector<uint32_t>> CullLoop::read_meshlet_classes() {
+  return impl_->read<uint32_t>(impl_->meshlet_class, impl_->meshlet_count);
+}
+Result<std::vector<float>> CullLoop::read_histograms() {
+  return impl_->read<float>(impl_->histogram, size_t(impl_->width) * impl_->height * impl_->bins);
+}
+Result<std::vector<glm::vec2>> CullLoop::read_hist_ranges() {
+  return impl_->read<glm::vec2>(impl_->hist_range, size_t(impl_->width) * impl_->height);
+}
+Result<std::vector<glm::vec4>> CullLoop::read_pixel_state() {
+  return impl_->read<glm::vec4>(impl_->pixel_state, 2 * size_t(impl_->width) * impl_->height);
+}
+Result<std::vector<glm::vec2>> CullLoop::read_pyramid() {
+  return impl_->read<glm::vec2>(impl_->pyramid, impl_->pyramid_texels);
+}
+Result<std::vector<int32_t>> CullLoop::read_volume() {
+  return impl_->read<int32_t>(impl_->volume, impl_->volume.size() / 4);
+}
+
+Status CullLoop::write_histograms(const std::vector<float>& counts, const std::vector<glm::vec2>& ranges) {
+  Impl& m = *impl_;
+  MDS_ASSIGN_OR_RETURN(vk::StagingRing ring, vk::StagingRing::create(*m.ctx));
+  MDS_TRY(ring.upload_span(m.histogram, 0, std::span<const float>(counts)));
+  MDS_TRY(ring.upload_span(m.hist_range, 0, std::span<const glm::vec2>(ranges)));
+  return ring.flush();
+}
+
+Status CullLoop::write_pyramid_level0(const std::vector<glm::vec2>& dc) {
+  Impl& m = *impl_;
+  MDS_ASSIGN_OR_RETURN(vk::StagingRing ring, vk::StagingRing::create(*m.ctx));
+  MDS_TRY(ring.upload_span(m.pyramid, 0, std::span<const glm::vec2>(dc)));
+  return ring.flush();
+}
+
+Status CullLoop::run_update_only(const std::vector<glm::vec2>& samples, uint32_t iteration) {
+  Impl& m = *impl_;
+  MDS_ASSIGN_OR_RETURN(vk::Buffer staging,
+                       vk::Buffer::create(m.ctx->allocator(), samples.size() * sizeof(glm::vec2),
+                                          VK_BUFFER_USAGE_TRANSFER_SRC_BIT, vk::MemoryIntent::upload, "test samples"));
+  std::memcpy(staging.mapped(), samples.data(), samples.size() * sizeof(glm::vec2));
+  staging.flush();
+  m.write_uniforms(iteration);
+  return m.ctx->submit_and_wait([&](VkCommandBuffer cmd) {
+    vk::image_barrier(cmd, m.sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                      VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT, VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+                      VK_ACCESS_2_TRANSFER_WRITE_BIT);
+    VkBufferImageCopy r{};
+    r.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    r.imageExtent = {m.width, m.height, 1};
+    vkCmdCopyBufferToImage(cmd, staging.get(), m.sample_image.get(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &r);
+    vk::image_barrier(cmd, m.sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                      VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+    m.record_update(cmd);
+  });
+}
+
+Status CullLoop::run_pyramid_only() {
+  Impl& m = *impl_;
+  return m.ctx->submit_and_wait([&](VkCommandBuffer cmd) { m.record_pyramid(cmd); });
+}
+
+Status CullLoop::run_histogram_only() {
+  Impl& m = *impl_;
+  return m.ctx->submit_and_wait([&](VkCommandBuffer cmd) { m.record_histogram(cmd, 1); });
+}
+
+}  // namespace mds::render::culling

@@ -1,0 +1,105 @@
+// The probabilistic occlusion culling loop on the GPU (paper 000, Ibrahim et al. 2021, Sect. 3-5,
+// Algorithm 1; supplement 004 A), as compute passes and indirect draws (no mesh shaders needed).
+// One culling iteration (record_iteration) is:
+//   select    occluder selection from P, then L, random per iteration (Sect. 5.2) -> occluder list
+//   sample    one jittered depth sample per pixel of the occluders (depth + alpha_s, indirect draw)
+//   update    Algorithm 1 per pixel with P(d_s) of Eq. 13-22 (accumulation + cull buffer)
+//   pyramid   Eq. 23, level by level
+//   classify  nodes, then meshlets into O/M/L/P (Sect. 5.1); meshlets reaching O subtract their
+//             voxel contributions from the density volume (Sect. 4.4)
+//   histogram per-pixel density histograms (Eq. 9-11), recomputed when the volume changed
+// record_draw_list writes the potentially visible set (all meshlets not in O) into a draw list
+// in the renderer's format. The host decides convergence (Sect. 5.3) from counters() read after
+// each iteration: no meshlet changed class for `converge_iterations` iterations.
+//
+// Resident set: every array is indexed by the scene's meshlets/nodes as uploaded; the streaming
+// cache can later hand a subset by uploading only resident nodes' meshlets (class, voxel refs
+// and lists are per uploaded meshlet).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <glm/glm.hpp>
+#include <vulkan/vulkan.h>
+
+#include "core/result.h"
+#include "cull_shared.h"
+#include "culling/culling_constants.h"
+#include "render/camera.h"
+#include "render/culling/density_volume.h"
+#include "render/scene.h"
+#include "vk/context.h"
+#include "vk/timestamps.h"
+
+namespace mds::render::culling {
+
+struct CullSettings {
+  double c_occ = MDS_CULL_C_OCC_DEFAULT;        // --cocc
+  double c_medium = MDS_CULL_C_MEDIUM_DEFAULT;  // L/M boundary (docs/culling-math.md)
+  int acceptance = MDS_CULL_ACCEPT_NORMAL;      // or MDS_CULL_ACCEPT_RANDOM (--acceptance random)
+  uint32_t n_budget = MDS_CULL_N_BUDGET_DEFAULT;
+  uint32_t budget = 0;  // occluder meshlets per iteration; 0: max(2 per node (paper), meshlets / 16)
+  uint32_t converge_iterations = 4;  // Sect. 5.3: iterations without class changes
+  uint32_t bins = 0;                 // histogram bins; 0: as many as fit (<= 64), see bins_for()
+  uint32_t seed = 1;
+};
+
+// The renderer's scene buffers the culling passes read (and the draw list they write).
+struct SceneBuffers {
+  VkBuffer nodes = VK_NULL_HANDLE, meshlets = VK_NULL_HANDLE, particles = VK_NULL_HANDLE;
+  VkBuffer types = VK_NULL_HANDLE, radii = VK_NULL_HANDLE, draw_list = VK_NULL_HANDLE;
+};
+
+// Histogram bins that fit: W*H*bins*4 bytes must stay within maxStorageBufferRange (the
+// histogram buffer is bound whole). lavapipe: 128 MiB -> 64 bins up to 524288 pixels
+// (640x360: 59 MiB), 16 bins at 1920x1080 (2073600 px * 16 * 4 = 127 MiB).
+uint32_t bins_for(uint32_t width, uint32_t height, uint64_t max_storage_range, uint32_t requested);
+
+class CullLoop {
+ public:
+  static Result<std::unique_ptr<CullLoop>> create(vk::Context& ctx, const SceneData& scene,
+                                                  const DensityVolume& volume, const SceneBuffers& buffers,
+                                                  uint32_t width, uint32_t height, const CullSettings& settings);
+  ~CullLoop();
+  CullLoop(const CullLoop&) = delete;
+  CullLoop& operator=(const CullLoop&) = delete;
+
+  // New view: all classes P, empty cull/accumulation buffers, the original density volume,
+  // histograms cast. `camera` must have near/far set. Submits and waits.
+  Status begin_view(const Camera& camera);
+  // One culling iteration (see the file comment) into cmd; `iteration` counts from 0 per view.
+  // Ends with a copy of the counters for counters(). Timestamps per pass when ts != nullptr.
+  void record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint32_t iteration);
+  // Appends every meshlet not in O to `draw_list` (header must be reset by the caller).
+  void record_draw_list(VkCommandBuffer cmd);
+  // Counters of the last recorded iteration (valid after its submission completed).
+  gpu::CullCounters counters() const;
+
+  uint32_t bins() const;
+  uint32_t budget() const;
+  uint32_t pyramid_levels() const;
+  const CullSettings& settings() const;
+
+  // Inspection and test hooks (each submits and waits).
+  Result<std::vector<uint32_t>> read_meshlet_classes();
+  Result<std::vector<float>> read_histograms();    // W*H*bins
+  Result<std::vector<glm::vec2>> read_hist_ranges();
+  Result<std::vector<glm::vec4>> read_pixel_state();  // 2 per pixel
+  Result<std::vector<glm::vec2>> read_pyramid();      // all levels
+  Result<std::vector<int32_t>> read_volume();
+  Status write_histograms(const std::vector<float>& counts, const std::vector<glm::vec2>& ranges);
+  Status write_pyramid_level0(const std::vector<glm::vec2>& dc);
+  // Sets the sample image (view depth, alpha_s) and runs only the update pass for `iteration`.
+  Status run_update_only(const std::vector<glm::vec2>& samples, uint32_t iteration);
+  Status run_pyramid_only();
+  Status run_histogram_only();
+
+ private:
+  CullLoop() = default;
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mds::render::culling
