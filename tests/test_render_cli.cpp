@@ -16,14 +16,17 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// CTest runs test cases as parallel processes: each keeps its stderr capture to itself.
+std::string stderr_path() { return "/tmp/mds_render_cli_err." + std::to_string(::getpid()) + ".txt"; }
+
 int run(const std::string& args) {
-  std::string cmd = std::string(MDSTREAM_BIN) + " " + args + " 2>/tmp/mds_render_cli_err.txt";
+  std::string cmd = std::string(MDSTREAM_BIN) + " " + args + " 2>" + stderr_path();
   int r = std::system(cmd.c_str());
   return WIFEXITED(r) ? WEXITSTATUS(r) : -1;
 }
 
 std::string last_stderr() {
-  std::ifstream f("/tmp/mds_render_cli_err.txt");
+  std::ifstream f(stderr_path());
   return std::string(std::istreambuf_iterator<char>(f), {});
 }
 
