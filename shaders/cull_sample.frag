@@ -7,13 +7,16 @@
 #extension GL_GOOGLE_include_directive : require
 #include "bindings.h"
 #include "culling_math.glsl"
+#include "cull_shared.h"
+
+layout(push_constant) uniform PushBlock { CullPush push; };  // jitter (NDC), see cull_sample.vert
 
 layout(location = 0) flat in vec4 v_center_radius;
 layout(location = 0) out vec2 o_sample;
 layout(depth_greater) out float gl_FragDepth;
 
 void main() {
-  vec2 ndc = gl_FragCoord.xy * frame.viewport.zw * 2.0 - 1.0;
+  vec2 ndc = gl_FragCoord.xy * frame.viewport.zw * 2.0 - 1.0 - vec2(push.jitter_x, push.jitter_y);
   vec4 pn = frame.inv_proj * vec4(ndc, 0.0, 1.0);
   vec4 pf = frame.inv_proj * vec4(ndc, 1.0, 1.0);
   vec3 o = pn.xyz / pn.w;

@@ -1,11 +1,17 @@
 #version 460
 // Occlusion sampling pass (paper 000, Sect. 3.2): the selected occluder meshlets (set 0's draw
-// list = the occluder list) as sphere billboards, one jittered sub-pixel depth sample per pixel.
+// list = the occluder list) as sphere billboards, one jittered sub-pixel depth sample per pixel;
+// several passes per culling iteration, each with its own occluder subset and jitter.
 // Same conservative billboard as sphere.vert (tangent-plane bounds, half a pixel of margin, so
 // sub-pixel spheres are sampled with their exact covered area over the jittered passes); the
 // fragment shader writes the sample's view depth and its effective area alpha_s.
 #extension GL_GOOGLE_include_directive : require
 #include "bindings.h"
+#include "cull_shared.h"
+
+// frame.proj is unjittered; this pass's sub-pixel jitter (NDC) comes as a push constant, so that
+// several sampling passes per culling iteration share one frame uniform buffer.
+layout(push_constant) uniform PushBlock { CullPush push; };
 
 layout(location = 0) flat out vec4 v_center_radius;  // view space
 
@@ -66,6 +72,6 @@ void main() {
   ndc_hi = min(ndc_hi, vec2(1.01));
   float zndc = max(project(vec3(0.0, 0.0, -zq)).z, 0.0);
   vec2 xy = vec2((corner & 1u) != 0u ? ndc_hi.x : ndc_lo.x, (corner & 2u) != 0u ? ndc_hi.y : ndc_lo.y);
-  gl_Position = vec4(xy, zndc, 1.0);
+  gl_Position = vec4(xy + vec2(push.jitter_x, push.jitter_y), zndc, 1.0);
   v_center_radius = vec4(c, r);
 }

@@ -1,8 +1,8 @@
 #version 460
-// Occluder selection (paper 000, Sect. 5.2): a budget of meshlets per iteration, drawn from
-// class P first, then from L when P holds fewer than the budget. Randomised per iteration so
+// Occluder selection (paper 000, Sect. 5.2): a budget of meshlets per sampling pass, drawn from
+// class P first, then from L when P holds fewer than the budget. Randomised per pass so
 // that no candidate starves: every candidate gets a fresh random key (hash of meshlet id,
-// iteration, seed) and is selected when key < budget / |class| -- an unbiased random subset of
+// sampling pass, seed) and is selected when key < budget / |class| -- an unbiased random subset of
 // expected size min(budget, |P|) from P (and the rest of the budget from L), the same
 // distribution as taking the first `budget` entries of a random permutation, without a sort.
 // |P| and |L| are the counts of the previous classification (counters.class_count).
@@ -27,7 +27,7 @@ void main() {
   float prob;
   if (cls == uint(MDS_CULL_CLASS_P)) prob = nP > 0.0 ? budget / nP : 0.0;
   else prob = (budget > nP && nL > 0.0) ? (budget - nP) / nL : 0.0;
-  float u = cull_uniform01(m, cull.counts.z, cull.counts.w ^ 0x5e1ec7u);
+  float u = cull_uniform01(m, push.pass, cull.counts.w ^ 0x5e1ec7u);
   if (u > prob) return;
   uint slot = atomicAdd(draw_header.instance_count, 1u);
   draw_ids[slot] = m;

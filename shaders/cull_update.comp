@@ -1,9 +1,13 @@
 #version 460
 // Double-buffered depth confidence update (paper 000, Sect. 4.3, Algorithm 1) for the depth
-// sample of this iteration's occlusion sampling pass: per pixel with a sample (d_s, alpha_s),
-// mds_update_depth_and_confidence with the acceptance probability P(d_s) of Eq. 13-22 (normal
-// approximation of supplement A, or the 50:50 coin), u uniform in (0, 1] from a hash of the
-// pixel, the iteration and the seed. Writes the cull buffer (d_cull, C_cull) into pyramid level 0.
+// sample of one occlusion sampling pass: per pixel with a sample (d_s, alpha_s),
+// mds_update_depth_and_confidence_fronts with the acceptance probability P(d_s) of Eq. 13-22
+// (normal approximation of supplement A, or the 50:50 coin), u uniform in (0, 1] from a hash of
+// the pixel, the sampling pass (push.pass) and the seed. Writes the cull buffer (d_cull, C_cull)
+// into pyramid level 0.
+// Cost per pixel: O(1). The histograms are stored cumulatively (cull_histogram.comp), so each of
+// the three density queries D(d_min, x) for x = d, d_cull, d_s is two loads (cull_hist_front),
+// and D(d_min, d_max) one; no per-pixel copy of the bins.
 #extension GL_GOOGLE_include_directive : require
 #include "culling_math.glsl"
 #include "cull_bindings.h"
@@ -16,23 +20,22 @@ void main() {
   uint W = cull_width(), H = cull_height();
   if (p.x >= W || p.y >= H) return;
   uint pix = p.y * W + p.x;
-  vec4 acc = pixel_state[2u * pix], cb = pixel_state[2u * pix + 1u];
   vec2 s = imageLoad(sample_image, ivec2(p)).xy;
-  if (s.x < float(MDS_CULL_DEPTH_EMPTY)) {
-    int bins = int(cull.grid_dims.w);
-    vec2 range = hist_range[pix];
-    float counts[MDS_CULL_HISTOGRAM_BINS];
-    for (int b = 0; b < MDS_CULL_HISTOGRAM_BINS; ++b)
-      counts[b] = b < bins ? hist_counts[pix * uint(bins) + uint(b)] : 0.0;
-    if (!(range.y > range.x)) bins = 0;
-    float u = cull_uniform01(pix, cull.counts.z, cull.counts.w);
-    float d = acc.x, C = acc.y, k = acc.z, d_cull = cb.x, C_cull = cb.y, k_cull = cb.z;
-    mds_update_depth_and_confidence(d, C, k, d_cull, C_cull, k_cull, counts, bins, range.x, range.y,
-                                    s.x, s.y, u, int(cull.params.x), int(cull.params.y));
-    acc = vec4(d, C, k, 0.0);
-    cb = vec4(d_cull, C_cull, k_cull, 0.0);
-    pixel_state[2u * pix] = acc;
-    pixel_state[2u * pix + 1u] = cb;
-  }
-  pyramid[pix] = cb.xy;
+  if (!(s.x < float(MDS_CULL_DEPTH_EMPTY))) return;  // no sample: state and level 0 unchanged
+  vec4 acc = pixel_state[2u * pix], cb = pixel_state[2u * pix + 1u];
+  int bins = int(cull.grid_dims.w);
+  vec2 range = hist_range[pix];
+  if (!(range.y > range.x)) bins = 0;
+  uint base = pix * cull.grid_dims.w;
+  float total = bins > 0 ? hist_counts[base + uint(bins - 1)] : 0.0;
+  float F_d = cull_hist_front(base, bins, range.x, range.y, acc.x);
+  float F_dcull = cull_hist_front(base, bins, range.x, range.y, cb.x);
+  float F_ds = cull_hist_front(base, bins, range.x, range.y, s.x);
+  float u = cull_uniform01(pix, push.pass, cull.counts.w);
+  float d = acc.x, C = acc.y, k = acc.z, d_cull = cb.x, C_cull = cb.y, k_cull = cb.z;
+  mds_update_depth_and_confidence_fronts(d, C, k, d_cull, C_cull, k_cull, F_d, F_dcull, F_ds, total,
+                                         s.x, s.y, u, int(cull.params.x), int(cull.params.y));
+  pixel_state[2u * pix] = vec4(d, C, k, 0.0);
+  pixel_state[2u * pix + 1u] = vec4(d_cull, C_cull, k_cull, 0.0);
+  pyramid[pix] = vec2(d_cull, C_cull);
 }

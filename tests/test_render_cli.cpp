@@ -105,15 +105,20 @@ TEST_F(RenderCli, ExrOutputHoldsCoverageInAlpha) {
 // Without --no-cull the occlusion culling loop runs (render/culling) and reports its statistics.
 TEST_F(RenderCli, WithoutNoCullRendersWithCullingStats) {
   const fs::path png = dir_ / "cull.png", stats = dir_ / "cull.json";
-  ASSERT_EQ(run("render " + store() + " -o " + png.string() + " --spp 3 --width 32 --height 32 --stats " +
-                stats.string()),
+  ASSERT_EQ(run("render " + store() + " -o " + png.string() + " --spp 3 --width 32 --height 32 --max-iterations 3 " +
+                "--samples-per-iteration 2 --stats " + stats.string()),
             0)
       << last_stderr();
   EXPECT_TRUE(fs::exists(png));
   std::ifstream f(stats);
   nlohmann::json j = nlohmann::json::parse(f);
   EXPECT_EQ(j["no_cull"], false);
-  EXPECT_EQ(j["iterations"], 3);
+  EXPECT_EQ(j["iterations"], 3);  // --max-iterations 3 (convergence needs 3 quiet iterations)
+  EXPECT_EQ(j["samples"], 6);     // 2 sampling passes per iteration
+  EXPECT_EQ(j["parameters"]["samples_per_iteration"], 2);
+  if (j["converged"].get<bool>()) {
+    EXPECT_EQ(j["samples_to_converge"], 6);
+  }
   EXPECT_GE(j["culled_fraction"].get<double>(), 0.0);
   EXPECT_LE(j["culled_fraction"].get<double>(), 1.0);
   EXPECT_EQ(j["parameters"]["acceptance"], "normal");

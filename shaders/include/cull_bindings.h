@@ -47,5 +47,17 @@ uint cull_level_offset(uint l) {
   return off;
 }
 
+// D(d_min, d) from the cumulative histogram of a pixel (hist_counts[base + i] = D(d_min, d_i+1),
+// Eq. 10 with linear interpolation inside a bin, as mds_hist_front on the per-bin counts): two
+// loads instead of a loop over the bins. Needs culling_math.glsl (mds_hist_coord) included first.
+float cull_hist_front(uint base, int bins, float d_min, float d_max, float d) {
+  if (bins <= 0) return 0.0;
+  float u = mds_hist_coord(d, d_min, d_max, bins);
+  int i = int(floor(u));
+  if (i >= bins) return hist_counts[base + uint(bins - 1)];
+  float lo = i > 0 ? hist_counts[base + uint(i - 1)] : 0.0;
+  return lo + (hist_counts[base + uint(i)] - lo) * (u - float(i));
+}
+
 #endif
 #endif  // MDS_CULL_BINDINGS_H

@@ -30,7 +30,7 @@ using mat4 = glm::mat4;
 
 // Set 1 bindings.
 MDS_CONST(uint, kCullUniforms, 0);     // uniform CullUniforms
-MDS_CONST(uint, kCullHistogram, 1);    // float[W*H*bins]: D(d_i, d_i+1) per pixel and bin (Eq. 9-10)
+MDS_CONST(uint, kCullHistogram, 1);    // float[W*H*bins]: cumulative D(d_min, d_i+1) per pixel and bin (Eq. 9-10)
 MDS_CONST(uint, kCullHistRange, 2);    // vec2[W*H]: (d_min, d_max) per pixel; d_max <= d_min: empty
 MDS_CONST(uint, kCullPixelState, 3);   // vec4[2*W*H]: (d, C, k, -), (d_cull, C_cull, k_cull, -)
 MDS_CONST(uint, kCullPyramid, 4);      // vec2[]: (d, C) of every pyramid level, level 0 first
@@ -45,13 +45,15 @@ MDS_CONST(uint, kCullSampleImage, 11); // rg32f storage image: (view depth, alph
 // CullUniforms.params.w flags
 MDS_CONST(uint, kCullOrtho, 1u);
 
-// Push constant of the multi-mode passes (cull_classify: mode 0 nodes, 1 meshlets;
-// cull_pyramid: mode = destination level; cull_histogram: mode 1 = recompute unconditionally).
+// Push constant of the culling passes. mode: cull_classify 0 nodes, 1 meshlets; cull_pyramid the
+// destination level; cull_histogram 1 = recompute unconditionally. pass: index of the occlusion
+// sampling pass within the view (random numbers of cull_select and cull_update). jitter: the
+// sampling pass's sub-pixel offset in NDC (cull_sample.vert/.frag; frame.proj is unjittered).
 MDS_STRUCT(CullPush) {
   uint mode;
-  uint pad0;
-  uint pad1;
-  uint pad2;
+  uint pass;
+  float jitter_x;
+  float jitter_y;
 };
 
 // Per-view constants (std140).
@@ -65,8 +67,8 @@ MDS_STRUCT(CullUniforms) {
   vec4 grid_cell;    // cell size xyz, w: 1 / cell volume
   uvec4 grid_dims;   // cells x, y, z; w: histogram bins (1..64)
   vec4 thresholds;   // C_occ, C_medium, -, -
-  uvec4 params;      // acceptance mode, N_budget, occluder budget (meshlets per iteration), flags
-  uvec4 counts;      // meshlet count, node count, iteration, random seed
+  uvec4 params;      // acceptance mode, N_budget, occluder budget (meshlets per sampling pass), flags
+  uvec4 counts;      // meshlet count, node count, iteration (classification), random seed
   uvec4 pyramid;     // number of levels, -, -, -
 };
 
@@ -78,7 +80,7 @@ MDS_STRUCT(CullCounters) {
   uint changed;          // meshlets whose class changed in the last classification
   uint volume_dirty;     // 1 when meshlets reached O (the density volume was updated)
   uint newly_occluded;   // meshlets that reached O in the last classification
-  uint selected;         // occluders selected in the last iteration
+  uint selected;         // occluders selected in the last sampling pass
   uint node_class_count[4];
   uint pad[4];
 };

@@ -353,4 +353,41 @@ void mds_update_depth_and_confidence(MDS_INOUT(float) d, MDS_INOUT(float) C, MDS
   }
 }
 
+// Algorithm 1 on precomputed front counts, O(1) per sample (cull_update.comp reads them from
+// the cumulative histograms with two loads each). F_d, F_dcull, F_ds: D(d_min, x) for x = d (the
+// accumulation depth before this sample), d_cull and d_s; total = D(d_min, d_max). B(x) =
+// total - F(x) (Eq. 11 as the complement of Eq. 10). Same decisions as
+// mds_update_depth_and_confidence up to float rounding of the sums.
+void mds_update_depth_and_confidence_fronts(MDS_INOUT(float) d, MDS_INOUT(float) C,
+                                            MDS_INOUT(float) k, MDS_INOUT(float) d_cull,
+                                            MDS_INOUT(float) C_cull, MDS_INOUT(float) k_cull,
+                                            float F_d, float F_dcull, float F_ds, float total,
+                                            float d_s, float alpha_s, float u, int mode,
+                                            int n_budget) {
+  if (d_s <= d_cull) {
+    C_cull = mds_accumulate_confidence(C_cull, alpha_s, k_cull, F_dcull);
+    k_cull += 1.0f;
+  }
+  float F_new = F_d;
+  if (d_s <= d) {
+    float P = mds_acceptance_probability(mode, n_budget, max(total - F_d, 0.0f),
+                                         max(total - F_ds, 0.0f), C, alpha_s, F_ds, total);
+    if (d_s < d && mds_accept_sample(u, P)) {
+      d = d_s;
+      C = alpha_s;
+      k = 1.0f;
+      F_new = F_ds;
+    } else {
+      C = mds_accumulate_confidence(C, alpha_s, k, F_d);
+      k += 1.0f;
+    }
+  }
+  if (mds_occluded_particles(max(total - F_dcull, 0.0f), C_cull) <
+      mds_occluded_particles(max(total - F_new, 0.0f), C)) {
+    d_cull = d;
+    C_cull = C;
+    k_cull = k;
+  }
+}
+
 #endif  // MDS_CULLING_MATH_GLSL

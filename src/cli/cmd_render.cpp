@@ -35,7 +35,10 @@ struct RenderOptions {
   bool no_cull = false;
   std::string acceptance = "normal";
   double cocc = MDS_CULL_C_OCC_DEFAULT;
-  uint32_t budget = 0, converge_iterations = 4, bins = 0, n_budget = MDS_CULL_N_BUDGET_DEFAULT, seed = 1;
+  uint32_t budget = 0, converge_iterations = render::culling::kDefaultConvergeIterations, bins = 0,
+           n_budget = MDS_CULL_N_BUDGET_DEFAULT, seed = 1;
+  uint32_t samples_per_iteration = render::culling::kDefaultSamplesPerIteration;
+  uint32_t max_iterations = render::culling::kDefaultMaxIterations;
   double fov = 40.0;
   uint32_t width = 1920, height = 1080, spp = 64;
   int device = -1;
@@ -116,6 +119,8 @@ Status run_render(const RenderOptions& o) {
   rs.cull_settings.acceptance = o.acceptance == "random" ? MDS_CULL_ACCEPT_RANDOM : MDS_CULL_ACCEPT_NORMAL;
   rs.cull_settings.budget = o.budget;
   rs.cull_settings.converge_iterations = o.converge_iterations;
+  rs.cull_settings.samples_per_iteration = o.samples_per_iteration;
+  rs.cull_settings.max_iterations = o.max_iterations;
   rs.cull_settings.bins = o.bins;
   rs.cull_settings.n_budget = o.n_budget;
   rs.cull_settings.seed = o.seed;
@@ -150,6 +155,9 @@ Status run_render(const RenderOptions& o) {
       j["meshlets_culled"] = c.meshlets_culled;
       j["culled_fraction"] = stats.meshlets ? double(c.meshlets_culled) / double(stats.meshlets) : 0.0;
       j["iterations"] = c.iterations;
+      j["iterations_after_spp"] = c.iterations_after_spp;
+      j["samples"] = c.samples;
+      j["iteration_ms_without_draw"] = c.iteration_ms_without_draw;
       j["iterations_to_converge"] = c.iterations_to_converge;
       j["samples_to_converge"] = c.samples_to_converge;
       j["converged"] = c.converged;
@@ -166,6 +174,8 @@ Status run_render(const RenderOptions& o) {
                          {"acceptance", o.acceptance},
                          {"occluder_budget", c.budget},
                          {"converge_iterations", o.converge_iterations},
+                         {"samples_per_iteration", c.samples_per_iteration},
+                         {"max_iterations", o.max_iterations},
                          {"histogram_bins", c.bins},
                          {"n_budget", o.n_budget},
                          {"seed", o.seed},
@@ -207,7 +217,17 @@ void setup_render(CLI::App& sub, int& exit_code) {
                  "Sample acceptance of Algorithm 1: normal (Eq. 21, normal approximation) or random (50:50 coin)")
       ->capture_default_str();
   sub.add_option("--cocc", opt->cocc, "Confidence threshold of occlusion class O (paper: 0.95)")->capture_default_str();
-  sub.add_option("--occluder-budget", opt->budget, "Occluder meshlets sampled per culling iteration (0: max(2 per node, meshlets / 16))")
+  sub.add_option("--occluder-budget", opt->budget,
+                 "Occluder meshlets drawn per occlusion sampling pass (0: max(2 per node, meshlets / " +
+                     std::to_string(render::culling::kDefaultBudgetDivisor) + "))")
+      ->capture_default_str();
+  sub.add_option("--samples-per-iteration", opt->samples_per_iteration,
+                 "Occlusion sampling passes (one depth sample per pixel each) per culling iteration")
+      ->check(CLI::Range(1u, 64u))
+      ->capture_default_str();
+  sub.add_option("--max-iterations", opt->max_iterations,
+                 "Culling iterations at most; past --spp culling continues alone until converged or this cap")
+      ->check(CLI::Range(1u, 100000u))
       ->capture_default_str();
   sub.add_option("--converge-iterations", opt->converge_iterations,
                  "Culling has converged after this many iterations without class changes")

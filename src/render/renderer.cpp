@@ -16,6 +16,7 @@
 namespace mds::render {
 
 namespace {
+constexpr uint32_t kTimingFrames = 4;  // draw-only frames after a convergence past spp
 constexpr VkFormat kColorFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 }  // namespace
@@ -53,10 +54,16 @@ struct Renderer::Impl {
   uint32_t cull_iteration = 0;
   std::function<void(uint32_t)> iteration_hook;
 
+  // Named passes per frame: 3 per occlusion sampling pass, pyramid/classify/histogram, 4 drawing.
+  uint32_t timestamp_capacity() const {
+    return 16 + 3 * std::max(1u, settings.cull_settings.samples_per_iteration);
+  }
+
   Status upload(const SceneData& scene);
   Status create_targets();
   Status create_pipelines();
-  void record_pass(VkCommandBuffer cmd, bool first);
+  void record_pass(VkCommandBuffer cmd, bool first, bool accumulate = true);
+  void record_cull_only(VkCommandBuffer cmd);
   void record_sprite_prepass(VkCommandBuffer cmd);
   void record_sprite_draws(VkCommandBuffer cmd);
 };
@@ -180,14 +187,18 @@ Status Renderer::Impl::create_pipelines() {
   // Sprites up to kSmallSpritePx pixels are rasterized by compute (all threads) into a
   // visibility buffer and resolved by one full-screen pass: on lavapipe primitive setup costs
   // about 1 us per glyph on one thread, more than ray casting a few pixels. The others are
-  // drawn as quads, or as point sprites (one vertex and primitive each) when enabled: points
-  // larger than 1 pixel need the largePoints feature enabled at device creation (vk/context.cpp
-  // does not yet), so they are off by default; MDSTREAM_SPRITES=points turns them on where the
-  // point size range allows, MDSTREAM_SMALL_PX=<pixels> overrides the compute threshold (0: off).
+  // drawn as point sprites (one vertex and primitive each instead of 4 and 2) where the device
+  // supports largePoints (vk/context.cpp enables it whenever supported) and points of at least
+  // 8 pixels, else as quads; sprites larger than the point size range are always quads.
+  // MDSTREAM_SPRITES=quads|points overrides the default, MDSTREAM_SMALL_PX=<pixels> the compute
+  // threshold (0: off).
   constexpr float kSmallSpritePx = 16.0f;
   const float max_point = ctx->limits().pointSizeRange[1];
-  point_sprites = false;
-  if (const char* e = std::getenv("MDSTREAM_SPRITES")) point_sprites = max_point >= 8.0f && std::string(e) == "points";
+  VkPhysicalDeviceFeatures features{};
+  vkGetPhysicalDeviceFeatures(ctx->physical(), &features);
+  const bool points_ok = features.largePoints == VK_TRUE && max_point >= 8.0f;
+  point_sprites = points_ok;
+  if (const char* e = std::getenv("MDSTREAM_SPRITES")) point_sprites = points_ok && std::string(e) == "points";
   small_px = vis_bytes_ok ? kSmallSpritePx : 0.0f;
   if (const char* e = std::getenv("MDSTREAM_SMALL_PX")) small_px = vis_bytes_ok ? float(std::atof(e)) : 0.0f;
   MDS_ASSIGN_OR_RETURN(sprite_args_pipe, vk::create_compute_pipeline(dev, layout, "sprite_args.comp"));
@@ -280,7 +291,13 @@ void Renderer::Impl::record_sprite_draws(VkCommandBuffer cmd) {
                     sizeof(VkDrawIndirectCommand));
 }
 
-void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first) {
+// A culling iteration without drawing (iterations after the spp frames, until convergence).
+void Renderer::Impl::record_cull_only(VkCommandBuffer cmd) {
+  timestamps.reset(cmd);
+  cull->record_iteration(cmd, &timestamps, cull_iteration);
+}
+
+void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first, bool accumulate) {
   const uint32_t w = settings.width, h = settings.height;
   VkDescriptorSet ds = set.set();
   timestamps.reset(cmd);
@@ -368,6 +385,8 @@ void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first) {
   vkCmdEndRendering(cmd);
   timestamps.end(cmd);
 
+  if (!accumulate) return;  // timing frame (see render())
+
   // 4. Accumulate.
   timestamps.begin(cmd, "accumulate");
   vk::image_barrier(cmd, color.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
@@ -406,7 +425,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(vk::Context& ctx, const Scene
   MDS_TRY(m.create_targets());
   MDS_TRY(m.create_pipelines());
   MDS_ASSIGN_OR_RETURN(m.slot, vk::FrameSlot::create(ctx));
-  MDS_ASSIGN_OR_RETURN(m.timestamps, vk::TimestampPool::create(ctx));
+  MDS_ASSIGN_OR_RETURN(m.timestamps, vk::TimestampPool::create(ctx, m.timestamp_capacity()));
   if (settings.cull) {
     culling::SceneBuffers sb{m.nodes.get(), m.meshlets.get(), m.particles.get(),
                              m.types.get(), m.radii.get(),    m.draw_list.get()};
@@ -434,13 +453,16 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
   const double aspect = double(w) / double(h);
   const glm::dmat4 view = view_matrix(camera, m.origin);
   vk::TimestampPool fresh;
-  MDS_ASSIGN_OR_RETURN(fresh, vk::TimestampPool::create(*m.ctx));
+  MDS_ASSIGN_OR_RETURN(fresh, vk::TimestampPool::create(*m.ctx, m.timestamp_capacity()));
   m.timestamps = std::move(fresh);
 
   CullStats cs;
-  std::vector<double> frame_ms;  // GPU time per pass, summed per frame
-  std::vector<bool> frame_culled;
+  // GPU time per submitted frame (sum of its passes) and what the frame did.
+  enum class FrameKind { during_culling, after_convergence, cull_only, timing };
+  std::vector<double> frame_ms;
+  std::vector<FrameKind> frame_kind;
   uint32_t quiet = 0;
+  const uint32_t max_iterations = m.cull ? std::max(1u, m.cull->settings().max_iterations) : 0u;
   auto collect_frame = [&]() -> Status {
     std::map<std::string, size_t> before;
     for (const auto& [name, v] : m.timestamps.samples()) before[name] = v.size();
@@ -453,7 +475,7 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     if (any) frame_ms.push_back(sum);
     return {};
   };
-  auto after_iteration = [&]() {  // the previous pass (with a culling iteration) has completed
+  auto after_iteration = [&]() {  // the previous submission (with a culling iteration) has completed
     const gpu::CullCounters c = m.cull->counters();
     cs.changed_per_iteration.push_back(c.changed);
     cs.culled_per_iteration.push_back(c.class_count[MDS_CULL_CLASS_O]);
@@ -465,9 +487,11 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
       m.cull_active = false;
       cs.converged = true;
       cs.iterations_to_converge = m.cull_iteration;
-      cs.samples_to_converge = m.cull_iteration;
+      cs.samples_to_converge = m.cull_iteration * m.cull->samples_per_iteration();
       cs.time_to_converge_ms =
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    } else if (m.cull_iteration >= max_iterations) {
+      m.cull_active = false;  // --max-iterations reached: keep the classes, not converged
     }
   };
   if (m.cull) {
@@ -476,13 +500,9 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     m.cull_iteration = 0;
   }
   bool pending_iteration = false;
-  for (uint32_t s = 0; s < m.settings.spp; ++s) {
+  auto write_frame_uniforms = [&](uint32_t s) {
     const glm::dvec2 jitter_px = halton_jitter(s);
     const glm::dmat4 proj = projection_matrix(camera, aspect, {2.0 * jitter_px.x / w, 2.0 * jitter_px.y / h});
-    MDS_ASSIGN_OR_RETURN(VkCommandBuffer cmd, m.slot.begin());
-    MDS_TRY(collect_frame());  // previous pass has completed (begin() waited)
-    if (pending_iteration) after_iteration();
-    m.destroyer.collect(m.frame_index);
     gpu::FrameUniforms fu{};
     fu.view = glm::mat4(view);
     fu.proj = glm::mat4(proj);
@@ -492,11 +512,54 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     fu.counts = glm::uvec4(m.meshlet_count, m.max_meshlet, m.flags | (camera.ortho ? gpu::kFrameOrtho : 0u), s);
     std::memcpy(m.frame_ubo.mapped(), &fu, sizeof(fu));
     m.frame_ubo.flush();
-    pending_iteration = m.cull && m.cull_active;
-    frame_culled.push_back(pending_iteration);
-    m.record_pass(cmd, s == 0);
+  };
+  // Begins the next submission after the previous one completed (its timestamps and counters).
+  auto begin_submission = [&]() -> Result<VkCommandBuffer> {
+    MDS_ASSIGN_OR_RETURN(VkCommandBuffer cmd, m.slot.begin());
+    MDS_TRY(collect_frame());
+    if (pending_iteration) after_iteration();
+    m.destroyer.collect(m.frame_index);
+    return cmd;
+  };
+  auto end_submission = [&]() -> Status {
     MDS_TRY(m.slot.submit(m.ctx->queue()));
     ++m.frame_index;
+    return {};
+  };
+  // 1. spp super-sampling frames; while culling is active each also runs one culling iteration.
+  for (uint32_t s = 0; s < m.settings.spp; ++s) {
+    MDS_ASSIGN_OR_RETURN(VkCommandBuffer cmd, begin_submission());
+    write_frame_uniforms(s);
+    pending_iteration = m.cull && m.cull_active;
+    frame_kind.push_back(pending_iteration ? FrameKind::during_culling : FrameKind::after_convergence);
+    m.record_pass(cmd, s == 0);
+    MDS_TRY(end_submission());
+  }
+  // 2. Not converged within spp: culling iterations alone until convergence or max_iterations,
+  //    then (if it converged) a few draw-only timing frames of the final potentially visible set
+  //    for frame_ms_after_convergence (not accumulated: the image keeps exactly spp samples).
+  bool late = false;
+  while (m.cull) {
+    MDS_ASSIGN_OR_RETURN(VkCommandBuffer cmd, begin_submission());
+    if (!m.cull_active) {
+      MDS_TRY(m.slot.submit(m.ctx->queue()));  // empty; keeps begin/submit paired
+      break;
+    }
+    late = true;
+    pending_iteration = true;
+    frame_kind.push_back(FrameKind::cull_only);
+    m.record_cull_only(cmd);
+    MDS_TRY(end_submission());
+  }
+  pending_iteration = false;
+  if (late && cs.converged) {
+    for (uint32_t s = 0; s < kTimingFrames; ++s) {
+      MDS_ASSIGN_OR_RETURN(VkCommandBuffer cmd, begin_submission());
+      write_frame_uniforms(m.settings.spp + s);
+      frame_kind.push_back(FrameKind::timing);
+      m.record_pass(cmd, false, false);
+      MDS_TRY(end_submission());
+    }
   }
   MDS_TRY(m.slot.wait());
   MDS_TRY(collect_frame());
@@ -505,14 +568,24 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
   if (m.cull) {
     cs.enabled = true;
     cs.iterations = m.cull_iteration;
+    cs.samples = m.cull_iteration * m.cull->samples_per_iteration();
+    cs.samples_per_iteration = m.cull->samples_per_iteration();
     cs.bins = m.cull->bins();
     cs.budget = m.cull->budget();
     if (!cs.class_counts.empty()) cs.meshlets_culled = cs.class_counts[MDS_CULL_CLASS_O];
-    std::vector<double> during, after;
-    for (size_t f = 0; f < frame_ms.size() && f < frame_culled.size(); ++f)
-      (frame_culled[f] ? during : after).push_back(frame_ms[f]);
+    std::vector<double> during, after, cull_only;
+    for (size_t f = 0; f < frame_ms.size() && f < frame_kind.size(); ++f) {
+      switch (frame_kind[f]) {
+        case FrameKind::during_culling: during.push_back(frame_ms[f]); break;
+        case FrameKind::after_convergence:
+        case FrameKind::timing: after.push_back(frame_ms[f]); break;
+        case FrameKind::cull_only: cull_only.push_back(frame_ms[f]); break;
+      }
+    }
     cs.frame_ms_during_culling = vk::median(during);
     cs.frame_ms_after_convergence = vk::median(after);
+    cs.iteration_ms_without_draw = vk::median(cull_only);
+    cs.iterations_after_spp = uint32_t(cull_only.size());
   }
 
   MDS_ASSIGN_OR_RETURN(std::vector<std::byte> raw, vk::read_image(*m.ctx, m.accum, VK_IMAGE_LAYOUT_GENERAL, 16));

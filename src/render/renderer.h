@@ -1,12 +1,21 @@
-// The sphere-glyph renderer (no culling yet). One frame = one super-sampling pass:
-//   1. "draw_list": a compute pass fills the draw list (DrawListHeader + meshlet ids) -- today
-//      every meshlet (draw_list_all.comp); the culling loop will plug its classification in here
-//      and may issue several lists per frame;
-//   2. "draw": one vkCmdDrawIndexedIndirect over the list: vertex-pulled billboards (4 vertices,
-//      6 indices per particle, one instance per meshlet), ray-cast spheres with exact depth,
-//      rendered with a Halton(2,3) sub-pixel jitter in the projection;
-//   3. "accumulate": a compute pass adds the pass's colour (a = coverage) into a float32 image.
-// The written image is accumulation / spp. GPU timestamps are recorded per pass.
+// The sphere-glyph renderer with progressive super-sampling and probabilistic occlusion culling
+// (paper 000, Sect. 3.5). render() submits one frame per super-sample (--spp); a frame is:
+//   0. while culling is active (RenderSettings::cull, not yet converged): one culling iteration
+//      of culling::CullLoop (samples_per_iteration occlusion sampling passes, pyramid,
+//      classification, density histogram update; see cull_loop.h);
+//   1. "draw_list": a compute pass writes the draw list (DrawListHeader + meshlet ids): every
+//      meshlet (draw_list_all.comp, --no-cull) or the potentially visible set (every meshlet not
+//      in class O, CullLoop::record_draw_list);
+//   2. "prepass": compute sprite pre-pass over the listed meshlets' particles (one GpuSprite
+//      each, tangent-plane bounds); small sprites are rasterized by compute into a visibility
+//      buffer (sprite_raster_id.comp), the others get indirect draw commands;
+//   3. "draw": resolve of the compute-rasterized sprites, then the other sprites as point sprites
+//      (largePoints, default where the point size range allows) or quads: ray-cast spheres with
+//      exact depth, with a Halton(2,3) sub-pixel jitter in the projection;
+//   4. "accumulate": a compute pass adds the frame's colour (a = coverage) into a float32 image.
+// The written image is accumulation / spp. When culling has not converged after spp frames,
+// culling iterations continue alone (no drawing) until convergence or max_iterations.
+// GPU timestamps are recorded per pass.
 #pragma once
 
 #include <cstdint>
@@ -33,26 +42,33 @@ struct RenderSettings {
   uint32_t spp = 64;
   glm::vec3 background_srgb{0.12f, 0.12f, 0.13f};  // default: dark grey
   bool cull = false;                                 // probabilistic occlusion culling (false: --no-cull)
-  culling::CullSettings cull_settings;
+  culling::CullSettings cull_settings;               // used when cull is set
   std::shared_ptr<const culling::DensityVolume> density;  // from the store; null: built from the scene
 };
 
 // Culling loop statistics of one render() (RenderStats::cull).
 struct CullStats {
   bool enabled = false;
-  bool converged = false;
-  uint32_t iterations = 0;
-  uint32_t iterations_to_converge = 0;
-  uint32_t samples_to_converge = 0;
-  uint32_t bins = 0;
-  uint32_t budget = 0;
-  uint64_t meshlets_culled = 0;
-  std::vector<uint32_t> class_counts;  // P, L, M, O after the last classification
+  bool converged = false;               // Sect. 5.3 criterion met (false: max_iterations reached)
+  uint32_t iterations = 0;              // culling iterations run
+  uint32_t iterations_after_spp = 0;    // of those, run without drawing after the spp frames
+  uint32_t samples = 0;                 // occlusion sampling passes run (iterations * per iteration)
+  uint32_t samples_per_iteration = 0;
+  uint32_t iterations_to_converge = 0;  // 0 when not converged
+  uint32_t samples_to_converge = 0;     // sampling passes until convergence (paper Table 4 "smp")
+  uint32_t bins = 0;                    // density histogram bins per pixel
+  uint32_t budget = 0;                  // occluder meshlets per sampling pass
+  uint64_t meshlets_culled = 0;         // meshlets in O after the last classification
+  std::vector<uint32_t> class_counts;   // P, L, M, O after the last classification
   std::vector<uint32_t> changed_per_iteration;
   std::vector<uint32_t> culled_per_iteration;
-  double time_to_converge_ms = 0.0;
+  double time_to_converge_ms = 0.0;     // wall time from render() start
+  // GPU ms per frame (sum of its timestamped passes), medians: frames with a culling iteration;
+  // frames after convergence (including the draw-only timing frames after a convergence past
+  // spp, which skip "accumulate"); culling iterations without drawing.
   double frame_ms_during_culling = 0.0;
   double frame_ms_after_convergence = 0.0;
+  double iteration_ms_without_draw = 0.0;
 };
 
 // Linear RGBA, row-major from the top-left; rgb already averaged over spp and composited over
@@ -89,14 +105,16 @@ class Renderer {
   Renderer(const Renderer&) = delete;
   Renderer& operator=(const Renderer&) = delete;
 
-  // Renders settings.spp jittered passes and returns the averaged image. The camera's near/far
-  // are fitted to the scene bounds when unset.
+  // Renders settings.spp jittered frames (plus culling-only iterations until convergence, see
+  // the file comment) and returns the averaged image. The camera's near/far are fitted to the
+  // scene bounds when unset.
   Result<FrameImage> render(const Camera& camera, RenderStats* stats = nullptr);
-  // Depth buffer (z_ndc, 1 = background) of the last pass, row-major from the top-left.
+  // Depth buffer (z_ndc, 1 = background) of the last drawn frame, row-major from the top-left.
   Result<std::vector<float>> read_last_depth();
   // The culling loop (null without RenderSettings::cull).
   culling::CullLoop* cull_loop();
-  // Called after each culling iteration has completed on the GPU, with its index.
+  // Called after each culling iteration has completed on the GPU, with its index (counting from
+  // 0 per render()); the loop's buffers can be inspected through cull_loop() from it.
   void set_iteration_hook(std::function<void(uint32_t)> hook);
 
  private:

@@ -224,6 +224,9 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
   e2.features.fragmentStoresAndAtomics = f2.features.fragmentStoresAndAtomics;
   e2.features.vertexPipelineStoresAndAtomics = f2.features.vertexPipelineStoresAndAtomics;
   e2.features.shaderStorageImageWriteWithoutFormat = f2.features.shaderStorageImageWriteWithoutFormat;
+  // Point sprites larger than one pixel (the renderer's point path); enabled whenever supported,
+  // so "supported" (vkGetPhysicalDeviceFeatures) means "enabled" for this context.
+  e2.features.largePoints = f2.features.largePoints;
 
   float priority = 1.0f;
   VkDeviceQueueCreateInfo qinfo{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};

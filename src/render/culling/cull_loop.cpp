@@ -28,6 +28,10 @@ void compute_barrier(VkCommandBuffer cmd) {
 }
 }  // namespace
 
+uint32_t default_budget(uint32_t nodes, uint32_t meshlets) {
+  return std::max<uint32_t>({1u, 2 * nodes, meshlets / kDefaultBudgetDivisor});
+}
+
 uint32_t bins_for(uint32_t width, uint32_t height, uint64_t max_storage_range, uint32_t requested) {
   const uint64_t per_bin = uint64_t(width) * height * sizeof(float);
   uint64_t fit = per_bin > 0 ? max_storage_range / per_bin : 0;
@@ -39,7 +43,7 @@ uint32_t bins_for(uint32_t width, uint32_t height, uint64_t max_storage_range, u
 struct CullLoop::Impl {
   vk::Context* ctx = nullptr;
   CullSettings settings;
-  uint32_t width = 0, height = 0, bins = 0, budget = 0, levels = 0;
+  uint32_t width = 0, height = 0, bins = 0, budget = 0, levels = 0, passes = 1;
   uint32_t meshlet_count = 0, node_count = 0, max_meshlet = 0, frame_flags = 0;
   float radius_min = 0, radius_max = 0;
   uint64_t pyramid_texels = 0;
@@ -62,10 +66,11 @@ struct CullLoop::Impl {
   Status create_sets();
   Status create_pipelines();
   void bind(VkCommandBuffer cmd, VkPipelineBindPoint bp, VkPipeline pipe, const vk::DescriptorSet& s0) const;
-  void push(VkCommandBuffer cmd, uint32_t mode) const;
+  void push(VkCommandBuffer cmd, uint32_t mode, uint32_t pass = 0, glm::vec2 jitter = glm::vec2(0.0f)) const;
   void write_uniforms(uint32_t iteration);
   void write_frame_uniforms(uint32_t iteration);
-  void record_update(VkCommandBuffer cmd);
+  void record_sampling_pass(VkCommandBuffer cmd, vk::TimestampPool* ts, uint32_t pass);
+  void record_update(VkCommandBuffer cmd, uint32_t pass);
   void record_pyramid(VkCommandBuffer cmd);
   void record_histogram(VkCommandBuffer cmd, uint32_t mode);
   template <class T>
@@ -233,8 +238,8 @@ void CullLoop::Impl::bind(VkCommandBuffer cmd, VkPipelineBindPoint bp, VkPipelin
   vkCmdBindDescriptorSets(cmd, bp, layout, 0, 2, sets, 0, nullptr);
 }
 
-void CullLoop::Impl::push(VkCommandBuffer cmd, uint32_t mode) const {
-  gpu::CullPush p{mode, 0, 0, 0};
+void CullLoop::Impl::push(VkCommandBuffer cmd, uint32_t mode, uint32_t pass, glm::vec2 jitter) const {
+  gpu::CullPush p{mode, pass, jitter.x, jitter.y};
   vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_ALL, 0, sizeof(p), &p);
 }
 
@@ -245,10 +250,9 @@ void CullLoop::Impl::write_uniforms(uint32_t iteration) {
 }
 
 void CullLoop::Impl::write_frame_uniforms(uint32_t iteration) {
-  // The sampling pass's own jitter sequence: Halton(2,3) from index 1 (index 0 = pixel centre).
-  const glm::dvec2 j = halton_jitter(iteration + 1);
+  // Unjittered: each sampling pass adds its own sub-pixel jitter (push constant).
   const double aspect = double(width) / double(height);
-  const glm::dmat4 p = projection_matrix(camera, aspect, {2.0 * j.x / width, 2.0 * j.y / height});
+  const glm::dmat4 p = projection_matrix(camera, aspect);
   gpu::FrameUniforms fu{};
   fu.view = glm::mat4(view);
   fu.proj = glm::mat4(p);
@@ -260,9 +264,9 @@ void CullLoop::Impl::write_frame_uniforms(uint32_t iteration) {
   frame_ubo.flush();
 }
 
-void CullLoop::Impl::record_update(VkCommandBuffer cmd) {
+void CullLoop::Impl::record_update(VkCommandBuffer cmd, uint32_t pass) {
   bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, update_pipe, set0_sample);
-  push(cmd, 0);
+  push(cmd, 0, pass);
   vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1);
   compute_barrier(cmd);
 }
@@ -314,10 +318,8 @@ Result<std::unique_ptr<CullLoop>> CullLoop::create(vk::Context& ctx, const Scene
   if (m.bins == 0)
     return make_error(Errc::budget, "culling: one histogram bin for {}x{} pixels exceeds maxStorageBufferRange ({})",
                       width, height, ctx.limits().maxStorageBufferRange);
-  // Default budget: 2 meshlets per node (paper Table 6), at least 1/16 of the meshlets so that a
-  // view converges within a few dozen iterations at our node sizes.
-  m.budget = settings.budget > 0 ? settings.budget
-                                 : std::max<uint32_t>({1u, 2 * m.node_count, m.meshlet_count / 16});
+  m.budget = settings.budget > 0 ? settings.budget : default_budget(m.node_count, m.meshlet_count);
+  m.passes = std::max(1u, settings.samples_per_iteration);
   MDS_TRY(m.create_buffers(scene, volume));
   MDS_TRY(m.create_sets());
   MDS_TRY(m.create_pipelines());
@@ -328,6 +330,7 @@ CullLoop::~CullLoop() = default;
 
 uint32_t CullLoop::bins() const { return impl_->bins; }
 uint32_t CullLoop::budget() const { return impl_->budget; }
+uint32_t CullLoop::samples_per_iteration() const { return impl_->passes; }
 uint32_t CullLoop::pyramid_levels() const { return impl_->levels; }
 const CullSettings& CullLoop::settings() const { return impl_->settings; }
 
@@ -365,6 +368,86 @@ Status CullLoop::begin_view(const Camera& camera) {
   });
 }
 
+void CullLoop::Impl::record_sampling_pass(VkCommandBuffer cmd, vk::TimestampPool* ts, uint32_t pass) {
+  auto begin = [&](const char* name) {
+    if (ts) ts->begin(cmd, name);
+  };
+  auto end = [&]() {
+    if (ts) ts->end(cmd);
+  };
+  // The pass's jitter: Halton(2,3) from index 1 (index 0 = pixel centre), in NDC.
+  const glm::dvec2 j = halton_jitter(pass + 1);
+  const glm::vec2 jitter_ndc(float(2.0 * j.x / width), float(2.0 * j.y / height));
+
+  // select (Sect. 5.2)
+  begin("select");
+  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
+                              VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                     VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT,
+                     VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
+  gpu::DrawListHeader head{};
+  head.index_count = 6 * max_meshlet;
+  vkCmdUpdateBuffer(cmd, occluder_list.get(), 0, sizeof(head), &head);
+  vkCmdFillBuffer(cmd, counters.get(), offsetof(gpu::CullCounters, selected), 4, 0);
+  compute_barrier(cmd);
+  bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, select_pipe, set0_sample);
+  push(cmd, 0, pass);
+  vkCmdDispatch(cmd, (meshlet_count + 63) / 64, 1, 1);
+  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT,
+                     VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+  end();
+
+  // sample (Sect. 3.2): one jittered depth sample per pixel of the occluders.
+  begin("sample");
+  vk::image_barrier(cmd, sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                    VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                    VK_ACCESS_2_SHADER_STORAGE_READ_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                    VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
+  vk::image_barrier(cmd, depth.get(), VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                    VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+                    VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+                    VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+                    VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
+  VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  ca.imageView = sample_image.view();
+  ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  ca.clearValue.color = {{float(MDS_CULL_DEPTH_EMPTY), 0.0f, 0.0f, 0.0f}};
+  VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  da.imageView = depth.view();
+  da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  da.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  da.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  da.clearValue.depthStencil = {1.0f, 0};
+  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+  ri.renderArea = {{0, 0}, {width, height}};
+  ri.layerCount = 1;
+  ri.colorAttachmentCount = 1;
+  ri.pColorAttachments = &ca;
+  ri.pDepthAttachment = &da;
+  vkCmdBeginRendering(cmd, &ri);
+  VkViewport vp{0.0f, 0.0f, float(width), float(height), 0.0f, 1.0f};
+  VkRect2D sc{{0, 0}, {width, height}};
+  vkCmdSetViewport(cmd, 0, 1, &vp);
+  vkCmdSetScissor(cmd, 0, 1, &sc);
+  bind(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, sample_pipe, set0_sample);
+  push(cmd, 0, pass, jitter_ndc);
+  vkCmdBindIndexBuffer(cmd, indices.get(), 0, VK_INDEX_TYPE_UINT16);
+  vkCmdDrawIndexedIndirect(cmd, occluder_list.get(), 0, 1, sizeof(VkDrawIndexedIndirectCommand));
+  vkCmdEndRendering(cmd);
+  vk::image_barrier(cmd, sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                    VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                    VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                    VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+  end();
+
+  begin("update");  // Algorithm 1
+  record_update(cmd, pass);
+  end();
+}
+
 void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint32_t iteration) {
   Impl& m = *impl_;
   m.write_uniforms(iteration);
@@ -375,72 +458,10 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
   auto end = [&]() {
     if (ts) ts->end(cmd);
   };
+  // Sect. 3.2: several occlusion sampling passes per iteration, each with its own occluder subset.
+  const uint32_t passes = m.passes;
+  for (uint32_t p = 0; p < passes; ++p) m.record_sampling_pass(cmd, ts, iteration * passes + p);
 
-  // select (Sect. 5.2)
-  begin("select");
-  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
-                              VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                     VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT,
-                     VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
-  gpu::DrawListHeader head{};
-  head.index_count = 6 * m.max_meshlet;
-  vkCmdUpdateBuffer(cmd, m.occluder_list.get(), 0, sizeof(head), &head);
-  vkCmdFillBuffer(cmd, m.counters.get(), offsetof(gpu::CullCounters, selected), 4, 0);
-  compute_barrier(cmd);
-  m.bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, m.select_pipe, m.set0_sample);
-  vkCmdDispatch(cmd, (m.meshlet_count + 63) / 64, 1, 1);
-  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                     VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT,
-                     VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
-  end();
-
-  // sample (Sect. 3.2): one jittered depth sample per pixel of the occluders.
-  begin("sample");
-  vk::image_barrier(cmd, m.sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                    VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                    VK_ACCESS_2_SHADER_STORAGE_READ_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-                    VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
-  vk::image_barrier(cmd, m.depth.get(), VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                    VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-                    VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-                    VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-                    VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
-  VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  ca.imageView = m.sample_image.view();
-  ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-  ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  ca.clearValue.color = {{float(MDS_CULL_DEPTH_EMPTY), 0.0f, 0.0f, 0.0f}};
-  VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  da.imageView = m.depth.view();
-  da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  da.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  da.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-  da.clearValue.depthStencil = {1.0f, 0};
-  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-  ri.renderArea = {{0, 0}, {m.width, m.height}};
-  ri.layerCount = 1;
-  ri.colorAttachmentCount = 1;
-  ri.pColorAttachments = &ca;
-  ri.pDepthAttachment = &da;
-  vkCmdBeginRendering(cmd, &ri);
-  VkViewport vp{0.0f, 0.0f, float(m.width), float(m.height), 0.0f, 1.0f};
-  VkRect2D sc{{0, 0}, {m.width, m.height}};
-  vkCmdSetViewport(cmd, 0, 1, &vp);
-  vkCmdSetScissor(cmd, 0, 1, &sc);
-  m.bind(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, m.sample_pipe, m.set0_sample);
-  vkCmdBindIndexBuffer(cmd, m.indices.get(), 0, VK_INDEX_TYPE_UINT16);
-  vkCmdDrawIndexedIndirect(cmd, m.occluder_list.get(), 0, 1, sizeof(VkDrawIndexedIndirectCommand));
-  vkCmdEndRendering(cmd);
-  vk::image_barrier(cmd, m.sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
-                    VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-                    VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                    VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
-  end();
-
-  begin("update");  // Algorithm 1
-  m.record_update(cmd);
-  end();
   begin("pyramid");  // Eq. 23
   m.record_pyramid(cmd);
   end();
@@ -485,7 +506,14 @@ Result<std::vector<uint32_t>> CullLoop::read_meshlet_classes() {
   return impl_->read<uint32_t>(impl_->meshlet_class, impl_->meshlet_count);
 }
 Result<std::vector<float>> CullLoop::read_histograms() {
-  return impl_->read<float>(impl_->histogram, size_t(impl_->width) * impl_->height * impl_->bins);
+  // The buffer is cumulative (cull_histogram.comp); hand back per-bin counts.
+  const size_t bins = impl_->bins;
+  MDS_ASSIGN_OR_RETURN(std::vector<float> cum, impl_->read<float>(impl_->histogram,
+                                                                 size_t(impl_->width) * impl_->height * bins));
+  std::vector<float> counts(cum.size());
+  for (size_t p = 0; p < cum.size(); p += bins)
+    for (size_t b = 0; b < bins; ++b) counts[p + b] = b == 0 ? cum[p] : cum[p + b] - cum[p + b - 1];
+  return counts;
 }
 Result<std::vector<glm::vec2>> CullLoop::read_hist_ranges() {
   return impl_->read<glm::vec2>(impl_->hist_range, size_t(impl_->width) * impl_->height);
@@ -502,8 +530,14 @@ Result<std::vector<int32_t>> CullLoop::read_volume() {
 
 Status CullLoop::write_histograms(const std::vector<float>& counts, const std::vector<glm::vec2>& ranges) {
   Impl& m = *impl_;
+  // Per-bin counts in, cumulative sums (double, rounded once) into the buffer.
+  std::vector<float> cum(counts.size());
+  for (size_t p = 0; p + m.bins <= counts.size(); p += m.bins) {
+    double sum = 0.0;
+    for (size_t b = 0; b < m.bins; ++b) cum[p + b] = float(sum += double(counts[p + b]));
+  }
   MDS_ASSIGN_OR_RETURN(vk::StagingRing ring, vk::StagingRing::create(*m.ctx));
-  MDS_TRY(ring.upload_span(m.histogram, 0, std::span<const float>(counts)));
+  MDS_TRY(ring.upload_span(m.histogram, 0, std::span<const float>(cum)));
   MDS_TRY(ring.upload_span(m.hist_range, 0, std::span<const glm::vec2>(ranges)));
   return ring.flush();
 }
@@ -535,7 +569,7 @@ Status CullLoop::run_update_only(const std::vector<glm::vec2>& samples, uint32_t
     vk::image_barrier(cmd, m.sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
                       VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
-    m.record_update(cmd);
+    m.record_update(cmd, iteration);
   });
 }
 

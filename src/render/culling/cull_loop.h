@@ -1,13 +1,19 @@
 // The probabilistic occlusion culling loop on the GPU (paper 000, Ibrahim et al. 2021, Sect. 3-5,
 // Algorithm 1; supplement 004 A), as compute passes and indirect draws (no mesh shaders needed).
 // One culling iteration (record_iteration) is:
-//   select    occluder selection from P, then L, random per iteration (Sect. 5.2) -> occluder list
-//   sample    one jittered depth sample per pixel of the occluders (depth + alpha_s, indirect draw)
-//   update    Algorithm 1 per pixel with P(d_s) of Eq. 13-22 (accumulation + cull buffer)
+//   samples_per_iteration occlusion sampling passes (Sect. 3.2: "In each iteration, we perform
+//   multiple passes of choosing a subset of potential occluders"), each:
+//     select  occluder selection from P, then L, random per pass (Sect. 5.2) -> occluder list
+//     sample  one jittered depth sample per pixel of the occluders (depth + alpha_s, indirect draw)
+//     update  Algorithm 1 per pixel with P(d_s) of Eq. 13-22 (accumulation + cull buffer)
+//   then once:
 //   pyramid   Eq. 23, level by level
 //   classify  nodes, then meshlets into O/M/L/P (Sect. 5.1); meshlets reaching O subtract their
 //             voxel contributions from the density volume (Sect. 4.4)
-//   histogram per-pixel density histograms (Eq. 9-11), recomputed when the volume changed
+//   histogram per-pixel density histograms (Eq. 9-11), recomputed when the volume changed.
+//             Sect. 3/4.4 update the volume "after each iteration of determining occlusion
+//             classes"; doing it once per iteration (not per sampling pass) is what the paper
+//             requires, and amortises the ray cast over the iteration's passes.
 // record_draw_list writes the potentially visible set (all meshlets not in O) into a draw list
 // in the renderer's format. The host decides convergence (Sect. 5.3) from counters() read after
 // each iteration: no meshlet changed class for `converge_iterations` iterations.
@@ -35,13 +41,29 @@
 
 namespace mds::render::culling {
 
+// Defaults of the loop's free parameters (the paper leaves them open; measured on lavapipe with
+// the porous/ablation scenes, see docs/culling-math.md "Loop parameters").
+inline constexpr uint32_t kDefaultSamplesPerIteration = 4;
+inline constexpr uint32_t kDefaultConvergeIterations = 3;
+inline constexpr uint32_t kDefaultBudgetDivisor = 8;
+inline constexpr uint32_t kDefaultMaxIterations = 256;
+
+// Occluder meshlets per sampling pass when CullSettings::budget is 0: 2 per node (paper Tables
+// 3/4, "b = 2 meshlets/node"), at least meshlets / kDefaultBudgetDivisor: the paper's nodes hold
+// 10^4 particles of 10^8 (b = 2 per node is then ~1/300 of the meshlets, with many particles per
+// pixel); our scenes have ~1-4 particles per pixel along a ray, so a pass must draw a larger
+// share of the candidates to hit every pixel's front layer within a few dozen passes.
+uint32_t default_budget(uint32_t nodes, uint32_t meshlets);
+
 struct CullSettings {
   double c_occ = MDS_CULL_C_OCC_DEFAULT;        // --cocc
   double c_medium = MDS_CULL_C_MEDIUM_DEFAULT;  // L/M boundary (docs/culling-math.md)
   int acceptance = MDS_CULL_ACCEPT_NORMAL;      // or MDS_CULL_ACCEPT_RANDOM (--acceptance random)
   uint32_t n_budget = MDS_CULL_N_BUDGET_DEFAULT;
-  uint32_t budget = 0;  // occluder meshlets per iteration; 0: max(2 per node (paper), meshlets / 16)
-  uint32_t converge_iterations = 4;  // Sect. 5.3: iterations without class changes
+  uint32_t budget = 0;  // occluder meshlets per sampling pass; 0: default_budget()
+  uint32_t samples_per_iteration = kDefaultSamplesPerIteration;  // sampling passes per iteration (Sect. 3.2)
+  uint32_t converge_iterations = kDefaultConvergeIterations;      // Sect. 5.3: iterations without class changes
+  uint32_t max_iterations = kDefaultMaxIterations;  // cap when not converged (the renderer keeps iterating past spp)
   uint32_t bins = 0;                 // histogram bins; 0: as many as fit (<= 64), see bins_for()
   uint32_t seed = 1;
 };
@@ -69,7 +91,8 @@ class CullLoop {
   // New view: all classes P, empty cull/accumulation buffers, the original density volume,
   // histograms cast. `camera` must have near/far set. Submits and waits.
   Status begin_view(const Camera& camera);
-  // One culling iteration (see the file comment) into cmd; `iteration` counts from 0 per view.
+  // One culling iteration (see the file comment) into cmd; `iteration` counts from 0 per view;
+  // its sampling passes are numbered iteration * samples_per_iteration() + p.
   // Ends with a copy of the counters for counters(). Timestamps per pass when ts != nullptr.
   void record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint32_t iteration);
   // Appends every meshlet not in O to `draw_list` (header must be reset by the caller).
@@ -79,19 +102,22 @@ class CullLoop {
 
   uint32_t bins() const;
   uint32_t budget() const;
+  uint32_t samples_per_iteration() const;
   uint32_t pyramid_levels() const;
   const CullSettings& settings() const;
 
   // Inspection and test hooks (each submits and waits).
   Result<std::vector<uint32_t>> read_meshlet_classes();
-  Result<std::vector<float>> read_histograms();    // W*H*bins
+  Result<std::vector<float>> read_histograms();    // W*H*bins per-bin counts (stored cumulative)
   Result<std::vector<glm::vec2>> read_hist_ranges();
   Result<std::vector<glm::vec4>> read_pixel_state();  // 2 per pixel
   Result<std::vector<glm::vec2>> read_pyramid();      // all levels
   Result<std::vector<int32_t>> read_volume();
+  // Per-bin counts (W*H*bins); stored as cumulative sums.
   Status write_histograms(const std::vector<float>& counts, const std::vector<glm::vec2>& ranges);
   Status write_pyramid_level0(const std::vector<glm::vec2>& dc);
-  // Sets the sample image (view depth, alpha_s) and runs only the update pass for `iteration`.
+  // Sets the sample image (view depth, alpha_s) and runs only the update pass as sampling pass
+  // number `iteration` (its random numbers).
   Status run_update_only(const std::vector<glm::vec2>& samples, uint32_t iteration);
   Status run_pyramid_only();
   Status run_histogram_only();
