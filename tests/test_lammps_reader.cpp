@@ -18,22 +18,10 @@ namespace mds {
 namespace {
 
 using ::testing::HasSubstr;
-using textest::parse_reference_dump;
-using textest::read_all;
-using textest::read_text;
-using textest::ReadAll;
-using textest::RefFrame;
-using textest::split_lines;
-using textest::join_lines;
-using textest::write_text;
+using namespace textest;  // NOLINT(google-build-using-namespace): the shared test helpers
 namespace fs = std::filesystem;
 
-ReaderOptions frame_opt(int64_t f) {
-  ReaderOptions o;
-  o.format = InputFormat::lammps;
-  o.frame = f;
-  return o;
-}
+ReaderOptions frame_opt(int64_t f) { return frame_options(InputFormat::lammps, f); }
 
 class LammpsReaderTest : public ::testing::Test {
  protected:
@@ -80,12 +68,6 @@ textest::TempDir* LammpsReaderTest::dir_ = nullptr;
 fs::path* LammpsReaderTest::lj_ = nullptr;
 fs::path* LammpsReaderTest::tri_ = nullptr;
 
-// Expects an error of `code` whose message names the file and `file:line:`.
-void expect_error(const ReadAll& r, Errc code, const fs::path& p, uint64_t line) {
-  ASSERT_TRUE(r.error.has_value()) << "expected an error for " << p;
-  EXPECT_EQ(r.error->code, code) << r.error->message;
-  EXPECT_THAT(r.error->message, HasSubstr(p.string() + ":" + std::to_string(line) + ":"));
-}
 
 void expect_same_as_reference(const ReadAll& r, const RefFrame& ref) {
   ASSERT_FALSE(r.error.has_value()) << r.error->message;

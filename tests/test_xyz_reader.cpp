@@ -16,28 +16,10 @@ namespace mds {
 namespace {
 
 using ::testing::HasSubstr;
-using textest::join_lines;
-using textest::parse_reference_dump;
-using textest::read_all;
-using textest::read_text;
-using textest::ReadAll;
-using textest::RefFrame;
-using textest::split_lines;
-using textest::write_text;
+using namespace textest;  // NOLINT(google-build-using-namespace): the shared test helpers
 namespace fs = std::filesystem;
 
-ReaderOptions frame_opt(int64_t f) {
-  ReaderOptions o;
-  o.format = InputFormat::xyz;
-  o.frame = f;
-  return o;
-}
-
-void expect_error(const ReadAll& r, Errc code, const fs::path& p, uint64_t line) {
-  ASSERT_TRUE(r.error.has_value()) << "expected an error for " << p;
-  EXPECT_EQ(r.error->code, code) << r.error->message;
-  EXPECT_THAT(r.error->message, HasSubstr(p.string() + ":" + std::to_string(line) + ":"));
-}
+ReaderOptions frame_opt(int64_t f) { return frame_options(InputFormat::xyz, f); }
 
 class XyzReaderTest : public ::testing::Test {
  protected:

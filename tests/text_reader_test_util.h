@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "readers/reader_factories.h"
@@ -141,6 +142,21 @@ inline ReadAll read_all(Result<std::unique_ptr<ParticleReader>> opened, size_t b
   }
   r.type_names = reader.type_names();
   return r;
+}
+
+// Options that read frame `frame` (-1: the last) of a file in `format`.
+inline ReaderOptions frame_options(InputFormat format, int64_t frame) {
+  ReaderOptions o;
+  o.format = format;
+  o.frame = frame;
+  return o;
+}
+
+// Expects an error of `code` whose message names the file and `file:line:`.
+inline void expect_error(const ReadAll& r, Errc code, const fs::path& p, uint64_t line) {
+  ASSERT_TRUE(r.error.has_value()) << "expected an error for " << p;
+  EXPECT_EQ(r.error->code, code) << r.error->message;
+  EXPECT_THAT(r.error->message, ::testing::HasSubstr(p.string() + ":" + std::to_string(line) + ":"));
 }
 
 // One frame of a LAMMPS dump as plain strings and numbers, parsed independently.

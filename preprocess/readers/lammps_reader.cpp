@@ -10,7 +10,7 @@
 #include <cmath>
 #include <limits>
 
-#include "readers/text_source.h"
+#include "readers/text_frame_reader.h"
 
 namespace mds {
 
@@ -37,10 +37,7 @@ LammpsBox lammps_box_from_bounds(const double bounds[3][3], bool triclinic) {
 
 namespace {
 
-// An atom count no real dump reaches (~10^12); larger counts are rejected before anything
-// is allocated, also in compressed files whose size does not bound the count.
-constexpr uint64_t kMaxAtoms = uint64_t{1} << 40;
-constexpr size_t kMinLinesPerThread = 16384;
+constexpr uint64_t kMaxAtoms = kMaxTextAtoms;
 
 enum class Col : uint8_t { skip, id, type, x, y, z, radius, diameter };
 
@@ -112,71 +109,17 @@ Status map_columns(const std::vector<std::string_view>& names, FrameHeader& h, c
   return {};
 }
 
-// First error found by a parsing thread.
-struct ParseError {
-  bool set = false;
-  Error error;
-};
-
-// Records the error so that later read() calls repeat it.
-#define MDS_TRY_FAIL(expr)                       \
-  do {                                           \
-    Status st_ = (expr);                         \
-    if (!st_.ok()) return fail(st_.error());     \
-  } while (0)
-
-class LammpsReader final : public ParticleReader {
+class LammpsReader final : public TextFrameReader {
  public:
-  LammpsReader(std::unique_ptr<TextSource> src, FrameHeader h) : src_(std::move(src)), h_(std::move(h)) {
-    info_.particle_count = h_.natoms;
-    info_.timestep = h_.timestep;
-    info_.has_box = h_.has_box;
-    for (int i = 0; i < 3; ++i) {
-      info_.box_lo[i] = h_.box.bound_lo[i];
-      info_.box_hi[i] = h_.box.bound_hi[i];
-    }
-    info_.has_radius = h_.has_radius;
-    remaining_ = h_.natoms;
-  }
-
-  const FrameInfo& info() const override { return info_; }
-
-  Result<size_t> read(ParticleBatch& out, size_t max_particles) override {
-    out.clear();
-    if (failed_) return *failed_;
-    if (remaining_ == 0 || max_particles == 0) return size_t{0};
-    const size_t want = static_cast<size_t>(std::min<uint64_t>(remaining_, max_particles));
-    done_before_ = h_.natoms - remaining_;
-    size_t got = 0;
-    while (got < want) {
-      auto blk = src_->take_lines(want - got);
-      if (!blk.ok()) return fail(blk.error());
-      if (blk->lines == 0)
-        return fail(make_error(Errc::format,
-                               "{}:{}: file ends inside the frame that starts at line {}: it declares {} atoms, found {} "
-                               "(truncated file or wrong atom count)",
-                               src_->name(), src_->unterminated_line() ? src_->unterminated_line() : src_->line() + 1,
-                               h_.first_line, h_.natoms,
-                               h_.natoms - remaining_ + got));
-      if (src_->unterminated_line() != 0 && blk->first_line + blk->lines - 1 == src_->unterminated_line())
-        return fail(make_error(Errc::format, "{}:{}: last line has no end-of-line (file truncated?)", src_->name(),
-                               src_->unterminated_line()));
-      MDS_TRY_FAIL(parse_block(*blk, out, got));
-      got += blk->lines;
-    }
-    remaining_ -= got;
-    if (remaining_ == 0) MDS_TRY_FAIL(check_frame_end());
-    return got;
-  }
+  LammpsReader(std::unique_ptr<TextSource> src, FrameHeader h)
+      : TextFrameReader(std::move(src),
+                        text_frame_info(h.natoms, h.timestep, h.has_box ? h.box.bound_lo : nullptr,
+                                        h.has_box ? h.box.bound_hi : nullptr, h.has_radius),
+                        h.first_line, /*reject_unterminated=*/true), h_(std::move(h)) {}
 
  private:
-  Error fail(Error e) {
-    failed_ = e;
-    return e;
-  }
-
   // After the declared atoms: end of file or the next frame's ITEM:.
-  Status check_frame_end() {
+  Status check_frame_end() override {
     std::string_view line;
     MDS_ASSIGN_OR_RETURN(bool has, src_->peek_line(line));
     if (!has || starts_with_item(line)) return {};
@@ -190,31 +133,19 @@ class LammpsReader final : public ParticleReader {
       return make_error(Errc::format, "{}:{}: unexpected text after a blank line: '{}'", src_->name(), src_->line(),
                         excerpt(line));
     }
-    return make_error(Errc::format,
-                      "{}:{}: more atom lines than the {} that the frame at line {} declares (wrong atom count?)",
-                      src_->name(), src_->line() + 1, h_.natoms, h_.first_line);
+    return too_many_atoms_error();
   }
 
-  Status parse_block(const LineBlock& blk, ParticleBatch& out, size_t base) {
-    const size_t n = base + blk.lines;
-    out.x.resize(n);
-    out.y.resize(n);
-    out.z.resize(n);
-    out.type.resize(n);
-    if (h_.has_id) out.id.resize(n);
-    if (h_.has_radius) out.radius.resize(n);
-    std::vector<ParseError> errs(line_parallelism());
-    parallel_line_ranges(blk, errs.size(), kMinLinesPerThread,
-                         [&](size_t part, const char* b, const char* e, size_t first, size_t lines) {
-                           parse_range(b, e, base + first, lines, blk.first_line + first, out, errs[part]);
-                         });
-    for (auto& pe : errs)
-      if (pe.set) return pe.error;
-    return {};
+  Status parse_block(const LineBlock& blk, ParticleBatch& out, size_t base, uint64_t done_before) override {
+    resize_batch(out, base + blk.lines, h_.has_id, h_.has_radius);
+    return parse_parallel(blk, [&](const char* b, const char* e, size_t first, size_t lines, LineParseError& err) {
+      parse_range(b, e, base + first, lines, blk.first_line + first, done_before + first, out, err);
+    });
   }
 
+  // done_before: atoms of the frame before this range.
   void parse_range(const char* p, const char* end, size_t out_index, size_t lines, uint64_t first_line,
-                   ParticleBatch& out, ParseError& err) const {
+                   uint64_t done_before, ParticleBatch& out, LineParseError& err) const {
     const Col* cols = h_.cols.data();
     const size_t ncols = h_.cols.size();
     double* xs = out.x.data();
@@ -239,7 +170,7 @@ class LammpsReader final : public ParticleReader {
           set_error(err, Errc::format, first_line + li,
                     fmt::format("'ITEM:' after {} of the {} atoms that the frame at line {} declares (wrong atom "
                                 "count?)",
-                                done_before_ + out_index + li, h_.natoms, h_.first_line));
+                                done_before + li, h_.natoms, h_.first_line));
           return;
         }
         std::from_chars_result r{p, std::errc()};
@@ -321,25 +252,8 @@ class LammpsReader final : public ParticleReader {
     }
   }
 
-  static std::string token_at(const char* t) {
-    const char* e = t;
-    while (!is_token_end(*e) && e - t < 40) ++e;
-    return std::string(t, e);
-  }
-
-  void set_error(ParseError& err, Errc code, uint64_t line, const std::string& what) const {
-    err.set = true;
-    err.error = Error{code, fmt::format("{}:{}: {}", src_->name(), line, what)};
-  }
-
-  std::unique_ptr<TextSource> src_;
   FrameHeader h_;
-  FrameInfo info_;
-  uint64_t remaining_ = 0;
-  uint64_t done_before_ = 0;  // atoms of the frame returned by earlier read() calls
-  std::optional<Error> failed_;
 };
-#undef MDS_TRY_FAIL
 
 // Reads the header of the next frame up to and including `ITEM: ATOMS`. Returns false at
 // the end of the file (no more frames). `after` describes what precedes (for messages).
@@ -452,63 +366,12 @@ Result<bool> read_header(TextSource& src, FrameHeader& h, const std::string& aft
   }
 }
 
-// Skips the atom lines of a frame whose header was just read.
-Status skip_atoms(TextSource& src, const FrameHeader& h) {
-  MDS_ASSIGN_OR_RETURN(uint64_t skipped, src.skip_lines(h.natoms));
-  if (skipped < h.natoms)
-    return make_error(Errc::format,
-                      "{}:{}: file ends inside the frame that starts at line {}: it declares {} atoms, found {} "
-                      "(truncated file or wrong atom count)",
-                      src.name(), src.unterminated_line() ? src.unterminated_line() : src.line() + 1, h.first_line,
-                      h.natoms, skipped);
-  return {};
-}
-
-std::string after_frame(const FrameHeader& h) {
-  return fmt::format(" after the {} atoms of the frame at line {} (wrong atom count?)", h.natoms, h.first_line);
-}
-
 }  // namespace
 
 Result<std::unique_ptr<ParticleReader>> open_lammps_reader(const std::filesystem::path& path,
                                                            const ReaderOptions& options) {
-  if (options.frame < -1)
-    return make_error(Errc::invalid_argument, "{}: frame {} is not valid (use >= 0, or -1 for the last)",
-                      path.string(), options.frame);
-  MDS_ASSIGN_OR_RETURN(std::unique_ptr<TextSource> src, TextSource::open(path));
   FrameHeader h;
-  std::string after;
-  if (options.frame >= 0) {
-    for (int64_t f = 0;; ++f) {
-      MDS_ASSIGN_OR_RETURN(bool has, read_header(*src, h, after));
-      if (!has) {
-        if (f == 0) return make_error(Errc::format, "{}: no frames (empty file?)", src->name());
-        return make_error(Errc::invalid_argument, "{}: frame {} requested but the file has {} frame{}", src->name(),
-                          options.frame, f, f == 1 ? "" : "s");
-      }
-      if (f == options.frame) break;
-      MDS_TRY(skip_atoms(*src, h));
-      after = after_frame(h);
-    }
-  } else {
-    // Last frame: scan all frames, remember where the last one starts, go back there.
-    uint64_t last_offset = 0, last_line = 0;
-    int64_t frames = 0;
-    while (true) {
-      const uint64_t off = src->tell(), line = src->line();
-      MDS_ASSIGN_OR_RETURN(bool has, read_header(*src, h, after));
-      if (!has) break;
-      last_offset = off;
-      last_line = line;
-      ++frames;
-      MDS_TRY(skip_atoms(*src, h));
-      after = after_frame(h);
-    }
-    if (frames == 0) return make_error(Errc::format, "{}: no frames (empty file?)", src->name());
-    MDS_TRY(src->seek(last_offset, last_line));
-    MDS_ASSIGN_OR_RETURN(bool has, read_header(*src, h, ""));
-    if (!has) return make_error(Errc::internal, "{}: last frame vanished on re-read", src->name());
-  }
+  MDS_ASSIGN_OR_RETURN(std::unique_ptr<TextSource> src, open_text_frame(path, options, h, read_header));
   return std::unique_ptr<ParticleReader>(new LammpsReader(std::move(src), std::move(h)));
 }
 

@@ -11,7 +11,7 @@
 #include <set>
 #include <unordered_map>
 
-#include "readers/text_source.h"
+#include "readers/text_frame_reader.h"
 
 namespace mds {
 
@@ -97,12 +97,11 @@ bool parse_extxyz_properties(std::string_view value, std::vector<XyzProperty>& o
 
 namespace {
 
-constexpr uint64_t kMaxAtoms = uint64_t{1} << 40;
+constexpr uint64_t kMaxAtoms = kMaxTextAtoms;
 // A well-formed atom line has at least 8 bytes ("H 0 0 0\n"); counts beyond what the rest of
 // the file could hold at half that are rejected as absurd before anything is read (a slightly
 // malformed short file is left to the line checks, which give the better message).
 constexpr uint64_t kMinAtomLineBytes = 4;
-constexpr size_t kMinLinesPerThread = 16384;
 
 std::string lower(std::string_view s) {
   std::string r(s);
@@ -248,78 +247,17 @@ Result<bool> read_header(TextSource& src, XyzHeader& h, const std::string& after
   return true;
 }
 
-Status skip_atoms(TextSource& src, const XyzHeader& h) {
-  MDS_ASSIGN_OR_RETURN(uint64_t skipped, src.skip_lines(h.natoms));
-  if (skipped < h.natoms)
-    return make_error(Errc::format,
-                      "{}:{}: file ends inside the frame that starts at line {}: it declares {} atoms, found {} "
-                      "(truncated file or wrong atom count)",
-                      src.name(), src.unterminated_line() ? src.unterminated_line() : src.line() + 1, h.first_line,
-                      h.natoms, skipped);
-  return {};
-}
-
-std::string after_frame(const XyzHeader& h) {
-  return fmt::format(" after the {} atoms of the frame at line {} (wrong atom count?)", h.natoms, h.first_line);
-}
-
-struct ParseError {
-  bool set = false;
-  Error error;
-};
-
-class XyzReader final : public ParticleReader {
+class XyzReader final : public TextFrameReader {
  public:
-  XyzReader(std::unique_ptr<TextSource> src, XyzHeader h) : src_(std::move(src)), h_(h) {
-    info_.particle_count = h_.natoms;
-    info_.timestep = h_.timestep;
-    info_.has_box = h_.has_box;
-    for (int i = 0; i < 3; ++i) {
-      info_.box_lo[i] = h_.box_lo[i];
-      info_.box_hi[i] = h_.box_hi[i];
-    }
-    info_.has_radius = h_.radius_col >= 0;
-    remaining_ = h_.natoms;
-  }
-
-  const FrameInfo& info() const override { return info_; }
-
-  Result<size_t> read(ParticleBatch& out, size_t max_particles) override {
-    out.clear();
-    if (failed_) return *failed_;
-    if (remaining_ == 0 || max_particles == 0) return size_t{0};
-    const size_t want = static_cast<size_t>(std::min<uint64_t>(remaining_, max_particles));
-    size_t got = 0;
-    while (got < want) {
-      auto blk = src_->take_lines(want - got);
-      if (!blk.ok()) return fail(blk.error());
-      if (blk->lines == 0)
-        return fail(make_error(Errc::format,
-                               "{}:{}: file ends inside the frame that starts at line {}: it declares {} atoms, found {} "
-                               "(truncated file or wrong atom count)",
-                               src_->name(), src_->unterminated_line() ? src_->unterminated_line() : src_->line() + 1,
-                               h_.first_line, h_.natoms,
-                               h_.natoms - remaining_ + got));
-      Status st = parse_block(*blk, out, got, h_.natoms - remaining_ + got);
-      if (!st.ok()) return fail(st.error());
-      got += blk->lines;
-    }
-    remaining_ -= got;
-    if (remaining_ == 0) {
-      Status st = check_frame_end();
-      if (!st.ok()) return fail(st.error());
-    }
-    return got;
-  }
+  XyzReader(std::unique_ptr<TextSource> src, const XyzHeader& h)
+      : TextFrameReader(std::move(src),
+                        text_frame_info(h.natoms, h.timestep, h.has_box ? h.box_lo : nullptr,
+                                        h.has_box ? h.box_hi : nullptr, h.radius_col >= 0),
+                        h.first_line, /*reject_unterminated=*/false), h_(h) {}
 
  private:
-  Error fail(Error e) {
-    failed_ = e;
-    return e;
-  }
-
   // After the declared atoms: end of file (blank lines allowed) or the next frame's count.
-  Status check_frame_end() {
+  Status check_frame_end() override {
     std::string_view line;
     while (true) {
       MDS_ASSIGN_OR_RETURN(bool has, src_->peek_line(line));
@@ -329,26 +267,15 @@ class XyzReader final : public ParticleReader {
     }
     uint64_t n;
     if (parse_int_exact(line, n)) return {};
-    return make_error(Errc::format,
-                      "{}:{}: more atom lines than the {} that the frame at line {} declares (wrong atom count?)",
-                      src_->name(), src_->line() + 1, h_.natoms, h_.first_line);
+    return too_many_atoms_error();
   }
 
-  Status parse_block(const LineBlock& blk, ParticleBatch& out, size_t base, uint64_t done_before) {
-    const size_t n = base + blk.lines;
-    out.x.resize(n);
-    out.y.resize(n);
-    out.z.resize(n);
-    out.type.resize(n);
-    if (h_.radius_col >= 0) out.radius.resize(n);
+  Status parse_block(const LineBlock& blk, ParticleBatch& out, size_t base, uint64_t done_before) override {
+    resize_batch(out, base + blk.lines, /*with_id=*/false, h_.radius_col >= 0);
     species_.resize(blk.lines);
-    std::vector<ParseError> errs(line_parallelism());
-    parallel_line_ranges(blk, errs.size(), kMinLinesPerThread,
-                         [&](size_t part, const char* b, const char* e, size_t first, size_t lines) {
-                           parse_range(b, e, first, base, lines, blk.first_line, done_before, out, errs[part]);
-                         });
-    for (auto& pe : errs)
-      if (pe.set) return pe.error;
+    MDS_TRY(parse_parallel(blk, [&](const char* b, const char* e, size_t first, size_t lines, LineParseError& err) {
+      parse_range(b, e, first, base, lines, blk.first_line, done_before, out, err);
+    }));
     // Species -> type ids, in file order (first seen -> next id).
     std::string_view last;
     int32_t last_id = 0;
@@ -390,7 +317,7 @@ class XyzReader final : public ParticleReader {
   }
 
   void parse_range(const char* p, const char* end, size_t first, size_t base, size_t lines, uint64_t first_line,
-                   uint64_t done_before, ParticleBatch& out, ParseError& err) {
+                   uint64_t done_before, ParticleBatch& out, LineParseError& err) {
     const int ncols = h_.ncols;
     const int scol = h_.species_col, pcol = h_.pos_col, rcol = h_.radius_col;
     const int need = h_.extended ? ncols : 4;
@@ -470,22 +397,7 @@ class XyzReader final : public ParticleReader {
     }
   }
 
-  static std::string token_at(const char* t) {
-    const char* e = t;
-    while (!is_token_end(*e) && e - t < 40) ++e;
-    return std::string(t, e);
-  }
-
-  void set_error(ParseError& err, Errc code, uint64_t line, const std::string& what) const {
-    err.set = true;
-    err.error = Error{code, fmt::format("{}:{}: {}", src_->name(), line, what)};
-  }
-
-  std::unique_ptr<TextSource> src_;
   XyzHeader h_;
-  FrameInfo info_;
-  uint64_t remaining_ = 0;
-  std::optional<Error> failed_;
   std::vector<std::string_view> species_;  // per line of the current block
   std::unordered_map<std::string, int32_t> name_ids_;
   std::set<int32_t> int_ids_;
@@ -496,42 +408,8 @@ class XyzReader final : public ParticleReader {
 
 Result<std::unique_ptr<ParticleReader>> open_xyz_reader(const std::filesystem::path& path,
                                                         const ReaderOptions& options) {
-  if (options.frame < -1)
-    return make_error(Errc::invalid_argument, "{}: frame {} is not valid (use >= 0, or -1 for the last)",
-                      path.string(), options.frame);
-  MDS_ASSIGN_OR_RETURN(std::unique_ptr<TextSource> src, TextSource::open(path));
   XyzHeader h;
-  std::string after;
-  if (options.frame >= 0) {
-    for (int64_t f = 0;; ++f) {
-      MDS_ASSIGN_OR_RETURN(bool has, read_header(*src, h, after));
-      if (!has) {
-        if (f == 0) return make_error(Errc::format, "{}: no frames (empty file?)", src->name());
-        return make_error(Errc::invalid_argument, "{}: frame {} requested but the file has {} frame{}", src->name(),
-                          options.frame, f, f == 1 ? "" : "s");
-      }
-      if (f == options.frame) break;
-      MDS_TRY(skip_atoms(*src, h));
-      after = after_frame(h);
-    }
-  } else {
-    uint64_t last_offset = 0, last_line = 0;
-    int64_t frames = 0;
-    while (true) {
-      const uint64_t off = src->tell(), line = src->line();
-      MDS_ASSIGN_OR_RETURN(bool has, read_header(*src, h, after));
-      if (!has) break;
-      last_offset = off;
-      last_line = line;
-      ++frames;
-      MDS_TRY(skip_atoms(*src, h));
-      after = after_frame(h);
-    }
-    if (frames == 0) return make_error(Errc::format, "{}: no frames (empty file?)", src->name());
-    MDS_TRY(src->seek(last_offset, last_line));
-    MDS_ASSIGN_OR_RETURN(bool has, read_header(*src, h, ""));
-    if (!has) return make_error(Errc::internal, "{}: last frame vanished on re-read", src->name());
-  }
+  MDS_ASSIGN_OR_RETURN(std::unique_ptr<TextSource> src, open_text_frame(path, options, h, read_header));
   return std::unique_ptr<ParticleReader>(new XyzReader(std::move(src), h));
 }
 

@@ -7,22 +7,9 @@
 #ifndef MDS_GPU_TYPES_H
 #define MDS_GPU_TYPES_H
 
+#include "shared_prelude.h"
 #ifdef __cplusplus
-#include <cstddef>
-#include <cstdint>
-#include <glm/glm.hpp>
 namespace mds::gpu {
-using uint = uint32_t;
-using vec3 = glm::vec3;
-using vec4 = glm::vec4;
-using uvec2 = glm::uvec2;
-using uvec4 = glm::uvec4;
-using mat4 = glm::mat4;
-#define MDS_STRUCT(name) struct alignas(16) name
-#define MDS_CONST(type, name, value) inline constexpr type name = value
-#else
-#define MDS_STRUCT(name) struct name
-#define MDS_CONST(type, name, value) const type name = value
 #endif
 
 // Descriptor bindings of the renderer's single descriptor set (set 0).

@@ -2,7 +2,7 @@
 // (plain, or gzip/zstd when they carry those magic bytes) which is opened at the first
 // and at the last frame and read to the end in small batches. Errors are fine; crashes,
 // sanitizer reports and hangs are bugs.
-#include "text_fuzz_util.h"
+#include "fuzz_harness.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   mds::fuzz::run_reader(data, size, "fuzz_lammps", mds::open_lammps_reader);

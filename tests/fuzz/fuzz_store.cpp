@@ -5,41 +5,15 @@
 // recomputes every hash it can locate (payloads, sections, header): those inputs exercise the
 // semantic checks, even-length inputs the checksum paths.
 // Seed corpus: tests/data/store/golden_v1.mds. Built only with -DMDSTREAM_FUZZ=ON (clang).
-#include <unistd.h>
-
 #include <cstring>
-
-#include <cstddef>
-#include <cstdint>
-#include <cstdio>
-#include <cstdlib>
-#include <filesystem>
-#include <string>
 #include <vector>
 
+#include "fuzz_harness.h"
 #include "store/format.h"
 #include "store/hash.h"
 #include "store/store_reader.h"
 
 namespace {
-
-const std::filesystem::path& fuzz_path() {
-  static const std::filesystem::path p = [] {
-    std::error_code ec;
-    std::filesystem::path dir = std::filesystem::is_directory("/dev/shm", ec) ? std::filesystem::path("/dev/shm")
-                                                                              : std::filesystem::temp_directory_path();
-    return dir / ("mdstream_fuzz_store_" + std::to_string(::getpid()) + ".mds");
-  }();
-  static const bool cleanup_registered = [] {
-    std::atexit([] {
-      std::error_code ec;
-      std::filesystem::remove(p, ec);
-    });
-    return true;
-  }();
-  (void)cleanup_registered;
-  return p;
-}
 
 // Recomputes the payload, section and header hashes of `b` where their ranges lie inside it.
 void fix_hashes(std::vector<uint8_t>& b) {
@@ -68,14 +42,11 @@ void fix_hashes(std::vector<uint8_t>& b) {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  const auto& path = fuzz_path();
+  const auto& path = mds::fuzz::input_path("mdstream_fuzz_store", ".mds");
   {
     std::vector<uint8_t> bytes(data, data + size);
     if (size % 2 == 1) fix_hashes(bytes);
-    std::FILE* f = std::fopen(path.c_str(), "wb");
-    if (!f) return 0;
-    if (!bytes.empty()) std::fwrite(bytes.data(), 1, bytes.size(), f);
-    std::fclose(f);
+    mds::fuzz::write_input(path, bytes.data(), bytes.size());
   }
   auto reader = mds::store::StoreReader::open(path);
   if (reader.ok()) {

@@ -1,5 +1,5 @@
 // libFuzzer entry point for the XYZ / extended XYZ reader (see fuzz_lammps.cpp).
-#include "text_fuzz_util.h"
+#include "fuzz_harness.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   mds::fuzz::run_reader(data, size, "fuzz_xyz", mds::open_xyz_reader);

@@ -1,0 +1,85 @@
+// Shared by the libFuzzer targets (tests/fuzz/fuzz_*.cpp): the input bytes go to a
+// per-process scratch file, which a reader then opens at several frames and drains in small
+// batches. Errors are fine; crashes, sanitizer reports, hangs and broken reader invariants
+// (checked with abort()) are bugs.
+#pragma once
+
+#include <unistd.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "readers/reader_factories.h"
+
+namespace mds::fuzz {
+
+// The process's scratch file: /dev/shm (or the temporary directory) /<tag>_<pid><suffix>,
+// removed at exit. The first call fixes the name.
+inline const std::filesystem::path& input_path(const char* tag, const char* suffix = "") {
+  static const std::filesystem::path p = [&] {
+    std::error_code ec;
+    const std::filesystem::path dir = std::filesystem::is_directory("/dev/shm", ec)
+                                          ? std::filesystem::path("/dev/shm")
+                                          : std::filesystem::temp_directory_path();
+    return dir / (std::string(tag) + "_" + std::to_string(::getpid()) + suffix);
+  }();
+  static const bool cleanup_registered = [] {
+    std::atexit([] {
+      std::error_code ec;
+      std::filesystem::remove(p, ec);
+    });
+    return true;
+  }();
+  (void)cleanup_registered;
+  return p;
+}
+
+// Writes the bytes to `path` (replacing it); aborts when that fails (a broken harness).
+inline void write_input(const std::filesystem::path& path, const uint8_t* data, size_t size) {
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  if (!f) std::abort();
+  if (size > 0 && std::fwrite(data, 1, size, f) != size) std::abort();
+  std::fclose(f);
+}
+
+struct DrainOptions {
+  InputFormat format = InputFormat::automatic;  // ReaderOptions::format
+  std::vector<int64_t> frames = {0, -1, 1};     // frames opened, one reader each
+  size_t batch = 7;                             // max_particles per read()
+  bool check_counts = true;   // abort when a batch's arrays disagree or a frame yields more than it declares
+  bool detect_format = false; // also run detect_format() on the file
+};
+
+// Writes the input to the scratch file `tag` and drains open(path, options) at every frame.
+template <class Open>
+void run_reader(const uint8_t* data, size_t size, const char* tag, Open open, const DrainOptions& d = {}) {
+  const auto& path = input_path(tag);
+  write_input(path, data, size);
+  for (int64_t frame : d.frames) {
+    ReaderOptions o;
+    o.format = d.format;
+    o.frame = frame;
+    auto r = open(path, o);
+    if (!r.ok()) continue;
+    ParticleBatch b;
+    uint64_t total = 0;
+    while (true) {
+      auto n = (*r)->read(b, d.batch);
+      if (!n.ok() || *n == 0) break;
+      if (d.check_counts) {
+        if (*n != b.size() || b.type.size() != b.size()) std::abort();
+        total += *n;
+        if (total > (*r)->info().particle_count) std::abort();  // more than the frame declares
+      }
+    }
+    if (d.check_counts) (void)(*r)->type_names();
+  }
+  if (d.detect_format) (void)detect_format(path);
+}
+
+}  // namespace mds::fuzz
