@@ -1,12 +1,21 @@
 // Allocation of the converter's large per-particle arrays (records, Morton keys, the sort
 // permutation and its scratch): element construction is default-initialization, so resize()
 // does not zero-fill arrays of hundreds of MiB that are overwritten right after. Plain
-// std::vector semantics otherwise. (Transparent huge pages via madvise were tried: no gain on
-// the 2-core VM, and occasional stalls of direct compaction, so not used.)
+// std::vector semantics otherwise. Arrays of 4 MiB and more are mapped directly, and their pages
+// can be mapped in bulk (prefault, BackgroundPrefault) rather than by one fault per page.
+// (Transparent huge pages via madvise were tried: no gain on the 2-core VM, and occasional
+// stalls of direct compaction, so not used.)
 #pragma once
 
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <atomic>
 #include <cstddef>
+#include <cstdint>
+#include <algorithm>
 #include <new>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -19,8 +28,21 @@ struct BigAllocator {
   template <class U>
   BigAllocator(const BigAllocator<U>&) noexcept {}
 
-  T* allocate(size_t n) { return static_cast<T*>(::operator new(n * sizeof(T))); }
-  void deallocate(T* p, size_t) noexcept { ::operator delete(p); }
+  // Large arrays come straight from mmap (page-aligned, returned to the system on free), so that
+  // prefault() below can map their pages in bulk.
+  T* allocate(size_t n) {
+    const size_t bytes = n * sizeof(T);
+    if (bytes < kMapThreshold) return static_cast<T*>(::operator new(bytes));
+    void* p = ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (p == MAP_FAILED) throw std::bad_alloc();
+    return static_cast<T*>(p);
+  }
+  void deallocate(T* p, size_t n) noexcept {
+    const size_t bytes = n * sizeof(T);
+    if (bytes < kMapThreshold) ::operator delete(p);
+    else ::munmap(p, bytes);
+  }
+  static constexpr size_t kMapThreshold = size_t(4) << 20;
   template <class U, class... Args>
   void construct(U* p, Args&&... args) {
     if constexpr (sizeof...(Args) == 0) ::new (static_cast<void*>(p)) U;  // default-init: no zero fill
@@ -32,5 +54,56 @@ struct BigAllocator {
 
 template <class T>
 using BigVector = std::vector<T, BigAllocator<T>>;
+
+// Maps the whole pages inside [data, data + bytes) at once (madvise(MADV_POPULATE_WRITE)) instead
+// of one page fault per 4 KiB page on first touch: on the 2-core VM about 40% less system time
+// for the converter's arrays. Contents are never changed, so other threads may be writing the
+// same range. Best effort: does nothing where unsupported.
+inline void prefault(const void* data, size_t bytes) {
+#ifdef MADV_POPULATE_WRITE
+  const uintptr_t page = uintptr_t(::sysconf(_SC_PAGESIZE));
+  const uintptr_t b = (uintptr_t(data) + page - 1) / page * page, e = (uintptr_t(data) + bytes) / page * page;
+  if (e > b) (void)::madvise(reinterpret_cast<void*>(b), e - b, MADV_POPULATE_WRITE);
+#else
+  (void)data;
+  (void)bytes;
+#endif
+}
+
+// Maps the pages of a freshly allocated array on a background thread
+// (madvise(MADV_POPULATE_WRITE), 8 MiB at a time, front to back) while the calling thread fills
+// it: the page faults of first touch (about 0.1 s of system time per 320 MB on the 2-core VM)
+// leave the critical path. Contents are never changed. stop() (and the destructor) end it
+// early; call it before the array is freed or reallocated.
+class BackgroundPrefault {
+ public:
+  BackgroundPrefault() = default;
+  BackgroundPrefault(void* data, size_t bytes) {
+#ifdef MADV_POPULATE_WRITE
+    const uintptr_t page = uintptr_t(::sysconf(_SC_PAGESIZE));
+    const uintptr_t b = (uintptr_t(data) + page - 1) / page * page, e = (uintptr_t(data) + bytes) / page * page;
+    if (e <= b) return;
+    thread_ = std::thread([this, b, e] {
+      constexpr uintptr_t kChunk = uintptr_t(8) << 20;
+      for (uintptr_t at = b; at < e && !stop_.load(std::memory_order_relaxed); at += kChunk)
+        if (::madvise(reinterpret_cast<void*>(at), std::min(kChunk, e - at), MADV_POPULATE_WRITE) != 0) return;
+    });
+#else
+    (void)data;
+    (void)bytes;
+#endif
+  }
+  ~BackgroundPrefault() { stop(); }
+  BackgroundPrefault(const BackgroundPrefault&) = delete;
+  BackgroundPrefault& operator=(const BackgroundPrefault&) = delete;
+  void stop() {
+    stop_ = true;
+    if (thread_.joinable()) thread_.join();
+  }
+
+ private:
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
 
 }  // namespace mds::convert

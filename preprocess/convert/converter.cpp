@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <thread>
 
@@ -39,7 +40,10 @@ double process_cpu_seconds() {
 
 // Memory model of the budget (bytes per particle of each working set). The readers' and the
 // store writer's own fixed I/O buffers (about 8 MiB each) are outside this model.
-constexpr uint64_t kBinBytesPerParticle = sizeof(SpillRecord) + 2 * (8 + 4);  // records + keys/perm, double-buffered
+constexpr uint64_t kBinBytesPerParticle = sizeof(SpillRecord) + 2 * (8 + 4);  // records + keys/perm + sort scratch
+// Out of core, the next bin is loaded and sorted while the current one is built: two bins of
+// records + keys/perm, one sort scratch.
+constexpr uint64_t kOverlappedBinBytesPerParticle = 2 * (sizeof(SpillRecord) + 8 + 4) + (8 + 4);
 constexpr uint64_t kBatchBytesPerParticle = 48;           // ParticleBatch (x,y,z,type,radius,id)
 constexpr uint64_t kWorkerBytesPerParticle = 192;         // per-node scratch: xyz, qpos, types, voxels, payload, ...
 constexpr uint64_t kInFlightBytesPerParticle = 24;        // an encoded node waiting to be appended
@@ -50,7 +54,8 @@ struct BudgetPlan {
   size_t batch_particles = 0;
   size_t spill_buffer_bytes = 0;
   size_t partition_buffer_bytes = 0;
-  uint64_t max_bin_records = 0;
+  uint64_t max_memory_records = 0;  // everything in one in-memory bin up to this count
+  uint64_t max_bin_records = 0;     // out of core: bins (two alive at once) up to this count
 };
 
 Status check_options(const ConvertOptions& o) {
@@ -92,13 +97,14 @@ Result<BudgetPlan> plan_budget(const ConvertOptions& o, uint64_t density_voxels)
   const uint64_t in_flight = uint64_t(o.threads) * kWindowPerThread * o.node_size * kInFlightBytesPerParticle;
   const uint64_t fixed = density_bytes + workers + in_flight +
                          kReadAheadBatches * p.batch_particles * kBatchBytesPerParticle + p.spill_buffer_bytes;
-  const uint64_t need = fixed + 2 * kBinBytesPerParticle * o.node_size;
+  const uint64_t need = fixed + 2 * kOverlappedBinBytesPerParticle * o.node_size;
   if (b < need)
     return make_error(Errc::budget,
                       "--memory-budget {} bytes is too small: node size {}, {} threads and {} density voxels need at "
                       "least {} bytes ({:.1f} MiB)",
                       b, o.node_size, o.threads, density_voxels, need, double(need) / (1 << 20));
-  p.max_bin_records = std::min((b - fixed) / kBinBytesPerParticle, kMaxBinRecords);
+  p.max_memory_records = std::min((b - fixed) / kBinBytesPerParticle, kMaxBinRecords);
+  p.max_bin_records = std::min((b - fixed) / kOverlappedBinBytesPerParticle, kMaxBinRecords);
   return p;
 }
 
@@ -109,11 +115,25 @@ struct SortBuffers {
   void release() { *this = SortBuffers{}; }
 };
 
-void key_and_sort(std::span<const SpillRecord> recs, const MortonGrid& grid, unsigned threads, SortBuffers& sb) {
+// Wall seconds of the two steps of key_and_sort.
+struct SortTimes {
+  double keys = 0, radix = 0;
+};
+
+SortTimes key_and_sort(std::span<const SpillRecord> recs, const MortonGrid& grid, unsigned threads, SortBuffers& sb) {
+  SortTimes st;
+  auto t = Clock::now();
   const size_t n = recs.size();
   sb.keys.resize(n);
   sb.perm.resize(n);
+  sb.keys_tmp.resize(n);
+  sb.perm_tmp.resize(n);
   auto fill = [&](size_t b, size_t e) {
+    // Each thread maps its share of the four arrays' pages in bulk (no-op when already mapped).
+    prefault(sb.keys.data() + b, (e - b) * sizeof(uint64_t));
+    prefault(sb.perm.data() + b, (e - b) * sizeof(uint32_t));
+    prefault(sb.keys_tmp.data() + b, (e - b) * sizeof(uint64_t));
+    prefault(sb.perm_tmp.data() + b, (e - b) * sizeof(uint32_t));
     for (size_t i = b; i < e; ++i) {
       sb.keys[i] = grid.key(recs[i].x, recs[i].y, recs[i].z);
       sb.perm[i] = uint32_t(i);
@@ -121,15 +141,17 @@ void key_and_sort(std::span<const SpillRecord> recs, const MortonGrid& grid, uns
   };
   if (threads > 1 && n >= (1u << 16)) {
     std::vector<std::thread> pool;
-    for (unsigned t = 1; t < threads; ++t) pool.emplace_back(fill, n * t / threads, n * (t + 1) / threads);
+    for (unsigned k = 1; k < threads; ++k) pool.emplace_back(fill, n * k / threads, n * (k + 1) / threads);
     fill(0, n / threads);
     for (auto& th : pool) th.join();
   } else {
     fill(0, n);
   }
-  sb.keys_tmp.resize(n);
-  sb.perm_tmp.resize(n);
+  st.keys = seconds_since(t);
+  t = Clock::now();
   radix_sort_pairs(sb.keys, sb.perm, sb.keys_tmp, sb.perm_tmp, threads);
+  st.radix = seconds_since(t);
+  return st;
 }
 
 Status load_bin(const Bin& bin, BigVector<SpillRecord>& recs) {
@@ -143,6 +165,58 @@ Status load_bin(const Bin& bin, BigVector<SpillRecord>& recs) {
   return {};
 }
 
+// Contiguous stages of the calling thread: lap() closes the running stage (wall and process
+// CPU) and starts the next, so the stages add up to the total.
+class StageMeter {
+ public:
+  explicit StageMeter(ConvertReport& rep) : rep_(rep), t_(Clock::now()), cpu_(process_cpu_seconds()) {}
+  // Ends the running stage, books it under `name` (accumulating), returns its wall seconds.
+  double lap(const char* name) {
+    const auto now = Clock::now();
+    const double cpu = process_cpu_seconds();
+    const double wall = std::chrono::duration<double>(now - t_).count();
+    auto it = std::find_if(rep_.stages.begin(), rep_.stages.end(),
+                           [&](const ConvertReport::Stage& s) { return std::strcmp(s.name, name) == 0; });
+    if (it == rep_.stages.end()) it = rep_.stages.insert(rep_.stages.end(), ConvertReport::Stage{name});
+    it->wall += wall;
+    it->cpu += cpu - cpu_;
+    t_ = now;
+    cpu_ = cpu;
+    return wall;
+  }
+
+ private:
+  ConvertReport& rep_;
+  Clock::time_point t_;
+  double cpu_;
+};
+
+// A bin loaded, keyed and sorted (possibly on a helper thread while the previous bin is built).
+struct PreparedBin {
+  BigVector<SpillRecord> recs;
+  SortBuffers sb;
+  SortTimes times;
+  double load_seconds = 0;
+  Status status;
+};
+
+void prepare_bin(const Bin& bin, const MortonGrid& grid, unsigned threads, PreparedBin& pb, SortBuffers& scratch) {
+  const auto t = Clock::now();
+  pb.status = load_bin(bin, pb.recs);
+  std::error_code ec;
+  std::filesystem::remove(bin.path, ec);
+  pb.load_seconds = seconds_since(t);
+  if (!pb.status.ok()) return;
+  // The sort scratch is shared by both slots (only one bin is sorted at a time).
+  std::swap(pb.sb.keys_tmp, scratch.keys_tmp);
+  std::swap(pb.sb.perm_tmp, scratch.perm_tmp);
+  pb.times = key_and_sort(pb.recs, grid, threads, pb.sb);
+  std::swap(pb.sb.keys_tmp, scratch.keys_tmp);
+  std::swap(pb.sb.perm_tmp, scratch.perm_tmp);
+  if (!pb.recs.empty() && morton_prefix(pb.sb.keys.front(), bin.prefix_bits) != bin.prefix)
+    pb.status = make_error(Errc::internal, "bin {} holds a record outside its Morton cell", bin.path.string());
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------- driver
@@ -152,6 +226,7 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   const double cpu_start = process_cpu_seconds();
   MDS_TRY(check_options(o));
   ConvertReport rep;
+  StageMeter meter(rep);
   rep.memory_budget = o.memory_budget;
   rep.meshlet_builder = o.meshlet_builder;
   Progress progress(o.progress);
@@ -176,8 +251,8 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   if (tmp_parent.empty()) tmp_parent = o.output.has_parent_path() ? o.output.parent_path() : ".";
   TempDir tmp(tmp_parent);
 
+  rep.seconds_setup = meter.lap("setup");
   // ---- pass A
-  auto t = Clock::now();
   InputScan scan;
   {
     ScanOptions so;
@@ -186,10 +261,10 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
     so.radius_by_type = o.radius_by_type;
     so.batch_particles = plan.batch_particles;
     so.spill_buffer_bytes = plan.spill_buffer_bytes;
-    so.max_memory_records = plan.max_bin_records;
+    so.max_memory_records = plan.max_memory_records;
     MDS_TRY(scan_inputs(so, readers, tmp, scan, progress));
   }
-  rep.seconds_read = seconds_since(t);
+  rep.seconds_read = meter.lap("read");
   rep.particles = scan.count;
   rep.spilled = !scan.in_memory;
 
@@ -217,24 +292,26 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   tot.density.assign(size_t(ctx.density.voxel_count()), 0);
   std::vector<std::unique_ptr<NodeWorker>> workers;
   for (unsigned i = 0; i < o.threads; ++i) workers.push_back(std::make_unique<NodeWorker>(o.meshlet_builder));
-  SortBuffers sb;
+  rep.seconds_setup += meter.lap("setup");
 
   if (scan.in_memory) {
     // ---- everything fits: one bin, the root cell
-    t = Clock::now();
+    SortBuffers sb;
     progress.stage("build", scan.count);
-    key_and_sort(scan.memory, grid, o.threads, sb);
+    const SortTimes st = key_and_sort(scan.memory, grid, o.threads, sb);
     sb.keys_tmp = {};
     sb.perm_tmp = {};
-    rep.seconds_sort += seconds_since(t);
+    rep.seconds_keys = st.keys;
+    rep.seconds_radix = st.radix;
+    rep.seconds_sort = meter.lap("sort");
     MDS_TRY(build_bin(ctx, workers, sb.keys, sb.perm, scan.memory, 0, *writer, tot, progress));
     scan.memory = {};
     sb.release();
+    rep.seconds_nodes = meter.lap("nodes");
     rep.bins = 1;
-    rep.seconds_build = seconds_since(t);
+    rep.seconds_build = rep.seconds_sort + rep.seconds_nodes;
   } else {
     // ---- pass B
-    t = Clock::now();
     progress.stage("partition", scan.count);
     PartitionOptions popt;
     popt.max_bin_records = plan.max_bin_records;
@@ -247,25 +324,42 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
           scattered += n;
           progress.update(std::min(scattered, scan.count));
         }));
-    rep.seconds_partition = seconds_since(t);
+    rep.seconds_partition = meter.lap("partition");
     rep.partition_passes = pstats.passes;
     rep.bins = bins.size();
 
-    t = Clock::now();
+    // Bin k+1 is loaded, keyed and sorted on a helper thread while bin k is built.
     progress.stage("build", scan.count);
-    BigVector<SpillRecord> recs;
-    for (const Bin& bin : bins) {
-      auto ts = Clock::now();
-      MDS_TRY(load_bin(bin, recs));
-      std::error_code ec;
-      std::filesystem::remove(bin.path, ec);
-      key_and_sort(recs, grid, o.threads, sb);
-      rep.seconds_sort += seconds_since(ts);
-      if (!recs.empty() && morton_prefix(sb.keys.front(), bin.prefix_bits) != bin.prefix)
-        return make_error(Errc::internal, "bin {} holds a record outside its Morton cell", bin.path.string());
-      MDS_TRY(build_bin(ctx, workers, sb.keys, sb.perm, recs, bin.prefix_bits / 3, *writer, tot, progress));
+    PreparedBin slots[2];
+    SortBuffers scratch;
+    std::thread prep;
+    auto join_prep = [&] {
+      if (prep.joinable()) prep.join();
+    };
+    struct JoinGuard {
+      std::function<void()> f;
+      ~JoinGuard() { f(); }
+    } guard{join_prep};
+    if (!bins.empty()) prepare_bin(bins[0], grid, o.threads, slots[0], scratch);
+    for (size_t k = 0; k < bins.size(); ++k) {
+      join_prep();
+      PreparedBin& cur = slots[k % 2];
+      rep.seconds_load += cur.load_seconds;
+      rep.seconds_keys += cur.times.keys;
+      rep.seconds_radix += cur.times.radix;
+      rep.seconds_sort += meter.lap("load");
+      MDS_TRY(cur.status);
+      if (k + 1 < bins.size())
+        prep = std::thread([&, k] { prepare_bin(bins[k + 1], grid, o.threads, slots[(k + 1) % 2], scratch); });
+      MDS_TRY(build_bin(ctx, workers, cur.sb.keys, cur.sb.perm, cur.recs, bins[k].prefix_bits / 3, *writer, tot,
+                        progress));
+      rep.seconds_nodes += meter.lap("nodes");
     }
-    rep.seconds_build = seconds_since(t);
+    join_prep();
+    slots[0] = {};
+    slots[1] = {};
+    scratch.release();
+    rep.seconds_build = rep.seconds_sort + rep.seconds_nodes;
   }
   progress.finish();
   workers.clear();
@@ -273,7 +367,6 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
     return make_error(Errc::internal, "built {} particles of {}", tot.particles, scan.count);
 
   // ---- summary and finish
-  t = Clock::now();
   store::StoreSummary sum;
   sum.flags = scan.per_particle_radius ? uint32_t(store::kFlagPerParticleRadius) : 0u;
   sum.node_size_max = o.node_size;
@@ -304,7 +397,7 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   }
   sum.density_counts = std::move(tot.density);
   MDS_TRY(writer->finish(sum));
-  rep.seconds_finish = seconds_since(t);
+  rep.seconds_finish = meter.lap("finish");
 
   std::error_code ec;
   rep.file_bytes = std::filesystem::file_size(o.output, ec);

@@ -3,10 +3,14 @@
 //           keep them in memory when they fit the budget); global bounds, counts, types.
 //   Pass B  scatter the spill file into Morton-prefix bins that fit the budget (binning.h).
 //           Reading runs on its own thread, one batch ahead of the validation (input_scan.h).
-//   Build   per bin: Morton keys + parallel radix sort of (key, index) (radix_sort.h), nodes
-//           (node_builder.h), then on worker threads per node: meshlets (meshlet_builder.h:
-//           PCL kd-tree or octree leaves), 16-bit quantization (quantize.h), voxel lists
-//           (density.h), store::encode_node; the calling thread appends in order (node_encoder.h).
+//   Build   per bin: Morton keys (split across the threads) + parallel radix sort of
+//           (key, index) (radix_sort.h), nodes (node_builder.h), then on worker threads per
+//           node: meshlets (meshlet_builder.h: PCL kd-tree or octree leaves), 16-bit
+//           quantization (quantize.h), voxel lists (density.h), store::encode_node; the calling
+//           thread appends in order (node_encoder.h). Out of core, bin k+1 is loaded, keyed and
+//           sorted on a helper thread while bin k is built.
+// The report's `stages` are contiguous (their wall times add up to the total), each with the
+// process CPU time spent while it ran (CPU / wall ~ the cores actually used).
 // Paper 000 §3.1, §4.4, §6, §7.4; paper 002 §3.3.
 #pragma once
 
@@ -66,10 +70,31 @@ struct ConvertReport {
   uint64_t partition_passes = 0;
   uint64_t memory_budget = 0;
   uint64_t peak_rss_bytes = 0;               // VmHWM of the process
+  // Stages in order; their wall times add up to seconds_total (every step of convert() is in one).
+  //   setup      option checks, opening the inputs, creating the store, density grid, workers
+  //   read       pass A: parse + validate (+ spill)
+  //   partition  pass B (out of core only)
+  //   load       reading bins back (out of core; overlapped with the build of the previous bin
+  //              after the first, then only the wait for it counts here)
+  //   keys       Morton keys (parallel)
+  //   sort       radix sort (parallel)
+  //   nodes      node partition + workers (gather, meshlets, quantize, voxel lists, encode) + ordered append
+  //   finish     store sections, fsync, rename
+  struct Stage {
+    const char* name;
+    double wall = 0;
+    double cpu = 0;  // process CPU (all threads) while the stage ran
+  };
+  std::vector<Stage> stages;
+  double seconds_setup = 0;
+  double seconds_load = 0;
+  double seconds_keys = 0;
+  double seconds_radix = 0;
+  double seconds_nodes = 0;
   double seconds_read = 0;                   // pass A
   double seconds_partition = 0;              // pass B
   double seconds_build = 0;                  // sort + nodes + meshlets + encode + write
-  double seconds_sort = 0;                   // loading bins, Morton keys and radix sort (wall)
+  double seconds_sort = 0;                   // load + keys + radix sort (wall; on the build's critical path)
   double seconds_gather = 0;                 // gathering node records, voxel index: CPU summed over workers
   double seconds_meshlets = 0;               // meshlet building: CPU time summed over workers
   double seconds_encode = 0;                 // quantize + voxel lists + quality + lz4: CPU summed over workers

@@ -109,6 +109,7 @@ Status spill_memory(InputScan& s, TempDir& tmp, const ScanOptions& o) {
   MDS_ASSIGN_OR_RETURN(s.spill_path, tmp.file("spill.rec"));
   MDS_ASSIGN_OR_RETURN(SpillWriter w, SpillWriter::create(s.spill_path, o.spill_buffer_bytes));
   MDS_TRY(w.append(s.memory));
+  s.prefault.reset();  // before the memory goes
   s.memory = {};
   s.spill.emplace(std::move(w));
   s.in_memory = false;
@@ -192,6 +193,7 @@ Status scan_inputs(const ScanOptions& o, std::vector<std::unique_ptr<ParticleRea
   s.in_memory = declared <= o.max_memory_records;
   if (s.in_memory) {
     s.memory.reserve(size_t(declared));
+    s.prefault = std::make_unique<BackgroundPrefault>(s.memory.data(), s.memory.capacity() * sizeof(SpillRecord));
   } else {
     MDS_ASSIGN_OR_RETURN(s.spill_path, tmp.file("spill.rec"));
     MDS_ASSIGN_OR_RETURN(SpillWriter w, SpillWriter::create(s.spill_path, o.spill_buffer_bytes));
@@ -225,6 +227,7 @@ Status scan_inputs(const ScanOptions& o, std::vector<std::unique_ptr<ParticleRea
       progress.update(s.count);
     }
   }
+  s.prefault.reset();
   if (s.spill) MDS_TRY(s.spill->close());
   progress.finish();
   if (s.count == 0) {

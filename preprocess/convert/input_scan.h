@@ -2,7 +2,8 @@
 // and keep the 32-byte records in memory (when the declared count fits the budget) or spill
 // them to a temporary file (spill.h). Reading overlaps with the processing of the previous
 // batch: a reader thread fills a small ring of ParticleBatches (kReadAheadBatches) while the
-// calling thread validates and stores the batch before.
+// calling thread validates and stores the batch before. In memory, the pages of the record
+// array are mapped ahead of the consumer on a third thread (BackgroundPrefault).
 #pragma once
 
 #include <cstdint>
@@ -52,6 +53,7 @@ struct InputScan {
   std::map<int32_t, TypeStat> types;
   bool in_memory = true;
   BigVector<SpillRecord> memory;          // in-memory path
+  std::unique_ptr<BackgroundPrefault> prefault;  // maps `memory`'s pages ahead of the reading
   std::optional<SpillWriter> spill;       // spill path (closed at the end of pass A)
   std::filesystem::path spill_path;
 };

@@ -30,7 +30,14 @@ void add_meshlet_quality(std::span<const double> xyz, std::span<const uint32_t> 
       lo[a] = std::min(lo[a], xyz[3 * i + a]);
       hi[a] = std::max(hi[a], xyz[3 * i + a]);
     }
-  const double spacing = mean_spacing(lo, hi, n);
+  add_meshlet_quality(xyz, order, sizes, lo, hi, q);
+}
+
+void add_meshlet_quality(std::span<const double> xyz, std::span<const uint32_t> order, std::span<const uint8_t> sizes,
+                         const double node_lo[3], const double node_hi[3], MeshletQuality& q) {
+  const size_t n = xyz.size() / 3;
+  if (n == 0) return;
+  const double spacing = mean_spacing(node_lo, node_hi, n);
   q.meshlets += sizes.size();
   q.particles += n;
   if (!(spacing > 0)) return;

@@ -38,5 +38,8 @@ double mean_spacing(const double lo[3], const double hi[3], uint64_t n);
 // builder returned them.
 void add_meshlet_quality(std::span<const double> xyz, std::span<const uint32_t> order, std::span<const uint8_t> sizes,
                          MeshletQuality& q);
+// The same with the node's bounding box of centres already known (saves a pass over xyz).
+void add_meshlet_quality(std::span<const double> xyz, std::span<const uint32_t> order, std::span<const uint8_t> sizes,
+                         const double node_lo[3], const double node_hi[3], MeshletQuality& q);
 
 }  // namespace mds::convert

@@ -8,16 +8,6 @@ namespace mds::convert {
 
 namespace {
 
-uint64_t spread(uint32_t v) {
-  uint64_t x = v & kMortonAxisMax;
-  x = (x | (x << 32)) & 0x1f00000000ffffull;
-  x = (x | (x << 16)) & 0x1f0000ff0000ffull;
-  x = (x | (x << 8)) & 0x100f00f00f00f00full;
-  x = (x | (x << 4)) & 0x10c30c30c30c30c3ull;
-  x = (x | (x << 2)) & 0x1249249249249249ull;
-  return x;
-}
-
 uint32_t compact(uint64_t x) {
   x &= 0x1249249249249249ull;
   x = (x ^ (x >> 2)) & 0x10c30c30c30c30c3ull;
@@ -29,10 +19,6 @@ uint32_t compact(uint64_t x) {
 }
 
 }  // namespace
-
-uint64_t morton_encode(uint32_t x, uint32_t y, uint32_t z) {
-  return spread(x) | (spread(y) << 1) | (spread(z) << 2);
-}
 
 void morton_decode(uint64_t key, uint32_t& x, uint32_t& y, uint32_t& z) {
   x = compact(key);
@@ -50,13 +36,6 @@ MortonGrid::MortonGrid(const double lo[3], const double hi[3]) {
     extent = std::max(extent, hi[a] - lo[a]);
   }
   for (int a = 0; a < 3; ++a) scale_[a] = extent > 0 ? double(1u << kMortonBitsPerAxis) / extent : 0.0;
-}
-
-uint32_t MortonGrid::cell(int axis, double v) const {
-  const double c = (v - lo_[axis]) * scale_[axis];
-  if (!(c > 0)) return 0;  // also NaN
-  if (c >= double(kMortonAxisMax)) return kMortonAxisMax;
-  return uint32_t(c);
 }
 
 }  // namespace mds::convert

@@ -12,8 +12,20 @@ inline constexpr int kMortonBitsPerAxis = 21;
 inline constexpr int kMortonBits = 3 * kMortonBitsPerAxis;  // 63
 inline constexpr uint32_t kMortonAxisMax = (1u << kMortonBitsPerAxis) - 1;
 
+// Spreads the low 21 bits of v to every third bit ("magic bits").
+inline uint64_t morton_spread(uint32_t v) {
+  uint64_t x = v & kMortonAxisMax;
+  x = (x | (x << 32)) & 0x1f00000000ffffull;
+  x = (x | (x << 16)) & 0x1f0000ff0000ffull;
+  x = (x | (x << 8)) & 0x100f00f00f00f00full;
+  x = (x | (x << 4)) & 0x10c30c30c30c30c3ull;
+  x = (x | (x << 2)) & 0x1249249249249249ull;
+  return x;
+}
 // Interleaves the low 21 bits of x, y, z: bit i of x goes to bit 3i, y to 3i+1, z to 3i+2.
-uint64_t morton_encode(uint32_t x, uint32_t y, uint32_t z);
+inline uint64_t morton_encode(uint32_t x, uint32_t y, uint32_t z) {
+  return morton_spread(x) | (morton_spread(y) << 1) | (morton_spread(z) << 2);
+}
 // Inverse of morton_encode.
 void morton_decode(uint64_t key, uint32_t& x, uint32_t& y, uint32_t& z);
 
@@ -24,7 +36,12 @@ class MortonGrid {
  public:
   MortonGrid() = default;
   MortonGrid(const double lo[3], const double hi[3]);
-  uint32_t cell(int axis, double v) const;
+  uint32_t cell(int axis, double v) const {
+    const double c = (v - lo_[axis]) * scale_[axis];
+    if (!(c > 0)) return 0;  // also NaN
+    if (c >= double(kMortonAxisMax)) return kMortonAxisMax;
+    return uint32_t(c);
+  }
   uint64_t key(double x, double y, double z) const {
     return morton_encode(cell(0, x), cell(1, y), cell(2, z));
   }

@@ -43,6 +43,8 @@ uint8_t TypeLut::operator()(int32_t id) const {
 
 namespace {
 
+constexpr size_t kGatherPrefetch = 48;  // records prefetched ahead of the gather
+
 struct NodeResult {
   store::EncodedNode encoded;
   QuantError error;
@@ -71,6 +73,8 @@ Result<NodeResult> build_node(const BuildContext& ctx, NodeWorker& w, std::span<
   }
   float max_radius = 0;
   for (size_t i = 0; i < n; ++i) {
+    // The records are in input order: the gather is a random access, prefetched a few ahead.
+    if (i + kGatherPrefetch < n) __builtin_prefetch(&recs[perm[i + kGatherPrefetch]]);
     const SpillRecord& r = recs[perm[i]];
     w.xyz[3 * i] = r.x;
     w.xyz[3 * i + 1] = r.y;
@@ -100,7 +104,7 @@ Result<NodeResult> build_node(const BuildContext& ctx, NodeWorker& w, std::span<
   MDS_TRY(w.meshlets->build(keys, w.xyz, ctx.meshlet_size, w.order, w.sizes));
   const double t2 = thread_cpu_seconds();
   res.t_meshlets = t2 - t1;
-  add_meshlet_quality(w.xyz, w.order, w.sizes, res.quality);
+  add_meshlet_quality(w.xyz, w.order, w.sizes, lo, hi, res.quality);
 
   // Quantize in meshlet order; permute types and radii alike (in place through scratch).
   const QuantFrame frame = make_frame(lo, hi);

@@ -20,7 +20,8 @@ constexpr size_t kMsdBuckets = size_t(1) << kMsdBits;
 constexpr int kLsdBits = 11;
 constexpr size_t kLsdBuckets = size_t(1) << kLsdBits;
 constexpr size_t kLeafMax = size_t(1) << 15;  // buckets up to this size are finished by LSD passes (cache-sized)
-constexpr size_t kSmall = 48;                 // insertion sort below this
+constexpr size_t kSmall = 32;                 // insertion sort below this
+constexpr int kMaxLsdPasses = 2;              // more varying digits in a leaf: MSD pass instead
 constexpr size_t kMinParallel = size_t(1) << 16;
 
 struct Span {
@@ -55,8 +56,19 @@ void insertion_sort(uint64_t* k, uint32_t* idx, size_t n) {
 // The MSD digit window for a range whose varying bits are `varying`: the kMsdBits ending at the
 // highest varying bit.
 int msd_shift(uint64_t varying) { return std::max(0, int(std::bit_width(varying)) - kMsdBits); }
+// Number of LSD digit passes needed for the varying bits.
+int lsd_passes(uint64_t varying) {
+  int p = 0;
+  for (int shift = 0; shift < 64; shift += kLsdBits)
+    if ((varying >> shift) & (kLsdBuckets - 1)) ++p;
+  return p;
+}
 
 // Sorts the n pairs of `a` (result in `a`), using `b` as scratch of the same size.
+// Ranges whose varying bits fit in at most kMaxLsdPasses LSD digits are finished by LSD passes;
+// otherwise one MSD pass on the highest varying bits (digit width ~log2(n) for small ranges, so
+// that the buckets hold a few pairs each and end in insertion sort) and recursion per bucket:
+// uniform data of 10M keys take 2 scatter passes instead of 1 MSD + 5 LSD passes.
 void sort_range(Span a, Span b, size_t n) {
   if (n <= kSmall) {
     insertion_sort(a.k, a.i, n);
@@ -64,8 +76,8 @@ void sort_range(Span a, Span b, size_t n) {
   }
   const uint64_t varying = varying_bits(a.k, n);
   if (varying == 0) return;
-  if (n <= kLeafMax) {
-    // LSD over the varying 8-bit digits, ping-pong a <-> b, result copied back to a if needed.
+  if (n <= kLeafMax && lsd_passes(varying) <= kMaxLsdPasses) {
+    // LSD over the varying digits, ping-pong a <-> b, result copied back to a if needed.
     Span src = a, dst = b;
     bool in_a = true;
     for (int shift = 0; shift < 64; shift += kLsdBits) {
@@ -92,18 +104,23 @@ void sort_range(Span a, Span b, size_t n) {
     }
     return;
   }
-  // Large (clustered) range: one MSD pass a -> b, buckets sorted in b, copied back.
-  const int shift = msd_shift(varying);
-  std::vector<size_t> h(kMsdBuckets + 1, 0);
-  for (size_t j = 0; j < n; ++j) ++h[((a.k[j] >> shift) & (kMsdBuckets - 1)) + 1];
-  for (size_t d = 1; d <= kMsdBuckets; ++d) h[d] += h[d - 1];
-  std::vector<size_t> pos(h.begin(), h.end() - 1);
+  // One MSD pass a -> b on the highest varying bits, buckets sorted in b (a as scratch), copied back.
+  const int bits = n > kLeafMax ? kMsdBits : std::clamp(int(std::bit_width(n)) - 1, 4, kMsdBits);
+  const size_t buckets = size_t(1) << bits;
+  const uint64_t mask = buckets - 1;
+  const int shift = std::max(0, int(std::bit_width(varying)) - bits);
+  size_t h[kMsdBuckets + 1];
+  std::fill(h, h + buckets + 1, size_t(0));
+  for (size_t j = 0; j < n; ++j) ++h[((a.k[j] >> shift) & mask) + 1];
+  for (size_t d = 1; d <= buckets; ++d) h[d] += h[d - 1];
+  size_t pos[kMsdBuckets];
+  std::copy(h, h + buckets, pos);
   for (size_t j = 0; j < n; ++j) {
-    const size_t to = pos[(a.k[j] >> shift) & (kMsdBuckets - 1)]++;
+    const size_t to = pos[(a.k[j] >> shift) & mask]++;
     b.k[to] = a.k[j];
     b.i[to] = a.i[j];
   }
-  for (size_t d = 0; d < kMsdBuckets; ++d) {
+  for (size_t d = 0; d < buckets; ++d) {
     const size_t lo = h[d], m = h[d + 1] - h[d];
     if (m > 1) sort_range(Span{b.k + lo, b.i + lo}, Span{a.k + lo, a.i + lo}, m);
   }

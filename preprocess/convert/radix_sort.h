@@ -3,9 +3,11 @@
 // One parallel MSD pass on the highest 11 varying key bits scatters the pairs into up to 2048
 // buckets (each thread histograms and scatters its own contiguous segment, so the pass is
 // stable); the buckets, mostly cache-sized, are then sorted independently by the threads:
-// LSD passes over their remaining varying bits (8-bit digits, stable), or another MSD pass
-// when a bucket is still large (clustered data). Bits equal in every key of a range (for
-// example the shared Morton prefix of an out-of-core bin) are skipped. O(n) per pass.
+// LSD passes (11-bit digits, stable) when at most two digits still vary, else another MSD
+// pass whose digit width follows the bucket size (~log2 n bits, so sub-buckets hold a few
+// pairs each and end in insertion sort). Uniform 63-bit keys thus take 2 scatter passes.
+// Bits equal in every key of a range (for example the shared Morton prefix of an
+// out-of-core bin) are skipped. O(n) per pass.
 #pragma once
 
 #include <cstdint>

@@ -71,7 +71,14 @@ nlohmann::json report_json(const convert::ConvertReport& r, const convert::Conve
                   {"gather_cpu", r.seconds_gather}, {"meshlets_cpu", r.seconds_meshlets},
                   {"encode_cpu", r.seconds_encode}, {"append_cpu", r.seconds_append},
                   {"finish", r.seconds_finish},     {"total", r.seconds_total},
-                  {"cpu", r.cpu_seconds}};
+                  {"cpu", r.cpu_seconds},           {"setup", r.seconds_setup},
+                  {"load", r.seconds_load},         {"keys", r.seconds_keys},
+                  {"radix", r.seconds_radix},       {"nodes", r.seconds_nodes}};
+  // Contiguous stages of the conversion (wall seconds add up to seconds.total), with the process
+  // CPU seconds (all threads) spent while each ran.
+  nlohmann::json stages = nlohmann::json::array();
+  for (const auto& st : r.stages) stages.push_back({{"name", st.name}, {"wall", st.wall}, {"cpu", st.cpu}});
+  j["stages"] = stages;
   j["particles_per_second"] = r.particles_per_second;
   return j;
 }
