@@ -24,10 +24,8 @@ Issue 2 targets on 2 cores: >= 5 M particles/s from LAMMPS text, >= 20 M/s from 
 """
 import argparse
 import csv
-import datetime
 import json
 import os
-import platform
 import shutil
 import statistics
 import subprocess
@@ -35,18 +33,12 @@ import sys
 import tempfile
 import time
 
+from bench_common import machine_info, parse_count
+
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TARGET_TEXT = 5e6
 TARGET_BINARY = 20e6
 TARGET_BYTES = 7.0
-
-
-def parse_count(text):
-    text = text.strip()
-    mult = {"k": 1e3, "K": 1e3, "m": 1e6, "M": 1e6, "g": 1e9, "G": 1e9}.get(text[-1:], 1)
-    if mult != 1:
-        text = text[:-1]
-    return int(float(text) * mult)
 
 
 def fmt_count(n):
@@ -101,39 +93,6 @@ def dump_to_raw(dump, raw):
     subprocess.run([sys.executable, "-c", DUMP_TO_RAW, dump, raw], check=True)
 
 
-def machine_info():
-    cpu = "unknown"
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    mem = "unknown"
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemTotal"):
-                    mem = f"{int(line.split()[1]) / 1024 / 1024:.1f} GiB"
-                    break
-    except OSError:
-        pass
-    commit = "unknown"
-    try:
-        commit = subprocess.run(["git", "-C", REPO, "rev-parse", "--short", "HEAD"], capture_output=True,
-                                text=True, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "-C", REPO, "status", "--porcelain", "--untracked-files=no"],
-                               capture_output=True, text=True).stdout.strip()
-        if dirty:
-            commit += " (with uncommitted changes)"
-    except (OSError, subprocess.CalledProcessError):
-        pass
-    return {"nproc": os.cpu_count(), "cpu": cpu, "memory": mem, "kernel": platform.release(),
-            "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"), "commit": commit}
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--build-dir", default=os.path.join(REPO, "build"), help="build folder with the mdstream binary")
@@ -159,7 +118,7 @@ def main():
     builders = [b for b in args.builders.split(",") if b]
     work = args.work_dir or tempfile.mkdtemp(prefix="mdstream-bench-")
     os.makedirs(work, exist_ok=True)
-    info = machine_info()
+    info = machine_info(REPO)
     load_before = os.getloadavg()
     print(f"bench_convert: {exe}, sizes {sizes}, scenes {scenes}, {args.repeats} repeats, work dir {work}", flush=True)
 

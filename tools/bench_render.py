@@ -28,16 +28,16 @@ dense views; culled meshlets within the paper's range (58-92 %).
 """
 import argparse
 import csv
-import datetime
 import json
 import os
-import platform
 import shlex
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
+
+from bench_common import machine_info, parse_count
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TARGET_SPEEDUP = 5.0
@@ -47,14 +47,6 @@ MODES = ("nocull", "normal", "random")
 
 def log(msg):
     print(msg, file=sys.stderr, flush=True)
-
-
-def parse_count(text):
-    text = text.strip()
-    mult = {"k": 1e3, "K": 1e3, "m": 1e6, "M": 1e6, "g": 1e9, "G": 1e9}.get(text[-1:], 1)
-    if mult != 1:
-        text = text[:-1]
-    return int(float(text) * mult)
 
 
 def fmt_count(n):
@@ -112,39 +104,11 @@ def run_logged(cmd, log_path):
     return wall
 
 
-def machine_info():
-    cpu = "unknown"
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    mem = "unknown"
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemTotal"):
-                    mem = f"{int(line.split()[1]) / 1024 / 1024:.1f} GiB"
-                    break
-    except OSError:
-        pass
-    commit = "unknown"
-    try:
-        commit = subprocess.run(["git", "-C", REPO, "rev-parse", "--short", "HEAD"], capture_output=True,
-                                text=True, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "-C", REPO, "status", "--porcelain", "--untracked-files=no"],
-                               capture_output=True, text=True).stdout.strip()
-        if dirty:
-            commit += " (with uncommitted changes)"
-    except (OSError, subprocess.CalledProcessError):
-        pass
-    env = {k: os.environ[k] for k in ("LP_NUM_THREADS", "MDS_VK_VALIDATION", "VK_ICD_FILENAMES") if k in os.environ}
-    return {"nproc": os.cpu_count(), "cpu": cpu, "memory": mem, "kernel": platform.release(),
-            "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"), "commit": commit,
-            "env": env}
+def machine_info_with_env():
+    info = machine_info(REPO)
+    info["env"] = {k: os.environ[k] for k in ("LP_NUM_THREADS", "MDS_VK_VALIDATION", "VK_ICD_FILENAMES")
+                   if k in os.environ}
+    return info
 
 
 def store_particles(exe, store):
@@ -350,7 +314,7 @@ def main():
     views = [int(v) for v in args.views.split(",") if v]
     work = args.work_dir
     os.makedirs(work, exist_ok=True)
-    info = machine_info()
+    info = machine_info_with_env()
     load_before = os.getloadavg()
     t_start = time.perf_counter()
     log(f"bench_render: {exe}, scenes {scenes}, views {views}, {fmt_count(args.particles)} particles, "
