@@ -1,0 +1,188 @@
+// See residency.h (Ibrahim et al. §5.1 occlusion classes, §8; Grottel et al. §3.1).
+#include "streaming/residency.h"
+
+#include <algorithm>
+#include <tuple>
+
+namespace mds::streaming {
+
+char class_letter(uint8_t cls) {
+  switch (cls) {
+    case kClassP: return 'P';
+    case kClassL: return 'L';
+    case kClassM: return 'M';
+    case kClassO: return 'O';
+    default: return '?';
+  }
+}
+
+Result<Policy> parse_policy(std::string_view text) {
+  if (text == "occlusion") return Policy::occlusion;
+  if (text == "lru") return Policy::lru;
+  if (text == "fifo") return Policy::fifo;
+  return make_error(Errc::invalid_argument, "unknown cache policy '{}' (expected occlusion, lru or fifo)", text);
+}
+
+const char* policy_name(Policy p) {
+  switch (p) {
+    case Policy::occlusion: return "occlusion";
+    case Policy::lru: return "lru";
+    case Policy::fifo: return "fifo";
+  }
+  return "?";
+}
+
+ResidencyTable::ResidencyTable(std::vector<uint64_t> node_bytes, Policy policy) : policy_(policy) {
+  nodes_.resize(node_bytes.size());
+  for (size_t i = 0; i < node_bytes.size(); ++i) nodes_[i].bytes = node_bytes[i];
+}
+
+void ResidencyTable::set_view(uint32_t i, float distance, float projected_size, bool in_frustum) {
+  nodes_[i].distance = distance;
+  nodes_[i].projected_size = projected_size;
+  nodes_[i].in_frustum = in_frustum;
+}
+
+void ResidencyTable::reset_classes() {
+  for (auto& n : nodes_) n.cls = kClassP;
+}
+
+namespace {
+const char* residency_name(Residency r) {
+  switch (r) {
+    case Residency::absent: return "absent";
+    case Residency::requested: return "requested";
+    case Residency::resident: return "resident";
+  }
+  return "?";
+}
+}  // namespace
+
+#define MDS_EXPECT_STATE(i, want, what)                                                                             \
+  if (nodes_[i].residency != (want))                                                                                \
+    return make_error(Errc::internal, "residency: node {} cannot be {} while {}", i, what, residency_name(nodes_[i].residency))
+
+Status ResidencyTable::mark_requested(uint32_t i) {
+  MDS_EXPECT_STATE(i, Residency::absent, "requested");
+  if (nodes_[i].failed) return make_error(Errc::internal, "residency: node {} failed before and is never requested again", i);
+  nodes_[i].residency = Residency::requested;
+  return {};
+}
+
+Status ResidencyTable::mark_cancelled(uint32_t i) {
+  MDS_EXPECT_STATE(i, Residency::requested, "cancelled");
+  nodes_[i].residency = Residency::absent;
+  return {};
+}
+
+Status ResidencyTable::mark_loaded(uint32_t i) {
+  MDS_EXPECT_STATE(i, Residency::requested, "loaded");
+  NodeState& n = nodes_[i];
+  n.residency = Residency::resident;
+  n.ever_loaded = true;
+  n.load_seq = ++load_counter_;
+  resident_bytes_ += n.bytes;
+  ++resident_count_;
+  return {};
+}
+
+Status ResidencyTable::mark_evicted(uint32_t i) {
+  MDS_EXPECT_STATE(i, Residency::resident, "evicted");
+  nodes_[i].residency = Residency::absent;
+  resident_bytes_ -= nodes_[i].bytes;
+  --resident_count_;
+  return {};
+}
+
+Status ResidencyTable::mark_failed(uint32_t i) {
+  MDS_EXPECT_STATE(i, Residency::requested, "marked failed");
+  nodes_[i].residency = Residency::absent;
+  nodes_[i].failed = true;
+  return {};
+}
+
+#undef MDS_EXPECT_STATE
+
+bool ResidencyTable::wanted(uint32_t i) const {
+  const NodeState& n = nodes_[i];
+  if (n.failed || !n.in_frustum) return false;
+  if (policy_ == Policy::occlusion) return n.cls != kClassO;
+  return true;
+}
+
+namespace {
+// Eviction group under the occlusion policy: O first, then M, then L and P together.
+int evict_group(uint8_t cls) { return cls == kClassO ? 0 : cls == kClassM ? 1 : 2; }
+// Fetch group under the occlusion policy: P, then L, then M.
+int fetch_group(uint8_t cls) { return cls == kClassP ? 0 : cls == kClassL ? 1 : 2; }
+}  // namespace
+
+bool ResidencyTable::evict_before(uint32_t a, uint32_t b) const {
+  const NodeState& x = nodes_[a];
+  const NodeState& y = nodes_[b];
+  switch (policy_) {
+    case Policy::occlusion:
+      // farthest first: compare -distance
+      return std::make_tuple(evict_group(x.cls), x.last_use, -x.distance, a) <
+             std::make_tuple(evict_group(y.cls), y.last_use, -y.distance, b);
+    case Policy::lru:
+      return std::make_tuple(x.last_use, -x.distance, a) < std::make_tuple(y.last_use, -y.distance, b);
+    case Policy::fifo:
+      return std::make_tuple(x.load_seq, a) < std::make_tuple(y.load_seq, b);
+  }
+  return a < b;
+}
+
+bool ResidencyTable::fetch_before(uint32_t a, uint32_t b) const {
+  const NodeState& x = nodes_[a];
+  const NodeState& y = nodes_[b];
+  const int gx = policy_ == Policy::occlusion ? fetch_group(x.cls) : 0;
+  const int gy = policy_ == Policy::occlusion ? fetch_group(y.cls) : 0;
+  return std::make_tuple(gx, x.distance, -x.projected_size, a) < std::make_tuple(gy, y.distance, -y.projected_size, b);
+}
+
+std::vector<uint32_t> ResidencyTable::prefetch_order(size_t limit) const {
+  std::vector<uint32_t> out;
+  for (uint32_t i = 0; i < nodes_.size(); ++i)
+    if (nodes_[i].residency == Residency::absent && wanted(i)) out.push_back(i);
+  auto cmp = [&](uint32_t a, uint32_t b) { return fetch_before(a, b); };
+  if (limit < out.size()) {
+    std::partial_sort(out.begin(), out.begin() + std::ptrdiff_t(limit), out.end(), cmp);
+    out.resize(limit);
+  } else {
+    std::sort(out.begin(), out.end(), cmp);
+  }
+  return out;
+}
+
+std::vector<uint32_t> ResidencyTable::eviction_order() const {
+  std::vector<uint32_t> out;
+  for (uint32_t i = 0; i < nodes_.size(); ++i)
+    if (nodes_[i].residency == Residency::resident) out.push_back(i);
+  std::sort(out.begin(), out.end(), [&](uint32_t a, uint32_t b) { return evict_before(a, b); });
+  return out;
+}
+
+Result<std::vector<uint32_t>> ResidencyTable::choose_victims(uint64_t need, uint64_t free, uint64_t protect_frame) const {
+  std::vector<uint32_t> victims;
+  if (need <= free) return victims;
+  uint64_t gained = free;
+  for (uint32_t i : eviction_order()) {
+    const NodeState& n = nodes_[i];
+    const bool drawn_now = n.last_use == protect_frame && !(policy_ == Policy::occlusion && n.cls == kClassO);
+    if (drawn_now) continue;
+    victims.push_back(i);
+    gained += n.bytes;
+    if (gained >= need) return victims;
+  }
+  return make_error(Errc::budget, "residency: {} bytes needed, only {} can be freed without evicting nodes drawn in frame {}", need, gained,
+                    protect_frame);
+}
+
+size_t ResidencyTable::never_loaded_count() const {
+  size_t c = 0;
+  for (const auto& n : nodes_) c += n.ever_loaded ? 0 : 1;
+  return c;
+}
+
+}  // namespace mds::streaming

@@ -1,0 +1,107 @@
+// Residency state of the streaming cache: which nodes are on the device, which to fetch next,
+// which to evict (issue 4, "Residency by occlusion class").
+// Follows Ibrahim et al. §5.1 (occlusion classes O/M/L/P; O = culled with high confidence,
+// M = not culled but a poor occluder, L = occluder candidate after P, P = potentially visible,
+// the main occluders) and §8 (future work: a GPU cache for data larger than GPU memory), with
+// Grottel et al. §3.1 (the visible cells of the previous frame are the first occluders; front to
+// back order).
+//   eviction (policy occlusion): O first, then M, then L/P; within a group least recently used
+//            first, then farthest first;
+//   prefetch (policy occlusion): P, then L, then M (M is drawn but is no occluder), front to
+//            back (smaller distance first), larger projected size first among equal distances;
+//            O nodes are never requested, so a node classified O before it was ever loaded is
+//            never read;
+//   policies lru / fifo (for the stress comparison): class-blind; every node in the frustum is
+//            fetched front to back; eviction by least recent use / by load order.
+// Pure logic, deterministic (ties broken by node index), no threads.
+#pragma once
+
+#include <cstdint>
+#include <string_view>
+#include <vector>
+
+#include "core/result.h"
+#include "culling/culling_constants.h"
+
+namespace mds::streaming {
+
+// Same numeric values as the renderer's classes (MDS_CULL_CLASS_* in culling_constants.h,
+// used by shaders/include/cull_shared.h).
+enum NodeClass : uint8_t {
+  kClassP = MDS_CULL_CLASS_P,
+  kClassL = MDS_CULL_CLASS_L,
+  kClassM = MDS_CULL_CLASS_M,
+  kClassO = MDS_CULL_CLASS_O,
+};
+static_assert(kClassP == 0 && kClassL == 1 && kClassM == 2 && kClassO == 3);
+char class_letter(uint8_t cls);
+
+enum class Residency : uint8_t { absent, requested, resident };
+
+enum class Policy : uint8_t { occlusion, lru, fifo };
+Result<Policy> parse_policy(std::string_view text);
+const char* policy_name(Policy p);
+
+struct NodeState {
+  Residency residency = Residency::absent;
+  uint8_t cls = kClassP;
+  bool in_frustum = true;
+  bool ever_loaded = false;
+  bool failed = false;          // unreadable: never requested again
+  uint64_t bytes = 0;           // device bytes when resident
+  uint64_t last_use = 0;        // last frame the node was drawn/sampled (touch)
+  uint64_t load_seq = 0;        // order of arrival (FIFO)
+  float distance = 0;           // camera distance (e.g. to the bounds centre)
+  float projected_size = 0;     // projected screen size (pixels or fraction)
+};
+
+class ResidencyTable {
+ public:
+  ResidencyTable(std::vector<uint64_t> node_bytes, Policy policy);
+
+  size_t size() const { return nodes_.size(); }
+  Policy policy() const { return policy_; }
+  const NodeState& node(uint32_t i) const { return nodes_[i]; }
+
+  // Per-iteration inputs from the culling loop / camera.
+  void set_class(uint32_t i, uint8_t cls) { nodes_[i].cls = cls; }
+  void set_view(uint32_t i, float distance, float projected_size, bool in_frustum = true);
+  void touch(uint32_t i, uint64_t frame) { nodes_[i].last_use = frame; }
+  // All classes back to P (new view, paper §5.1); residency and use history stay.
+  void reset_classes();
+
+  // State transitions. Errc::internal on an impossible transition.
+  Status mark_requested(uint32_t i);
+  Status mark_cancelled(uint32_t i);   // requested -> absent
+  Status mark_loaded(uint32_t i);      // requested -> resident
+  Status mark_evicted(uint32_t i);     // resident -> absent
+  Status mark_failed(uint32_t i);      // requested -> absent, never again
+
+  // Whether the policy wants node i resident now (ignores residency).
+  bool wanted(uint32_t i) const;
+  // Absent, wanted, not failed nodes in request order (at most `limit`).
+  std::vector<uint32_t> prefetch_order(size_t limit = SIZE_MAX) const;
+  // All resident nodes, first = evicted first.
+  std::vector<uint32_t> eviction_order() const;
+  // Resident nodes to evict so that `need` bytes fit when `free` are free now, in eviction order.
+  // Nodes touched in frame `protect_frame` (drawn this frame) are kept, except class O under the
+  // occlusion policy (O is not drawn). Returns Errc::budget if even that cannot make room
+  // (the caller stalls the upload, it does not thrash).
+  Result<std::vector<uint32_t>> choose_victims(uint64_t need, uint64_t free, uint64_t protect_frame) const;
+
+  uint64_t resident_bytes() const { return resident_bytes_; }
+  size_t resident_count() const { return resident_count_; }
+  size_t never_loaded_count() const;
+
+ private:
+  bool evict_before(uint32_t a, uint32_t b) const;
+  bool fetch_before(uint32_t a, uint32_t b) const;
+
+  std::vector<NodeState> nodes_;
+  Policy policy_;
+  uint64_t load_counter_ = 0;
+  uint64_t resident_bytes_ = 0;
+  size_t resident_count_ = 0;
+};
+
+}  // namespace mds::streaming

@@ -1,0 +1,130 @@
+// Tests of streaming/residency.h: eviction and prefetch order by occlusion class (Ibrahim et al.
+// §5.1 classes), never-loaded O nodes never requested, LRU/FIFO policies.
+#include <gtest/gtest.h>
+
+#include "streaming/residency.h"
+
+using namespace mds;
+using namespace mds::streaming;
+
+namespace {
+void load(ResidencyTable& t, uint32_t i) {
+  ASSERT_TRUE(t.mark_requested(i).ok());
+  ASSERT_TRUE(t.mark_loaded(i).ok());
+}
+}  // namespace
+
+TEST(StreamingResidency, ClassIdsMatchRenderer) {
+  EXPECT_EQ(kClassP, MDS_CULL_CLASS_P);
+  EXPECT_EQ(kClassL, MDS_CULL_CLASS_L);
+  EXPECT_EQ(kClassM, MDS_CULL_CLASS_M);
+  EXPECT_EQ(kClassO, MDS_CULL_CLASS_O);
+  EXPECT_EQ(class_letter(kClassO), 'O');
+}
+
+TEST(StreamingResidency, EvictionOrderOThenMThenLruThenFarthest) {
+  ResidencyTable t(std::vector<uint64_t>(8, 100), Policy::occlusion);
+  // node: class, last use, distance
+  struct S { uint8_t cls; uint64_t use; float dist; };
+  const S s[8] = {{kClassP, 5, 1}, {kClassO, 9, 1}, {kClassL, 3, 2}, {kClassM, 8, 1},
+                  {kClassP, 3, 7}, {kClassO, 2, 3}, {kClassM, 1, 1}, {kClassL, 9, 1}};
+  for (uint32_t i = 0; i < 8; ++i) {
+    load(t, i);
+    t.set_class(i, s[i].cls);
+    t.touch(i, s[i].use);
+    t.set_view(i, s[i].dist, 1.0f);
+  }
+  // O: 5 (use 2) before 1 (use 9); M: 6 (use 1) before 3 (use 8);
+  // L/P: use 3 -> 4 (dist 7, farther) before 2 (dist 2); then 0 (use 5); then 7 (use 9).
+  EXPECT_EQ(t.eviction_order(), (std::vector<uint32_t>{5, 1, 6, 3, 4, 2, 0, 7}));
+
+  // Victims: 250 bytes needed with 0 free -> three victims; nodes drawn in frame 9 are kept
+  // unless they are O (not drawn).
+  auto v = t.choose_victims(250, 0, 9);
+  ASSERT_TRUE(v.ok());
+  EXPECT_EQ(*v, (std::vector<uint32_t>{5, 1, 6}));
+  auto all = t.choose_victims(800, 0, 9);  // node 7 (L, drawn in frame 9) cannot go
+  ASSERT_FALSE(all.ok());
+  EXPECT_EQ(all.error().code, Errc::budget);
+  EXPECT_TRUE(t.choose_victims(50, 60, 9)->empty());
+
+  ResidencyTable lru(std::vector<uint64_t>(8, 100), Policy::lru);
+  ResidencyTable fifo(std::vector<uint64_t>(8, 100), Policy::fifo);
+  for (uint32_t i : {3u, 0u, 7u, 1u, 6u, 2u, 5u, 4u}) {
+    load(lru, i);
+    load(fifo, i);
+  }
+  for (uint32_t i = 0; i < 8; ++i) {
+    for (ResidencyTable* x : {&lru, &fifo}) {
+      x->set_class(i, s[i].cls);
+      x->touch(i, s[i].use);
+      x->set_view(i, s[i].dist, 1.0f);
+    }
+  }
+  // LRU ignores classes: use 1 (6), 2 (5), 3 (4 far, 2 near), 5 (0), 8 (3), 9 (1, 7 tie dist -> index)
+  EXPECT_EQ(lru.eviction_order(), (std::vector<uint32_t>{6, 5, 4, 2, 0, 3, 1, 7}));
+  EXPECT_EQ(fifo.eviction_order(), (std::vector<uint32_t>{3, 0, 7, 1, 6, 2, 5, 4}));
+}
+
+TEST(StreamingResidency, NeverLoadedONeverRequested) {
+  ResidencyTable t(std::vector<uint64_t>(4, 10), Policy::occlusion);
+  t.set_class(0, kClassO);  // O before it was ever loaded
+  t.set_class(1, kClassP);
+  t.set_class(2, kClassM);
+  t.set_class(3, kClassL);
+  for (int frame = 0; frame < 5; ++frame) {
+    for (uint32_t i : t.prefetch_order()) {
+      EXPECT_NE(i, 0u);
+      ASSERT_TRUE(t.mark_requested(i).ok());
+      ASSERT_TRUE(t.mark_loaded(i).ok());
+    }
+  }
+  EXPECT_FALSE(t.node(0).ever_loaded);
+  EXPECT_EQ(t.node(0).residency, Residency::absent);
+  EXPECT_EQ(t.never_loaded_count(), 1u);
+  EXPECT_EQ(t.resident_count(), 3u);
+  EXPECT_EQ(t.resident_bytes(), 30u);
+  // A class-blind policy does load it.
+  ResidencyTable lru(std::vector<uint64_t>(4, 10), Policy::lru);
+  lru.set_class(0, kClassO);
+  EXPECT_EQ(lru.prefetch_order().size(), 4u);
+}
+
+TEST(StreamingResidency, PrefetchOrderPThenLFrontToBackLargerFirst) {
+  ResidencyTable t(std::vector<uint64_t>(9, 10), Policy::occlusion);
+  struct S { uint8_t cls; float dist; float size; bool frustum; };
+  const S s[9] = {{kClassL, 1, 1, true}, {kClassP, 5, 1, true}, {kClassP, 2, 1, true},
+                  {kClassO, 0, 9, true}, {kClassP, 2, 4, true}, {kClassM, 0, 1, true},
+                  {kClassL, 0.5f, 1, true}, {kClassP, 0.1f, 1, false}, {kClassP, 9, 1, true}};
+  for (uint32_t i = 0; i < 9; ++i) {
+    t.set_class(i, s[i].cls);
+    t.set_view(i, s[i].dist, s[i].size, s[i].frustum);
+  }
+  // P: 4 (dist 2, size 4) before 2 (dist 2, size 1), then 1, 8; L: 6, 0; M: 5; O (3) and
+  // the node outside the frustum (7) are not requested.
+  EXPECT_EQ(t.prefetch_order(), (std::vector<uint32_t>{4, 2, 1, 8, 6, 0, 5}));
+  EXPECT_EQ(t.prefetch_order(3), (std::vector<uint32_t>{4, 2, 1}));
+  // Requested and failed nodes are not offered again.
+  ASSERT_TRUE(t.mark_requested(4).ok());
+  ASSERT_TRUE(t.mark_requested(2).ok());
+  ASSERT_TRUE(t.mark_failed(2).ok());
+  EXPECT_EQ(t.prefetch_order(2), (std::vector<uint32_t>{1, 8}));
+  EXPECT_FALSE(t.mark_requested(2).ok());
+  // Impossible transitions are internal errors.
+  EXPECT_FALSE(t.mark_evicted(1).ok());
+  EXPECT_FALSE(t.mark_loaded(1).ok());
+  // New view: classes restart at P, residency stays.
+  ASSERT_TRUE(t.mark_loaded(4).ok());
+  t.reset_classes();
+  EXPECT_EQ(t.node(3).cls, kClassP);
+  EXPECT_EQ(t.node(4).residency, Residency::resident);
+}
+
+TEST(StreamingResidency, ParsesPolicies) {
+  EXPECT_EQ(*parse_policy("occlusion"), Policy::occlusion);
+  EXPECT_EQ(*parse_policy("lru"), Policy::lru);
+  EXPECT_EQ(*parse_policy("fifo"), Policy::fifo);
+  auto bad = parse_policy("random");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().message.find("random"), std::string::npos);
+}
