@@ -9,18 +9,14 @@
 #include <string>
 #include <string_view>
 
+#include "core/byte_size.h"
 #include "core/result.h"
 
 namespace mds::streaming {
 
-// Parses a byte size: plain bytes ("1048576"), decimal/binary suffixes ("512MiB", "2GiB",
-// "1.5G", "64k", "100MB", "3B"). K/M/G/T without "i" are powers of 1024 as well (GPU memory
-// convention); "KB/MB/GB/TB" are powers of 1000. Whitespace between number and unit is allowed.
-// Errors (Errc::invalid_argument) name the offending text.
-Result<uint64_t> parse_byte_size(std::string_view text);
-
-// Formats bytes for messages, e.g. "1.50 GiB".
-std::string format_bytes(uint64_t bytes);
+// Byte sizes (--gpu-budget) are parsed by mds::parse_byte_size (core/byte_size.h).
+using mds::format_bytes;
+using mds::parse_byte_size;
 
 // The single accountant of device payload memory. Not thread-safe: owned by the render thread.
 class DeviceBudget {

@@ -14,6 +14,7 @@
 
 #include "convert/binning.h"
 #include "convert/converter.h"
+#include "core/byte_size.h"
 #include "convert/density.h"
 #include "convert/meshlet_builder.h"
 #include "convert/meshlet_quality.h"

@@ -432,33 +432,6 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
 
 // ---------------------------------------------------------------- option parsing
 
-Result<uint64_t> parse_byte_size(const std::string& text) {
-  size_t i = 0;
-  while (i < text.size() && (std::isdigit(static_cast<unsigned char>(text[i])) || text[i] == '.')) ++i;
-  const std::string num = text.substr(0, i);
-  std::string unit = text.substr(i);
-  std::transform(unit.begin(), unit.end(), unit.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  double v = 0;
-  try {
-    size_t used = 0;
-    v = std::stod(num, &used);
-    if (used != num.size()) throw std::invalid_argument("trailing");
-  } catch (const std::exception&) {
-    return make_error(Errc::invalid_argument, "'{}' is not a size (examples: 512MiB, 2GiB, 1.5G, 65536)", text);
-  }
-  double mult = 0;
-  if (unit.empty() || unit == "b") mult = 1;
-  else if (unit == "k" || unit == "kb" || unit == "kib") mult = 1024.0;
-  else if (unit == "m" || unit == "mb" || unit == "mib") mult = 1024.0 * 1024;
-  else if (unit == "g" || unit == "gb" || unit == "gib") mult = 1024.0 * 1024 * 1024;
-  else if (unit == "t" || unit == "tb" || unit == "tib") mult = 1024.0 * 1024 * 1024 * 1024;
-  else return make_error(Errc::invalid_argument, "'{}': unknown size unit '{}' (use K, M, G, T, MiB, GiB, ...)", text, unit);
-  const double bytes = v * mult;
-  if (!(bytes >= 1) || bytes > 1.8e19)
-    return make_error(Errc::invalid_argument, "'{}': size out of range", text);
-  return uint64_t(bytes);
-}
-
 Result<std::map<int32_t, float>> parse_radius_by_type(const std::string& text) {
   std::map<int32_t, float> out;
   size_t pos = 0;

@@ -108,8 +108,6 @@ struct ConvertReport {
 // Runs the whole conversion. On error nothing is left behind (no output, no temporaries).
 Result<ConvertReport> convert(const ConvertOptions& options);
 
-// "512MiB", "2GiB", "1.5G", "800M", "65536" (bytes). Binary units (K = 1024).
-Result<uint64_t> parse_byte_size(const std::string& text);
 // "1=0.5,2=0.7"
 Result<std::map<int32_t, float>> parse_radius_by_type(const std::string& text);
 

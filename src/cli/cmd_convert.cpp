@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "core/byte_size.h"
 #include "convert/converter.h"
 
 namespace mds::cli {
@@ -143,7 +144,7 @@ Result<convert::ConvertOptions> to_options(const ConvertArgs& a) {
   if (!a.density_res.empty()) {
     MDS_ASSIGN_OR_RETURN(o.density, convert::parse_density_res(a.density_res));
   }
-  MDS_ASSIGN_OR_RETURN(o.memory_budget, convert::parse_byte_size(a.memory_budget));
+  MDS_ASSIGN_OR_RETURN(o.memory_budget, parse_byte_size(a.memory_budget));
   o.threads = a.threads;
   o.tmp_dir = a.tmp_dir;
   o.progress = !a.quiet && stderr_is_tty();
