@@ -9,7 +9,9 @@
 // Boxes reaching behind the near plane pass. Boxes entirely outside the image are O (frustum
 // culled: they cannot contribute to any pixel, and their particles are not on any pixel ray).
 // Classes only move upward (mds_classify_occlusion keeps max(previous, new)). A meshlet that
-// reaches O subtracts its voxel contributions from the density volume (Sect. 4.4).
+// reaches O subtracts its voxel contributions from the density volume (Sect. 4.4); with
+// kCullNodeDensity (streaming) a node reaching O subtracts the whole node instead, resident or not.
+// Empty slots of the streaming pool (particle_count 0) are skipped and not counted.
 #extension GL_GOOGLE_include_directive : require
 #include "bindings.h"
 #include "culling_math.glsl"
@@ -61,8 +63,15 @@ int classify_box(vec3 bmin, vec3 bmax) {
                                 cull.thresholds.y);
 }
 
+void subtract_voxels(uint i) {  // Sect. 4.4: remove meshlet/node i's particles from the volume
+  for (uint r = meshlet_voxel_first[i]; r < meshlet_voxel_first[i + 1u]; ++r)
+    atomicAdd(volume_counts[voxel_refs[r].x], -int(voxel_refs[r].y));
+  counters.volume_dirty = 1u;
+}
+
 void main() {
   uint i = gl_GlobalInvocationID.x;
+  bool node_density = (cull.params.w & kCullNodeDensity) != 0u;
   if (push.mode == 0u) {
     if (i >= cull.counts.y) return;
     uint prev = node_class[i];
@@ -72,14 +81,19 @@ void main() {
       now = c < 0 ? uint(MDS_CULL_CLASS_O) : max(prev, uint(c));
       node_class[i] = now;
     }
+    if (now != prev) {
+      atomicAdd(counters.node_changed, 1u);
+      if (now == uint(MDS_CULL_CLASS_O) && node_density) subtract_voxels(i);
+    }
     atomicAdd(counters.node_class_count[now], 1u);
     return;
   }
   if (i >= cull.counts.x) return;
+  GpuMeshlet m = meshlets[i];
+  if (m.particle_count == 0u) return;  // empty slot of the streaming pool
   uint prev = meshlet_class[i];
   uint now = prev;
   if (prev != uint(MDS_CULL_CLASS_O)) {
-    GpuMeshlet m = meshlets[i];
     if (node_class[m.node] == uint(MDS_CULL_CLASS_O)) {
       now = uint(MDS_CULL_CLASS_O);
     } else {
@@ -91,11 +105,8 @@ void main() {
     meshlet_class[i] = now;
     atomicAdd(counters.changed, 1u);
     if (now == uint(MDS_CULL_CLASS_O)) {
-      // Sect. 4.4: remove this meshlet's particles from the density volume.
-      for (uint r = meshlet_voxel_first[i]; r < meshlet_voxel_first[i + 1u]; ++r)
-        atomicAdd(volume_counts[voxel_refs[r].x], -int(voxel_refs[r].y));
+      if (!node_density) subtract_voxels(i);
       atomicAdd(counters.newly_occluded, 1u);
-      counters.volume_dirty = 1u;
     }
   }
   atomicAdd(counters.class_count[now], 1u);

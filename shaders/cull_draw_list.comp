@@ -13,6 +13,7 @@ void main() {
   uint m = gl_GlobalInvocationID.x;
   if (m >= cull.counts.x) return;
   if (meshlet_class[m] == uint(MDS_CULL_CLASS_O)) return;
+  if (meshlets[m].particle_count == 0u) return;  // empty slot of the streaming pool
   uint slot = atomicAdd(draw_header.instance_count, 1u);
   draw_ids[slot] = m;
 }

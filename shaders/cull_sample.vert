@@ -29,7 +29,7 @@ void main() {
   uint corner = uint(gl_VertexIndex) & 3u;
   v_center_radius = vec4(0.0);
   if (local >= m.particle_count) { emit_outside(); return; }
-  uint pi = m.first_particle + local;
+  uint pi = mds_meshlet_particle(m, local);
   uvec2 raw = particles[pi];
   uvec3 q = uvec3(raw.x & 0xffffu, raw.x >> 16, raw.y & 0xffffu);
   uint type = (raw.y >> 16) & 0xffu;

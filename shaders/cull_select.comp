@@ -21,6 +21,7 @@ void main() {
   if (m >= cull.counts.x) return;
   uint cls = meshlet_class[m];
   if (cls != uint(MDS_CULL_CLASS_P) && cls != uint(MDS_CULL_CLASS_L)) return;
+  if (meshlets[m].particle_count == 0u) return;  // empty slot of the streaming pool
   float budget = float(cull.params.z);
   float nP = float(counters.class_count[MDS_CULL_CLASS_P]);
   float nL = float(counters.class_count[MDS_CULL_CLASS_L]);

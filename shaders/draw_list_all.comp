@@ -1,7 +1,6 @@
 #version 460
-// No-cull draw-list builder: appends every meshlet to the draw list (one instance each).
-// The culling pass will replace this by a classification that appends only visible meshlets;
-// the list format (DrawListHeader + meshlet ids, consumed by vkCmdDrawIndexedIndirect) stays.
+// No-cull draw-list builder: appends every meshlet (every occupied slot of the streaming pool) to
+// the draw list; with culling, cull_draw_list.comp appends the potentially visible set instead.
 #extension GL_GOOGLE_include_directive : require
 #define MDS_DRAW_LIST_WRITABLE
 #include "bindings.h"
@@ -11,6 +10,7 @@ layout(local_size_x = 64) in;
 void main() {
   uint m = gl_GlobalInvocationID.x;
   if (m >= frame.counts.x) return;
+  if (meshlets[m].particle_count == 0u) return;  // empty slot of the streaming pool
   uint slot = atomicAdd(draw_header.instance_count, 1u);
   draw_ids[slot] = m;
 }

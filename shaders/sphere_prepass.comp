@@ -48,7 +48,7 @@ void main() {
   bool per_particle_radius = (frame.counts.z & kFramePerParticleRadius) != 0u;
 
   for (uint local = 0u; local < count; ++local) {
-    uint pi = m.first_particle + local;
+    uint pi = mds_meshlet_particle(m, local);
     uvec2 raw = particles[pi];
     uvec3 q = uvec3(raw.x & 0xffffu, raw.x >> 16, raw.y & 0xffffu);
     uint type = (raw.y >> 16) & 0xffu;

@@ -163,20 +163,32 @@ std::vector<uint32_t> ResidencyTable::eviction_order() const {
   return out;
 }
 
-Result<std::vector<uint32_t>> ResidencyTable::choose_victims(uint64_t need, uint64_t free, uint64_t protect_frame) const {
+Result<std::vector<uint32_t>> ResidencyTable::choose_victims(uint64_t need, uint64_t free, uint64_t protect_frame,
+                                                             int64_t incoming) const {
   std::vector<uint32_t> victims;
   if (need <= free) return victims;
   uint64_t gained = free;
   for (uint32_t i : eviction_order()) {
     const NodeState& n = nodes_[i];
     const bool drawn_now = n.last_use == protect_frame && !(policy_ == Policy::occlusion && n.cls == kClassO);
-    if (drawn_now) continue;
+    if (drawn_now && !(incoming >= 0 && displaces(uint32_t(incoming), i))) continue;
     victims.push_back(i);
     gained += n.bytes;
     if (gained >= need) return victims;
   }
   return make_error(Errc::budget, "residency: {} bytes needed, only {} can be freed without evicting nodes drawn in frame {}", need, gained,
                     protect_frame);
+}
+
+uint64_t ResidencyTable::evictable_bytes(uint64_t protect_frame, int64_t incoming) const {
+  uint64_t b = 0;
+  for (uint32_t i = 0; i < nodes_.size(); ++i) {
+    const NodeState& n = nodes_[i];
+    if (n.residency != Residency::resident) continue;
+    const bool drawn_now = n.last_use == protect_frame && !(policy_ == Policy::occlusion && n.cls == kClassO);
+    if (!drawn_now || (incoming >= 0 && displaces(uint32_t(incoming), i))) b += n.bytes;
+  }
+  return b;
 }
 
 size_t ResidencyTable::never_loaded_count() const {

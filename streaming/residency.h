@@ -85,9 +85,17 @@ class ResidencyTable {
   std::vector<uint32_t> eviction_order() const;
   // Resident nodes to evict so that `need` bytes fit when `free` are free now, in eviction order.
   // Nodes touched in frame `protect_frame` (drawn this frame) are kept, except class O under the
-  // occlusion policy (O is not drawn). Returns Errc::budget if even that cannot make room
-  // (the caller stalls the upload, it does not thrash).
-  Result<std::vector<uint32_t>> choose_victims(uint64_t need, uint64_t free, uint64_t protect_frame) const;
+  // occlusion policy (O is not drawn) and, when `incoming` names the node to be placed, nodes
+  // that `incoming` is fetched before (displaces()): a nearer / more important node replaces a
+  // farther one that is drawn but not yet known to be occluded. The fetch order is strict, so this
+  // cannot cycle. Returns Errc::budget if even that cannot make room (the caller stalls the
+  // upload, it does not thrash).
+  Result<std::vector<uint32_t>> choose_victims(uint64_t need, uint64_t free, uint64_t protect_frame,
+                                               int64_t incoming = -1) const;
+  // Bytes choose_victims could free for `incoming` (-1: none).
+  uint64_t evictable_bytes(uint64_t protect_frame, int64_t incoming = -1) const;
+  // Whether `incoming` may take the place of resident node `resident` drawn this frame.
+  bool displaces(uint32_t incoming, uint32_t resident) const { return fetch_before(incoming, resident); }
 
   uint64_t resident_bytes() const { return resident_bytes_; }
   size_t resident_count() const { return resident_count_; }

@@ -128,3 +128,27 @@ TEST(StreamingResidency, ParsesPolicies) {
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.error().message.find("random"), std::string::npos);
 }
+
+TEST(StreamingResidency, NearerNodeDisplacesFartherDrawnNodeNeverTheReverse) {
+  // Three resident nodes drawn in frame 4 (P, distances 5, 9, 2) fill the pool; node 3 (P,
+  // distance 3) arrives. It may replace the farther drawn nodes (0 and 1: fetched after it), never
+  // node 2 (nearer); a far node 4 (distance 20) can replace nothing drawn.
+  ResidencyTable t(std::vector<uint64_t>(5, 100), Policy::occlusion);
+  const float dist[5] = {5, 9, 2, 3, 20};
+  for (uint32_t i = 0; i < 5; ++i) t.set_view(i, dist[i], 1.0f);
+  for (uint32_t i = 0; i < 3; ++i) {
+    load(t, i);
+    t.touch(i, 4);
+  }
+  EXPECT_TRUE(t.displaces(3, 1));
+  EXPECT_FALSE(t.displaces(3, 2));
+  EXPECT_EQ(t.evictable_bytes(4), 0u);
+  EXPECT_EQ(t.evictable_bytes(4, 3), 200u);
+  EXPECT_EQ(t.evictable_bytes(4, 4), 0u);
+  auto v = t.choose_victims(100, 0, 4, 3);
+  ASSERT_TRUE(v.ok());
+  ASSERT_EQ(v->size(), 1u);
+  EXPECT_NE(v->front(), 2u);
+  EXPECT_FALSE(t.choose_victims(100, 0, 4, 4).ok());
+  EXPECT_FALSE(t.choose_victims(100, 0, 4).ok());  // without an incoming node drawn nodes stay
+}

@@ -25,6 +25,11 @@ layout(std430, set = 0, binding = kBindDrawList) MDS_DRAW_LIST_ACCESS buffer Dra
 };
 // Per-particle radius_q, two uint16 per uint (only with kFramePerParticleRadius).
 layout(std430, set = 0, binding = kBindRadii) readonly buffer RadiusBlock { uint radii_q[]; };
+// Buffer index of a meshlet's local particle l (GpuMeshlet: at most two runs, see gpu_types.h).
+uint mds_meshlet_particle(GpuMeshlet m, uint l) {
+  return l < m.split ? m.first_particle + l : m.second_particle + (l - m.split);
+}
+
 // Sprite records and their draw commands; the pre-pass defines MDS_SPRITES_WRITABLE.
 #ifdef MDS_SPRITES_WRITABLE
 #define MDS_SPRITES_ACCESS

@@ -24,8 +24,8 @@ MDS_CONST(uint, kCullHistRange, 2);    // vec2[W*H]: (d_min, d_max) per pixel; d
 MDS_CONST(uint, kCullPixelState, 3);   // vec4[2*W*H]: (d, C, k, -), (d_cull, C_cull, k_cull, -)
 MDS_CONST(uint, kCullPyramid, 4);      // vec2[]: (d, C) of every pyramid level, level 0 first
 MDS_CONST(uint, kCullVolume, 5);       // int[dims]: particle counts of the density volume
-MDS_CONST(uint, kCullMeshletVoxels, 6);// uint[meshlets+1]: first VoxelRef of each meshlet (CSR)
-MDS_CONST(uint, kCullVoxelRefs, 7);    // uvec2[]: (voxel, count) per meshlet (Sect. 4.4 updates)
+MDS_CONST(uint, kCullMeshletVoxels, 6);// uint[meshlets+1] (or nodes+1, kCullNodeDensity): first VoxelRef (CSR)
+MDS_CONST(uint, kCullVoxelRefs, 7);    // uvec2[]: (voxel, count) per meshlet or node (Sect. 4.4 updates)
 MDS_CONST(uint, kCullMeshletClass, 8); // uint[meshlets]: MDS_CULL_CLASS_*
 MDS_CONST(uint, kCullNodeClass, 9);    // uint[nodes]
 MDS_CONST(uint, kCullCounters, 10);    // CullCounters
@@ -33,6 +33,10 @@ MDS_CONST(uint, kCullSampleImage, 11); // rg32f storage image: (view depth, alph
 
 // CullUniforms.params.w flags
 MDS_CONST(uint, kCullOrtho, 1u);
+// Density updates per node (streaming, issue 4: "O updates subtract whole nodes whether resident
+// or not"): voxel CSR (kCullMeshletVoxels/kCullVoxelRefs) is indexed by node and applied when a
+// node reaches O; without it the CSR is per meshlet and applied when a meshlet reaches O.
+MDS_CONST(uint, kCullNodeDensity, 2u);
 
 // Push constant of the culling passes. mode: cull_classify 0 nodes, 1 meshlets; cull_pyramid the
 // destination level; cull_histogram 1 = recompute unconditionally. pass: index of the occlusion
@@ -71,7 +75,8 @@ MDS_STRUCT(CullCounters) {
   uint newly_occluded;   // meshlets that reached O in the last classification
   uint selected;         // occluders selected in the last sampling pass
   uint node_class_count[4];
-  uint pad[4];
+  uint node_changed;     // nodes whose class changed in the last classification
+  uint pad[3];
 };
 
 #ifdef __cplusplus
@@ -82,6 +87,7 @@ static_assert(offsetof(CullUniforms, pyramid) == 320);
 static_assert(sizeof(CullCounters) == 64);
 static_assert(offsetof(CullCounters, changed) == 16);
 static_assert(offsetof(CullCounters, node_class_count) == 32);
+static_assert(offsetof(CullCounters, node_changed) == 48);
 }  // namespace mds::gpu
 #undef MDS_STRUCT
 #undef MDS_CONST

@@ -58,15 +58,19 @@ MDS_STRUCT(GpuNode) {
 };
 
 // One meshlet: a run of particles of one node, with bounds computed at load from decoded positions.
+// Its particles are at most two runs of the particle buffer (the streaming pool stores nodes in
+// fixed-size pages, so a meshlet may continue on the node's next page): local index l < split is
+// at first_particle + l, the others at second_particle + (l - split) (mds_meshlet_particle).
+// In memory split == particle_count. particle_count 0 marks an empty slot of the streaming pool.
 MDS_STRUCT(GpuMeshlet) {
   vec3 aabb_min;        // sphere bounds (centres -/+ radius), relative to the scene origin
   uint node;
   vec3 aabb_max;
-  uint first_particle;  // global index in the particle buffer
-  uint particle_count;  // 1..255
+  uint first_particle;  // global index in the particle buffer of local particle 0
+  uint particle_count;  // 1..255; 0: empty slot (streaming pool)
+  uint split;           // particles in the first run (== particle_count unless split over two pages)
+  uint second_particle; // global index of local particle `split`
   uint pad0;
-  uint pad1;
-  uint pad2;
 };
 
 // Per-type appearance.
@@ -142,6 +146,8 @@ static_assert(sizeof(GpuMeshlet) == 48);
 static_assert(offsetof(GpuMeshlet, node) == 12);
 static_assert(offsetof(GpuMeshlet, first_particle) == 28);
 static_assert(offsetof(GpuMeshlet, particle_count) == 32);
+static_assert(offsetof(GpuMeshlet, split) == 36);
+static_assert(offsetof(GpuMeshlet, second_particle) == 40);
 static_assert(sizeof(GpuType) == 32);
 static_assert(sizeof(DrawListHeader) == 32);
 }  // namespace mds::gpu

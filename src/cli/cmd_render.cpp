@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "core/byte_size.h"
 #include "render/camera.h"
 #include "render/image_io.h"
 #include "render/renderer.h"
@@ -42,6 +43,13 @@ struct RenderOptions {
   double fov = 40.0;
   uint32_t width = 1920, height = 1080, spp = 64;
   int device = -1;
+  std::string gpu_budget;  // empty: in memory
+  std::string policy = "occlusion";
+  unsigned io_threads = 2;
+  double io_latency_ms = 0.0;
+  std::string io_bandwidth;
+  std::string upload_per_frame = "32MiB";
+  uint32_t max_outstanding = 16;
 };
 
 Result<glm::vec3> parse_rgb(const std::string& s) {
@@ -94,7 +102,32 @@ Status run_render(const RenderOptions& o) {
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.fov);
   MDS_ASSIGN_OR_RETURN(glm::vec3 background, parse_rgb(o.background));
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
-  MDS_ASSIGN_OR_RETURN(render::SceneData scene, render::load_scene(*reader));
+  const bool streaming = !o.gpu_budget.empty();
+  render::StreamSettings ss;
+  if (streaming) {
+    MDS_ASSIGN_OR_RETURN(ss.gpu_budget, parse_byte_size(o.gpu_budget));
+    MDS_ASSIGN_OR_RETURN(ss.policy, mds::streaming::parse_policy(o.policy));
+    MDS_ASSIGN_OR_RETURN(ss.upload_bytes_per_frame, parse_byte_size(o.upload_per_frame));
+    if (!o.io_bandwidth.empty()) {
+      MDS_ASSIGN_OR_RETURN(uint64_t bw, parse_byte_size(o.io_bandwidth));
+      ss.io.io_bandwidth = double(bw);
+    }
+    ss.io.threads = o.io_threads;
+    ss.io.io_latency_ms = o.io_latency_ms;
+    ss.max_outstanding = o.max_outstanding;
+  }
+  // In memory the whole store is decoded; streaming, only the directory is read here.
+  render::SceneData scene;
+  if (!streaming) {
+    MDS_ASSIGN_OR_RETURN(scene, render::load_scene(*reader));
+  } else {
+    const auto& h = reader->header();
+    std::vector<float> radii;
+    for (const auto& t : reader->types()) radii.push_back(t.radius);
+    scene = render::begin_scene({h.bounds_min[0], h.bounds_min[1], h.bounds_min[2]},
+                                {h.bounds_max[0], h.bounds_max[1], h.bounds_max[2]}, radii,
+                                (h.flags & store::kFlagPerParticleRadius) != 0, h.radius_min, h.radius_max);
+  }
 
   render::Camera camera;
   const double aspect = double(o.width) / double(std::max(o.height, 1u));
@@ -128,9 +161,15 @@ Status run_render(const RenderOptions& o) {
     MDS_ASSIGN_OR_RETURN(render::culling::DensityVolume vol, render::culling::density_from_store(*reader, scene));
     rs.density = std::make_shared<const render::culling::DensityVolume>(std::move(vol));
   }
-  MDS_ASSIGN_OR_RETURN(auto renderer, render::Renderer::create(*ctx, scene, rs));
+  std::unique_ptr<render::Renderer> renderer;
+  if (streaming) {
+    MDS_ASSIGN_OR_RETURN(renderer, render::Renderer::create_streaming(*ctx, *reader, rs, ss));
+  } else {
+    MDS_ASSIGN_OR_RETURN(renderer, render::Renderer::create(*ctx, scene, rs));
+  }
   render::RenderStats stats;
   MDS_ASSIGN_OR_RETURN(render::FrameImage image, renderer->render(camera, &stats));
+  for (const std::string& e : stats.cache.errors) std::fprintf(stderr, "mdstream render: skipped node: %s\n", e.c_str());
   MDS_TRY(render::write_image(o.output, image));
 
   if (!o.stats.empty()) {
@@ -142,7 +181,7 @@ Status run_render(const RenderOptions& o) {
     j["mesh_shader_available"] = ctx->info().mesh_shader;
     j["particles"] = stats.particles;
     j["meshlets"] = stats.meshlets;
-    j["nodes"] = scene.nodes.size();
+    j["nodes"] = reader->nodes().size();
     j["spp"] = stats.spp;
     j["width"] = stats.width;
     j["height"] = stats.height;
@@ -183,6 +222,31 @@ Status run_render(const RenderOptions& o) {
                          {"width", stats.width},
                          {"height", stats.height},
                          {"view", o.camera.empty() ? o.view : -1}};
+    }
+    if (streaming) {
+      const auto& c = stats.cache;
+      j["gpu_budget_bytes"] = c.gpu_budget_bytes;
+      j["gpu_pool_bytes"] = c.pool_bytes;
+      j["gpu_peak_bytes"] = c.gpu_peak_bytes;
+      j["gpu_resident_bytes"] = c.resident_bytes;
+      j["gpu_scratch_bytes"] = c.scratch_bytes;
+      j["store_payload_bytes"] = c.store_payload_bytes;
+      j["bytes_read"] = c.bytes_read;
+      j["bytes_uploaded"] = c.bytes_uploaded;
+      j["nodes_loaded"] = c.nodes_loaded;
+      j["nodes_resident"] = c.nodes_resident;
+      j["nodes_never_loaded"] = c.nodes_never_loaded;
+      j["nodes_failed"] = c.nodes_failed;
+      j["node_errors"] = c.errors;
+      j["cache_hits"] = c.cache_hits;
+      j["cache_misses"] = c.cache_misses;
+      j["evictions"] = {{"P", c.evictions[0]}, {"L", c.evictions[1]}, {"M", c.evictions[2]}, {"O", c.evictions[3]}};
+      j["upload_stalls"] = c.upload_stalls;
+      j["budget_exhausted"] = c.budget_exhausted;
+      j["policy"] = o.policy;
+      j["frames"] = stats.frames;
+      j["frame_ms_p50"] = stats.frame_wall_ms_p50;
+      j["frame_ms_p99"] = stats.frame_wall_ms_p99;
     }
     j["pass_ms_median"] = stats.pass_ms_median;
     j["wall_ms"] = stats.wall_ms;
@@ -256,6 +320,21 @@ void setup_render(CLI::App& sub, int& exit_code) {
   sub.add_option("--background", opt->background, "Background colour r,g,b (sRGB, 0..1)")->capture_default_str();
   sub.add_option("--device", opt->device, "Vulkan device index (default: automatic, discrete GPU first)");
   sub.add_option("--stats", opt->stats, "Write statistics (counts, GPU pass times) as JSON");
+  sub.add_option("--gpu-budget", opt->gpu_budget,
+                 "Stream node payloads through a GPU cache of this size (e.g. 512MiB, 2GiB); default: whole store in memory");
+  sub.add_option("--policy", opt->policy, "Cache policy with --gpu-budget: occlusion, lru or fifo")->capture_default_str();
+  sub.add_option("--io-threads", opt->io_threads, "Background reader threads (streaming)")
+      ->check(CLI::Range(1u, 64u))
+      ->capture_default_str();
+  sub.add_option("--io-latency-ms", opt->io_latency_ms, "Simulated latency per node read (streaming)")
+      ->check(CLI::Range(0.0, 60000.0))
+      ->capture_default_str();
+  sub.add_option("--io-bandwidth", opt->io_bandwidth, "Simulated read bandwidth per reader, bytes/s (e.g. 200MB)");
+  sub.add_option("--upload-per-frame", opt->upload_per_frame, "Upload budget per frame (streaming)")
+      ->capture_default_str();
+  sub.add_option("--max-outstanding", opt->max_outstanding, "Node reads queued or in flight at a time (streaming)")
+      ->check(CLI::Range(1u, 100000u))
+      ->capture_default_str();
   sub.callback([opt, &exit_code] {
     Status st = run_render(*opt);
     exit_code = st.ok() ? 0 : report("render", st.error());

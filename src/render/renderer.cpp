@@ -8,65 +8,12 @@
 #include <numeric>
 
 #include "gpu_types.h"
+#include "render/renderer_impl.h"
 #include "vk/commands.h"
 #include "vk/pipeline.h"
 #include "vk/staging.h"
-#include "vk/timestamps.h"
 
 namespace mds::render {
-
-namespace {
-constexpr uint32_t kTimingFrames = 4;  // draw-only frames after a convergence past spp
-constexpr VkFormat kColorFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
-constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
-}  // namespace
-
-struct Renderer::Impl {
-  vk::Context* ctx = nullptr;
-  RenderSettings settings;
-  glm::dvec3 origin{0.0};
-  Bounds bounds;
-  uint32_t meshlet_count = 0;
-  uint64_t particle_count = 0;
-  uint32_t max_meshlet = 0;
-  uint32_t flags = 0;
-  float radius_min = 0, radius_max = 0;
-  uint64_t upload_bytes = 0;
-
-  vk::Buffer nodes, meshlets, particles, types, radii, draw_list, frame_ubo;
-  vk::Buffer sprites, sprite_draw;  // pre-pass output: GpuSprite per listed particle, draw commands
-  vk::Buffer visibility;            // compute rasterization of small sprites (depth bits, index)
-  bool vis_bytes_ok = true;         // the visibility buffer fits maxStorageBufferRange
-  bool point_sprites = false;       // small on-screen sprites drawn as points (see create_pipelines)
-  float small_px = 0.0f;            // sprites up to this size rasterized in compute (0: none)
-  vk::Image color, depth, accum;
-  vk::DescriptorSet set;
-  vk::UniquePipelineLayout layout;
-  vk::UniquePipeline draw_list_pipe, sprite_args_pipe, prepass_pipe, raster_id_pipe, sphere_pipe, point_pipe,
-      resolve_pipe, accum_pipe;
-  vk::FrameSlot slot;
-  vk::TimestampPool timestamps;
-  vk::DeferredDestroyer destroyer;
-  uint64_t frame_index = 0;
-  bool rendered = false;
-  std::unique_ptr<culling::CullLoop> cull;  // occlusion culling (RenderSettings::cull)
-  bool cull_active = false;                 // record a culling iteration in this pass
-  uint32_t cull_iteration = 0;
-  std::function<void(uint32_t)> iteration_hook;
-
-  // Named passes per frame: 3 per occlusion sampling pass, pyramid/classify/histogram, 4 drawing.
-  uint32_t timestamp_capacity() const {
-    return 16 + 3 * std::max(1u, settings.cull_settings.samples_per_iteration);
-  }
-
-  Status upload(const SceneData& scene);
-  Status create_targets();
-  Status create_pipelines();
-  void record_pass(VkCommandBuffer cmd, bool first, bool accumulate = true);
-  void record_cull_only(VkCommandBuffer cmd);
-  void record_sprite_prepass(VkCommandBuffer cmd);
-  void record_sprite_draws(VkCommandBuffer cmd);
-};
 
 Status Renderer::Impl::upload(const SceneData& scene) {
   auto& alloc = ctx->allocator();
@@ -83,7 +30,6 @@ Status Renderer::Impl::upload(const SceneData& scene) {
   MDS_TRY(check_range(scene.particles.size() * 2, "particles"));
   MDS_TRY(check_range(scene.meshlets.size() * sizeof(gpu::GpuMeshlet), "meshlet records"));
   MDS_TRY(check_range(scene.nodes.size() * sizeof(gpu::GpuNode), "node records"));
-  MDS_TRY(check_range(sizeof(gpu::DrawListHeader) + 4ull * scene.meshlets.size(), "draw list"));
 
   MDS_ASSIGN_OR_RETURN(nodes, vk::Buffer::create(alloc, scene.nodes.size() * sizeof(gpu::GpuNode), ssbo,
                                                  vk::MemoryIntent::device_local, "node records"));
@@ -98,25 +44,10 @@ Status Renderer::Impl::upload(const SceneData& scene) {
   if (radii_padded.empty()) radii_padded.assign(2, 0);
   MDS_ASSIGN_OR_RETURN(radii, vk::Buffer::create(alloc, radii_padded.size() * sizeof(uint16_t), ssbo,
                                                  vk::MemoryIntent::device_local, "particle radii"));
-  MDS_ASSIGN_OR_RETURN(draw_list,
-                       vk::Buffer::create(alloc, sizeof(gpu::DrawListHeader) + 4ull * scene.meshlets.size(),
-                                          ssbo | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
-                                          vk::MemoryIntent::device_local, "draw list"));
-  // Sprites: one per particle of a draw list; a list holds each meshlet at most once, so the
-  // scene's particle count bounds it.
-  const uint64_t sprite_capacity = std::max<uint64_t>(particle_count, 1);
-  MDS_TRY(check_range(sprite_capacity * sizeof(gpu::GpuSprite), "sprite records"));
-  MDS_ASSIGN_OR_RETURN(sprites, vk::Buffer::create(alloc, sprite_capacity * sizeof(gpu::GpuSprite), ssbo,
-                                                   vk::MemoryIntent::device_local, "sprite records"));
-  MDS_ASSIGN_OR_RETURN(sprite_draw,
-                       vk::Buffer::create(alloc, sizeof(gpu::SpriteDrawHeader) + 4 * (sprite_capacity + meshlet_count),
-                                          ssbo | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, vk::MemoryIntent::device_local,
-                                          "sprite draw commands"));
-  gpu::SpriteDrawHeader sprite_head{};
-  sprite_head.capacity = uint32_t(sprite_capacity);
-  MDS_ASSIGN_OR_RETURN(frame_ubo, vk::Buffer::create(alloc, sizeof(gpu::FrameUniforms),
-                                                     VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, vk::MemoryIntent::upload,
-                                                     "frame uniforms"));
+  MDS_TRY(create_draw_buffers(scene.meshlets.size(), particle_count));
+  meshlets_h = meshlets.get();
+  particles_h = particles.get();
+  radii_h = radii.get();
 
   MDS_ASSIGN_OR_RETURN(vk::StagingRing ring, vk::StagingRing::create(*ctx));
   MDS_TRY(ring.upload_span(nodes, 0, std::span<const gpu::GpuNode>(scene.nodes)));
@@ -124,9 +55,50 @@ Status Renderer::Impl::upload(const SceneData& scene) {
   MDS_TRY(ring.upload_span(particles, 0, std::span<const uint16_t>(scene.particles)));
   MDS_TRY(ring.upload_span(types, 0, std::span<const gpu::GpuType>(scene.types)));
   MDS_TRY(ring.upload_span(radii, 0, std::span<const uint16_t>(radii_padded)));
-  MDS_TRY(ring.upload_span(sprite_draw, 0, std::span<const gpu::SpriteDrawHeader>(&sprite_head, 1)));
   MDS_TRY(ring.flush());
   upload_bytes = ring.bytes_uploaded();
+  return {};
+}
+
+// The draw list (a meshlet id per slot), the sprite pre-pass output (one GpuSprite per particle
+// slot: a list holds each meshlet at most once, so the slots bound it) and the frame uniforms.
+Status Renderer::Impl::create_draw_buffers(uint64_t meshlet_slots, uint64_t particle_slots) {
+  auto& alloc = ctx->allocator();
+  const VkBufferUsageFlags ssbo = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+  const uint64_t max_range = ctx->limits().maxStorageBufferRange;
+  const uint64_t sprite_capacity = std::max<uint64_t>(particle_slots, 1);
+  if (sprite_capacity * sizeof(gpu::GpuSprite) > max_range)
+    return make_error(Errc::budget,
+                      "sprite records for {} particles need {} bytes, more than this device's maxStorageBufferRange "
+                      "({} bytes); use a smaller --gpu-budget (streaming) or a smaller data set",
+                      sprite_capacity, sprite_capacity * sizeof(gpu::GpuSprite), max_range);
+  MDS_ASSIGN_OR_RETURN(draw_list,
+                       vk::Buffer::create(alloc, sizeof(gpu::DrawListHeader) + 4ull * meshlet_slots,
+                                          ssbo | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                          vk::MemoryIntent::device_local, "draw list"));
+  MDS_ASSIGN_OR_RETURN(sprites, vk::Buffer::create(alloc, sprite_capacity * sizeof(gpu::GpuSprite), ssbo,
+                                                   vk::MemoryIntent::device_local, "sprite records"));
+  MDS_ASSIGN_OR_RETURN(sprite_draw,
+                       vk::Buffer::create(alloc, sizeof(gpu::SpriteDrawHeader) + 4 * (sprite_capacity + meshlet_slots),
+                                          ssbo | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, vk::MemoryIntent::device_local,
+                                          "sprite draw commands"));
+  MDS_ASSIGN_OR_RETURN(frame_ubo, vk::Buffer::create(alloc, sizeof(gpu::FrameUniforms),
+                                                     VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, vk::MemoryIntent::upload,
+                                                     "frame uniforms"));
+  gpu::SpriteDrawHeader sprite_head{};
+  sprite_head.capacity = uint32_t(sprite_capacity);
+  MDS_ASSIGN_OR_RETURN(vk::StagingRing ring, vk::StagingRing::create(*ctx, 1 << 16));
+  MDS_TRY(ring.upload_span(sprite_draw, 0, std::span<const gpu::SpriteDrawHeader>(&sprite_head, 1)));
+  MDS_TRY(ring.flush());
+  scratch_bytes = sprites.size() + sprite_draw.size() + draw_list.size();
+  return {};
+}
+
+Status Renderer::Impl::create_cull(const culling::CullScene& cs, const culling::DensityVolume& vol) {
+  culling::SceneBuffers sb{nodes.get(), meshlets_h, particles_h, types.get(), radii_h, draw_list.get(),
+                           meshlet_class_h};
+  MDS_ASSIGN_OR_RETURN(cull, culling::CullLoop::create(*ctx, cs, vol, sb, settings.width, settings.height,
+                                                       settings.cull_settings));
   return {};
 }
 
@@ -169,11 +141,11 @@ Status Renderer::Impl::create_pipelines() {
                                       b(gpu::kBindVisibility, SSBO)}));
   set.write_buffer(gpu::kBindFrame, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, frame_ubo.get());
   set.write_buffer(gpu::kBindNodes, SSBO, nodes.get());
-  set.write_buffer(gpu::kBindMeshlets, SSBO, meshlets.get());
-  set.write_buffer(gpu::kBindParticles, SSBO, particles.get());
+  set.write_buffer(gpu::kBindMeshlets, SSBO, meshlets_h);
+  set.write_buffer(gpu::kBindParticles, SSBO, particles_h);
   set.write_buffer(gpu::kBindTypes, SSBO, types.get());
   set.write_buffer(gpu::kBindDrawList, SSBO, draw_list.get());
-  set.write_buffer(gpu::kBindRadii, SSBO, radii.get());
+  set.write_buffer(gpu::kBindRadii, SSBO, radii_h);
   set.write_storage_image(gpu::kBindColorImage, color.view());
   set.write_storage_image(gpu::kBindAccumImage, accum.view());
   set.write_buffer(gpu::kBindSprites, SSBO, sprites.get());
@@ -427,12 +399,9 @@ Result<std::unique_ptr<Renderer>> Renderer::create(vk::Context& ctx, const Scene
   MDS_ASSIGN_OR_RETURN(m.slot, vk::FrameSlot::create(ctx));
   MDS_ASSIGN_OR_RETURN(m.timestamps, vk::TimestampPool::create(ctx, m.timestamp_capacity()));
   if (settings.cull) {
-    culling::SceneBuffers sb{m.nodes.get(), m.meshlets.get(), m.particles.get(),
-                             m.types.get(), m.radii.get(),    m.draw_list.get()};
     std::shared_ptr<const culling::DensityVolume> vol = settings.density;
     if (!vol) vol = std::make_shared<culling::DensityVolume>(culling::density_from_scene(scene));
-    MDS_ASSIGN_OR_RETURN(m.cull, culling::CullLoop::create(ctx, scene, *vol, sb, settings.width, settings.height,
-                                                           settings.cull_settings));
+    MDS_TRY(m.create_cull(culling::cull_scene(scene, *vol), *vol));
   }
   return r;
 }
@@ -446,6 +415,8 @@ Renderer::~Renderer() {
 
 Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats) {
   Impl& m = *impl_;
+  if (m.cache) return render_streaming(camera_in, stats);
+  m.has_view = false;  // the progressive state does not survive a full render
   const auto t0 = std::chrono::steady_clock::now();
   Camera camera = camera_in;
   fit_clip_planes(camera, m.bounds);
@@ -636,3 +607,4 @@ Result<std::vector<float>> Renderer::read_last_depth() {
 }
 
 }  // namespace mds::render
+

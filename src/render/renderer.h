@@ -32,9 +32,23 @@
 #include "render/culling/cull_loop.h"
 #include "render/culling/density_volume.h"
 #include "render/scene.h"
+#include "store/store_reader.h"
+#include "streaming/io_pool.h"
+#include "streaming/residency.h"
 #include "vk/context.h"
 
 namespace mds::render {
+
+// Out-of-core rendering (issue 4): the particle payload of a store streamed through a GPU cache of
+// fixed size (src/render/streaming/). Used by Renderer::create_streaming.
+struct StreamSettings {
+  uint64_t gpu_budget = 0;  // bytes of the payload pool (--gpu-budget); must hold the largest node
+  streaming::Policy policy = streaming::Policy::occlusion;  // --policy occlusion|lru|fifo
+  streaming::IoOptions io;                                   // reader threads, simulated latency/bandwidth
+  uint64_t upload_bytes_per_frame = 32ull << 20;  // transfer budget per frame (Grottel et al. 3.3)
+  uint32_t max_outstanding = 16;  // reads queued or in flight at a time (lets culling classify what lies behind)
+  bool record_trace = false;  // FrameReport::wanted filled (stress: offline Belady bound)
+};
 
 struct RenderSettings {
   uint32_t width = 1920;
@@ -82,6 +96,51 @@ struct FrameImage {
   }
 };
 
+// Streaming cache counters (cumulative since the renderer was created).
+struct CacheStats {
+  bool enabled = false;
+  uint64_t gpu_budget_bytes = 0;  // --gpu-budget
+  uint64_t pool_bytes = 0;        // payload pool actually allocated (<= budget)
+  uint64_t gpu_peak_bytes = 0;    // peak payload bytes reserved in the pool
+  uint64_t resident_bytes = 0;
+  uint64_t scratch_bytes = 0;     // per-frame working buffers sized by the pool (sprites), not payload
+  uint64_t store_payload_bytes = 0;  // compressed node payload bytes of the whole store
+  uint64_t bytes_read = 0;        // compressed bytes read from the store
+  uint64_t bytes_uploaded = 0;    // bytes copied to the device pool
+  uint64_t nodes = 0;
+  uint64_t nodes_resident = 0;
+  uint64_t nodes_loaded = 0;      // uploads (a node evicted and loaded again counts twice)
+  uint64_t nodes_never_loaded = 0;
+  uint64_t nodes_failed = 0;      // corrupted/unreadable, reported once and skipped
+  uint64_t cache_hits = 0;        // per frame, per wanted node (not O, in the frustum): resident
+  uint64_t cache_misses = 0;      //   ... not resident
+  uint64_t evictions[4] = {};     // by class at eviction: P, L, M, O
+  uint64_t upload_stalls = 0;     // frames where a ready node could not be placed (pool full of needed nodes)
+  uint64_t in_flight = 0;         // reads queued or running now
+  bool budget_exhausted = false;  // the last frame wanted more nodes than fit (image incomplete)
+  std::vector<std::string> errors;  // one message per failed node
+};
+
+// One frame of the progressive API (Renderer::step).
+struct FrameReport {
+  uint64_t frame = 0;             // counts from 0 over the renderer's life
+  uint32_t samples = 0;           // samples accumulated in the current image
+  bool accumulated = false;       // this frame added a sample
+  bool culling_active = false;    // this frame ran a culling iteration
+  bool culling_converged = false; // the current view's culling converged (Sect. 5.3)
+  bool complete = false;          // streaming: every wanted node resident (or failed), nothing in flight
+  bool converged = false;         // culling_converged && complete (in-memory: culling_converged or no culling)
+  double gpu_ms = 0.0;            // GPU time of the PREVIOUS frame's passes (known once it completed)
+  double wall_ms = 0.0;           // CPU wall time of step()
+  uint32_t class_counts[4] = {};  // meshlets P, L, M, O after the last classification
+  uint32_t node_class_counts[4] = {};
+  uint32_t nodes_uploaded = 0;    // this frame
+  uint64_t bytes_uploaded = 0;    // this frame
+  uint32_t frame_hits = 0, frame_misses = 0;  // this frame's wanted nodes resident / not
+  bool upload_stall = false;
+  std::vector<uint32_t> wanted;   // StreamSettings::record_trace: this frame's wanted nodes
+};
+
 struct RenderStats {
   std::string device;
   uint64_t particles = 0;
@@ -95,12 +154,23 @@ struct RenderStats {
   uint64_t device_bytes = 0;
   double near = 0.0, far = 0.0;
   CullStats cull;
+  CacheStats cache;                 // streaming only
+  double frame_wall_ms_p50 = 0.0;   // CPU wall time per frame (step), all frames of the render
+  double frame_wall_ms_p99 = 0.0;
+  uint32_t frames = 0;
 };
 
 class Renderer {
  public:
+  // In-memory: every particle of `scene` is uploaded.
   static Result<std::unique_ptr<Renderer>> create(vk::Context& ctx, const SceneData& scene,
                                                   const RenderSettings& settings);
+  // Out-of-core: node payloads stream from `reader` (which must outlive the renderer) through a
+  // pool of stream.gpu_budget bytes; the node directory and the density volume stay resident.
+  // Errc::budget when the budget cannot hold the largest node.
+  static Result<std::unique_ptr<Renderer>> create_streaming(vk::Context& ctx, const store::StoreReader& reader,
+                                                            const RenderSettings& settings,
+                                                            const StreamSettings& stream);
   ~Renderer();
   Renderer(const Renderer&) = delete;
   Renderer& operator=(const Renderer&) = delete;
@@ -108,7 +178,25 @@ class Renderer {
   // Renders settings.spp jittered frames (plus culling-only iterations until convergence, see
   // the file comment) and returns the averaged image. The camera's near/far are fitted to the
   // scene bounds when unset.
+  // Streaming: frames run until the view has converged with every wanted node resident, then
+  // spp samples are accumulated (an upload restarts the accumulation).
   Result<FrameImage> render(const Camera& camera, RenderStats* stats = nullptr);
+
+  // Progressive API (viewer, stress). set_view() starts a new view when the camera differs from
+  // the current one (classes restart, accumulation restarts; the cache stays); step() runs one
+  // frame: streaming update, a culling iteration while culling is active, draw, accumulate.
+  // Accumulation restarts on a new view and, when streaming, on any frame that uploaded nodes.
+  Status set_view(const Camera& camera);
+  Result<FrameReport> step();
+  // The current accumulated image (average of FrameReport::samples samples).
+  Result<FrameImage> read_image();
+  // Statistics so far (pass times over the frames since the last set_view()).
+  RenderStats stats() const;
+  const Bounds& bounds() const;
+  // Streaming: device bytes each node occupies when resident (the cache's unit of accounting,
+  // for offline simulations of the same budget); empty when in memory.
+  std::vector<uint64_t> node_device_bytes() const;
+  bool streaming() const;
   // Depth buffer (z_ndc, 1 = background) of the last drawn frame, row-major from the top-left.
   Result<std::vector<float>> read_last_depth();
   // The culling loop (null without RenderSettings::cull).
@@ -119,6 +207,7 @@ class Renderer {
 
  private:
   Renderer() = default;
+  Result<FrameImage> render_streaming(const Camera& camera, RenderStats* stats);
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

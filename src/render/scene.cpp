@@ -87,6 +87,7 @@ Status append_node(SceneData& s, const double center_min[3], const double center
     m.node = node_index;
     m.first_particle = first_particle + uint32_t(p);
     m.particle_count = count;
+    m.split = count;  // one run (in memory every meshlet is contiguous)
     glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
     for (size_t i = p; i < p + count; ++i) {
       glm::vec3 pos;

@@ -61,13 +61,17 @@ Status StagingRing::flush() {
 }
 
 Result<std::vector<std::byte>> read_buffer(Context& ctx, const Buffer& src, VkDeviceSize offset, VkDeviceSize size) {
+  return read_buffer(ctx, src.get(), offset, size);
+}
+
+Result<std::vector<std::byte>> read_buffer(Context& ctx, VkBuffer src, VkDeviceSize offset, VkDeviceSize size) {
   MDS_ASSIGN_OR_RETURN(Buffer rb, Buffer::create(ctx.allocator(), size, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                                  MemoryIntent::readback, "readback buffer"));
   MDS_TRY(ctx.submit_and_wait([&](VkCommandBuffer cmd) {
     memory_barrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT,
                    VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
     VkBufferCopy copy{offset, 0, size};
-    vkCmdCopyBuffer(cmd, src.get(), rb.get(), 1, &copy);
+    vkCmdCopyBuffer(cmd, src, rb.get(), 1, &copy);
     memory_barrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
                    VK_ACCESS_2_HOST_READ_BIT);
   }));

@@ -49,6 +49,7 @@ class StagingRing {
 
 // Reads `size` bytes of `src` at `offset` (src needs TRANSFER_SRC usage). Waits for the GPU.
 Result<std::vector<std::byte>> read_buffer(Context& ctx, const Buffer& src, VkDeviceSize offset, VkDeviceSize size);
+Result<std::vector<std::byte>> read_buffer(Context& ctx, VkBuffer src, VkDeviceSize offset, VkDeviceSize size);
 // Reads a whole single-aspect 2D image currently in `layout` (needs TRANSFER_SRC usage); the
 // image is returned to `layout`. Tightly packed rows, texel size from `texel_bytes`.
 Result<std::vector<std::byte>> read_image(Context& ctx, const Image& image, VkImageLayout layout,

@@ -47,6 +47,7 @@ struct CullLoop::Impl {
   uint32_t meshlet_count = 0, node_count = 0, max_meshlet = 0, frame_flags = 0;
   float radius_min = 0, radius_max = 0;
   uint64_t pyramid_texels = 0;
+  uint32_t node_flags = 0;  // kCullNodeDensity (CullUniforms.params.w, with kCullOrtho per view)
   SceneBuffers scene;
   Camera camera;
   glm::dvec3 origin{0.0};
@@ -54,7 +55,9 @@ struct CullLoop::Impl {
   glm::dmat4 view{1.0}, proj{1.0};
 
   vk::Buffer cull_ubo, frame_ubo, histogram, hist_range, pixel_state, pyramid, volume, volume_init;
-  vk::Buffer meshlet_voxel_first, voxel_refs, meshlet_class, node_class, counters, counters_host;
+  vk::Buffer meshlet_voxel_first, voxel_refs, own_meshlet_class, node_class, counters, counters_host, node_class_host;
+  VkBuffer meshlet_class = VK_NULL_HANDLE;  // own_meshlet_class or the streaming pool's
+  bool node_density = false;
   vk::Buffer occluder_list, indices;
   vk::Image sample_image, depth;
   vk::DescriptorSet set0_sample, set0_draw, set1;
@@ -62,7 +65,7 @@ struct CullLoop::Impl {
   vk::UniquePipeline reset_pipe, histogram_pipe, select_pipe, update_pipe, pyramid_pipe, classify_pipe,
       draw_list_pipe, sample_pipe;
 
-  Status create_buffers(const SceneData& scene_data, const DensityVolume& vol);
+  Status create_buffers(const CullScene& scene_data, const DensityVolume& vol);
   Status create_sets();
   Status create_pipelines();
   void bind(VkCommandBuffer cmd, VkPipelineBindPoint bp, VkPipeline pipe, const vk::DescriptorSet& s0) const;
@@ -82,7 +85,22 @@ struct CullLoop::Impl {
   }
 };
 
-Status CullLoop::Impl::create_buffers(const SceneData& s, const DensityVolume& vol) {
+CullScene cull_scene(const SceneData& s, const DensityVolume& vol) {
+  CullScene c;
+  c.origin = s.origin;
+  c.meshlet_slots = uint32_t(s.meshlets.size());
+  c.node_count = uint32_t(s.nodes.size());
+  c.max_meshlet_particles = s.max_meshlet_particles;
+  c.per_particle_radius = s.per_particle_radius;
+  c.radius_min = s.radius_min;
+  c.radius_max = s.radius_max;
+  MeshletVoxels mv = meshlet_voxels(s, vol);
+  c.voxel_first = std::move(mv.first);
+  c.voxel_refs = std::move(mv.refs);
+  return c;
+}
+
+Status CullLoop::Impl::create_buffers(const CullScene& s, const DensityVolume& vol) {
   auto& alloc = ctx->allocator();
   const uint64_t px = uint64_t(width) * height;
   auto make = [&](vk::Buffer& b, uint64_t bytes, const char* what, VkBufferUsageFlags extra = 0) -> Status {
@@ -106,10 +124,12 @@ Status CullLoop::Impl::create_buffers(const SceneData& s, const DensityVolume& v
   MDS_TRY(make(pyramid, pyramid_texels * 8, "confidence pyramid"));
   MDS_TRY(make(volume, vol.counts.size() * 4, "density volume"));
   MDS_TRY(make(volume_init, vol.counts.size() * 4, "density volume (initial)"));
-  MeshletVoxels mv = meshlet_voxels(s, vol);
-  MDS_TRY(make(meshlet_voxel_first, mv.first.size() * 4, "meshlet voxel index"));
-  MDS_TRY(make(voxel_refs, mv.refs.size() * 8, "meshlet voxel refs"));
-  MDS_TRY(make(meshlet_class, uint64_t(meshlet_count) * 4, "meshlet classes"));
+  MDS_TRY(make(meshlet_voxel_first, s.voxel_first.size() * 4, "voxel list index"));
+  MDS_TRY(make(voxel_refs, s.voxel_refs.size() * 8, "voxel lists"));
+  if (meshlet_class == VK_NULL_HANDLE) {
+    MDS_TRY(make(own_meshlet_class, uint64_t(meshlet_count) * 4, "meshlet classes"));
+    meshlet_class = own_meshlet_class.get();
+  }
   MDS_TRY(make(node_class, uint64_t(node_count) * 4, "node classes"));
   MDS_TRY(make(counters, sizeof(gpu::CullCounters), "cull counters"));
   MDS_TRY(make(occluder_list, sizeof(gpu::DrawListHeader) + 4ull * meshlet_count, "occluder list",
@@ -117,6 +137,9 @@ Status CullLoop::Impl::create_buffers(const SceneData& s, const DensityVolume& v
   MDS_ASSIGN_OR_RETURN(counters_host, vk::Buffer::create(alloc, sizeof(gpu::CullCounters),
                                                          VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                                          vk::MemoryIntent::readback, "cull counters (host)"));
+  MDS_ASSIGN_OR_RETURN(node_class_host, vk::Buffer::create(alloc, std::max<uint64_t>(4ull * node_count, 16),
+                                                           VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                                           vk::MemoryIntent::readback, "node classes (host)"));
   MDS_ASSIGN_OR_RETURN(cull_ubo, vk::Buffer::create(alloc, sizeof(gpu::CullUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
                                                     vk::MemoryIntent::upload, "cull uniforms"));
   MDS_ASSIGN_OR_RETURN(frame_ubo, vk::Buffer::create(alloc, sizeof(gpu::FrameUniforms),
@@ -141,8 +164,8 @@ Status CullLoop::Impl::create_buffers(const SceneData& s, const DensityVolume& v
                                                    VK_IMAGE_ASPECT_DEPTH_BIT, "occlusion sample depth"));
   MDS_ASSIGN_OR_RETURN(vk::StagingRing ring, vk::StagingRing::create(*ctx));
   MDS_TRY(ring.upload_span(volume_init, 0, std::span<const int32_t>(vol.counts)));
-  MDS_TRY(ring.upload_span(meshlet_voxel_first, 0, std::span<const uint32_t>(mv.first)));
-  MDS_TRY(ring.upload_span(voxel_refs, 0, std::span<const glm::uvec2>(mv.refs)));
+  MDS_TRY(ring.upload_span(meshlet_voxel_first, 0, std::span<const uint32_t>(s.voxel_first)));
+  MDS_TRY(ring.upload_span(voxel_refs, 0, std::span<const glm::uvec2>(s.voxel_refs)));
   MDS_TRY(ring.upload_span(indices, 0, std::span<const uint16_t>(idx)));
   MDS_TRY(ring.flush());
 
@@ -153,6 +176,7 @@ Status CullLoop::Impl::create_buffers(const SceneData& s, const DensityVolume& v
   u.grid_dims = glm::uvec4(uint32_t(vol.dims.x), uint32_t(vol.dims.y), uint32_t(vol.dims.z), bins);
   u.thresholds = glm::vec4(float(settings.c_occ), float(settings.c_medium), 0.0f, 0.0f);
   u.params = glm::uvec4(uint32_t(settings.acceptance), settings.n_budget, budget, 0u);
+  node_flags = node_density ? gpu::kCullNodeDensity : 0u;
   u.counts = glm::uvec4(meshlet_count, node_count, 0u, settings.seed);
   u.pyramid = glm::uvec4(levels, 0u, 0u, 0u);
   return {};
@@ -196,7 +220,7 @@ Status CullLoop::Impl::create_sets() {
   set1.write_buffer(gpu::kCullVolume, SSBO, volume.get());
   set1.write_buffer(gpu::kCullMeshletVoxels, SSBO, meshlet_voxel_first.get());
   set1.write_buffer(gpu::kCullVoxelRefs, SSBO, voxel_refs.get());
-  set1.write_buffer(gpu::kCullMeshletClass, SSBO, meshlet_class.get());
+  set1.write_buffer(gpu::kCullMeshletClass, SSBO, meshlet_class);
   set1.write_buffer(gpu::kCullNodeClass, SSBO, node_class.get());
   set1.write_buffer(gpu::kCullCounters, SSBO, counters.get());
   set1.write_storage_image(gpu::kCullSampleImage, sample_image.view());
@@ -294,6 +318,18 @@ Result<std::unique_ptr<CullLoop>> CullLoop::create(vk::Context& ctx, const Scene
                                                    const DensityVolume& volume, const SceneBuffers& buffers,
                                                    uint32_t width, uint32_t height, const CullSettings& settings) {
   if (scene.meshlets.empty()) return make_error(Errc::invalid_argument, "culling: the scene has no meshlets");
+  return create(ctx, cull_scene(scene, volume), volume, buffers, width, height, settings);
+}
+
+Result<std::unique_ptr<CullLoop>> CullLoop::create(vk::Context& ctx, const CullScene& scene,
+                                                   const DensityVolume& volume, const SceneBuffers& buffers,
+                                                   uint32_t width, uint32_t height, const CullSettings& settings) {
+  if (scene.meshlet_slots == 0) return make_error(Errc::invalid_argument, "culling: the scene has no meshlets");
+  const size_t csr = size_t(scene.node_density ? scene.node_count : scene.meshlet_slots) + 1;
+  if (scene.voxel_first.size() != csr || scene.voxel_first.back() != scene.voxel_refs.size())
+    return make_error(Errc::invalid_argument, "culling: voxel lists: {} index entries for {} {} and {} refs",
+                      scene.voxel_first.size(), csr - 1, scene.node_density ? "nodes" : "meshlets",
+                      scene.voxel_refs.size());
   if (volume.counts.size() != size_t(volume.dims.x) * volume.dims.y * volume.dims.z || volume.counts.empty())
     return make_error(Errc::invalid_argument, "culling: density volume dims/counts mismatch");
   if (settings.acceptance != MDS_CULL_ACCEPT_NORMAL && settings.acceptance != MDS_CULL_ACCEPT_RANDOM)
@@ -308,9 +344,11 @@ Result<std::unique_ptr<CullLoop>> CullLoop::create(vk::Context& ctx, const Scene
   m.height = height;
   m.scene = buffers;
   m.origin = scene.origin;
-  m.meshlet_count = uint32_t(scene.meshlets.size());
-  m.node_count = uint32_t(scene.nodes.size());
+  m.meshlet_count = scene.meshlet_slots;
+  m.node_count = scene.node_count;
   m.max_meshlet = scene.max_meshlet_particles;
+  m.meshlet_class = buffers.meshlet_class;
+  m.node_density = scene.node_density;
   m.frame_flags = scene.per_particle_radius ? gpu::kFramePerParticleRadius : 0u;
   m.radius_min = scene.radius_min;
   m.radius_max = scene.radius_max;
@@ -334,7 +372,7 @@ uint32_t CullLoop::samples_per_iteration() const { return impl_->passes; }
 uint32_t CullLoop::pyramid_levels() const { return impl_->levels; }
 const CullSettings& CullLoop::settings() const { return impl_->settings; }
 
-Status CullLoop::begin_view(const Camera& camera) {
+Status CullLoop::begin_view(const Camera& camera, uint32_t live_meshlets) {
   Impl& m = *impl_;
   if (!(camera.near > 0.0 && camera.far > camera.near))
     return make_error(Errc::invalid_argument, "culling: begin_view needs fitted near/far planes");
@@ -349,12 +387,12 @@ Status CullLoop::begin_view(const Camera& camera) {
   const double focal_px = 0.5 * m.height * std::abs(m.proj[1][1]);
   const double pixel_w = 2.0 / (std::abs(m.proj[0][0]) * m.width), pixel_h = 2.0 / (std::abs(m.proj[1][1]) * m.height);
   u.camera = glm::vec4(float(focal_px), float(pixel_w * pixel_h), float(camera.near), float(camera.far));
-  u.params.w = camera.ortho ? gpu::kCullOrtho : 0u;
+  u.params.w = (camera.ortho ? gpu::kCullOrtho : 0u) | m.node_flags;
   m.write_uniforms(0);
   gpu::CullCounters c{};
-  c.class_count[MDS_CULL_CLASS_P] = m.meshlet_count;
+  c.class_count[MDS_CULL_CLASS_P] = std::min(live_meshlets, m.meshlet_count);
   return m.ctx->submit_and_wait([&](VkCommandBuffer cmd) {
-    vkCmdFillBuffer(cmd, m.meshlet_class.get(), 0, VK_WHOLE_SIZE, 0);
+    vkCmdFillBuffer(cmd, m.meshlet_class, 0, VK_WHOLE_SIZE, 0);
     vkCmdFillBuffer(cmd, m.node_class.get(), 0, VK_WHOLE_SIZE, 0);
     vkCmdUpdateBuffer(cmd, m.counters.get(), 0, sizeof(c), &c);
     VkBufferCopy bc{0, 0, m.volume.size()};
@@ -468,7 +506,7 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
 
   begin("classify");  // Sect. 5.1, nodes then meshlets; Sect. 4.4 volume updates
   vkCmdFillBuffer(cmd, m.counters.get(), 0, offsetof(gpu::CullCounters, selected), 0);
-  vkCmdFillBuffer(cmd, m.counters.get(), offsetof(gpu::CullCounters, node_class_count), 16, 0);
+  vkCmdFillBuffer(cmd, m.counters.get(), offsetof(gpu::CullCounters, node_class_count), 20, 0);  // + node_changed
   compute_barrier(cmd);
   m.bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, m.classify_pipe, m.set0_sample);
   m.push(cmd, 0);
@@ -485,6 +523,8 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
 
   VkBufferCopy bc{0, 0, sizeof(gpu::CullCounters)};
   vkCmdCopyBuffer(cmd, m.counters.get(), m.counters_host.get(), 1, &bc);
+  VkBufferCopy nc{0, 0, 4ull * m.node_count};
+  vkCmdCopyBuffer(cmd, m.node_class.get(), m.node_class_host.get(), 1, &nc);
   vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
 }
@@ -502,8 +542,18 @@ gpu::CullCounters CullLoop::counters() const {
   return c;
 }
 
+std::span<const uint32_t> CullLoop::node_classes() const {
+  impl_->node_class_host.invalidate();
+  return {static_cast<const uint32_t*>(impl_->node_class_host.mapped()), impl_->node_count};
+}
+uint32_t CullLoop::meshlet_slots() const { return impl_->meshlet_count; }
+
 Result<std::vector<uint32_t>> CullLoop::read_meshlet_classes() {
-  return impl_->read<uint32_t>(impl_->meshlet_class, impl_->meshlet_count);
+  Impl& m = *impl_;
+  MDS_ASSIGN_OR_RETURN(auto raw, vk::read_buffer(*m.ctx, m.meshlet_class, 0, 4ull * m.meshlet_count));
+  std::vector<uint32_t> v(m.meshlet_count);
+  std::memcpy(v.data(), raw.data(), v.size() * 4);
+  return v;
 }
 Result<std::vector<float>> CullLoop::read_histograms() {
   // The buffer is cumulative (cull_histogram.comp); hand back per-bin counts.

@@ -18,13 +18,17 @@
 // in the renderer's format. The host decides convergence (Sect. 5.3) from counters() read after
 // each iteration: no meshlet changed class for `converge_iterations` iterations.
 //
-// Resident set: every array is indexed by the scene's meshlets/nodes as uploaded; the streaming
-// cache can later hand a subset by uploading only resident nodes' meshlets (class, voxel refs
-// and lists are per uploaded meshlet).
+// Resident set: per-meshlet arrays are indexed by meshlet slot. In memory every meshlet of the
+// scene has a slot; streaming (src/render/streaming/node_pool.h) the slots are the pool's pages,
+// empty slots (particle_count 0) are skipped by every pass, so the sampling and the meshlet
+// classification run only over resident nodes, while the node classification covers every node
+// of the store (the directory stays resident). Density updates are per meshlet in memory and per
+// node when streaming (CullScene::node_density).
 #pragma once
 
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -69,10 +73,29 @@ struct CullSettings {
 };
 
 // The renderer's scene buffers the culling passes read (and the draw list they write).
+// meshlet_class: the per-slot class buffer when its owner is the streaming pool (which resets
+// the classes of the slots it fills); VK_NULL_HANDLE: the loop allocates its own.
 struct SceneBuffers {
   VkBuffer nodes = VK_NULL_HANDLE, meshlets = VK_NULL_HANDLE, particles = VK_NULL_HANDLE;
   VkBuffer types = VK_NULL_HANDLE, radii = VK_NULL_HANDLE, draw_list = VK_NULL_HANDLE;
+  VkBuffer meshlet_class = VK_NULL_HANDLE;
 };
+
+// What the loop needs to know of the scene: sizes, radius encoding, and the static voxel lists of
+// the density updates (Sect. 4.4) as CSR, per meshlet slot or per node (node_density).
+struct CullScene {
+  glm::dvec3 origin{0.0};
+  uint32_t meshlet_slots = 0;  // size of the per-meshlet arrays
+  uint32_t node_count = 0;
+  uint32_t max_meshlet_particles = 0;
+  bool per_particle_radius = false;
+  float radius_min = 0.0f, radius_max = 0.0f;
+  bool node_density = false;
+  std::vector<uint32_t> voxel_first;  // meshlet_slots + 1 (node_count + 1 with node_density)
+  std::vector<glm::uvec2> voxel_refs;  // (voxel, particle count)
+};
+// In memory: every meshlet of `scene` in its own slot, per-meshlet voxel lists.
+CullScene cull_scene(const SceneData& scene, const DensityVolume& volume);
 
 // Histogram bins that fit: W*H*bins*4 bytes must stay within maxStorageBufferRange (the
 // histogram buffer is bound whole). lavapipe: 128 MiB -> 64 bins up to 524288 pixels
@@ -81,6 +104,9 @@ uint32_t bins_for(uint32_t width, uint32_t height, uint64_t max_storage_range, u
 
 class CullLoop {
  public:
+  static Result<std::unique_ptr<CullLoop>> create(vk::Context& ctx, const CullScene& scene,
+                                                  const DensityVolume& volume, const SceneBuffers& buffers,
+                                                  uint32_t width, uint32_t height, const CullSettings& settings);
   static Result<std::unique_ptr<CullLoop>> create(vk::Context& ctx, const SceneData& scene,
                                                   const DensityVolume& volume, const SceneBuffers& buffers,
                                                   uint32_t width, uint32_t height, const CullSettings& settings);
@@ -90,7 +116,8 @@ class CullLoop {
 
   // New view: all classes P, empty cull/accumulation buffers, the original density volume,
   // histograms cast. `camera` must have near/far set. Submits and waits.
-  Status begin_view(const Camera& camera);
+  // live_meshlets: occupied slots (the initial |P| of the occluder selection); default all.
+  Status begin_view(const Camera& camera, uint32_t live_meshlets = UINT32_MAX);
   // One culling iteration (see the file comment) into cmd; `iteration` counts from 0 per view;
   // its sampling passes are numbered iteration * samples_per_iteration() + p.
   // Ends with a copy of the counters for counters(). Timestamps per pass when ts != nullptr.
@@ -99,6 +126,9 @@ class CullLoop {
   void record_draw_list(VkCommandBuffer cmd);
   // Counters of the last recorded iteration (valid after its submission completed).
   gpu::CullCounters counters() const;
+  // Node classes after the last recorded iteration (valid after its submission completed).
+  std::span<const uint32_t> node_classes() const;
+  uint32_t meshlet_slots() const;
 
   uint32_t bins() const;
   uint32_t budget() const;

@@ -19,6 +19,10 @@ glm::vec3 decoded_position(const SceneData& scene, uint32_t node, uint64_t parti
 }
 
 Result<DensityVolume> density_from_store(const store::StoreReader& reader, const SceneData& scene) {
+  return density_from_store(reader, scene.origin);
+}
+
+Result<DensityVolume> density_from_store(const store::StoreReader& reader, const glm::dvec3& origin) {
   const store::FileHeader& h = reader.header();
   DensityVolume v;
   v.dims = glm::ivec3(int(h.density_dims[0]), int(h.density_dims[1]), int(h.density_dims[2]));
@@ -26,7 +30,7 @@ Result<DensityVolume> density_from_store(const store::StoreReader& reader, const
     return make_error(Errc::format, "{}: density volume has dims {}x{}x{}", reader.path().string(), v.dims.x,
                       v.dims.y, v.dims.z);
   for (int a = 0; a < 3; ++a) {
-    v.origin[a] = h.density_min[a] - scene.origin[a];
+    v.origin[a] = h.density_min[a] - origin[a];
     v.cell[a] = std::max((h.density_max[a] - h.density_min[a]) / v.dims[a], 1e-30);
   }
   auto c = reader.density_counts();

@@ -26,6 +26,7 @@ struct DensityVolume {
 
 // The store's density volume (header density_dims / density_min / density_max and counts).
 Result<DensityVolume> density_from_store(const store::StoreReader& reader, const SceneData& scene);
+Result<DensityVolume> density_from_store(const store::StoreReader& reader, const glm::dvec3& origin);
 // Bins the scene's decoded particle centres into a grid over the centre bounds whose longest
 // axis has `max_dim` cells (cubic cells).
 DensityVolume density_from_scene(const SceneData& scene, int max_dim = 64);

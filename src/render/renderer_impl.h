@@ -1,0 +1,96 @@
+// Private to the renderer's translation units (renderer.cpp: creation and the pass recording;
+// renderer_progressive.cpp: set_view/step, streaming): the renderer's state.
+#pragma once
+
+#include <chrono>
+#include <memory>
+#include <vector>
+
+#include "render/renderer.h"
+#include "render/streaming/stream_cache.h"
+#include "vk/commands.h"
+#include "vk/pipeline.h"
+#include "vk/timestamps.h"
+
+namespace mds::render {
+
+inline constexpr uint32_t kTimingFrames = 4;  // draw-only frames after a convergence past spp
+inline constexpr VkFormat kColorFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
+inline constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+
+struct Renderer::Impl {
+  vk::Context* ctx = nullptr;
+  RenderSettings settings;
+  glm::dvec3 origin{0.0};
+  Bounds bounds;
+  uint32_t meshlet_count = 0;
+  uint64_t particle_count = 0;
+  uint32_t max_meshlet = 0;
+  uint32_t flags = 0;
+  float radius_min = 0, radius_max = 0;
+  uint64_t upload_bytes = 0;
+  uint64_t scratch_bytes = 0;  // draw list + sprite buffers (sized by the slots)
+
+  vk::Buffer nodes, meshlets, particles, types, radii, draw_list, frame_ubo;
+  // The buffers the passes bind: the owned ones above in memory, the pool's when streaming.
+  VkBuffer meshlets_h = VK_NULL_HANDLE, particles_h = VK_NULL_HANDLE, radii_h = VK_NULL_HANDLE;
+  VkBuffer meshlet_class_h = VK_NULL_HANDLE;  // streaming: the pool's class buffer for the cull loop
+  vk::Buffer sprites, sprite_draw;  // pre-pass output: GpuSprite per listed particle, draw commands
+  vk::Buffer visibility;            // compute rasterization of small sprites (depth bits, index)
+  bool vis_bytes_ok = true;         // the visibility buffer fits maxStorageBufferRange
+  bool point_sprites = false;       // small on-screen sprites drawn as points (see create_pipelines)
+  float small_px = 0.0f;            // sprites up to this size rasterized in compute (0: none)
+  vk::Image color, depth, accum;
+  vk::DescriptorSet set;
+  vk::UniquePipelineLayout layout;
+  vk::UniquePipeline draw_list_pipe, sprite_args_pipe, prepass_pipe, raster_id_pipe, sphere_pipe, point_pipe,
+      resolve_pipe, accum_pipe;
+  vk::FrameSlot slot;
+  vk::TimestampPool timestamps;
+  vk::DeferredDestroyer destroyer;
+  uint64_t frame_index = 0;
+  bool rendered = false;
+  std::unique_ptr<culling::CullLoop> cull;  // occlusion culling (RenderSettings::cull)
+  bool cull_active = false;                 // record a culling iteration in this pass
+  uint32_t cull_iteration = 0;
+  std::function<void(uint32_t)> iteration_hook;
+
+  // Named passes per frame: 3 per occlusion sampling pass, pyramid/classify/histogram, 4 drawing.
+  uint32_t timestamp_capacity() const {
+    return 16 + 3 * std::max(1u, settings.cull_settings.samples_per_iteration);
+  }
+
+  // Out-of-core (create_streaming): the cache; null in memory.
+  const store::StoreReader* reader = nullptr;
+  std::unique_ptr<streaming_gpu::StreamCache> cache;
+
+  // Progressive state (set_view / step).
+  Camera view_camera;
+  bool has_view = false;
+  uint32_t samples = 0;        // accumulated in the current image
+  uint32_t quiet = 0;          // culling iterations without class changes
+  bool culling_converged = false;
+  bool complete = true;        // streaming: the cache holds every wanted node
+  bool pending_iteration = false;
+  uint64_t view_first_frame = 0;
+  std::vector<double> frame_gpu_ms, frame_wall_ms;  // per step() since set_view
+  CullStats view_cull;         // culling statistics of the current view
+  std::chrono::steady_clock::time_point view_t0;
+
+  Status upload(const SceneData& scene);
+  Status create_draw_buffers(uint64_t meshlet_slots, uint64_t particle_slots);
+  Status upload_streaming(const SceneData& directory);
+  Status create_cull(const culling::CullScene& cs, const culling::DensityVolume& vol);
+  void write_frame_uniforms(uint32_t sample);
+  Result<double> collect_frame_ms();
+  void after_iteration();
+  Status create_targets();
+  Status create_pipelines();
+  void record_pass(VkCommandBuffer cmd, bool first, bool accumulate = true);
+  void record_cull_only(VkCommandBuffer cmd);
+  void record_sprite_prepass(VkCommandBuffer cmd);
+  void record_sprite_draws(VkCommandBuffer cmd);
+};
+
+
+}  // namespace mds::render

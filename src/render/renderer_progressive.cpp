@@ -1,0 +1,346 @@
+// The renderer's progressive API (set_view / step / read_image) and out-of-core rendering through
+// the streaming cache (issue 4; src/render/streaming/). See renderer.h.
+// A step() is one submitted frame: [streaming update: uploads/evictions recorded first] [one
+// culling iteration while culling is active] [draw list, pre-pass, draw] [accumulate while
+// samples < spp]. The culling results of frame k are read at the start of frame k+1 (one frame
+// in flight), so the host never waits for the GPU in the middle of recording, and never for disk.
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "render/renderer_impl.h"
+#include "vk/staging.h"
+
+namespace mds::render {
+
+namespace {
+bool same_camera(const Camera& a, const Camera& b) {
+  return a.eye == b.eye && a.target == b.target && a.up == b.up && a.fov_y_deg == b.fov_y_deg &&
+         a.ortho == b.ortho && a.ortho_half_height == b.ortho_half_height;
+}
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const double pos = q * double(v.size() - 1);
+  const size_t lo = size_t(std::floor(pos)), hi = std::min(lo + 1, v.size() - 1);
+  return v[lo] + (v[hi] - v[lo]) * (pos - double(lo));
+}
+}  // namespace
+
+// The directory scene of a streamed store: bounds, types, node records; no meshlets/particles.
+Status Renderer::Impl::upload_streaming(const SceneData& dir) {
+  auto& alloc = ctx->allocator();
+  const VkBufferUsageFlags ssbo = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+  MDS_ASSIGN_OR_RETURN(nodes, vk::Buffer::create(alloc, dir.nodes.size() * sizeof(gpu::GpuNode), ssbo,
+                                                 vk::MemoryIntent::device_local, "node directory"));
+  MDS_ASSIGN_OR_RETURN(types, vk::Buffer::create(alloc, dir.types.size() * sizeof(gpu::GpuType), ssbo,
+                                                 vk::MemoryIntent::device_local, "type table"));
+  streaming_gpu::NodePool& pool = cache->pool();
+  meshlets_h = pool.meshlets();
+  particles_h = pool.particles();
+  radii_h = pool.radii();
+  meshlet_class_h = pool.meshlet_class();
+  MDS_TRY(create_draw_buffers(pool.meshlet_slots(), pool.particle_slots()));
+  MDS_ASSIGN_OR_RETURN(vk::StagingRing ring, vk::StagingRing::create(*ctx));
+  MDS_TRY(ring.upload_span(nodes, 0, std::span<const gpu::GpuNode>(dir.nodes)));
+  MDS_TRY(ring.upload_span(types, 0, std::span<const gpu::GpuType>(dir.types)));
+  MDS_TRY(ring.flush());
+  upload_bytes = ring.bytes_uploaded();
+  return {};
+}
+
+Result<std::unique_ptr<Renderer>> Renderer::create_streaming(vk::Context& ctx, const store::StoreReader& reader,
+                                                             const RenderSettings& settings,
+                                                             const StreamSettings& stream) {
+  if (settings.width == 0 || settings.height == 0 || settings.width > 16384 || settings.height > 16384)
+    return make_error(Errc::invalid_argument, "image size {}x{} outside 1..16384", settings.width, settings.height);
+  if (settings.spp == 0) return make_error(Errc::invalid_argument, "--spp must be >= 1");
+  const store::FileHeader& h = reader.header();
+  std::vector<float> radii;
+  for (const auto& t : reader.types()) radii.push_back(t.radius);
+  const bool ppr = (h.flags & store::kFlagPerParticleRadius) != 0;
+  SceneData dir = begin_scene({h.bounds_min[0], h.bounds_min[1], h.bounds_min[2]},
+                              {h.bounds_max[0], h.bounds_max[1], h.bounds_max[2]}, radii, ppr, h.radius_min,
+                              h.radius_max);
+
+  std::unique_ptr<Renderer> r(new Renderer());
+  r->impl_ = std::make_unique<Impl>();
+  Impl& m = *r->impl_;
+  m.ctx = &ctx;
+  m.settings = settings;
+  m.reader = &reader;
+  m.origin = dir.origin;
+  m.bounds = dir.bounds;
+  // One GpuSprite of scratch per particle slot, bound whole: the slots must fit maxStorageBufferRange.
+  const uint64_t max_slots = ctx.limits().maxStorageBufferRange / sizeof(gpu::GpuSprite);
+  MDS_ASSIGN_OR_RETURN(m.cache, streaming_gpu::StreamCache::create(ctx, reader, stream, dir.origin, max_slots));
+  dir.nodes = m.cache->directory();
+  m.meshlet_count = m.cache->pool().meshlet_slots();
+  m.particle_count = h.particle_count;
+  m.max_meshlet = m.cache->max_meshlet_particles();
+  m.flags = ppr ? gpu::kFramePerParticleRadius : 0u;
+  m.radius_min = h.radius_min;
+  m.radius_max = h.radius_max;
+  MDS_TRY(m.upload_streaming(dir));
+  MDS_TRY(m.create_targets());
+  MDS_TRY(m.create_pipelines());
+  MDS_ASSIGN_OR_RETURN(m.slot, vk::FrameSlot::create(ctx));
+  MDS_ASSIGN_OR_RETURN(m.timestamps, vk::TimestampPool::create(ctx, m.timestamp_capacity()));
+  if (settings.cull) {
+    culling::DensityVolume vol;
+    if (settings.density) {
+      vol = *settings.density;
+    } else {
+      MDS_ASSIGN_OR_RETURN(vol, culling::density_from_store(reader, dir.origin));
+    }
+    culling::CullScene cs;
+    cs.origin = dir.origin;
+    cs.meshlet_slots = m.meshlet_count;
+    cs.node_count = uint32_t(dir.nodes.size());
+    cs.max_meshlet_particles = m.max_meshlet;
+    cs.per_particle_radius = ppr;
+    cs.radius_min = h.radius_min;
+    cs.radius_max = h.radius_max;
+    cs.node_density = true;  // issue 4: O updates subtract whole nodes, resident or not
+    cs.voxel_first = m.cache->voxel_first();
+    cs.voxel_refs = m.cache->voxel_refs();
+    MDS_TRY(m.create_cull(cs, vol));
+  }
+  return r;
+}
+
+void Renderer::Impl::write_frame_uniforms(uint32_t sample) {
+  const uint32_t w = settings.width, h = settings.height;
+  const double aspect = double(w) / double(h);
+  const glm::dvec2 jitter_px = halton_jitter(sample);
+  const glm::dmat4 proj = projection_matrix(view_camera, aspect, {2.0 * jitter_px.x / w, 2.0 * jitter_px.y / h});
+  gpu::FrameUniforms fu{};
+  fu.view = glm::mat4(view_matrix(view_camera, origin));
+  fu.proj = glm::mat4(proj);
+  fu.inv_proj = glm::mat4(glm::inverse(proj));
+  fu.viewport = glm::vec4(float(w), float(h), 1.0f / float(w), 1.0f / float(h));
+  fu.radius_range = glm::vec4(radius_min, radius_max - radius_min, float(view_camera.near), float(view_camera.far));
+  fu.counts = glm::uvec4(meshlet_count, max_meshlet, flags | (view_camera.ortho ? gpu::kFrameOrtho : 0u), sample);
+  std::memcpy(frame_ubo.mapped(), &fu, sizeof(fu));
+  frame_ubo.flush();
+}
+
+// Sum of the passes of the frame that completed last (0 when none was timed).
+Result<double> Renderer::Impl::collect_frame_ms() {
+  std::map<std::string, size_t> before;
+  for (const auto& [name, v] : timestamps.samples()) before[name] = v.size();
+  MDS_TRY(timestamps.collect());
+  double sum = 0.0;
+  for (const auto& [name, v] : timestamps.samples())
+    for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i) sum += v[i];
+  return sum;
+}
+
+// The culling iteration of the previous frame completed: counters, convergence (Sect. 5.3).
+void Renderer::Impl::after_iteration() {
+  const gpu::CullCounters c = cull->counters();
+  view_cull.changed_per_iteration.push_back(c.changed);
+  view_cull.culled_per_iteration.push_back(c.class_count[MDS_CULL_CLASS_O]);
+  view_cull.class_counts.assign(c.class_count, c.class_count + 4);
+  if (iteration_hook) iteration_hook(cull_iteration);
+  ++cull_iteration;
+  // Streaming: node classes drive the cache, so they must be stable too.
+  const bool still = c.changed == 0 && (!cache || c.node_changed == 0);
+  quiet = still ? quiet + 1 : 0;
+  if (quiet >= std::max(1u, cull->settings().converge_iterations)) {
+    cull_active = false;
+    culling_converged = true;
+    view_cull.converged = true;
+    view_cull.iterations_to_converge = cull_iteration;
+    view_cull.samples_to_converge = cull_iteration * cull->samples_per_iteration();
+    view_cull.time_to_converge_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - view_t0).count();
+  } else if (cull_iteration >= std::max(1u, cull->settings().max_iterations)) {
+    cull_active = false;  // cap reached: keep the classes, not converged
+  }
+  if (cache) cache->set_classes(cull->node_classes());
+}
+
+Status Renderer::set_view(const Camera& camera_in) {
+  Impl& m = *impl_;
+  Camera camera = camera_in;
+  fit_clip_planes(camera, m.bounds);
+  if (m.has_view && same_camera(camera, m.view_camera)) return {};
+  MDS_TRY(m.slot.wait());  // the frame in flight belongs to the old view
+  m.pending_iteration = false;
+  MDS_ASSIGN_OR_RETURN(m.timestamps, vk::TimestampPool::create(*m.ctx, m.timestamp_capacity()));
+  m.view_camera = camera;
+  m.has_view = true;
+  m.samples = 0;
+  m.quiet = 0;
+  m.culling_converged = false;
+  m.cull_iteration = 0;
+  m.view_cull = CullStats{};
+  m.frame_gpu_ms.clear();
+  m.frame_wall_ms.clear();
+  m.view_t0 = std::chrono::steady_clock::now();
+  m.view_first_frame = m.frame_index;
+  if (m.cache) m.cache->set_view(camera, double(m.settings.width) / double(m.settings.height));
+  m.complete = !m.cache;
+  if (m.cull) {
+    const uint32_t live = m.cache ? uint32_t(m.cache->live_meshlets()) : m.meshlet_count;
+    MDS_TRY(m.cull->begin_view(camera, live));
+    m.cull_active = true;
+  }
+  return {};
+}
+
+Result<FrameReport> Renderer::step() {
+  Impl& m = *impl_;
+  if (!m.has_view) return make_error(Errc::internal, "Renderer::step() before set_view()");
+  const auto t0 = std::chrono::steady_clock::now();
+  FrameReport rep;
+  rep.frame = m.frame_index;
+  MDS_ASSIGN_OR_RETURN(VkCommandBuffer cmd, m.slot.begin());  // waits for the previous frame
+  MDS_ASSIGN_OR_RETURN(rep.gpu_ms, m.collect_frame_ms());
+  if (rep.gpu_ms > 0.0) m.frame_gpu_ms.push_back(rep.gpu_ms);
+  if (m.pending_iteration) m.after_iteration();
+  m.pending_iteration = false;
+  m.destroyer.collect(m.frame_index);
+
+  if (m.cache) {
+    MDS_ASSIGN_OR_RETURN(streaming_gpu::CacheFrame cf, m.cache->update(cmd, m.frame_index));
+    rep.nodes_uploaded = cf.nodes_uploaded;
+    rep.bytes_uploaded = cf.bytes_uploaded;
+    rep.frame_hits = cf.hits;
+    rep.frame_misses = cf.misses;
+    rep.upload_stall = cf.upload_stall;
+    rep.wanted = std::move(cf.wanted);
+    m.complete = cf.complete;
+    if (cf.nodes_uploaded > 0) {  // new data: refine again
+      m.samples = 0;
+      if (m.cull && m.cull_iteration < std::max(1u, m.cull->settings().max_iterations)) {
+        m.cull_active = true;
+        m.quiet = 0;
+        m.culling_converged = false;
+      }
+    }
+  }
+  m.pending_iteration = m.cull && m.cull_active;
+  const bool accumulate = m.samples < m.settings.spp;
+  m.write_frame_uniforms(m.samples);
+  m.record_pass(cmd, m.samples == 0, accumulate);
+  MDS_TRY(m.slot.submit(m.ctx->queue()));
+  ++m.frame_index;
+  if (accumulate) ++m.samples;
+
+  rep.samples = m.samples;
+  rep.accumulated = accumulate;
+  rep.culling_active = m.pending_iteration;
+  rep.culling_converged = m.culling_converged;
+  rep.complete = m.complete;
+  rep.converged = (!m.cull || m.culling_converged) && m.complete;
+  if (m.cull) {
+    const gpu::CullCounters c = m.cull->counters();
+    for (int k = 0; k < 4; ++k) {
+      rep.class_counts[k] = m.view_cull.class_counts.size() == 4 ? m.view_cull.class_counts[k] : 0;
+      rep.node_class_counts[k] = m.cull_iteration > 0 ? c.node_class_count[k] : 0;
+    }
+  }
+  rep.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  m.frame_wall_ms.push_back(rep.wall_ms);
+  return rep;
+}
+
+Result<FrameImage> Renderer::read_image() {
+  Impl& m = *impl_;
+  MDS_TRY(m.slot.wait());
+  FrameImage img;
+  img.width = m.settings.width;
+  img.height = m.settings.height;
+  img.rgba.assign(size_t(img.width) * img.height * 4, 0.0f);
+  if (m.samples == 0) return img;
+  MDS_ASSIGN_OR_RETURN(std::vector<std::byte> raw, vk::read_image(*m.ctx, m.accum, VK_IMAGE_LAYOUT_GENERAL, 16));
+  std::memcpy(img.rgba.data(), raw.data(), img.rgba.size() * sizeof(float));
+  const float inv = 1.0f / float(m.samples);
+  for (float& v : img.rgba) v *= inv;
+  return img;
+}
+
+RenderStats Renderer::stats() const {
+  const Impl& m = *impl_;
+  RenderStats s;
+  s.device = m.ctx->info().name;
+  s.particles = m.particle_count;
+  s.meshlets = m.cache ? m.cache->live_meshlets() : m.meshlet_count;
+  s.spp = m.settings.spp;
+  s.width = m.settings.width;
+  s.height = m.settings.height;
+  for (const auto& [name, v] : m.timestamps.samples()) {
+    const double med = vk::median(v);
+    s.pass_ms_median[name] = med;
+    s.frame_ms_median += med;
+  }
+  s.upload_bytes = m.upload_bytes;
+  s.device_bytes = m.ctx->allocator().peak(vk::MemoryIntent::device_local);
+  s.near = m.view_camera.near;
+  s.far = m.view_camera.far;
+  s.cull = m.view_cull;
+  if (m.cull) {
+    s.cull.enabled = true;
+    s.cull.iterations = m.cull_iteration;
+    s.cull.samples = m.cull_iteration * m.cull->samples_per_iteration();
+    s.cull.samples_per_iteration = m.cull->samples_per_iteration();
+    s.cull.bins = m.cull->bins();
+    s.cull.budget = m.cull->budget();
+    if (s.cull.class_counts.size() == 4) s.cull.meshlets_culled = s.cull.class_counts[MDS_CULL_CLASS_O];
+  }
+  if (m.cache) {
+    s.cache = m.cache->stats();
+    s.cache.scratch_bytes = m.scratch_bytes;
+  }
+  s.frames = uint32_t(m.frame_wall_ms.size());
+  s.frame_wall_ms_p50 = percentile(m.frame_wall_ms, 0.5);
+  s.frame_wall_ms_p99 = percentile(m.frame_wall_ms, 0.99);
+  return s;
+}
+
+const Bounds& Renderer::bounds() const { return impl_->bounds; }
+std::vector<uint64_t> Renderer::node_device_bytes() const {
+  return impl_->cache ? impl_->cache->node_device_bytes() : std::vector<uint64_t>{};
+}
+bool Renderer::streaming() const { return impl_->cache != nullptr; }
+
+// Headless render with a budget: frames until the view has converged with every wanted node
+// resident (culling converged or capped, cache complete), then spp samples of that state (an
+// upload restarts the accumulation, so the image never mixes incomplete frames).
+Result<FrameImage> Renderer::render_streaming(const Camera& camera, RenderStats* stats) {
+  Impl& m = *impl_;
+  const auto t0 = std::chrono::steady_clock::now();
+  m.has_view = false;  // always a fresh view
+  MDS_TRY(set_view(camera));
+  constexpr uint64_t kMaxFrames = 1000000;  // a guard against a cache that never completes
+  for (uint64_t f = 0;; ++f) {
+    MDS_ASSIGN_OR_RETURN(FrameReport rep, step());
+    const bool settled = rep.complete && !m.cull_active && !m.pending_iteration;
+    if (settled && rep.samples >= m.settings.spp) break;
+    if (f >= kMaxFrames) return make_error(Errc::internal, "streaming render did not settle in {} frames", kMaxFrames);
+  }
+  MDS_TRY(m.slot.wait());
+  MDS_ASSIGN_OR_RETURN(double last_ms, m.collect_frame_ms());
+  if (last_ms > 0.0) m.frame_gpu_ms.push_back(last_ms);
+  MDS_ASSIGN_OR_RETURN(FrameImage img, read_image());
+  m.rendered = true;
+  if (stats) {
+    *stats = this->stats();
+    stats->wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    stats->frames = uint32_t(m.frame_wall_ms.size());
+    if (m.cull) {
+      stats->cull.frame_ms_after_convergence = vk::median(m.frame_gpu_ms);  // refined below
+      const size_t n = m.frame_gpu_ms.size();
+      const size_t tail = std::min<size_t>(n, m.settings.spp);  // the accumulation frames of the settled view
+      std::vector<double> after(m.frame_gpu_ms.end() - std::ptrdiff_t(tail), m.frame_gpu_ms.end());
+      std::vector<double> during(m.frame_gpu_ms.begin(), m.frame_gpu_ms.end() - std::ptrdiff_t(tail));
+      stats->cull.frame_ms_after_convergence = vk::median(after);
+      stats->cull.frame_ms_during_culling = vk::median(during);
+    }
+  }
+  return img;
+}
+
+}  // namespace mds::render

@@ -1,0 +1,224 @@
+// The paged device pool of the streaming cache; see node_pool.h.
+#include "render/streaming/node_pool.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include "culling/culling_constants.h"
+#include "vk/commands.h"
+
+namespace mds::render::streaming_gpu {
+
+uint32_t PoolLayout::pages_for(uint64_t particles, uint64_t meshlets) const {
+  const uint64_t by_particles = (particles + page_particles - 1) / page_particles;
+  const uint64_t by_meshlets = (meshlets + page_meshlets - 1) / page_meshlets;
+  return uint32_t(std::max<uint64_t>({1, by_particles, by_meshlets}));
+}
+
+PoolLayout pool_layout_for(const store::FileHeader& h) {
+  PoolLayout l;
+  l.radii = (h.flags & store::kFlagPerParticleRadius) != 0;
+  const double mean = h.meshlet_count > 0 ? double(h.particle_count) / double(h.meshlet_count) : 16.0;
+  const double slots = std::ceil(1.25 * double(l.page_particles) / std::max(mean, 1.0));
+  l.page_meshlets = uint32_t(std::clamp(slots, 8.0, double(l.page_particles)));
+  return l;
+}
+
+Result<std::unique_ptr<NodePool>> NodePool::create(vk::Context& ctx, const PoolLayout& layout, PoolScene scene,
+                                                   uint32_t node_count, uint64_t budget_bytes,
+                                                   uint64_t staging_bytes, uint64_t max_particle_slots) {
+  std::unique_ptr<NodePool> p(new NodePool());
+  p->ctx_ = &ctx;
+  p->layout_ = layout;
+  p->scene_ = std::move(scene);
+  const uint64_t range = ctx.limits().maxStorageBufferRange;
+  uint64_t pages = budget_bytes / layout.page_bytes();
+  pages = std::min<uint64_t>(pages, range / (8ull * layout.page_particles));
+  pages = std::min<uint64_t>(pages, range / (sizeof(gpu::GpuMeshlet) * layout.page_meshlets));
+  pages = std::min<uint64_t>(pages, std::numeric_limits<uint32_t>::max() / layout.page_particles);
+  pages = std::min<uint64_t>(pages, max_particle_slots / layout.page_particles);
+  if (pages == 0)
+    return make_error(Errc::budget, "--gpu-budget {} is smaller than one pool page ({})", format_bytes(budget_bytes),
+                      format_bytes(layout.page_bytes()));
+  p->pages_ = uint32_t(pages);
+  p->budget_ = mds::streaming::DeviceBudget(pages * layout.page_bytes());
+  p->free_.resize(pages);
+  for (uint32_t i = 0; i < pages; ++i) p->free_[i] = uint32_t(pages - 1 - i);  // page 0 popped first
+  p->node_pages_.resize(node_count);
+
+  auto& alloc = ctx.allocator();
+  const VkBufferUsageFlags ssbo =
+      VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+  const uint64_t slots = pages * layout.page_particles, mslots = pages * layout.page_meshlets;
+  MDS_ASSIGN_OR_RETURN(p->particles_, vk::Buffer::create(alloc, slots * 8, ssbo, vk::MemoryIntent::device_local,
+                                                         "pool: particles"));
+  MDS_ASSIGN_OR_RETURN(p->radii_, vk::Buffer::create(alloc, layout.radii ? slots * 2 : 16, ssbo,
+                                                     vk::MemoryIntent::device_local, "pool: radii"));
+  MDS_ASSIGN_OR_RETURN(p->meshlets_, vk::Buffer::create(alloc, mslots * sizeof(gpu::GpuMeshlet), ssbo,
+                                                        vk::MemoryIntent::device_local, "pool: meshlet records"));
+  MDS_ASSIGN_OR_RETURN(p->classes_, vk::Buffer::create(alloc, mslots * 4, ssbo, vk::MemoryIntent::device_local,
+                                                       "pool: meshlet classes"));
+  MDS_ASSIGN_OR_RETURN(p->staging_buf_, vk::Buffer::create(alloc, std::max<uint64_t>(staging_bytes, 1 << 16),
+                                                           VK_BUFFER_USAGE_TRANSFER_SRC_BIT, vk::MemoryIntent::upload,
+                                                           "pool: upload staging"));
+  p->staging_ = {static_cast<std::byte*>(p->staging_buf_.mapped()), size_t(p->staging_buf_.size())};
+  // Every slot starts empty (particle_count 0).
+  MDS_TRY(ctx.submit_and_wait([&](VkCommandBuffer cmd) {
+    vkCmdFillBuffer(cmd, p->meshlets_.get(), 0, VK_WHOLE_SIZE, 0);
+    vkCmdFillBuffer(cmd, p->classes_.get(), 0, VK_WHOLE_SIZE, 0);
+    vkCmdFillBuffer(cmd, p->particles_.get(), 0, VK_WHOLE_SIZE, 0);
+    vkCmdFillBuffer(cmd, p->radii_.get(), 0, VK_WHOLE_SIZE, 0);
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
+  }));
+  return p;
+}
+
+NodePool::~NodePool() = default;
+
+void NodePool::begin_frame() {
+  staging_head_ = 0;
+  transfers_ = false;
+  evicted_ = false;
+}
+
+Status NodePool::evict(VkCommandBuffer cmd, uint32_t node) {
+  if (node >= node_pages_.size() || node_pages_[node].empty())
+    return make_error(Errc::internal, "pool: evict of node {} which is not resident", node);
+  const uint64_t rec = layout_.page_meshlets * sizeof(gpu::GpuMeshlet);
+  for (uint32_t page : node_pages_[node]) {
+    vkCmdFillBuffer(cmd, meshlets_.get(), uint64_t(page) * rec, rec, 0);
+    free_.push_back(page);
+  }
+  MDS_TRY(budget_.release(uint64_t(node_pages_[node].size()) * layout_.page_bytes()));
+  node_pages_[node].clear();
+  transfers_ = evicted_ = true;
+  return {};
+}
+
+uint64_t NodePool::upload_bytes(const store::NodeData& d) const {
+  return d.particle_count() * (8 + (layout_.radii ? 2 : 0)) + d.meshlet_size.size() * sizeof(gpu::GpuMeshlet) + 64;
+}
+
+Status NodePool::upload(VkCommandBuffer cmd, uint32_t node, const NodeFrame& frame, const store::NodeData& d) {
+  const uint64_t n = d.particle_count(), m = d.meshlet_size.size();
+  if (node >= node_pages_.size() || !node_pages_[node].empty())
+    return make_error(Errc::internal, "pool: upload of node {} which is resident or out of range", node);
+  if (n == 0 || m == 0 || d.qpos.size() != 3 * n || (layout_.radii && d.radius_q.size() != n))
+    return make_error(Errc::format, "node {}: {} particles, {} meshlets, {} coordinates: inconsistent", node, n, m,
+                      d.qpos.size());
+  const uint32_t need = layout_.pages_for(n, m);
+  const uint64_t bytes = uint64_t(need) * layout_.page_bytes();
+  if (need > free_.size() || !budget_.fits(bytes))
+    return make_error(Errc::budget, "pool: node {} needs {} pages, {} free", node, need, free_.size());
+  const uint64_t staged = upload_bytes(d);
+  if (staged > staging_free())
+    return make_error(Errc::budget, "pool: node {} needs {} staging bytes, {} left this frame", node, staged,
+                      staging_free());
+
+  // Meshlet records first (they validate the meshlet sizes), then commit.
+  const uint32_t P = layout_.page_particles, M = layout_.page_meshlets;
+  std::vector<uint32_t> pages(free_.end() - need, free_.end());
+  std::reverse(pages.begin(), pages.end());
+  auto slot_of = [&](uint64_t local) { return uint64_t(pages[local / P]) * P + local % P; };
+  double step[3];
+  for (int a = 0; a < 3; ++a) step[a] = (frame.center_max[a] - frame.center_min[a]) / double(store::kQuantMax);
+  std::vector<gpu::GpuMeshlet> recs(m);
+  uint64_t p = 0;
+  for (uint64_t k = 0; k < m; ++k) {
+    const uint32_t count = d.meshlet_size[k];
+    if (count == 0 || p + count > n || count > P)
+      return make_error(Errc::format, "node {} meshlet {}: size {} overruns the node's {} particles", node, k, count, n);
+    gpu::GpuMeshlet& g = recs[k];
+    g.node = node;
+    g.particle_count = count;
+    g.first_particle = uint32_t(slot_of(p));
+    const uint64_t room = P - p % P;  // slots left on the first particle's page
+    g.split = uint32_t(std::min<uint64_t>(count, room));
+    g.second_particle = count > room ? uint32_t(slot_of(p + room)) : 0u;
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+    for (uint64_t i = p; i < p + count; ++i) {
+      glm::vec3 pos;
+      for (int a = 0; a < 3; ++a)
+        pos[a] = float(frame.center_min[a] + double(d.qpos[3 * i + a]) * step[a] - scene_.origin[a]);
+      const uint8_t t = d.type_index[i];
+      if (t >= scene_.type_radius.size())
+        return make_error(Errc::format, "node {} particle {}: type index {} outside the type table ({} types)", node,
+                          i, t, scene_.type_radius.size());
+      const float r = scene_.per_particle_radius
+                          ? float(scene_.radius_min + double(d.radius_q[i]) * (scene_.radius_max - scene_.radius_min) /
+                                                          store::kQuantMax)
+                          : scene_.type_radius[t];
+      lo = glm::min(lo, pos - r);
+      hi = glm::max(hi, pos + r);
+    }
+    g.aabb_min = lo;
+    g.aabb_max = hi;
+    p += count;
+  }
+  if (p != n) return make_error(Errc::format, "node {}: meshlet sizes sum to {}, node has {} particles", node, p, n);
+
+  if (evicted_) {  // a page freed by an eviction fill this frame may be written now
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
+    evicted_ = false;
+  }
+  free_.resize(free_.size() - need);
+  node_pages_[node] = pages;
+  MDS_TRY(budget_.reserve(bytes, "node pages"));
+
+  // Stage particles (uint16 x, y, z, type), radii, meshlet records; one copy region per page.
+  std::byte* base = staging_.data();
+  const VkBuffer src = staging_buf_.get();
+  auto stage = [&](const void* data, uint64_t size) {
+    const uint64_t off = staging_head_;
+    std::memcpy(base + off, data, size);
+    staging_head_ += (size + 15) & ~uint64_t(15);
+    return off;
+  };
+  std::vector<uint16_t> part(4 * n);
+  for (uint64_t i = 0; i < n; ++i) {
+    part[4 * i + 0] = d.qpos[3 * i + 0];
+    part[4 * i + 1] = d.qpos[3 * i + 1];
+    part[4 * i + 2] = d.qpos[3 * i + 2];
+    part[4 * i + 3] = d.type_index[i];
+  }
+  const uint64_t part_off = stage(part.data(), part.size() * 2);
+  const uint64_t rad_off = layout_.radii ? stage(d.radius_q.data(), n * 2) : 0;
+  const uint64_t rec_off = stage(recs.data(), recs.size() * sizeof(gpu::GpuMeshlet));
+  for (uint32_t i = 0; i < need; ++i) {
+    const uint64_t first = uint64_t(i) * P, count = first < n ? std::min<uint64_t>(P, n - first) : 0;
+    if (count > 0) {
+      VkBufferCopy c{part_off + first * 8, uint64_t(pages[i]) * P * 8, count * 8};
+      vkCmdCopyBuffer(cmd, src, particles_.get(), 1, &c);
+      if (layout_.radii) {
+        VkBufferCopy r{rad_off + first * 2, uint64_t(pages[i]) * P * 2, count * 2};
+        vkCmdCopyBuffer(cmd, src, radii_.get(), 1, &r);
+      }
+    }
+    const uint64_t mfirst = uint64_t(i) * M, mcount = mfirst < m ? std::min<uint64_t>(M, m - mfirst) : 0;
+    if (mcount > 0) {
+      const uint64_t rs = sizeof(gpu::GpuMeshlet);
+      VkBufferCopy c{rec_off + mfirst * rs, uint64_t(pages[i]) * M * rs, mcount * rs};
+      vkCmdCopyBuffer(cmd, src, meshlets_.get(), 1, &c);
+      vkCmdFillBuffer(cmd, classes_.get(), uint64_t(pages[i]) * M * 4, mcount * 4, MDS_CULL_CLASS_P);
+    }
+  }
+  transfers_ = true;
+  return {};
+}
+
+void NodePool::end_frame(VkCommandBuffer cmd) {
+  if (!transfers_) return;
+  staging_buf_.flush();
+  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
+                         VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                     VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT |
+                         VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
+  transfers_ = false;
+}
+
+}  // namespace mds::render::streaming_gpu

@@ -1,0 +1,124 @@
+// The device pool of the streaming cache (issue 4): every byte of particle payload on the GPU lives
+// in fixed-size pages of ONE pool, sized once from --gpu-budget and accounted by one
+// streaming::DeviceBudget. A page holds kPageParticles particle slots (uint16 x, y, z, type; plus
+// a uint16 radius with per-particle radii) and page_meshlets meshlet slots (GpuMeshlet + class).
+// A resident node occupies pages_for(particles, meshlets) pages, not necessarily adjacent: its
+// particles fill the pages in order, so a meshlet may continue on the node's next page
+// (GpuMeshlet.split / second_particle), and the page count follows from the node directory alone
+// (NodeEntry counts), before the node is read: the cache can plan evictions exactly.
+// Pages are reused without compaction (no fragmentation: any free page fits any node's need).
+// Uploads and evictions are recorded into the frame's command buffer (vkCmdCopyBuffer from a
+// per-frame staging area, vkCmdFillBuffer to empty meshlet slots); a frame's staging area is reused
+// by the next frame only after the renderer waited for the previous one (one frame in flight).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include <glm/glm.hpp>
+#include <vulkan/vulkan.h>
+
+#include "core/result.h"
+#include "gpu_types.h"
+#include "store/format.h"
+#include "store/store_reader.h"
+#include "streaming/budget.h"
+#include "vk/context.h"
+#include "vk/memory.h"
+
+namespace mds::render::streaming_gpu {
+
+// 512 particle slots per page: 512 * 8 B = 4 KiB of positions+types (+1 KiB of radii); a node of
+// 10^4 particles spans 20 pages and wastes at most one partly filled page (< 5 % at 10^4).
+inline constexpr uint32_t kPageParticles = 512;
+
+struct PoolLayout {
+  uint32_t page_particles = kPageParticles;
+  uint32_t page_meshlets = 32;  // meshlet slots per page (from the store's mean meshlet size)
+  bool radii = false;           // per-particle radii stored
+
+  uint64_t particle_bytes() const { return uint64_t(page_particles) * (8 + (radii ? 2 : 0)); }
+  uint64_t meshlet_bytes() const { return uint64_t(page_meshlets) * (sizeof(gpu::GpuMeshlet) + 4); }
+  uint64_t page_bytes() const { return particle_bytes() + meshlet_bytes(); }
+  uint32_t pages_for(uint64_t particles, uint64_t meshlets) const;
+  uint64_t node_bytes(uint64_t particles, uint64_t meshlets) const { return pages_for(particles, meshlets) * page_bytes(); }
+};
+// page_meshlets = kPageParticles / mean meshlet size of the store, rounded up, +25 % (so that the
+// particle slots, not the meshlet slots, bound a typical node), at least 8.
+PoolLayout pool_layout_for(const store::FileHeader& header);
+
+// Scene-wide decoding parameters of meshlet bounds (as render::append_node computes them).
+struct PoolScene {
+  glm::dvec3 origin{0.0};
+  std::vector<float> type_radius;
+  bool per_particle_radius = false;
+  float radius_min = 0.0f, radius_max = 0.0f;
+};
+
+struct NodeFrame {  // a node's quantization frame (NodeEntry center_min / center_max)
+  double center_min[3] = {0, 0, 0};
+  double center_max[3] = {0, 0, 0};
+};
+
+class NodePool {
+ public:
+  // Pages = budget / page_bytes, further limited so that each pool buffer stays within
+  // maxStorageBufferRange and the particle slots within max_particle_slots (the renderer's
+  // per-particle scratch, one GpuSprite per slot, must fit too). staging_bytes: per-frame upload
+  // area (also bounds a frame's uploads).
+  static Result<std::unique_ptr<NodePool>> create(vk::Context& ctx, const PoolLayout& layout, PoolScene scene,
+                                                  uint32_t node_count, uint64_t budget_bytes, uint64_t staging_bytes,
+                                                  uint64_t max_particle_slots);
+  ~NodePool();
+  NodePool(const NodePool&) = delete;
+  NodePool& operator=(const NodePool&) = delete;
+
+  const PoolLayout& layout() const { return layout_; }
+  uint32_t page_count() const { return pages_; }
+  uint32_t free_pages() const { return uint32_t(free_.size()); }
+  uint32_t meshlet_slots() const { return pages_ * layout_.page_meshlets; }
+  uint64_t particle_slots() const { return uint64_t(pages_) * layout_.page_particles; }
+  const mds::streaming::DeviceBudget& budget() const { return budget_; }
+  bool resident(uint32_t node) const { return !node_pages_[node].empty(); }
+  uint64_t staging_free() const { return staging_.size() - staging_head_; }
+
+  VkBuffer particles() const { return particles_.get(); }
+  VkBuffer radii() const { return radii_.get(); }
+  VkBuffer meshlets() const { return meshlets_.get(); }
+  VkBuffer meshlet_class() const { return classes_.get(); }
+
+  // Starts a frame's transfers (resets the staging area). Precondition: the previous frame's
+  // command buffer has completed.
+  void begin_frame();
+  // Frees node's pages and empties its meshlet slots (particle_count = 0).
+  Status evict(VkCommandBuffer cmd, uint32_t node);
+  // Staging bytes an upload of `data` takes.
+  uint64_t upload_bytes(const store::NodeData& data) const;
+  // Places a decoded node: takes pages_for(n, m) free pages, converts it into GPU records in the
+  // staging area (meshlet bounds from the decoded positions), records the copies and resets its
+  // meshlet slots' classes to P. Errc::budget when pages or staging space are short (nothing
+  // changes then); Errc::format when the node's data is inconsistent.
+  Status upload(VkCommandBuffer cmd, uint32_t node, const NodeFrame& frame, const store::NodeData& data);
+  // Makes this frame's transfers visible to the shaders (after the last upload/evict).
+  void end_frame(VkCommandBuffer cmd);
+
+ private:
+  NodePool() = default;
+
+  vk::Context* ctx_ = nullptr;
+  PoolLayout layout_;
+  PoolScene scene_;
+  uint32_t pages_ = 0;
+  std::vector<uint32_t> free_;                      // free page indices (stack)
+  std::vector<std::vector<uint32_t>> node_pages_;   // pages of each resident node
+  mds::streaming::DeviceBudget budget_{0};
+  vk::Buffer particles_, radii_, meshlets_, classes_, staging_buf_;
+  std::span<std::byte> staging_;
+  uint64_t staging_head_ = 0;
+  bool transfers_ = false;  // transfers recorded since begin_frame
+  bool evicted_ = false;    // fills recorded that a later copy may overwrite
+};
+
+}  // namespace mds::render::streaming_gpu

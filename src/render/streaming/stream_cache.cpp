@@ -1,0 +1,298 @@
+// The occlusion-class-driven GPU cache; see stream_cache.h.
+#include "render/streaming/stream_cache.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "culling/culling_constants.h"
+
+namespace mds::render::streaming_gpu {
+
+using mds::streaming::Residency;
+
+Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const store::StoreReader& reader,
+                                                         const StreamSettings& settings, const glm::dvec3& origin,
+                                                         uint64_t max_particle_slots) {
+  std::unique_ptr<StreamCache> c(new StreamCache());
+  c->reader_ = &reader;
+  c->settings_ = settings;
+  const store::FileHeader& h = reader.header();
+  const auto nodes = reader.nodes();
+  if (nodes.empty()) return make_error(Errc::invalid_argument, "{}: the store has no nodes", reader.path().string());
+  const PoolLayout layout = pool_layout_for(h);
+
+  // Directory, sizes, voxel lists.
+  c->directory_.resize(nodes.size());
+  c->frames_.resize(nodes.size());
+  c->node_bytes_.resize(nodes.size());
+  c->node_meshlets_.resize(nodes.size());
+  c->voxel_first_.assign(1, 0);
+  uint64_t largest = 0, store_bytes = 0;
+  uint32_t largest_node = 0;
+  for (uint32_t i = 0; i < nodes.size(); ++i) {
+    const store::NodeEntry& e = nodes[i];
+    gpu::GpuNode& g = c->directory_[i];
+    glm::dvec3 cmin(e.center_min[0], e.center_min[1], e.center_min[2]);
+    glm::dvec3 cmax(e.center_max[0], e.center_max[1], e.center_max[2]);
+    g.origin = glm::vec3(cmin - origin);
+    g.step = glm::vec3((cmax - cmin) / double(store::kQuantMax));
+    g.particle_count = e.particle_count;
+    g.max_radius = e.max_radius;
+    g.aabb_min = glm::vec3(cmin - origin - double(e.max_radius));
+    g.aabb_max = glm::vec3(cmax - origin + double(e.max_radius));
+    for (int a = 0; a < 3; ++a) {
+      c->frames_[i].center_min[a] = e.center_min[a];
+      c->frames_[i].center_max[a] = e.center_max[a];
+    }
+    c->node_bytes_[i] = layout.node_bytes(e.particle_count, e.meshlet_count);
+    c->node_meshlets_[i] = e.meshlet_count;
+    if (c->node_bytes_[i] > largest) largest = c->node_bytes_[i], largest_node = i;
+    store_bytes += e.payload_bytes;
+    for (const store::VoxelRef& v : reader.voxels(i)) c->voxel_refs_.push_back({v.voxel, v.count});
+    c->voxel_first_.push_back(uint32_t(c->voxel_refs_.size()));
+  }
+  c->max_meshlet_ = std::max<uint32_t>(1, std::min<uint32_t>(h.meshlet_size_max, store::kMaxMeshletParticles));
+  if (settings.gpu_budget < largest)
+    return make_error(Errc::budget,
+                      "--gpu-budget {} cannot hold even one node: node {} of {} needs {} ({} particles, {} meshlets "
+                      "in {}-byte pages); use at least {}",
+                      format_bytes(settings.gpu_budget), largest_node, reader.path().string(), format_bytes(largest),
+                      nodes[largest_node].particle_count, nodes[largest_node].meshlet_count, layout.page_bytes(),
+                      format_bytes(largest));
+
+  PoolScene ps;
+  ps.origin = origin;
+  for (const auto& t : reader.types()) ps.type_radius.push_back(t.radius);
+  ps.per_particle_radius = layout.radii;
+  ps.radius_min = h.radius_min;
+  ps.radius_max = h.radius_max;
+  const uint64_t staging = std::max<uint64_t>(settings.upload_bytes_per_frame, 2 * largest);
+  MDS_ASSIGN_OR_RETURN(c->pool_, NodePool::create(ctx, layout, std::move(ps), uint32_t(nodes.size()),
+                                                  settings.gpu_budget, staging, max_particle_slots));
+  if (c->pool_->budget().pool_bytes() < largest)
+    return make_error(Errc::budget, "the device's maxStorageBufferRange ({}) limits the pool to {}, less than node {} ({})",
+                      format_bytes(ctx.limits().maxStorageBufferRange), format_bytes(c->pool_->budget().pool_bytes()),
+                      largest_node, format_bytes(largest));
+  c->table_ = std::make_unique<mds::streaming::ResidencyTable>(c->node_bytes_, settings.policy);
+  MDS_ASSIGN_OR_RETURN(c->io_, mds::streaming::IoPool::create(reader, settings.io));
+
+  CacheStats& s = c->stats_;
+  s.enabled = true;
+  s.gpu_budget_bytes = settings.gpu_budget;
+  s.pool_bytes = c->pool_->budget().pool_bytes();
+  s.store_payload_bytes = store_bytes;
+  s.nodes = nodes.size();
+  return c;
+}
+
+StreamCache::~StreamCache() = default;
+
+void StreamCache::set_view(const Camera& camera, double aspect) {
+  // Node boxes are relative to the scene origin: build the matrices relative to it too.
+  const glm::dvec3 origin = glm::dvec3(reader_->header().bounds_min[0], reader_->header().bounds_min[1],
+                                       reader_->header().bounds_min[2]);
+  const glm::dmat4 view = view_matrix(camera, origin);
+  const glm::dmat4 clip_from_world = projection_matrix(camera, aspect) * view;
+  const glm::dvec3 eye = camera.eye - origin;
+  const double tan_half = std::tan(glm::radians(camera.fov_y_deg) * 0.5);
+  table_->reset_classes();
+  for (uint32_t i = 0; i < directory_.size(); ++i) {
+    const glm::dvec3 lo(directory_[i].aabb_min), hi(directory_[i].aabb_max);
+    // Conservative frustum test: out when all 8 corners are outside one clip plane.
+    int out[6] = {0, 0, 0, 0, 0, 0};
+    for (int k = 0; k < 8; ++k) {
+      const glm::dvec4 p = clip_from_world * glm::dvec4(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z, 1.0);
+      out[0] += p.x < -p.w;
+      out[1] += p.x > p.w;
+      out[2] += p.y < -p.w;
+      out[3] += p.y > p.w;
+      out[4] += p.z < 0.0;
+      out[5] += p.z > p.w;
+    }
+    const bool in = std::none_of(out, out + 6, [](int n) { return n == 8; });
+    const glm::dvec3 nearest = glm::clamp(eye, lo, hi);
+    const double dist = glm::length(nearest - eye);
+    const double size = 0.5 * glm::length(hi - lo);
+    const double projected = camera.ortho ? size : size / std::max(dist * tan_half, 1e-12);
+    table_->set_view(i, float(dist), float(projected), in);
+    if (!in) table_->set_class(i, MDS_CULL_CLASS_O);
+  }
+  exhausted_ = false;
+}
+
+void StreamCache::set_classes(std::span<const uint32_t> classes) {
+  const size_t n = std::min(classes.size(), directory_.size());
+  for (uint32_t i = 0; i < n; ++i) {
+    if (!table_->node(i).in_frustum) continue;  // stays O
+    table_->set_class(i, uint8_t(std::min<uint32_t>(classes[i], MDS_CULL_CLASS_O)));
+  }
+}
+
+bool StreamCache::demanded(uint32_t i) const {
+  const auto& n = table_->node(i);
+  return n.in_frustum && n.cls != MDS_CULL_CLASS_O && !n.failed;
+}
+
+Status StreamCache::evict_for(VkCommandBuffer cmd, uint32_t incoming, uint64_t frame, bool& stalled) {
+  const uint64_t free = pool_->budget().free_bytes();
+  auto victims = table_->choose_victims(node_bytes_[incoming], free, frame, incoming);
+  if (!victims.ok()) {
+    stalled = true;
+    return {};
+  }
+  for (uint32_t v : victims.value()) {
+    const uint8_t cls = table_->node(v).cls;
+    MDS_TRY(pool_->evict(cmd, v));
+    MDS_TRY(table_->mark_evicted(v));
+    live_meshlets_ -= node_meshlets_[v];
+    ++stats_.evictions[std::min<uint8_t>(cls, 3)];
+  }
+  stalled = false;
+  return {};
+}
+
+Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
+  CacheFrame out;
+  const uint32_t n_nodes = uint32_t(directory_.size());
+  exhausted_ = false;  // recomputed every frame: the pool cannot hold what this frame wants
+
+  // Finished reads.
+  while (auto done = io_->try_pop()) {
+    const uint32_t i = done->node;
+    stats_.bytes_read += done->compressed_bytes;
+    if (!done->status.ok()) {
+      stats_.errors.push_back(done->status.error().message);
+      ++stats_.nodes_failed;
+      MDS_TRY(table_->mark_failed(i));
+      std::erase(requested_, i);
+      continue;
+    }
+    ready_.emplace(i, std::move(*done));
+  }
+
+  // Demand of this frame: hits, misses, use.
+  for (uint32_t i = 0; i < n_nodes; ++i) {
+    if (!demanded(i)) continue;
+    if (settings_.record_trace) out.wanted.push_back(i);
+    if (table_->node(i).residency == Residency::resident) {
+      ++out.hits;
+      table_->touch(i, frame);
+    } else {
+      ++out.misses;
+    }
+  }
+  // Class-blind policies keep every resident node in the frustum in use.
+  if (table_->policy() != mds::streaming::Policy::occlusion)
+    for (uint32_t i = 0; i < n_nodes; ++i)
+      if (table_->node(i).residency == Residency::resident && table_->wanted(i)) table_->touch(i, frame);
+  stats_.cache_hits += out.hits;
+  stats_.cache_misses += out.misses;
+
+  // Place finished reads, front first, within the frame's upload budget.
+  pool_->begin_frame();
+  std::vector<uint32_t> order;
+  for (const auto& [i, c] : ready_) order.push_back(i);
+  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+    return std::make_pair(table_->node(a).distance, a) < std::make_pair(table_->node(b).distance, b);
+  });
+  for (uint32_t i : order) {
+    auto it = ready_.find(i);
+    if (!table_->wanted(i)) {  // became O (or left the frustum) while it was read: drop
+      MDS_TRY(table_->mark_cancelled(i));
+      std::erase(requested_, i);
+      ready_.erase(it);
+      continue;
+    }
+    const uint64_t staged = pool_->upload_bytes(it->second.data);
+    if (out.bytes_uploaded > 0 && out.bytes_uploaded + staged > settings_.upload_bytes_per_frame) break;
+    if (staged > pool_->staging_free()) break;
+    bool stalled = false;
+    MDS_TRY(evict_for(cmd, i, frame, stalled));
+    if (stalled) {  // the pool is full of nodes this frame draws: give the read up
+      out.upload_stall = true;
+      exhausted_ = true;
+      MDS_TRY(table_->mark_cancelled(i));
+      std::erase(requested_, i);
+      ready_.erase(it);
+      continue;
+    }
+    Status st = pool_->upload(cmd, i, frames_[i], it->second.data);
+    if (!st.ok()) {
+      if (st.error().code == Errc::budget) break;  // staging full: next frame
+      stats_.errors.push_back(reader_->path().string() + ": " + st.error().message);
+      ++stats_.nodes_failed;
+      MDS_TRY(table_->mark_failed(i));
+    } else {
+      MDS_TRY(table_->mark_loaded(i));
+      table_->touch(i, frame);
+      live_meshlets_ += node_meshlets_[i];
+      ++out.nodes_uploaded;
+      out.bytes_uploaded += staged;
+    }
+    std::erase(requested_, i);
+    ready_.erase(it);
+  }
+  pool_->end_frame(cmd);
+  if (out.upload_stall) ++stats_.upload_stalls;
+  stats_.nodes_loaded += out.nodes_uploaded;
+  stats_.bytes_uploaded += out.bytes_uploaded;
+
+  // Cancel queued reads of nodes no longer wanted.
+  for (size_t k = 0; k < requested_.size();) {
+    const uint32_t i = requested_[k];
+    if (!table_->wanted(i) && !ready_.count(i) && io_->cancel(i)) {
+      MDS_TRY(table_->mark_cancelled(i));
+      requested_.erase(requested_.begin() + std::ptrdiff_t(k));
+    } else {
+      ++k;
+    }
+  }
+  // Prefetch in the policy's order, a window at a time.
+  bool pending = false;
+  const size_t window = std::max<uint32_t>(1, settings_.max_outstanding);
+  if (requested_.size() < window) {
+    const auto order_next = table_->prefetch_order();
+    uint64_t planned = 0;
+    double rank = 0.0;  // this frame's order (a re-submitted queued node gets its new rank)
+    for (uint32_t i : order_next) {
+      // Room: free pages plus what this node may displace (never a node fetched before it).
+      const uint64_t room = pool_->budget().free_bytes() + table_->evictable_bytes(frame, i);
+      if (planned + node_bytes_[i] > room) {
+        exhausted_ = true;
+        break;
+      }
+      if (requested_.size() >= window) {
+        pending = true;
+        break;
+      }
+      if (!io_->submit(i, rank)) continue;
+      rank += 1.0;
+      planned += node_bytes_[i];
+      MDS_TRY(table_->mark_requested(i));
+      requested_.push_back(i);
+    }
+  } else {
+    pending = true;
+  }
+  stats_.budget_exhausted = exhausted_;
+  out.complete = requested_.empty() && ready_.empty() && !pending;
+  if (out.complete && !exhausted_) {
+    // Every demanded node must be resident now (or failed).
+    for (uint32_t i = 0; i < n_nodes && out.complete; ++i)
+      if (table_->wanted(i) && table_->node(i).residency != Residency::resident) out.complete = false;
+  }
+  return out;
+}
+
+CacheStats StreamCache::stats() const {
+  CacheStats s = stats_;
+  s.gpu_peak_bytes = pool_->budget().peak_bytes();
+  s.resident_bytes = pool_->budget().used_bytes();
+  s.nodes_resident = table_->resident_count();
+  s.nodes_never_loaded = table_->never_loaded_count();
+  s.in_flight = requested_.size() - ready_.size();
+  return s;
+}
+
+}  // namespace mds::render::streaming_gpu

@@ -1,0 +1,103 @@
+// The GPU cache of out-of-core rendering (issue 4), driven by occlusion class: Ibrahim et al. §8
+// (future work: data larger than GPU memory, a GPU-resident cache following the occlusion
+// classes) and Grottel et al. §3.1/§3.3 (the previous view's visible data are the first
+// occluders; a fixed upload budget per frame; front-to-back loading).
+// Per frame (StreamCache::update, on the render thread, recorded into the frame's command buffer):
+//   1. node classes of the last culling iteration (every node of the store, resident or not:
+//      the node directory stays on the GPU) -> streaming::ResidencyTable;
+//   2. demand: the nodes the frame needs (in the frustum, not O) -> cache hits / misses, trace;
+//   3. finished reads (streaming::IoPool: pread + XXH3 check + lz4 decode on background threads)
+//      are placed into the paged pool (NodePool), evicting by the policy's order (occlusion: O,
+//      then M, then L/P by least recent use and distance; never a node drawn this frame), at
+//      most upload_bytes_per_frame per frame; a read that is no longer wanted is dropped;
+//   4. prefetch: requests in the policy's order (occlusion: P, then L, then M, front to back),
+//      at most max_outstanding reads at a time, so that the culling loop classifies what lies
+//      behind the first arrivals before it is read: a node classified O before it was ever loaded
+//      is never read. Queued reads of nodes that became unwanted are cancelled.
+// The render loop never waits on disk: update() only polls.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <glm/glm.hpp>
+#include <vulkan/vulkan.h>
+
+#include "core/result.h"
+#include "render/camera.h"
+#include "render/renderer.h"
+#include "render/streaming/node_pool.h"
+#include "store/store_reader.h"
+#include "streaming/io_pool.h"
+#include "streaming/residency.h"
+#include "vk/context.h"
+
+namespace mds::render::streaming_gpu {
+
+struct CacheFrame {
+  uint32_t nodes_uploaded = 0;
+  uint64_t bytes_uploaded = 0;
+  uint32_t hits = 0, misses = 0;
+  bool upload_stall = false;
+  bool complete = false;       // every wanted node resident (or failed / beyond the budget), nothing in flight
+  std::vector<uint32_t> wanted;  // demand of this frame (StreamSettings::record_trace)
+};
+
+class StreamCache {
+ public:
+  // `reader` must outlive the cache. Errc::budget when the budget cannot hold the largest node.
+  static Result<std::unique_ptr<StreamCache>> create(vk::Context& ctx, const store::StoreReader& reader,
+                                                     const StreamSettings& settings, const glm::dvec3& origin,
+                                                     uint64_t max_particle_slots);
+  ~StreamCache();
+  StreamCache(const StreamCache&) = delete;
+  StreamCache& operator=(const StreamCache&) = delete;
+
+  NodePool& pool() { return *pool_; }
+  // The node directory (GpuNode per store node: frame, bounds, counts), uploaded once by the renderer.
+  const std::vector<gpu::GpuNode>& directory() const { return directory_; }
+  // Per-node voxel lists of the density updates (CSR over nodes, CullScene::node_density).
+  const std::vector<uint32_t>& voxel_first() const { return voxel_first_; }
+  const std::vector<glm::uvec2>& voxel_refs() const { return voxel_refs_; }
+  uint32_t max_meshlet_particles() const { return max_meshlet_; }
+  uint64_t live_meshlets() const { return live_meshlets_; }
+  std::vector<uint64_t> node_device_bytes() const { return node_bytes_; }
+
+  // New view: frustum, distances and projected sizes of every node; classes back to P (outside
+  // the frustum: O); the cache itself stays.
+  void set_view(const Camera& camera, double aspect);
+  // Node classes of the last culling iteration (MDS_CULL_CLASS_*, one per node).
+  void set_classes(std::span<const uint32_t> classes);
+  // One frame (see the file comment); transfers are recorded into cmd.
+  Result<CacheFrame> update(VkCommandBuffer cmd, uint64_t frame);
+  CacheStats stats() const;
+
+ private:
+  StreamCache() = default;
+  bool demanded(uint32_t node) const;
+  Status evict_for(VkCommandBuffer cmd, uint32_t incoming, uint64_t frame, bool& stalled);
+
+  const store::StoreReader* reader_ = nullptr;
+  StreamSettings settings_;
+  std::unique_ptr<NodePool> pool_;
+  std::unique_ptr<mds::streaming::IoPool> io_;
+  std::unique_ptr<mds::streaming::ResidencyTable> table_;
+  std::vector<gpu::GpuNode> directory_;
+  std::vector<NodeFrame> frames_;
+  std::vector<uint64_t> node_bytes_;
+  std::vector<uint32_t> voxel_first_;
+  std::vector<glm::uvec2> voxel_refs_;
+  uint32_t max_meshlet_ = 0;
+  uint64_t live_meshlets_ = 0;  // meshlets of resident nodes
+  std::vector<uint32_t> node_meshlets_;
+  std::unordered_map<uint32_t, mds::streaming::IoCompletion> ready_;  // read, not yet placed
+  std::vector<uint32_t> requested_;                                   // queued, in flight or ready
+  CacheStats stats_;
+  bool exhausted_ = false;  // the last frame wanted more than the pool can hold
+};
+
+}  // namespace mds::render::streaming_gpu

@@ -1,0 +1,275 @@
+// Out-of-core rendering through the GPU cache (issue 4) on real components: a real store
+// (synth -> convert with the CLI), real files read by background threads with checksums and lz4,
+// real Vulkan (lavapipe here). The streamed image must equal the in-memory render; the pool never
+// exceeds the budget; a dense view leaves nodes unread; a corrupted node is skipped with a
+// message; a budget below one node is a clear error.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "culling/culling_constants.h"
+#include "render/camera.h"
+#include "render/renderer.h"
+#include "render/scene.h"
+#include "render/streaming/node_pool.h"
+#include "store/store_reader.h"
+#include "vk/context.h"
+
+namespace fs = std::filesystem;
+using namespace mds;
+using namespace mds::render;
+
+namespace {
+
+constexpr uint32_t kW = 160, kH = 120;
+
+int run(const std::string& args) {
+  const std::string cmd = std::string(MDSTREAM_BIN) + " " + args + " >/dev/null 2>&1";
+  const int r = std::system(cmd.c_str());
+  return WIFEXITED(r) ? WEXITSTATUS(r) : -1;
+}
+
+struct Image {
+  FrameImage img;
+  RenderStats stats;
+};
+
+// Pixels whose colour differs by more than 0.1 in some channel: the renderer's own tolerance for
+// culled vs. unculled renders (test_cull_render.cpp: at most 1 % of the pixels).
+size_t differing(const FrameImage& a, const FrameImage& b) {
+  size_t n = 0;
+  for (uint32_t y = 0; y < a.height; ++y)
+    for (uint32_t x = 0; x < a.width; ++x) {
+      const glm::vec4 p = a.at(x, y), q = b.at(x, y);
+      if (std::max({std::abs(p.r - q.r), std::abs(p.g - q.g), std::abs(p.b - q.b)}) > 0.1f) ++n;
+    }
+  return n;
+}
+
+class StreamingRender : public ::testing::Test {
+ protected:
+  // A dense porous block of 400k particles in nodes of <= 1000 (about 580 nodes), so that a
+  // close-up view needs a small part of the store.
+  static void SetUpTestSuite() {
+    dir_ = fs::temp_directory_path() / ("mds_streaming_render_" + std::to_string(::getpid()));
+    fs::create_directories(dir_);
+    ASSERT_EQ(run("synth --scene porous --particles 400000 -q -o " + (dir_ / "p.dump").string()), 0);
+    ASSERT_EQ(run("convert " + (dir_ / "p.dump").string() + " --node-size 1000 -o " + store_path()), 0);
+    auto c = vk::Context::create(vk::ContextOptions::from_env());
+    ASSERT_TRUE(c.ok()) << c.error().message;
+    ctx_ = std::move(c.value());
+  }
+  static void TearDownTestSuite() {
+    ctx_.reset();
+    fs::remove_all(dir_);
+  }
+  static std::string store_path() { return (dir_ / "p.mds").string(); }
+
+  static RenderSettings settings(bool cull) {
+    RenderSettings rs;
+    rs.width = kW;
+    rs.height = kH;
+    rs.spp = 4;
+    rs.cull = cull;
+    return rs;
+  }
+  static Camera view(const store::StoreReader& reader, int index) {
+    auto scene = load_directory_bounds(reader);
+    auto cam = default_view(index, scene, 40.0, double(kW) / kH);
+    EXPECT_TRUE(cam.ok());
+    return cam.value();
+  }
+  static Bounds load_directory_bounds(const store::StoreReader& reader) {
+    const auto& h = reader.header();
+    Bounds b;
+    b.min = {h.bounds_min[0], h.bounds_min[1], h.bounds_min[2]};
+    b.max = {h.bounds_max[0], h.bounds_max[1], h.bounds_max[2]};
+    for (const auto& t : reader.types()) b.radius_max = std::max(b.radius_max, double(t.radius));
+    return b;
+  }
+  static Image in_memory(const store::StoreReader& reader, bool cull, int view_index) {
+    Image out;
+    auto scene = load_scene(reader);
+    EXPECT_TRUE(scene.ok());
+    auto r = Renderer::create(*ctx_, scene.value(), settings(cull));
+    EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
+    auto img = r.value()->render(view(reader, view_index), &out.stats);
+    EXPECT_TRUE(img.ok()) << (img.ok() ? "" : img.error().message);
+    out.img = std::move(img.value());
+    return out;
+  }
+  static Result<Image> streamed(const store::StoreReader& reader, bool cull, int view_index, uint64_t budget) {
+    StreamSettings ss;
+    ss.gpu_budget = budget;
+    MDS_ASSIGN_OR_RETURN(auto r, Renderer::create_streaming(*ctx_, reader, settings(cull), ss));
+    Image out;
+    MDS_ASSIGN_OR_RETURN(out.img, r->render(view(reader, view_index), &out.stats));
+    return out;
+  }
+  static uint64_t file_size() { return fs::file_size(store_path()); }
+
+  static fs::path dir_;
+  static std::unique_ptr<vk::Context> ctx_;
+};
+fs::path StreamingRender::dir_;
+std::unique_ptr<vk::Context> StreamingRender::ctx_;
+
+}  // namespace
+
+TEST_F(StreamingRender, EighthOfTheStoreMatchesInMemoryOnADenseView) {
+  auto reader = store::StoreReader::open(store_path());
+  ASSERT_TRUE(reader.ok()) << reader.error().message;
+  const uint64_t budget = file_size() / 8;
+  auto s = streamed(*reader.value(), true, 2, budget);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  const CacheStats& c = s.value().stats.cache;
+  ASSERT_TRUE(c.enabled);
+  EXPECT_EQ(c.gpu_budget_bytes, budget);
+  EXPECT_LE(c.pool_bytes, budget);
+  EXPECT_LE(c.gpu_peak_bytes, c.gpu_budget_bytes);
+  EXPECT_FALSE(c.budget_exhausted) << "the close-up view must fit 1/8 of the store";
+  // Dense view: most nodes are never read, far fewer bytes than the store.
+  EXPECT_GT(c.nodes_never_loaded, c.nodes / 2) << c.nodes_never_loaded << " of " << c.nodes;
+  EXPECT_LT(c.bytes_read, c.store_payload_bytes / 4) << c.bytes_read << " of " << c.store_payload_bytes;
+  EXPECT_GT(c.nodes_loaded, 0u);
+  EXPECT_TRUE(s.value().stats.cull.converged);
+
+  Image mem = in_memory(*reader.value(), true, 2);
+  const size_t diff = differing(mem.img, s.value().img);
+  EXPECT_LE(diff, size_t(kW * kH / 100)) << diff << " pixels differ";
+  // And the unculled in-memory reference (what the culling's own test bounds too).
+  Image ref = in_memory(*reader.value(), false, 2);
+  EXPECT_LE(differing(ref.img, s.value().img), size_t(kW * kH / 100));
+}
+
+TEST_F(StreamingRender, WithoutCullingAnAmpleBudgetIsPixelIdentical) {
+  auto reader = store::StoreReader::open(store_path());
+  ASSERT_TRUE(reader.ok());
+  auto s = streamed(*reader.value(), false, 0, 64ull << 20);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  Image mem = in_memory(*reader.value(), false, 0);
+  ASSERT_EQ(mem.img.rgba.size(), s.value().img.rgba.size());
+  EXPECT_TRUE(mem.img.rgba == s.value().img.rgba) << differing(mem.img, s.value().img) << " pixels differ";
+  const CacheStats& c = s.value().stats.cache;
+  EXPECT_LE(c.gpu_peak_bytes, c.gpu_budget_bytes);
+  EXPECT_EQ(c.nodes_never_loaded, 0u);  // the whole block is in view and nothing is culled
+}
+
+TEST_F(StreamingRender, CameraChangeEvictsTheOldViewFirstAndConvergesAgain) {
+  // Close-ups of two opposite corners with a pool of 1/8 of the store: the second view's nodes
+  // replace the first view's (classes restart at P with the view, and the nearer nodes of the new
+  // view displace the farther old ones), the pool never exceeds the budget, and the second view
+  // converges, with every node it needs resident, to the in-memory image.
+  auto reader = store::StoreReader::open(store_path());
+  ASSERT_TRUE(reader.ok());
+  const uint64_t budget = file_size() / 8;
+  StreamSettings ss;
+  ss.gpu_budget = budget;
+  auto r = Renderer::create_streaming(*ctx_, *reader.value(), settings(true), ss);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const Camera a = view(*reader.value(), 2);
+  Camera b = a;  // the mirror image of view 2 through the centre: the opposite corner
+  const glm::dvec3 c0 = load_directory_bounds(*reader.value()).center();
+  b.eye = 2.0 * c0 - a.eye;
+  b.target = 2.0 * c0 - a.target;
+  for (const Camera& cam : {a, b}) {
+    ASSERT_TRUE(r.value()->set_view(cam).ok());
+    bool converged = false;
+    uint32_t misses = 0;
+    for (int f = 0; f < 400 && !converged; ++f) {
+      auto rep = r.value()->step();
+      ASSERT_TRUE(rep.ok()) << rep.error().message;
+      converged = rep.value().converged && rep.value().samples >= 4;
+      misses = rep.value().frame_misses;
+      EXPECT_LE(r.value()->stats().cache.resident_bytes, budget);
+    }
+    EXPECT_TRUE(converged);
+    EXPECT_EQ(misses, 0u) << "a needed node is not resident after convergence";
+  }
+  const CacheStats c = r.value()->stats().cache;
+  EXPECT_GT(c.evictions[0] + c.evictions[1] + c.evictions[2] + c.evictions[3], 0u);
+  EXPECT_LE(c.gpu_peak_bytes, c.gpu_budget_bytes);
+  EXPECT_GT(c.cache_hits, 0u);
+  EXPECT_GT(c.cache_misses, 0u);
+  EXPECT_FALSE(c.budget_exhausted);
+
+  auto img = r.value()->read_image();
+  ASSERT_TRUE(img.ok());
+  auto scene = load_scene(*reader.value());
+  ASSERT_TRUE(scene.ok());
+  auto mem = Renderer::create(*ctx_, scene.value(), settings(true));
+  ASSERT_TRUE(mem.ok());
+  auto ref = mem.value()->render(b);
+  ASSERT_TRUE(ref.ok());
+  EXPECT_LE(differing(ref.value(), img.value()), size_t(kW * kH / 100));
+}
+
+TEST_F(StreamingRender, CorruptedNodeIsSkippedWithAMessage) {
+  const fs::path bad = dir_ / "bad.mds";
+  fs::copy_file(store_path(), bad, fs::copy_options::overwrite_existing);
+  uint32_t node = 0;
+  uint64_t offset = 0;
+  {
+    auto reader = store::StoreReader::open(bad);
+    ASSERT_TRUE(reader.ok());
+    node = uint32_t(reader.value()->nodes().size() / 2);
+    offset = reader.value()->nodes()[node].payload_offset + 5;
+  }
+  {
+    std::fstream f(bad, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekg(std::streamoff(offset));
+    char b = 0;
+    f.read(&b, 1);
+    b = char(b ^ 0x40);
+    f.seekp(std::streamoff(offset));
+    f.write(&b, 1);
+  }
+  auto reader = store::StoreReader::open(bad);
+  ASSERT_TRUE(reader.ok()) << reader.error().message;
+  StreamSettings ss;
+  ss.gpu_budget = 64ull << 20;
+  auto r = Renderer::create_streaming(*ctx_, *reader.value(), settings(false), ss);
+  ASSERT_TRUE(r.ok());
+  RenderStats st;
+  auto img = r.value()->render(view(*reader.value(), 0), &st);  // every node is in view: all are read
+  ASSERT_TRUE(img.ok()) << img.error().message;
+  ASSERT_EQ(st.cache.nodes_failed, 1u);
+  ASSERT_EQ(st.cache.errors.size(), 1u);
+  const std::string& msg = st.cache.errors[0];
+  EXPECT_NE(msg.find(bad.filename().string()), std::string::npos) << msg;
+  EXPECT_NE(msg.find("node " + std::to_string(node)), std::string::npos) << msg;
+  EXPECT_EQ(st.cache.nodes_loaded, st.cache.nodes - 1);
+}
+
+TEST_F(StreamingRender, BudgetBelowOneNodeIsAClearError) {
+  auto reader = store::StoreReader::open(store_path());
+  ASSERT_TRUE(reader.ok());
+  StreamSettings ss;
+  ss.gpu_budget = 4096;
+  auto r = Renderer::create_streaming(*ctx_, *reader.value(), settings(true), ss);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, Errc::budget);
+  EXPECT_NE(r.error().message.find("cannot hold even one node"), std::string::npos) << r.error().message;
+  EXPECT_NE(r.error().message.find("--gpu-budget"), std::string::npos) << r.error().message;
+}
+
+TEST(StreamingPool, PageCountFollowsFromTheDirectory) {
+  streaming_gpu::PoolLayout l;
+  l.page_particles = 512;
+  l.page_meshlets = 40;
+  EXPECT_EQ(l.pages_for(1, 1), 1u);
+  EXPECT_EQ(l.pages_for(512, 32), 1u);
+  EXPECT_EQ(l.pages_for(513, 32), 2u);
+  EXPECT_EQ(l.pages_for(100, 41), 2u);  // meshlet slots bound
+  EXPECT_EQ(l.pages_for(10000, 625), 20u);
+  EXPECT_EQ(l.node_bytes(10000, 625), 20u * l.page_bytes());
+  EXPECT_EQ(l.page_bytes(), 512u * 8 + 40u * (48 + 4));
+  l.radii = true;
+  EXPECT_EQ(l.page_bytes(), 512u * 10 + 40u * (48 + 4));
+}
