@@ -1,0 +1,448 @@
+// `mdstream stress STORE --gpu-budget B --path orbit|flythrough|jumps|FILE [options]`: the
+// cache-behaviour stress tests of issue 4. Replays a camera path (render/camera_path.h) through
+// the streaming renderer (Renderer::create_streaming, one set_view() + step() per frame), holds
+// the final camera until the view has converged (--settle-frames), and reports the online cache
+// (hit rate, bytes read/uploaded, evictions by occlusion class, upload stalls, nodes never
+// loaded), frame wall-time quantiles, convergence per held view, and, from the request trace
+// (FrameReport::wanted), the offline Belady/MIN hit rate for the same budget as the bound
+// (Belady 1966; streaming/belady.h), next to LRU and FIFO simulated on the same trace.
+// Report logic: cli/stress_report.h. Output: a table on stdout, --json and --csv files.
+#include <chrono>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "cli/command.h"
+#include "cli/stress_report.h"
+#include "core/byte_size.h"
+#include "render/camera.h"
+#include "render/camera_path.h"
+#include "render/renderer.h"
+#include "store/store_reader.h"
+#include "streaming/belady.h"
+#include "streaming/residency.h"
+#include "vk/context.h"
+
+namespace mds::cli {
+namespace {
+
+struct StressOptions {
+  std::string store;
+  std::string gpu_budget;
+  std::string path;
+  uint32_t frames = 0;  // 0: 240 for built-in paths, the file's frame count for a file
+  uint32_t settle_frames = 200;
+  uint32_t converged_frames = 8;
+  std::string policy = "occlusion";
+  double io_latency_ms = 0.0;
+  std::string io_bandwidth;  // empty: unlimited
+  unsigned io_threads = 2;
+  std::string upload_budget = "32MiB";
+  uint32_t width = 640, height = 360;
+  double fov = 40.0;
+  std::string csv, json;
+  bool no_cull = false;
+  double cocc = MDS_CULL_C_OCC_DEFAULT;
+  uint32_t seed = 1;
+  uint32_t samples_per_iteration = render::culling::kDefaultSamplesPerIteration;
+  uint32_t converge_iterations = render::culling::kDefaultConvergeIterations;
+  uint32_t max_iterations = render::culling::kDefaultMaxIterations;
+  int device = -1;
+  bool quiet = false;
+};
+
+Status write_text_atomically(const std::filesystem::path& path, const std::string& text) {
+  const std::string tmp = path.string() + ".tmp." + std::to_string(::getpid());
+  {
+    std::ofstream f(tmp, std::ios::binary);
+    f << text;
+    f.flush();
+    if (!f.good()) {
+      f.close();
+      std::error_code ec;
+      std::filesystem::remove(tmp, ec);
+      return make_error(Errc::io, "{}: cannot write", tmp);
+    }
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::filesystem::remove(tmp, ec);
+    return make_error(Errc::io, "{}: cannot rename into place", path.string());
+  }
+  return {};
+}
+
+// The path: a built-in name, else a keyframe file. A name that is neither is a usage error.
+struct PathChoice {
+  int held_view = -1;  // "view0".."view2": default view N held for the whole run
+  bool builtin = false;
+  render::BuiltinPath kind = render::BuiltinPath::orbit;
+  render::CameraPath file_path;
+};
+
+Result<PathChoice> choose_path(const std::string& spec) {
+  PathChoice c;
+  if (spec.size() == 5 && spec.rfind("view", 0) == 0 && spec[4] >= '0' && spec[4] <= '2') {
+    c.held_view = spec[4] - '0';
+    return c;
+  }
+  if (auto b = render::parse_builtin_path(spec); b.ok()) {
+    c.builtin = true;
+    c.kind = *b;
+    return c;
+  }
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(spec, ec))
+    return make_error(Errc::invalid_argument,
+                      "--path '{}': not a built-in path (orbit, flythrough, jumps, view0..view2) and no such camera path file", spec);
+  MDS_ASSIGN_OR_RETURN(c.file_path, render::CameraPath::load(spec));
+  return c;
+}
+
+std::string fmt_bytes(uint64_t b) { return format_bytes(b); }
+std::string fmt_rate(double r) { return fmt::format("{:.4f}", r); }
+
+Status run_stress(const StressOptions& o) {
+  // --- options (usage errors before any work) ---
+  auto budget_r = parse_byte_size(o.gpu_budget);
+  if (!budget_r.ok()) return make_error(Errc::invalid_argument, "--gpu-budget: {}", budget_r.error().message);
+  const uint64_t budget = *budget_r;
+  MDS_ASSIGN_OR_RETURN(streaming::Policy policy, streaming::parse_policy(o.policy));
+  uint64_t bandwidth = 0;
+  if (!o.io_bandwidth.empty()) {
+    auto bw = parse_byte_size(o.io_bandwidth);
+    if (!bw.ok()) return make_error(Errc::invalid_argument, "--io-bandwidth: {}", bw.error().message);
+    bandwidth = *bw;
+  }
+  auto upload_r = parse_byte_size(o.upload_budget);
+  if (!upload_r.ok()) return make_error(Errc::invalid_argument, "--upload-budget: {}", upload_r.error().message);
+  const uint64_t upload_budget = *upload_r;
+  if (!(o.io_latency_ms >= 0.0 && o.io_latency_ms < 1e6))
+    return make_error(Errc::invalid_argument, "--io-latency-ms {}: expected a number of milliseconds >= 0", o.io_latency_ms);
+  if (!(o.cocc > 0.0 && o.cocc < 1.0)) return make_error(Errc::invalid_argument, "--cocc {}: expected (0, 1)", o.cocc);
+  if (o.fov <= 0.0 || o.fov >= 180.0)
+    return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.fov);
+  MDS_ASSIGN_OR_RETURN(PathChoice choice, choose_path(o.path));
+
+  MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
+  vk::ContextOptions copt = vk::ContextOptions::from_env();
+  copt.device_index = o.device;
+  MDS_ASSIGN_OR_RETURN(auto ctx, vk::Context::create(copt));
+
+  render::RenderSettings rs;
+  rs.width = o.width;
+  rs.height = o.height;
+  rs.spp = 65536;  // keep accumulating: every frame draws (converged-frame cost is a real frame)
+  rs.cull = !o.no_cull;
+  rs.cull_settings.c_occ = o.cocc;
+  rs.cull_settings.seed = o.seed;
+  rs.cull_settings.samples_per_iteration = o.samples_per_iteration;
+  rs.cull_settings.converge_iterations = o.converge_iterations;
+  rs.cull_settings.max_iterations = o.max_iterations;
+  render::StreamSettings ss;
+  ss.gpu_budget = budget;
+  ss.policy = policy;
+  ss.io.threads = o.io_threads;
+  ss.io.io_latency_ms = o.io_latency_ms;
+  ss.io.io_bandwidth = double(bandwidth);
+  ss.upload_bytes_per_frame = upload_budget;
+  ss.record_trace = true;
+  MDS_ASSIGN_OR_RETURN(auto renderer, render::Renderer::create_streaming(*ctx, *reader, rs, ss));
+
+  const double aspect = double(o.width) / double(std::max(o.height, 1u));
+  render::CameraPath path;
+  std::string path_name;
+  if (choice.held_view >= 0) {
+    MDS_ASSIGN_OR_RETURN(render::Camera cam, render::default_view(choice.held_view, renderer->bounds(), o.fov, aspect));
+    cam.ortho_half_height = 0.0;
+    const uint32_t frames = o.frames ? o.frames : 240u;
+    std::vector<render::CameraKey> keys{{0, cam}};
+    if (frames > 1) keys.push_back({frames - 1, cam});
+    path = render::CameraPath(std::move(keys));
+    path_name = o.path;
+  } else if (choice.builtin) {
+    const uint32_t frames = o.frames ? o.frames : 240u;
+    path = render::builtin_path(choice.kind, renderer->bounds(), frames, o.fov, aspect);
+    path_name = render::builtin_path_name(choice.kind);
+  } else {
+    path = std::move(choice.file_path);
+    path_name = o.path;
+  }
+  const uint32_t path_frames = o.frames ? o.frames : path.frame_count();
+
+  // --- the replay ---
+  const auto& nodes = reader->nodes();
+  std::vector<stress::FrameRecord> frames;
+  std::vector<streaming::TraceRequest> trace;
+  std::vector<uint64_t> device_bytes = renderer->node_device_bytes();
+  uint32_t view = 0;
+  render::Camera prev_cam;
+  auto one_frame = [&](const render::Camera& cam, bool first, bool settle, bool after) -> Result<stress::FrameRecord> {
+    if (!first && !render::identical_cameras(cam, prev_cam)) ++view;
+    prev_cam = cam;
+    // A frame's time is set_view (a new camera waits for the frame in flight and restarts the
+    // culling state) plus step (which waits for the previous frame before recording).
+    const auto t0 = std::chrono::steady_clock::now();
+    MDS_TRY(renderer->set_view(cam));
+    MDS_ASSIGN_OR_RETURN(render::FrameReport fr, renderer->step());
+    fr.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    stress::FrameRecord r;
+    r.view = view;
+    r.settle = settle;
+    r.after_converged = after;
+    r.wall_ms = fr.wall_ms;
+    r.gpu_ms = fr.gpu_ms;
+    r.converged = fr.converged;
+    r.complete = fr.complete;
+    r.upload_stall = fr.upload_stall;
+    r.hits = fr.frame_hits;
+    r.misses = fr.frame_misses;
+    r.bytes_uploaded = fr.bytes_uploaded;
+    r.bytes_read_total = renderer->stats().cache.bytes_read;
+    r.wanted_nodes = uint32_t(fr.wanted.size());
+    if (device_bytes.empty()) device_bytes = renderer->node_device_bytes();
+    for (uint32_t n : fr.wanted) {
+      if (n < nodes.size()) r.wanted_payload_bytes += nodes[n].payload_bytes;
+      trace.push_back({n, n < device_bytes.size() ? device_bytes[n] : 0});
+    }
+    return r;
+  };
+  const bool progress = !o.quiet && stderr_is_tty();
+  for (uint32_t f = 0; f < path_frames; ++f) {
+    MDS_ASSIGN_OR_RETURN(stress::FrameRecord r, one_frame(path.at(f), f == 0, false, false));
+    frames.push_back(r);
+    if (progress && (f % 10 == 0 || f + 1 == path_frames))
+      std::fprintf(stderr, "\rmdstream stress: frame %u/%u", f + 1, path_frames);
+  }
+  if (progress) std::fprintf(stderr, "\n");
+  // Hold the final camera until its view has converged (at most --settle-frames more frames).
+  const render::Camera final_cam = path.at(path_frames ? path_frames - 1 : 0);
+  uint32_t settle_run = 0;
+  bool final_converged = !frames.empty() && frames.back().converged;
+  while (!final_converged && settle_run < o.settle_frames) {
+    MDS_ASSIGN_OR_RETURN(stress::FrameRecord r, one_frame(final_cam, frames.empty(), true, false));
+    frames.push_back(r);
+    ++settle_run;
+    final_converged = r.converged;
+  }
+  // Converged-frame cost: a few more frames of the converged final view.
+  uint32_t converged_run = 0;
+  std::vector<double> conv_wall, conv_gpu;
+  if (final_converged) {
+    for (; converged_run < o.converged_frames; ++converged_run) {
+      MDS_ASSIGN_OR_RETURN(stress::FrameRecord r, one_frame(final_cam, false, true, true));
+      frames.push_back(r);
+      conv_wall.push_back(r.wall_ms);
+      conv_gpu.push_back(r.gpu_ms);
+    }
+  }
+
+  // --- report ---
+  const render::RenderStats st = renderer->stats();
+  const render::CacheStats& c = st.cache;
+  if (device_bytes.empty()) device_bytes = renderer->node_device_bytes();
+  // Sizes of nodes seen before node_device_bytes() was known (it should be known at creation).
+  for (auto& t : trace)
+    if (t.bytes == 0 && t.node < device_bytes.size()) t.bytes = device_bytes[t.node];
+  const uint64_t sim_budget = c.pool_bytes ? c.pool_bytes : budget;
+  const stress::SimBounds bounds = stress::simulate_bounds(trace, sim_budget);
+  const auto views = stress::summarize_views(frames);
+
+  std::vector<double> path_ms, streaming_ms;
+  for (const auto& f : frames) {
+    if (!f.settle) path_ms.push_back(f.wall_ms);
+    if (!f.after_converged && !f.complete) streaming_ms.push_back(f.wall_ms);
+  }
+  std::vector<double> all_ms;
+  for (const auto& f : frames)
+    if (!f.after_converged) all_ms.push_back(f.wall_ms);
+  const auto q_path = stress::quantiles(path_ms), q_all = stress::quantiles(all_ms),
+             q_stream = stress::quantiles(streaming_ms);
+  const uint64_t requests = c.cache_hits + c.cache_misses;
+  const double hit_rate = requests ? double(c.cache_hits) / double(requests) : 0.0;
+
+  nlohmann::ordered_json j;
+  j["store"] = o.store;
+  j["store_file_bytes"] = reader->file_bytes();
+  j["store_payload_bytes"] = reader->header().payload_bytes;
+  j["particles"] = reader->header().particle_count;
+  j["nodes"] = nodes.size();
+  j["path"] = path_name;
+  j["policy"] = streaming::policy_name(policy);
+  j["cull"] = !o.no_cull;
+  j["width"] = o.width;
+  j["height"] = o.height;
+  j["frames"] = path_frames;
+  j["settle_frames_run"] = settle_run;
+  j["converged_frames_run"] = converged_run;
+  j["frames_total"] = frames.size();
+  j["device"] = st.device;
+  j["io"] = {{"threads", o.io_threads}, {"latency_ms", o.io_latency_ms}, {"bandwidth_bytes_per_s", bandwidth}};
+  j["upload_bytes_per_frame"] = upload_budget;
+  j["gpu_budget_bytes"] = c.gpu_budget_bytes ? c.gpu_budget_bytes : budget;
+  j["pool_bytes"] = c.pool_bytes;
+  j["gpu_peak_bytes"] = c.gpu_peak_bytes;
+  j["scratch_bytes"] = c.scratch_bytes;
+  j["cache_hits"] = c.cache_hits;
+  j["cache_misses"] = c.cache_misses;
+  j["hit_rate"] = hit_rate;
+  j["bytes_read"] = c.bytes_read;
+  j["bytes_read_over_store"] =
+      reader->header().payload_bytes ? double(c.bytes_read) / double(reader->header().payload_bytes) : 0.0;
+  j["bytes_uploaded"] = c.bytes_uploaded;
+  j["nodes_loaded"] = c.nodes_loaded;
+  j["nodes_never_loaded"] = c.nodes_never_loaded;
+  j["budget_exhausted"] = c.budget_exhausted;
+  j["nodes_failed"] = c.nodes_failed;
+  j["evictions"] = {{"O", c.evictions[3]}, {"M", c.evictions[2]}, {"L", c.evictions[1]}, {"P", c.evictions[0]}};
+  j["upload_stalls"] = c.upload_stalls;
+  j["frame_ms"] = stress::quantiles_json(q_path);
+  j["frame_ms_with_settle"] = stress::quantiles_json(q_all);
+  j["streaming_frame_ms"] = stress::quantiles_json(q_stream);
+  j["converged_frame_ms"] = conv_wall.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(stress::quantile(conv_wall, 0.5));
+  j["converged_frame_gpu_ms"] = conv_gpu.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(stress::quantile(conv_gpu, 0.5));
+  uint32_t views_converged = 0;
+  std::vector<double> conv_ms, conv_frames;
+  for (const auto& v : views)
+    if (v.converged) {
+      ++views_converged;
+      conv_ms.push_back(v.ms_to_converge);
+      conv_frames.push_back(v.frames_to_converge);
+    }
+  j["views_held"] = views.size();
+  j["views_converged"] = views_converged;
+  j["convergence_ms"] = stress::quantiles_json(stress::quantiles(conv_ms));
+  j["convergence_frames"] = stress::quantiles_json(stress::quantiles(conv_frames));
+  const stress::ViewResult last = views.empty() ? stress::ViewResult{} : views.back();
+  j["final_view"] = stress::view_json(last);
+  j["final_view"]["bytes_read_over_wanted"] =
+      last.converged && last.wanted_bytes_at_convergence
+          ? nlohmann::ordered_json(double(last.bytes_read_to_converge) / double(last.wanted_bytes_at_convergence))
+          : nlohmann::ordered_json(nullptr);
+  j["bound"] = {{"budget_bytes", bounds.budget_bytes},
+                {"requests", bounds.belady.requests},
+                {"belady", stress::sim_json(bounds.belady)},
+                {"belady_bypass", stress::sim_json(bounds.belady_bypass)},
+                {"lru", stress::sim_json(bounds.lru)},
+                {"fifo", stress::sim_json(bounds.fifo)}};
+  j["hit_rate_over_belady"] = bounds.belady.hit_rate() > 0.0 ? hit_rate / bounds.belady.hit_rate() : 0.0;
+  nlohmann::ordered_json jv = nlohmann::ordered_json::array();
+  for (const auto& v : views) jv.push_back(stress::view_json(v));
+  j["views"] = jv;
+  j["errors"] = c.errors;
+  nlohmann::ordered_json pf = {{"wall_ms", nlohmann::ordered_json::array()}, {"gpu_ms", nlohmann::ordered_json::array()},
+                               {"view", nlohmann::ordered_json::array()},    {"settle", nlohmann::ordered_json::array()},
+                               {"complete", nlohmann::ordered_json::array()}, {"converged", nlohmann::ordered_json::array()},
+                               {"hits", nlohmann::ordered_json::array()},    {"misses", nlohmann::ordered_json::array()},
+                               {"bytes_read_total", nlohmann::ordered_json::array()}};
+  for (const auto& f : frames) {
+    pf["wall_ms"].push_back(f.wall_ms);
+    pf["gpu_ms"].push_back(f.gpu_ms);
+    pf["view"].push_back(f.view);
+    pf["settle"].push_back(f.settle);
+    pf["complete"].push_back(f.complete);
+    pf["converged"].push_back(f.converged);
+    pf["hits"].push_back(f.hits);
+    pf["misses"].push_back(f.misses);
+    pf["bytes_read_total"].push_back(f.bytes_read_total);
+  }
+  j["per_frame"] = pf;  // arrays: in the JSON only (the CSV keeps scalars)
+
+  if (!o.json.empty()) MDS_TRY(write_text_atomically(o.json, j.dump(2) + "\n"));
+  if (!o.csv.empty()) MDS_TRY(write_text_atomically(o.csv, stress::csv_summary(j)));
+
+  // --- stdout table ---
+  auto row = [](const std::string& k, const std::string& v) { std::printf("  %-34s %s\n", k.c_str(), v.c_str()); };
+  std::printf("mdstream stress: %s, path %s (%u frames + %u settle + %u converged), policy %s, %ux%u\n",
+              o.store.c_str(), path_name.c_str(), path_frames, settle_run, converged_run, streaming::policy_name(policy),
+              o.width, o.height);
+  row("GPU budget / pool / peak", fmt::format("{} / {} / {}", fmt_bytes(budget), fmt_bytes(c.pool_bytes), fmt_bytes(c.gpu_peak_bytes)));
+  row("store payload", fmt::format("{} in {} nodes", fmt_bytes(reader->header().payload_bytes), nodes.size()));
+  row("hit rate (online)", fmt::format("{} ({} hits, {} misses)", fmt_rate(hit_rate), c.cache_hits, c.cache_misses));
+  row("hit rate Belady / bypass (offline)", fmt::format("{} / {}", fmt_rate(bounds.belady.hit_rate()), fmt_rate(bounds.belady_bypass.hit_rate())));
+  row("hit rate LRU / FIFO (offline)", fmt::format("{} / {}", fmt_rate(bounds.lru.hit_rate()), fmt_rate(bounds.fifo.hit_rate())));
+  row("bytes read / uploaded", fmt::format("{} ({:.2f}x store) / {}", fmt_bytes(c.bytes_read), j["bytes_read_over_store"].get<double>(), fmt_bytes(c.bytes_uploaded)));
+  row("nodes loaded / never loaded / failed", fmt::format("{} / {} / {}", c.nodes_loaded, c.nodes_never_loaded, c.nodes_failed));
+  row("evictions O / M / L / P", fmt::format("{} / {} / {} / {}", c.evictions[3], c.evictions[2], c.evictions[1], c.evictions[0]));
+  row("upload stalls", fmt::format("{}", c.upload_stalls));
+  row("frame ms p50 / p99 / max (path)", fmt::format("{:.2f} / {:.2f} / {:.2f} (p99/p50 {:.2f})", q_path.p50, q_path.p99, q_path.max, q_path.ratio()));
+  row("frame ms p50 / p99 (streaming)", fmt::format("{:.2f} / {:.2f} over {} frames", q_stream.p50, q_stream.p99, q_stream.n));
+  if (!conv_wall.empty()) row("converged frame ms (wall / GPU)", fmt::format("{:.2f} / {:.2f}", stress::quantile(conv_wall, 0.5), stress::quantile(conv_gpu, 0.5)));
+  row("views held / converged", fmt::format("{} / {}", views.size(), views_converged));
+  for (const auto& v : views) {
+    if (v.converged)
+      row(fmt::format("view {} (frame {}, {} frames)", v.view, v.first_frame, v.frames),
+          fmt::format("converged after {} frames, {:.1f} ms, {} read", v.frames_to_converge, v.ms_to_converge,
+                      fmt_bytes(v.bytes_read_to_converge)));
+    else
+      row(fmt::format("view {} (frame {}, {} frames)", v.view, v.first_frame, v.frames), "not converged");
+  }
+  for (const auto& e : c.errors) std::fprintf(stderr, "mdstream stress: %s\n", e.c_str());
+  return {};
+}
+
+void setup_stress(CLI::App& sub, int& exit_code) {
+  auto opt = std::make_shared<StressOptions>();
+  sub.add_option("store", opt->store, "Store file (.mds)")->required();
+  sub.add_option("--gpu-budget", opt->gpu_budget, "Bytes of the GPU payload pool (e.g. 64MiB, 1GiB)")->required();
+  sub.add_option("--path", opt->path,
+                 "Camera path: orbit, flythrough, jumps (built-in), view0..view2 (a default view held), or a camera path file (docs/camera-path.md)")
+      ->required();
+  sub.add_option("--frames", opt->frames, "Frames of the path (0: 240 for built-ins, the file's frame count)")
+      ->check(CLI::Range(0u, 10000000u))
+      ->capture_default_str();
+  sub.add_option("--settle-frames", opt->settle_frames,
+                 "After the path, hold the final camera for at most this many frames until it has converged")
+      ->check(CLI::Range(0u, 10000000u))
+      ->capture_default_str();
+  sub.add_option("--converged-frames", opt->converged_frames,
+                 "Frames rendered after the final view converged (converged-frame cost)")
+      ->check(CLI::Range(0u, 100000u))
+      ->capture_default_str();
+  sub.add_option("--policy", opt->policy, "Cache policy: occlusion, lru or fifo")->capture_default_str();
+  sub.add_option("--io-latency-ms", opt->io_latency_ms, "Simulated latency per node read (ms)")->capture_default_str();
+  sub.add_option("--io-bandwidth", opt->io_bandwidth, "Simulated read bandwidth per request, bytes/s (e.g. 100MB)");
+  sub.add_option("--io-threads", opt->io_threads, "Background reader threads")
+      ->check(CLI::Range(1u, 64u))
+      ->capture_default_str();
+  sub.add_option("--upload-budget", opt->upload_budget, "Bytes uploaded to the GPU per frame at most")
+      ->capture_default_str();
+  sub.add_option("--width", opt->width, "Image width")->check(CLI::Range(1u, 16384u))->capture_default_str();
+  sub.add_option("--height", opt->height, "Image height")->check(CLI::Range(1u, 16384u))->capture_default_str();
+  sub.add_option("--fov", opt->fov, "Vertical field of view of the built-in paths (degrees)")->capture_default_str();
+  sub.add_option("--csv", opt->csv, "Write the summary as CSV (header + one row)");
+  sub.add_option("--json", opt->json, "Write the full report (summary, views, offline bounds) as JSON");
+  sub.add_flag("--no-cull", opt->no_cull, "No occlusion culling (every node in the frustum is wanted)");
+  sub.add_option("--cocc", opt->cocc, "Confidence threshold of occlusion class O")->capture_default_str();
+  sub.add_option("--seed", opt->seed, "Random seed of the culling loop")->capture_default_str();
+  sub.add_option("--samples-per-iteration", opt->samples_per_iteration, "Occlusion sampling passes per culling iteration")
+      ->check(CLI::Range(1u, 64u))
+      ->capture_default_str();
+  sub.add_option("--converge-iterations", opt->converge_iterations,
+                 "Culling has converged after this many iterations without class changes")
+      ->check(CLI::Range(1u, 1000000u))
+      ->capture_default_str();
+  sub.add_option("--max-iterations", opt->max_iterations, "Culling iterations per view at most")
+      ->check(CLI::Range(1u, 100000u))
+      ->capture_default_str();
+  sub.add_option("--device", opt->device, "Vulkan device index (default: automatic, discrete GPU first)");
+  sub.add_flag("-q,--quiet", opt->quiet, "No progress on stderr");
+  sub.callback([opt, &exit_code] {
+    Status st = run_stress(*opt);
+    exit_code = st.ok() ? 0 : report("stress", st.error());
+  });
+}
+
+Registrar reg("stress", "Cache stress test: replay a camera path through the streaming GPU cache", setup_stress);
+
+}  // namespace
+}  // namespace mds::cli

@@ -1,0 +1,436 @@
+// `mdstream stress` (issue 4): the report logic of cli/stress_report.h (quantiles, views and
+// their convergence, the offline Belady/LRU/FIFO bound, the CSV flattening) on constructed
+// inputs, and the built CLI end to end on a real synth -> convert store streamed through the
+// real renderer (headless Vulkan) with each cache policy, a camera path file, and its usage and
+// input errors. No timing is asserted.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <random>
+#include <sstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "cli/stress_report.h"
+
+namespace fs = std::filesystem;
+using namespace mds;
+using namespace mds::cli::stress;
+
+// ---------------------------------------------------------------------------------------------
+// Report logic
+// ---------------------------------------------------------------------------------------------
+
+TEST(StressReport, Quantiles) {
+  std::vector<double> v;
+  for (int i = 100; i >= 1; --i) v.push_back(i);  // unsorted input
+  Quantiles q = quantiles(v);
+  EXPECT_EQ(q.n, 100u);
+  EXPECT_DOUBLE_EQ(q.p50, 50.5);    // linear interpolation between 50 and 51
+  EXPECT_DOUBLE_EQ(q.p99, 99.01);   // 99 + 0.01 * (100 - 99)
+  EXPECT_DOUBLE_EQ(q.max, 100.0);
+  EXPECT_DOUBLE_EQ(q.ratio(), 99.01 / 50.5);
+  EXPECT_DOUBLE_EQ(quantile({7.0}, 0.99), 7.0);
+  EXPECT_EQ(quantiles({}).n, 0u);
+  EXPECT_EQ(quantiles({}).ratio(), 0.0);
+}
+
+TEST(StressReport, ViewsAndConvergence) {
+  // view 0: 3 frames, converges at its 2nd; frames 3..5: camera motion (one frame per view);
+  // view 4: held, never converges; view 5: the final view, converges at its 3rd frame (a settle
+  // frame), then two after-convergence frames that do not count.
+  std::vector<FrameRecord> f;
+  auto add = [&](uint32_t view, double ms, bool conv, uint64_t read_total, bool settle = false, bool after = false) {
+    FrameRecord r;
+    r.view = view;
+    r.wall_ms = ms;
+    r.converged = conv;
+    r.bytes_read_total = read_total;
+    r.settle = settle;
+    r.after_converged = after;
+    r.wanted_nodes = 3;
+    r.wanted_payload_bytes = 300;
+    f.push_back(r);
+  };
+  add(0, 10, false, 100);
+  add(0, 20, true, 150);
+  add(0, 5, true, 150);
+  add(1, 1, false, 160);
+  add(2, 1, false, 170);
+  add(3, 1, false, 180);
+  add(4, 3, false, 200);
+  add(4, 3, false, 210);
+  add(5, 7, false, 260);
+  add(5, 7, false, 300, true);
+  add(5, 7, true, 310, true);
+  add(5, 2, true, 310, true, true);
+  add(5, 2, true, 310, true, true);
+  auto views = summarize_views(f);
+  ASSERT_EQ(views.size(), 3u);
+  EXPECT_EQ(views[0].view, 0u);
+  EXPECT_EQ(views[0].frames, 3u);
+  EXPECT_TRUE(views[0].converged);
+  EXPECT_EQ(views[0].frames_to_converge, 2u);
+  EXPECT_DOUBLE_EQ(views[0].ms_to_converge, 30.0);
+  EXPECT_EQ(views[0].bytes_read_to_converge, 150u);
+  EXPECT_EQ(views[1].view, 4u);
+  EXPECT_EQ(views[1].first_frame, 6u);
+  EXPECT_FALSE(views[1].converged);
+  EXPECT_EQ(views[2].view, 5u);
+  EXPECT_EQ(views[2].first_frame, 8u);
+  EXPECT_EQ(views[2].frames, 3u);
+  EXPECT_EQ(views[2].settle_frames, 2u);
+  EXPECT_TRUE(views[2].converged);
+  EXPECT_EQ(views[2].frames_to_converge, 3u);
+  EXPECT_DOUBLE_EQ(views[2].ms_to_converge, 21.0);
+  EXPECT_EQ(views[2].bytes_read_to_converge, 310u - 210u);
+  EXPECT_EQ(views[2].wanted_bytes_at_convergence, 300u);
+  EXPECT_EQ(summarize_views(f, true).size(), 6u);
+  EXPECT_TRUE(summarize_views({}).empty());
+}
+
+TEST(StressReport, BeladyBoundsLruAndFifoOnUnitSizes) {
+  // With unit sizes Belady's MIN is optimal among demand-paging policies: never fewer hits than
+  // LRU or FIFO on the same trace, and bypass never fewer than demand.
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 20; ++trial) {
+    std::vector<streaming::TraceRequest> trace;
+    const uint32_t nodes = 5 + rng() % 40;
+    for (int i = 0; i < 2000; ++i) {
+      // Mix of locality (recent nodes) and jumps.
+      uint32_t n = (rng() % 4 == 0) ? rng() % nodes : (trace.empty() ? 0 : trace[trace.size() - 1 - rng() % std::min<size_t>(trace.size(), 5)].node);
+      trace.push_back({n, 1000});
+    }
+    const uint64_t budget = 1000 * (1 + rng() % nodes);
+    SimBounds b = simulate_bounds(trace, budget);
+    EXPECT_EQ(b.budget_bytes, budget);
+    EXPECT_EQ(b.belady.requests, trace.size());
+    EXPECT_GE(b.belady.hits, b.lru.hits) << "trial " << trial;
+    EXPECT_GE(b.belady.hits, b.fifo.hits) << "trial " << trial;
+    EXPECT_GE(b.belady_bypass.hits, b.belady.hits) << "trial " << trial;
+    for (const auto* r : {&b.belady, &b.belady_bypass, &b.lru, &b.fifo}) {
+      EXPECT_GE(r->hit_rate(), 0.0);
+      EXPECT_LE(r->hit_rate(), 1.0);
+    }
+  }
+}
+
+TEST(StressReport, CsvFlattensScalarsAndQuotesStrings) {
+  nlohmann::ordered_json j;
+  j["store"] = "a,b \"c\".mds";
+  j["hits"] = 3;
+  j["rate"] = 0.25;
+  j["none"] = nullptr;
+  j["evictions"] = {{"O", 1}, {"M", 2}};
+  j["views"] = nlohmann::ordered_json::array({1, 2});
+  const std::string csv = csv_summary(j);
+  EXPECT_EQ(csv, "store,hits,rate,none,evictions_O,evictions_M\n\"a,b \"\"c\"\".mds\",3,0.25,,1,2\n");
+}
+
+// ---------------------------------------------------------------------------------------------
+// The CLI end to end
+// ---------------------------------------------------------------------------------------------
+
+namespace {
+
+std::string stderr_path() { return "/tmp/mds_stress_cli_err." + std::to_string(::getpid()) + ".txt"; }
+std::string stdout_path() { return "/tmp/mds_stress_cli_out." + std::to_string(::getpid()) + ".txt"; }
+
+int run(const std::string& args) {
+  std::string cmd = std::string(MDSTREAM_BIN) + " " + args + " >" + stdout_path() + " 2>" + stderr_path();
+  int r = std::system(cmd.c_str());
+  return WIFEXITED(r) ? WEXITSTATUS(r) : -1;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream f(p);
+  return std::string(std::istreambuf_iterator<char>(f), {});
+}
+std::string last_stderr() { return slurp(stderr_path()); }
+std::string last_stdout() { return slurp(stdout_path()); }
+
+std::vector<std::string> split_csv_line(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cur;
+  bool quoted = false;
+  for (size_t i = 0; i < line.size(); ++i) {
+    char c = line[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
+        cur += '"';
+        ++i;
+      } else if (c == '"') {
+        quoted = false;
+      } else {
+        cur += c;
+      }
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      out.push_back(cur);
+      cur.clear();
+    } else {
+      cur += c;
+    }
+  }
+  out.push_back(cur);
+  return out;
+}
+
+class StressCli : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = fs::temp_directory_path() / ("mds_stress_cli_" + std::to_string(::getpid()));
+    fs::create_directories(dir_);
+    ASSERT_EQ(run("synth --scene porous --particles 100000 -q -o " + (dir_ / "p.lammpstrj").string()), 0)
+        << last_stderr();
+    // Small nodes: ~100 of them, so that a budget of a fraction of the store holds several.
+    ASSERT_EQ(run("convert " + (dir_ / "p.lammpstrj").string() + " --node-size 1000 -o " + store()), 0)
+        << last_stderr();
+    fs::remove(dir_ / "p.lammpstrj");
+  }
+  static void TearDownTestSuite() {
+    fs::remove_all(dir_);
+    fs::remove(stderr_path());
+    fs::remove(stdout_path());
+  }
+  static std::string store() { return (dir_ / "p.mds").string(); }
+  static std::string small() { return " --width 160 --height 120 -q "; }
+  static fs::path dir_;
+
+  // Checks every relation between the report's fields that holds for any run.
+  static void check_report(const nlohmann::json& j, uint64_t budget) {
+    const uint64_t hits = j["cache_hits"], misses = j["cache_misses"];
+    EXPECT_GT(hits + misses, 0u);
+    const double rate = j["hit_rate"];
+    EXPECT_GE(rate, 0.0);
+    EXPECT_LE(rate, 1.0);
+    EXPECT_DOUBLE_EQ(rate, double(hits) / double(hits + misses));
+    EXPECT_EQ(j["gpu_budget_bytes"].get<uint64_t>(), budget);
+    EXPECT_LE(j["pool_bytes"].get<uint64_t>(), budget);
+    EXPECT_GT(j["pool_bytes"].get<uint64_t>(), 0u);
+    EXPECT_LE(j["gpu_peak_bytes"].get<uint64_t>(), j["gpu_budget_bytes"].get<uint64_t>());
+    const uint64_t store_bytes = j["store_payload_bytes"], frames_total = j["frames_total"];
+    EXPECT_EQ(j["store_file_bytes"].get<uint64_t>(), fs::file_size(store()));
+    EXPECT_LT(store_bytes, j["store_file_bytes"].get<uint64_t>());
+    EXPECT_GT(j["bytes_read"].get<uint64_t>(), 0u);
+    EXPECT_LE(j["bytes_read"].get<uint64_t>(), store_bytes * frames_total);
+    EXPECT_EQ(j["frames_total"].get<uint64_t>(),
+              j["frames"].get<uint64_t>() + j["settle_frames_run"].get<uint64_t>() +
+                  j["converged_frames_run"].get<uint64_t>());
+    const uint64_t nodes = j["nodes"];
+    EXPECT_LE(j["nodes_never_loaded"].get<uint64_t>(), nodes);
+    EXPECT_GE(j["nodes_loaded"].get<uint64_t>(), nodes - j["nodes_never_loaded"].get<uint64_t>());
+    uint64_t ev = 0;
+    for (const char* c : {"O", "M", "L", "P"}) ev += j["evictions"][c].get<uint64_t>();
+    EXPECT_LE(ev, j["nodes_loaded"].get<uint64_t>());
+    for (const char* k : {"frame_ms", "streaming_frame_ms", "convergence_ms"}) {
+      EXPECT_LE(j[k]["p50"].get<double>(), j[k]["p99"].get<double>() + 1e-9) << k;
+      EXPECT_LE(j[k]["p99"].get<double>(), j[k]["max"].get<double>() + 1e-9) << k;
+    }
+    EXPECT_EQ(j["frame_ms"]["frames"].get<uint64_t>(), j["frames"].get<uint64_t>());
+    // The offline bound replays exactly the requests the online cache counted.
+    const auto& b = j["bound"];
+    EXPECT_EQ(b["budget_bytes"].get<uint64_t>(), j["pool_bytes"].get<uint64_t>());
+    for (const char* s : {"belady", "belady_bypass", "lru", "fifo"}) {
+      EXPECT_EQ(b[s]["requests"].get<uint64_t>(), hits + misses) << s;
+      EXPECT_GE(b[s]["hit_rate"].get<double>(), 0.0) << s;
+      EXPECT_LE(b[s]["hit_rate"].get<double>(), 1.0) << s;
+      EXPECT_LE(b[s]["hits"].get<uint64_t>(), b[s]["requests"].get<uint64_t>()) << s;
+    }
+    EXPECT_GE(j["views_held"].get<uint64_t>(), 1u);
+    EXPECT_EQ(j["views"].size(), j["views_held"].get<size_t>());
+    EXPECT_LE(j["views_converged"].get<uint64_t>(), j["views_held"].get<uint64_t>());
+    for (const auto& v : j["views"]) {
+      if (v["converged"].get<bool>()) {
+        EXPECT_GE(v["frames_to_converge"].get<uint64_t>(), 1u);
+        EXPECT_LE(v["frames_to_converge"].get<uint64_t>(), v["frames"].get<uint64_t>());
+      }
+    }
+    EXPECT_TRUE(j["errors"].empty());
+  }
+};
+fs::path StressCli::dir_;
+
+}  // namespace
+
+TEST_F(StressCli, EveryPolicyOnJumpsWritesConsistentJsonAndCsv) {
+  const uint64_t store_bytes = fs::file_size(store());
+  const uint64_t budget = store_bytes / 4;
+  for (const char* policy : {"occlusion", "lru", "fifo"}) {
+    SCOPED_TRACE(policy);
+    const fs::path js = dir_ / (std::string(policy) + ".json"), csv = dir_ / (std::string(policy) + ".csv");
+    ASSERT_EQ(run("stress " + store() + " --gpu-budget " + std::to_string(budget) + " --path jumps --frames 24 --policy " +
+                  policy + " --settle-frames 40 --json " + js.string() + " --csv " + csv.string() + small()),
+              0)
+        << last_stderr();
+    std::ifstream f(js);
+    const auto j = nlohmann::json::parse(f);
+    EXPECT_EQ(j["policy"].get<std::string>(), policy);
+    EXPECT_EQ(j["path"].get<std::string>(), "jumps");
+    EXPECT_EQ(j["frames"].get<uint32_t>(), 24u);
+    EXPECT_EQ(j["width"].get<uint32_t>(), 160u);
+    EXPECT_EQ(j["views_held"].get<uint32_t>(), 8u);  // a cut every 24 / 8 frames
+    check_report(j, budget);
+
+    // CSV: header + one row, the same values as the JSON.
+    std::istringstream lines(slurp(csv));
+    std::string header, row, extra;
+    ASSERT_TRUE(std::getline(lines, header));
+    ASSERT_TRUE(std::getline(lines, row));
+    EXPECT_FALSE(std::getline(lines, extra) && !extra.empty());
+    const auto keys = split_csv_line(header), values = split_csv_line(row);
+    ASSERT_EQ(keys.size(), values.size());
+    std::map<std::string, std::string> m;
+    for (size_t i = 0; i < keys.size(); ++i) m[keys[i]] = values[i];
+    for (const char* k : {"hit_rate", "bytes_read", "bytes_uploaded", "evictions_O", "evictions_M", "evictions_L",
+                          "evictions_P", "upload_stalls", "nodes_never_loaded", "frame_ms_p50", "frame_ms_p99",
+                          "frame_ms_max", "bound_belady_hit_rate", "bound_lru_hit_rate", "bound_fifo_hit_rate",
+                          "gpu_budget_bytes", "gpu_peak_bytes", "convergence_ms_p50", "final_view_converged"})
+      EXPECT_TRUE(m.count(k)) << k;
+    EXPECT_EQ(m["policy"], policy);
+    EXPECT_DOUBLE_EQ(std::stod(m["hit_rate"]), j["hit_rate"].get<double>());
+    EXPECT_EQ(std::stoull(m["bytes_read"]), j["bytes_read"].get<uint64_t>());
+    EXPECT_DOUBLE_EQ(std::stod(m["bound_belady_hit_rate"]), j["bound"]["belady"]["hit_rate"].get<double>());
+    EXPECT_EQ(std::stoull(m["evictions_O"]), j["evictions"]["O"].get<uint64_t>());
+  }
+  // The table on stdout.
+  const std::string out = last_stdout();
+  EXPECT_NE(out.find("hit rate (online)"), std::string::npos) << out;
+  EXPECT_NE(out.find("Belady"), std::string::npos) << out;
+}
+
+TEST_F(StressCli, ContinuousPathsSettleTheFinalViewAndAcceptSlowDiskOptions) {
+  const uint64_t budget = fs::file_size(store()) / 4;
+  for (const char* path : {"orbit", "flythrough"}) {
+    SCOPED_TRACE(path);
+    const fs::path js = dir_ / (std::string(path) + ".json");
+    ASSERT_EQ(run("stress " + store() + " --gpu-budget " + std::to_string(budget) + " --path " + path +
+                  " --frames 12 --settle-frames 40 --io-latency-ms 0.5 --io-bandwidth 100MB --io-threads 3 --json " + js.string() +
+                  small()),
+              0)
+        << last_stderr();
+    std::ifstream f(js);
+    const auto j = nlohmann::json::parse(f);
+    check_report(j, budget);
+    EXPECT_EQ(j["io"]["bandwidth_bytes_per_s"].get<uint64_t>(), 100000000u);  // MB = 10^6 bytes
+    EXPECT_EQ(j["io"]["threads"].get<uint32_t>(), 3u);
+    EXPECT_DOUBLE_EQ(j["io"]["latency_ms"].get<double>(), 0.5);
+    // Camera motion is not a held view: only the final camera (held after the path) is one.
+    EXPECT_EQ(j["views_held"].get<uint32_t>(), 1u);
+    const auto& v = j["final_view"];
+    EXPECT_EQ(v["first_frame"].get<uint32_t>(), 11u);
+    EXPECT_EQ(v["settle_frames"].get<uint32_t>(), j["settle_frames_run"].get<uint32_t>());
+    if (v["converged"].get<bool>()) {
+      EXPECT_EQ(j["converged_frames_run"].get<uint32_t>(), 8u);
+      EXPECT_FALSE(j["converged_frame_ms"].is_null());
+    }
+  }
+}
+
+TEST_F(StressCli, CameraPathFile) {
+  // Two held views with a cut; frames default to the file's frame count.
+  const fs::path cam = dir_ / "two_views.cam", js = dir_ / "file.json";
+  {
+    std::ofstream f(cam);
+    f << "# mdstream camera path v1\n"
+         "0  25 25 120  25 25 23  0 1 0  40 0\n"
+         "9  25 25 120  25 25 23  0 1 0  40 0\n"
+         "10 120 25 23  25 25 23  0 1 0  40 0\n"
+         "19 120 25 23  25 25 23  0 1 0  40 0\n";
+  }
+  const uint64_t budget = fs::file_size(store()) / 3;
+  ASSERT_EQ(run("stress " + store() + " --gpu-budget " + std::to_string(budget) + " --path " + cam.string() +
+                " --json " + js.string() + small()),
+            0)
+      << last_stderr();
+  std::ifstream f(js);
+  const auto j = nlohmann::json::parse(f);
+  check_report(j, budget);
+  EXPECT_EQ(j["frames"].get<uint32_t>(), 20u);
+  EXPECT_EQ(j["path"].get<std::string>(), cam.string());
+  ASSERT_EQ(j["views_held"].get<uint32_t>(), 2u);
+  EXPECT_EQ(j["views"][0]["first_frame"].get<uint32_t>(), 0u);
+  EXPECT_EQ(j["views"][1]["first_frame"].get<uint32_t>(), 10u);
+  EXPECT_GE(j["views"][0]["frames"].get<uint32_t>(), 10u);
+}
+
+TEST_F(StressCli, HeldDefaultViewFromAColdCache) {
+  const fs::path js = dir_ / "view0.json";
+  const uint64_t budget = fs::file_size(store()) / 2;
+  ASSERT_EQ(run("stress " + store() + " --gpu-budget " + std::to_string(budget) +
+                " --path view0 --frames 3 --settle-frames 40 --converged-frames 2 --json " + js.string() + small()),
+            0)
+      << last_stderr();
+  std::ifstream f(js);
+  const auto j = nlohmann::json::parse(f);
+  check_report(j, budget);
+  EXPECT_EQ(j["views_held"].get<uint32_t>(), 1u);
+  const auto& v = j["final_view"];
+  EXPECT_EQ(v["first_frame"].get<uint32_t>(), 0u);
+  const auto& pf = j["per_frame"];
+  ASSERT_EQ(pf["wall_ms"].size(), j["frames_total"].get<size_t>());
+  ASSERT_EQ(pf["bytes_read_total"].size(), j["frames_total"].get<size_t>());
+  EXPECT_EQ(pf["bytes_read_total"].back().get<uint64_t>(), j["bytes_read"].get<uint64_t>());
+  uint64_t hits = 0, misses = 0;
+  for (size_t i = 0; i < pf["hits"].size(); ++i) {
+    hits += pf["hits"][i].get<uint64_t>();
+    misses += pf["misses"][i].get<uint64_t>();
+    EXPECT_EQ(pf["view"][i].get<uint32_t>(), 0u);
+    if (i > 0) {
+      EXPECT_GE(pf["bytes_read_total"][i].get<uint64_t>(), pf["bytes_read_total"][i - 1].get<uint64_t>());
+    }
+  }
+  EXPECT_EQ(hits, j["cache_hits"].get<uint64_t>());
+  EXPECT_EQ(misses, j["cache_misses"].get<uint64_t>());
+  if (v["converged"].get<bool>()) {
+    // From a cold cache everything read before convergence belongs to this view.
+    EXPECT_EQ(v["bytes_read_to_converge"].get<uint64_t>(),
+              pf["bytes_read_total"][v["frames_to_converge"].get<size_t>() - 1].get<uint64_t>());
+    EXPECT_GT(v["wanted_bytes_at_convergence"].get<uint64_t>(), 0u);
+  }
+}
+
+TEST_F(StressCli, UsageAndInputErrors) {
+  const fs::path js = dir_ / "err.json";
+  const std::string base = "stress " + store() + small() + " --json " + js.string() + " ";
+  // Unknown path name that is not a file either: usage error naming it.
+  EXPECT_EQ(run(base + "--gpu-budget 1MiB --path spiral"), 2);
+  EXPECT_NE(last_stderr().find("spiral"), std::string::npos) << last_stderr();
+  // Bad budget text.
+  EXPECT_EQ(run(base + "--gpu-budget 12parsecs --path orbit"), 2);
+  EXPECT_NE(last_stderr().find("--gpu-budget"), std::string::npos) << last_stderr();
+  EXPECT_NE(last_stderr().find("12parsecs"), std::string::npos) << last_stderr();
+  // Missing required options.
+  EXPECT_EQ(run("stress " + store() + " --path orbit"), 2);
+  EXPECT_NE(last_stderr().find("--gpu-budget"), std::string::npos) << last_stderr();
+  // Bad policy, bad bandwidth, negative latency.
+  EXPECT_EQ(run(base + "--gpu-budget 1MiB --path orbit --policy mru"), 2);
+  EXPECT_NE(last_stderr().find("mru"), std::string::npos) << last_stderr();
+  EXPECT_EQ(run(base + "--gpu-budget 1MiB --path orbit --io-bandwidth fast"), 2);
+  EXPECT_NE(last_stderr().find("--io-bandwidth"), std::string::npos) << last_stderr();
+  EXPECT_EQ(run(base + "--gpu-budget 1MiB --path orbit --io-latency-ms -3"), 2);
+  EXPECT_NE(last_stderr().find("--io-latency-ms"), std::string::npos) << last_stderr();
+  // A malformed camera path file: bad input naming file and line.
+  const fs::path cam = dir_ / "bad.cam";
+  {
+    std::ofstream f(cam);
+    f << "0 25 25 120 25 25 23 0 1 0 40 0\n0 25 25 120 25 25 23 0 1 0 40 0\n";
+  }
+  EXPECT_EQ(run(base + "--gpu-budget 1MiB --path " + cam.string()), 1);
+  EXPECT_NE(last_stderr().find(cam.string() + ":2:"), std::string::npos) << last_stderr();
+  // A missing store names the file.
+  EXPECT_NE(run("stress " + (dir_ / "nope.mds").string() + " --gpu-budget 1MiB --path orbit" + small()), 0);
+  EXPECT_NE(last_stderr().find("nope.mds"), std::string::npos) << last_stderr();
+  // A budget that cannot hold the largest node: a budget error.
+  EXPECT_EQ(run(base + "--gpu-budget 64 --path orbit --frames 2"), 4);
+  EXPECT_NE(last_stderr().find("budget"), std::string::npos) << last_stderr();
+  // No partial output from any of these.
+  EXPECT_FALSE(fs::exists(js));
+}

@@ -1,0 +1,328 @@
+#!/usr/bin/python3
+"""Cache stress benchmark (issue 4): `mdstream stress` over the porous and ablation scenes with a
+GPU budget of about 1/8 of the store, comparing the occlusion policy with LRU and FIFO and with
+the offline Belady bound over the orbit, flythrough and jumps paths. Also measures, for a dense
+held view (default view 2, the close-up) from a cold cache, the bytes read to converge against the bytes of the
+nodes the converged view still wants (not in class O, in the frustum), and the converged-frame cost
+of that view on a store with 8x the particles at the same budget.
+
+Writes docs/results/cache.md, cache.csv, cache_hit_rate.png, cache_frame_times.png.
+
+  /usr/bin/python3 tools/bench_cache.py [--quick] [--mdstream build-x/mdstream]
+"""
+import argparse
+import csv
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench_common import machine_info, parse_count  # noqa: E402
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def sh(cmd, log):
+    t0 = time.time()
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    dt = time.time() - t0
+    log.write(f"$ {' '.join(cmd)}  ({dt:.1f} s, rc {r.returncode})\n{r.stdout}{r.stderr}\n")
+    log.flush()
+    if r.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed ({r.returncode}):\n{r.stderr[-3000:]}")
+    return r
+
+
+def make_store(mds, work, scene, particles, node_size, log):
+    store = os.path.join(work, f"{scene}_{particles}.mds")
+    if os.path.exists(store):
+        return store
+    dump = os.path.join(work, f"{scene}_{particles}.lammpstrj")
+    sh([mds, "synth", "--scene", scene, "-n", str(particles), "-q", "-o", dump], log)
+    sh([mds, "convert", dump, "-o", store, "--node-size", str(node_size)], log)
+    os.remove(dump)
+    return store
+
+
+def stress(mds, store, budget, path, policy, args, work, log, extra=()):
+    out = os.path.join(work, f"{os.path.basename(store)}.{path}.{policy}.{budget}.json")
+    cmd = [mds, "stress", store, "--gpu-budget", str(budget), "--path", path, "--policy", policy,
+           "--width", str(args.width), "--height", str(args.height), "--settle-frames", str(args.settle_frames),
+           "--json", out, "-q"] + list(extra)
+    if path in ("orbit", "flythrough", "jumps"):
+        cmd += ["--frames", str(args.frames)]
+    t0 = time.time()
+    sh(cmd, log)
+    with open(out) as f:
+        j = json.load(f)
+    j["_seconds"] = time.time() - t0
+    _DEVICE.setdefault("name", j.get("device", "unknown"))
+    return j
+
+
+def fmt_bytes(b):
+    for unit, s in (("GiB", 2**30), ("MiB", 2**20), ("KiB", 2**10)):
+        if b >= s:
+            return f"{b / s:.2f} {unit}"
+    return f"{b} B"
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--mdstream", default=None, help="mdstream binary (default: newest build-*/mdstream)")
+    ap.add_argument("--quick", action="store_true", help="smoke run: small stores, few frames, small images")
+    ap.add_argument("--particles", default=None, help="particles per scene (default 1.5M; quick 150k)")
+    ap.add_argument("--frames", type=int, default=None, help="frames per path (default 120; quick 16)")
+    ap.add_argument("--settle-frames", type=int, default=None, help="max frames to settle the final view")
+    ap.add_argument("--width", type=int, default=None)
+    ap.add_argument("--height", type=int, default=None)
+    ap.add_argument("--node-size", type=int, default=2000, help="convert --node-size (smaller nodes: finer cache)")
+    ap.add_argument("--ratio", type=float, default=8.0, help="store bytes / GPU budget")
+    ap.add_argument("--scenes", default="porous,ablation")
+    ap.add_argument("--paths", default="orbit,flythrough,jumps")
+    ap.add_argument("--policies", default="occlusion,lru,fifo")
+    ap.add_argument("--no-scale", action="store_true", help="skip the 8x-data converged-frame measurement")
+    ap.add_argument("--dense-view", default="view2", help="held view of the dense-view measurement (view0|view1|view2)")
+    ap.add_argument("--out", default=os.path.join(REPO, "docs", "results"))
+    ap.add_argument("--work", default=None, help="scratch folder (default: a temporary one, removed)")
+    args = ap.parse_args()
+    q = args.quick
+    args.particles = parse_count(args.particles) if args.particles else (150_000 if q else 1_500_000)
+    args.frames = args.frames or (16 if q else 120)
+    args.settle_frames = args.settle_frames or (60 if q else 200)
+    args.width = args.width or (320 if q else 640)
+    args.height = args.height or (180 if q else 360)
+    if args.mdstream is None:
+        cands = [os.path.join(REPO, d, "mdstream") for d in os.listdir(REPO) if d.startswith("build")]
+        cands = [c for c in cands if os.path.exists(c)]
+        if not cands:
+            sys.exit("no build*/mdstream found; pass --mdstream")
+        args.mdstream = max(cands, key=os.path.getmtime)
+    mds = args.mdstream
+    work = args.work or tempfile.mkdtemp(prefix="mds_bench_cache_")
+    os.makedirs(work, exist_ok=True)
+    os.makedirs(args.out, exist_ok=True)
+    log = open(os.path.join(work, "bench_cache.log"), "w")
+    print(f"bench_cache: {mds}, work {work}, log {log.name}", file=sys.stderr)
+    t_start = time.time()
+
+    scenes = args.scenes.split(",")
+    paths = args.paths.split(",")
+    policies = args.policies.split(",")
+    rows, runs, dense = [], {}, {}
+    for scene in scenes:
+        store = make_store(mds, work, scene, args.particles, args.node_size, log)
+        store_bytes = os.path.getsize(store)
+        budget = int(store_bytes / args.ratio)
+        for path in paths:
+            for policy in policies:
+                print(f"  {scene} {path} {policy} ...", file=sys.stderr, flush=True)
+                j = stress(mds, store, budget, path, policy, args, work, log)
+                runs[(scene, path, policy)] = j
+                ev = j["evictions"]
+                b = j["bound"]
+                rows.append({
+                    "scene": scene, "particles": j["particles"], "path": path, "policy": policy,
+                    "frames": j["frames"], "store_bytes": store_bytes, "gpu_budget_bytes": j["gpu_budget_bytes"],
+                    "pool_bytes": j["pool_bytes"], "gpu_peak_bytes": j["gpu_peak_bytes"],
+                    "hit_rate": j["hit_rate"], "belady_hit_rate": b["belady"]["hit_rate"],
+                    "belady_bypass_hit_rate": b["belady_bypass"]["hit_rate"],
+                    "lru_sim_hit_rate": b["lru"]["hit_rate"], "fifo_sim_hit_rate": b["fifo"]["hit_rate"],
+                    "bytes_read": j["bytes_read"], "bytes_read_over_store": j["bytes_read"] / store_bytes,
+                    "bytes_uploaded": j["bytes_uploaded"], "nodes_never_loaded": j["nodes_never_loaded"],
+                    "evictions_O": ev["O"], "evictions_M": ev["M"], "evictions_L": ev["L"], "evictions_P": ev["P"],
+                    "upload_stalls": j["upload_stalls"],
+                    "frame_ms_p50": j["frame_ms"]["p50"], "frame_ms_p99": j["frame_ms"]["p99"],
+                    "frame_ms_max": j["frame_ms"]["max"], "p99_over_p50": j["frame_ms"]["p99_over_p50"],
+                    "streaming_frame_ms_p50": j["streaming_frame_ms"]["p50"],
+                    "streaming_frame_ms_p99": j["streaming_frame_ms"]["p99"],
+                    "streaming_frames": j["streaming_frame_ms"]["frames"],
+                    "views_held": j["views_held"], "views_converged": j["views_converged"],
+                    "convergence_ms_p50": j["convergence_ms"]["p50"], "convergence_ms_max": j["convergence_ms"]["max"],
+                    "convergence_frames_p50": j["convergence_frames"]["p50"],
+                    "seconds": j["_seconds"],
+                })
+        # Dense held view from a cold cache: bytes read to converge vs bytes the converged view wants.
+        print(f"  {scene} dense {args.dense_view} ...", file=sys.stderr, flush=True)
+        d = stress(mds, store, budget, args.dense_view, "occlusion", args, work, log, ["--frames", "1"])
+        dense[(scene, 1)] = (store, store_bytes, budget, d)
+        if not args.no_scale:
+            big = make_store(mds, work, scene, args.particles * 8, args.node_size, log)
+            print(f"  {scene} dense {args.dense_view}, 8x data ...", file=sys.stderr, flush=True)
+            d8 = stress(mds, big, budget, args.dense_view, "occlusion", args, work, log, ["--frames", "1"])
+            dense[(scene, 8)] = (big, os.path.getsize(big), budget, d8)
+            os.remove(big)
+
+    # --- outputs ---
+    with open(os.path.join(args.out, "cache.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        w.writeheader()
+        w.writerows(rows)
+    dense_rows = []
+    for scene in scenes:
+        for scale in (1, 8):
+            if (scene, scale) not in dense:
+                continue
+            store, sb, budget, d = dense[(scene, scale)]
+            v = d["final_view"]
+            dense_rows.append({
+                "scene": scene, "particles": d["particles"], "store_bytes": sb, "budget": budget,
+                "converged": v["converged"], "frames_to_converge": v.get("frames_to_converge"),
+                "ms_to_converge": v.get("ms_to_converge"), "bytes_read": v.get("bytes_read_to_converge"),
+                "wanted_bytes": v.get("wanted_bytes_at_convergence"), "ratio": v.get("bytes_read_over_wanted"),
+                "nodes": d["nodes"], "nodes_never_loaded": d["nodes_never_loaded"],
+                "wanted_nodes": v.get("wanted_nodes_at_convergence"),
+                "converged_frame_ms": d["converged_frame_ms"], "converged_frame_gpu_ms": d["converged_frame_gpu_ms"],
+                "gpu_peak_bytes": d["gpu_peak_bytes"],
+            })
+    plot(rows, runs, scenes, paths, policies, args.out)
+    write_md(rows, dense_rows, args, mds, scenes, time.time() - t_start)
+    log.close()
+    if args.work is None:
+        shutil.rmtree(work, ignore_errors=True)
+    print(f"bench_cache: done in {time.time() - t_start:.0f} s -> {args.out}/cache.md", file=sys.stderr)
+
+
+def plot(rows, runs, scenes, paths, policies, out):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    # Hit rates: grouped bars per (scene, path), one bar per policy, Belady bound as a marker.
+    groups = [(s, p) for s in scenes for p in paths]
+    fig, ax = plt.subplots(figsize=(max(7, 1.6 * len(groups)), 4))
+    width = 0.8 / max(1, len(policies))
+    x = np.arange(len(groups))
+    colors = {"occlusion": "tab:blue", "lru": "tab:orange", "fifo": "tab:green"}
+    for i, pol in enumerate(policies):
+        hr = [next((r["hit_rate"] for r in rows if (r["scene"], r["path"], r["policy"]) == (s, p, pol)), 0)
+              for s, p in groups]
+        bel = [next((r["belady_hit_rate"] for r in rows if (r["scene"], r["path"], r["policy"]) == (s, p, pol)), 0)
+               for s, p in groups]
+        xs = x - 0.4 + width * (i + 0.5)
+        ax.bar(xs, hr, width, label=f"{pol} (online)", color=colors.get(pol))
+        ax.plot(xs, bel, "k_", markersize=14, mew=2, label="Belady bound (same trace)" if i == 0 else None)
+    ax.set_xticks(x)
+    ax.set_xticklabels([f"{s}\n{p}" for s, p in groups])
+    ax.set_ylabel("hit rate")
+    ax.set_ylim(0, 1.05)
+    ax.legend(fontsize=8, loc="upper right")
+    ax.set_title("GPU cache hit rate at budget = store / 8")
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "cache_hit_rate.png"), dpi=110)
+    plt.close(fig)
+
+    # Frame times along each path (occlusion policy vs LRU vs FIFO), one panel per (scene, path).
+    fig, axes = plt.subplots(len(scenes), len(paths), figsize=(4.2 * len(paths), 3.0 * len(scenes)), squeeze=False)
+    for a, s in enumerate(scenes):
+        for b, p in enumerate(paths):
+            ax = axes[a][b]
+            for pol in policies:
+                j = runs.get((s, p, pol))
+                if not j:
+                    continue
+                ms = j["per_frame"]["wall_ms"]
+                ax.plot(range(len(ms)), ms, lw=0.8, label=pol, color=colors.get(pol))
+            ax.axvline(runs[(s, p, policies[0])]["frames"] - 0.5, color="grey", lw=0.6, ls="--")
+            ax.set_title(f"{s} / {p}", fontsize=9)
+            ax.set_xlabel("frame (dashed: end of path, then settle)", fontsize=8)
+            ax.set_ylabel("wall ms", fontsize=8)
+            ax.set_yscale("log")
+            ax.tick_params(labelsize=7)
+            if a == 0 and b == 0:
+                ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "cache_frame_times.png"), dpi=110)
+    plt.close(fig)
+
+
+def write_md(rows, dense_rows, args, mds, scenes, seconds):
+    m = machine_info(REPO)
+    L = []
+    L.append("# Out-of-core cache stress benchmark\n")
+    L.append("Generated by `tools/bench_cache.py`" + (" --quick (smoke run, not the real figures)" if args.quick else "")
+             + f" in {seconds / 60:.1f} min.\n")
+    L.append(f"Machine: {m['cpu']}, {m['nproc']} cores, {m['memory']}, kernel {m['kernel']}; {m['date']}; "
+             f"commit {m['commit']}. Device: {_DEVICE.get('name', 'unknown')} (Vulkan).\n")
+    L.append(f"Setup: `mdstream synth --scene S -n {args.particles}` then `convert --node-size {args.node_size}`; "
+             f"GPU budget = store file size / {args.ratio:g}; `mdstream stress` at {args.width}x{args.height}, "
+             f"{args.frames} frames per built-in path, then the final camera held for at most {args.settle_frames} "
+             "frames until converged. Hit rate = cache hits / (hits + misses), counted per frame per wanted "
+             "node (in the frustum, not class O). Belady = offline farthest-next-use (MIN) on the same request "
+             "trace with the pool size as budget (`streaming/belady.h`; demand mode; with variable node sizes a "
+             "strong reference, not a proven bound). Frame times are CPU wall time of `Renderer::step()` on the "
+             "path frames.\n")
+    L.append("## Policies over paths\n")
+    L.append("| scene | path | policy | hit rate | Belady | LRU sim | bytes read | read / store | evictions O/M/L/P "
+             "| p50 ms | p99 ms | p99/p50 | streaming p50/p99 ms | convergence |")
+    L.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        L.append(f"| {r['scene']} | {r['path']} | {r['policy']} | {r['hit_rate']:.3f} | {r['belady_hit_rate']:.3f} "
+                 f"| {r['lru_sim_hit_rate']:.3f} | {fmt_bytes(r['bytes_read'])} | {r['bytes_read_over_store']:.2f} "
+                 f"| {r['evictions_O']}/{r['evictions_M']}/{r['evictions_L']}/{r['evictions_P']} "
+                 f"| {r['frame_ms_p50']:.1f} | {r['frame_ms_p99']:.1f} | {r['p99_over_p50']:.2f} "
+                 f"| {r['streaming_frame_ms_p50']:.1f}/{r['streaming_frame_ms_p99']:.1f} ({r['streaming_frames']} fr) "
+                 f"| {conv_text_row(r)} |")
+    L.append("")
+    L.append("![hit rates](cache_hit_rate.png)\n")
+    L.append("![frame times](cache_frame_times.png)\n")
+    L.append("Targets of issue 4: hit rate within 5 % of Belady; p99 frame time <= 2x the median while streaming.\n")
+    occ = [r for r in rows if r["policy"] == "occlusion"]
+    if occ:
+        L.append("| scene | path | occlusion hit rate / Belady | p99/p50 (path) |")
+        L.append("|---|---|---|---|")
+        for r in occ:
+            rel = r["hit_rate"] / r["belady_hit_rate"] if r["belady_hit_rate"] > 0 else float("nan")
+            L.append(f"| {r['scene']} | {r['path']} | {rel:.3f} | {r['p99_over_p50']:.2f} |")
+        L.append("")
+    L.append("## Dense view: bytes read to converge, and 8x more data\n")
+    L.append(f"Default {args.dense_view} held from a cold cache with the occlusion policy. *Wanted bytes* = "
+             "compressed payload bytes of the nodes the converged view still wants (in the frustum and not in "
+             "class O). This is a superset of the nodes that hold a visible particle (a node in class L/P/M "
+             "may contribute no visible pixel), so *read / wanted* understates the issue's ratio against "
+             "'nodes holding a visible particle'; the renderer does not expose per-node visibility (an id "
+             "buffer), so that exact figure is not measured here. Issue targets: read / visible <= 1.25; "
+             "converged frame at 8x data <= 1.5x.\n")
+    L.append("| scene | particles | store | budget | converged | frames | ms | bytes read | wanted bytes | read / wanted "
+             "| wanted nodes / nodes | never loaded | converged frame ms (wall / GPU) |")
+    L.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for d in dense_rows:
+        ratio = f"{d['ratio']:.2f}" if d["ratio"] is not None else "-"
+        cf = (f"{d['converged_frame_ms']:.1f} / {d['converged_frame_gpu_ms']:.1f}"
+              if d["converged_frame_ms"] is not None else "-")
+        L.append(f"| {d['scene']} | {d['particles']} | {fmt_bytes(d['store_bytes'])} | {fmt_bytes(d['budget'])} "
+                 f"| {d['converged']} | {d['frames_to_converge'] or '-'} "
+                 f"| {d['ms_to_converge']:.0f} | {fmt_bytes(d['bytes_read'] or 0)} | {fmt_bytes(d['wanted_bytes'] or 0)} "
+                 f"| {ratio} | {d['wanted_nodes'] or '-'} / {d['nodes']} | {d['nodes_never_loaded']} | {cf} |"
+                 if d["converged"] else
+                 f"| {d['scene']} | {d['particles']} | {fmt_bytes(d['store_bytes'])} | {fmt_bytes(d['budget'])} "
+                 f"| False | - | - | - | - | - | - / {d['nodes']} | {d['nodes_never_loaded']} | - |")
+    for scene in scenes:
+        a = next((d for d in dense_rows if d["scene"] == scene and d["particles"] == args.particles), None)
+        b = next((d for d in dense_rows if d["scene"] == scene and d["particles"] == args.particles * 8), None)
+        if a and b and a["converged_frame_ms"] and b["converged_frame_ms"]:
+            L.append(f"\n{scene}: converged frame at 8x data / 1x = {b['converged_frame_ms'] / a['converged_frame_ms']:.2f} "
+                     f"(wall), {b['converged_frame_gpu_ms'] / max(a['converged_frame_gpu_ms'], 1e-9):.2f} (GPU).")
+        elif a and b:
+            L.append(f"\n{scene}: 8x data did not converge within the settle frames at this budget; no ratio.")
+    L.append("\nRaw numbers: `cache.csv` (one row per scene/path/policy).\n")
+    with open(os.path.join(args.out, "cache.md"), "w") as f:
+        f.write("\n".join(L) + "\n")
+
+
+def conv_text_row(r):
+    if r["views_converged"] == 0:
+        return f"0/{r['views_held']} views"
+    return f"{r['convergence_ms_p50']:.0f} ms p50, {r['convergence_ms_max']:.0f} max ({r['views_converged']}/{r['views_held']})"
+
+
+_DEVICE = {}
+
+
+if __name__ == "__main__":
+    main()
