@@ -138,6 +138,7 @@ struct FrameReport {
   uint64_t bytes_uploaded = 0;    // this frame
   uint32_t frame_hits = 0, frame_misses = 0;  // this frame's wanted nodes resident / not
   bool upload_stall = false;
+  bool budget_exhausted = false;  // streaming: this frame wanted more nodes than the pool holds
   std::vector<uint32_t> wanted;   // StreamSettings::record_trace: this frame's wanted nodes
 };
 

@@ -158,7 +158,7 @@ void Renderer::Impl::after_iteration() {
   } else if (cull_iteration >= std::max(1u, cull->settings().max_iterations)) {
     cull_active = false;  // cap reached: keep the classes, not converged
   }
-  if (cache) cache->set_classes(cull->node_classes());
+  if (cache) cache->set_classes(cull->node_classes(), cull_iteration >= std::max(1u, cull->settings().converge_iterations));
 }
 
 Status Renderer::set_view(const Camera& camera_in) {
@@ -167,6 +167,8 @@ Status Renderer::set_view(const Camera& camera_in) {
   fit_clip_planes(camera, m.bounds);
   if (m.has_view && same_camera(camera, m.view_camera)) return {};
   MDS_TRY(m.slot.wait());  // the frame in flight belongs to the old view
+  // Its culling iteration still tells the cache what is occluded (the view did not mature).
+  if (m.pending_iteration && m.cache) m.cache->set_classes(m.cull->node_classes(), false);
   m.pending_iteration = false;
   MDS_ASSIGN_OR_RETURN(m.timestamps, vk::TimestampPool::create(*m.ctx, m.timestamp_capacity()));
   m.view_camera = camera;
@@ -210,6 +212,7 @@ Result<FrameReport> Renderer::step() {
     rep.frame_hits = cf.hits;
     rep.frame_misses = cf.misses;
     rep.upload_stall = cf.upload_stall;
+    rep.budget_exhausted = cf.exhausted;
     rep.wanted = std::move(cf.wanted);
     m.complete = cf.complete;
     if (cf.nodes_uploaded > 0) {  // new data: refine again

@@ -96,7 +96,6 @@ void StreamCache::set_view(const Camera& camera, double aspect) {
   const glm::dmat4 clip_from_world = projection_matrix(camera, aspect) * view;
   const glm::dvec3 eye = camera.eye - origin;
   const double tan_half = std::tan(glm::radians(camera.fov_y_deg) * 0.5);
-  table_->reset_classes();
   for (uint32_t i = 0; i < directory_.size(); ++i) {
     const glm::dvec3 lo(directory_[i].aabb_min), hi(directory_[i].aabb_max);
     // Conservative frustum test: out when all 8 corners are outside one clip plane.
@@ -115,17 +114,22 @@ void StreamCache::set_view(const Camera& camera, double aspect) {
     const double dist = glm::length(nearest - eye);
     const double size = 0.5 * glm::length(hi - lo);
     const double projected = camera.ortho ? size : size / std::max(dist * tan_half, 1e-12);
+    const bool was_in = table_->node(i).in_frustum && has_view_;
     table_->set_view(i, float(dist), float(projected), in);
     if (!in) table_->set_class(i, MDS_CULL_CLASS_O);
+    else if (!was_in) table_->set_class(i, MDS_CULL_CLASS_P);  // entering the frustum: wanted
   }
+  has_view_ = true;
   exhausted_ = false;
 }
 
-void StreamCache::set_classes(std::span<const uint32_t> classes) {
+void StreamCache::set_classes(std::span<const uint32_t> classes, bool mature) {
   const size_t n = std::min(classes.size(), directory_.size());
   for (uint32_t i = 0; i < n; ++i) {
     if (!table_->node(i).in_frustum) continue;  // stays O
-    table_->set_class(i, uint8_t(std::min<uint32_t>(classes[i], MDS_CULL_CLASS_O)));
+    const uint8_t g = uint8_t(std::min<uint32_t>(classes[i], MDS_CULL_CLASS_O));
+    const uint8_t c = table_->node(i).cls;
+    table_->set_class(i, mature ? g : std::max(c, g));
   }
 }
 
@@ -276,6 +280,7 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
     pending = true;
   }
   stats_.budget_exhausted = exhausted_;
+  out.exhausted = exhausted_;
   out.complete = requested_.empty() && ready_.empty() && !pending;
   if (out.complete && !exhausted_) {
     // Every demanded node must be resident now (or failed).

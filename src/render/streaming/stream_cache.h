@@ -43,6 +43,7 @@ struct CacheFrame {
   uint64_t bytes_uploaded = 0;
   uint32_t hits = 0, misses = 0;
   bool upload_stall = false;
+  bool exhausted = false;      // wanted nodes do not fit the pool
   bool complete = false;       // every wanted node resident (or failed / beyond the budget), nothing in flight
   std::vector<uint32_t> wanted;  // demand of this frame (StreamSettings::record_trace)
 };
@@ -67,11 +68,16 @@ class StreamCache {
   uint64_t live_meshlets() const { return live_meshlets_; }
   std::vector<uint64_t> node_device_bytes() const { return node_bytes_; }
 
-  // New view: frustum, distances and projected sizes of every node; classes back to P (outside
-  // the frustum: O); the cache itself stays.
+  // New view: frustum, distances and projected sizes of every node. The culling loop restarts
+  // its classes (paper 000 Sect. 5.1), the cache keeps its own (Grottel et al.'s O_{t-1}: what
+  // was visible in the previous view is wanted first, what was occluded stays unread): a node
+  // leaving the frustum becomes O, a node entering it P, the others keep their class.
   void set_view(const Camera& camera, double aspect);
-  // Node classes of the last culling iteration (MDS_CULL_CLASS_*, one per node).
-  void set_classes(std::span<const uint32_t> classes);
+  // Node classes of a culling iteration (MDS_CULL_CLASS_*, one per node). `mature`: the view
+  // has run enough iterations for its classes to replace the cache's; before that only new O
+  // (confident occlusion) and upward moves are taken, so a camera in motion, whose views never
+  // mature, keeps the classes of the last view that did, and never re-reads what it knew occluded.
+  void set_classes(std::span<const uint32_t> classes, bool mature);
   // One frame (see the file comment); transfers are recorded into cmd.
   Result<CacheFrame> update(VkCommandBuffer cmd, uint64_t frame);
   CacheStats stats() const;
@@ -97,7 +103,8 @@ class StreamCache {
   std::unordered_map<uint32_t, mds::streaming::IoCompletion> ready_;  // read, not yet placed
   std::vector<uint32_t> requested_;                                   // queued, in flight or ready
   CacheStats stats_;
-  bool exhausted_ = false;  // the last frame wanted more than the pool can hold
+  bool exhausted_ = false;
+  bool has_view_ = false;  // the last frame wanted more than the pool can hold
 };
 
 }  // namespace mds::render::streaming_gpu
