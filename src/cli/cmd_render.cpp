@@ -13,6 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/text_file.h"
 #include "cli/command.h"
 #include "core/byte_size.h"
 #include "render/camera.h"
@@ -75,24 +76,6 @@ Result<glm::vec3> parse_rgb(const std::string& s) {
 
 nlohmann::json vec3_json(const glm::dvec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); }
 
-Status write_text_atomically(const std::filesystem::path& path, const std::string& text) {
-  const std::string tmp = path.string() + ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream f(tmp, std::ios::binary);
-    f << text;
-    if (!f.good()) {
-      std::filesystem::remove(tmp);
-      return make_error(Errc::io, "{}: cannot write", tmp);
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    return make_error(Errc::io, "{}: cannot rename into place", path.string());
-  }
-  return {};
-}
 
 Status run_render(const RenderOptions& o) {
   if (o.acceptance != "normal" && o.acceptance != "random")

@@ -20,6 +20,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "core/text_file.h"
 #include "cli/command.h"
 #include "cli/stress_report.h"
 #include "core/byte_size.h"
@@ -59,27 +60,6 @@ struct StressOptions {
   bool quiet = false;
 };
 
-Status write_text_atomically(const std::filesystem::path& path, const std::string& text) {
-  const std::string tmp = path.string() + ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream f(tmp, std::ios::binary);
-    f << text;
-    f.flush();
-    if (!f.good()) {
-      f.close();
-      std::error_code ec;
-      std::filesystem::remove(tmp, ec);
-      return make_error(Errc::io, "{}: cannot write", tmp);
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    return make_error(Errc::io, "{}: cannot rename into place", path.string());
-  }
-  return {};
-}
 
 // The path: a built-in name, else a keyframe file. A name that is neither is a usage error.
 struct PathChoice {

@@ -161,4 +161,9 @@ glm::dvec2 halton_jitter(uint32_t sample) {
   return {radical_inverse(sample, 2) - 0.5, radical_inverse(sample, 3) - 0.5};
 }
 
+bool identical_cameras(const Camera& a, const Camera& b) {
+  return a.eye == b.eye && a.target == b.target && a.up == b.up && a.fov_y_deg == b.fov_y_deg &&
+         a.ortho == b.ortho && a.ortho_half_height == b.ortho_half_height && a.near == b.near && a.far == b.far;
+}
+
 }  // namespace mds::render

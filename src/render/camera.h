@@ -53,6 +53,9 @@ Result<Camera> default_view(int index, const Bounds& bounds, double fov_y_deg, d
 // of the bounding sphere, near = max(distance to its nearest point, far * 1e-4).
 void fit_clip_planes(Camera& camera, const Bounds& bounds);
 
+// Exact equality of every field (a "view" of the stress tests is a run of frames with the same camera).
+bool identical_cameras(const Camera& a, const Camera& b);
+
 glm::dmat4 view_matrix(const Camera& camera, const glm::dvec3& origin);
 // jitter_ndc: NDC offset added after projection (2 * pixel offset / size).
 glm::dmat4 projection_matrix(const Camera& camera, double aspect, glm::dvec2 jitter_ndc = glm::dvec2(0.0));

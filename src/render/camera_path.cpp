@@ -1,5 +1,6 @@
 // Camera paths: the keyframe text format (docs/camera-path.md), linear interpolation between
 // keyframes, and the built-in paths of the cache stress tests (issue 4, `mdstream stress`).
+#include "core/text_file.h"
 #include "render/camera_path.h"
 
 #include <unistd.h>
@@ -187,33 +188,8 @@ std::string CameraPath::to_text() const {
   return s;
 }
 
-Status CameraPath::save(const std::filesystem::path& path) const {
-  const std::string tmp = path.string() + ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream f(tmp, std::ios::binary);
-    if (!f) return make_error(Errc::io, "{}: cannot create", tmp);
-    f << to_text();
-    f.flush();
-    if (!f.good()) {
-      f.close();
-      std::error_code ec;
-      std::filesystem::remove(tmp, ec);
-      return make_error(Errc::io, "{}: cannot write", tmp);
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    return make_error(Errc::io, "{}: cannot rename into place", path.string());
-  }
-  return {};
-}
+Status CameraPath::save(const std::filesystem::path& path) const { return write_text_atomically(path, to_text()); }
 
-bool identical_cameras(const Camera& a, const Camera& b) {
-  return a.eye == b.eye && a.target == b.target && a.up == b.up && a.fov_y_deg == b.fov_y_deg &&
-         a.ortho == b.ortho && a.ortho_half_height == b.ortho_half_height && a.near == b.near && a.far == b.far;
-}
 
 Result<BuiltinPath> parse_builtin_path(std::string_view name) {
   if (name == "orbit") return BuiltinPath::orbit;

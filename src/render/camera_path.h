@@ -65,7 +65,5 @@ const char* builtin_path_name(BuiltinPath kind);
 // the +z one) at the distance where the bounding sphere fits, all looking at the centre.
 std::vector<Camera> jump_views(const Bounds& bounds, double fov_y_deg, double aspect);
 
-// Exact equality of every field (a "view" of the stress tests is a run of frames with the same camera).
-bool identical_cameras(const Camera& a, const Camera& b);
 
 }  // namespace mds::render

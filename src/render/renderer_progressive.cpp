@@ -14,10 +14,6 @@
 namespace mds::render {
 
 namespace {
-bool same_camera(const Camera& a, const Camera& b) {
-  return a.eye == b.eye && a.target == b.target && a.up == b.up && a.fov_y_deg == b.fov_y_deg &&
-         a.ortho == b.ortho && a.ortho_half_height == b.ortho_half_height;
-}
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
@@ -165,7 +161,7 @@ Status Renderer::set_view(const Camera& camera_in) {
   Impl& m = *impl_;
   Camera camera = camera_in;
   fit_clip_planes(camera, m.bounds);
-  if (m.has_view && same_camera(camera, m.view_camera)) return {};
+  if (m.has_view && identical_cameras(camera, m.view_camera)) return {};
   MDS_TRY(m.slot.wait());  // the frame in flight belongs to the old view
   // Its culling iteration still tells the cache what is occluded (the view did not mature).
   if (m.pending_iteration && m.cache) m.cache->set_classes(m.cull->node_classes(), false);
