@@ -17,7 +17,7 @@ PACKAGES=(
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # viewer: window + X11 testing
-  libglfw3-dev xvfb xdotool x11-apps
+  libglfw3-dev xvfb xdotool x11-apps libstb-dev
   # real inputs and references for tests and tools
   lammps python3 python3-numpy python3-scipy python3-h5py python3-mdanalysis python3-matplotlib
 )

@@ -45,7 +45,7 @@ bool instance_extension_available(const char* name) {
   return false;
 }
 
-Result<VkInstance> create_instance(bool validation) {
+Result<VkInstance> create_instance(bool validation, const std::vector<std::string>& extra_extensions = {}) {
   VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
   app.pApplicationName = "mdstream";
   app.applicationVersion = VK_MAKE_VERSION(0, 1, 0);
@@ -55,6 +55,11 @@ Result<VkInstance> create_instance(bool validation) {
   if (validation) {
     layers.push_back(kValidationLayer);
     exts.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+  }
+  for (const std::string& e : extra_extensions) {
+    if (!instance_extension_available(e.c_str()))
+      return make_error(Errc::unsupported, "Vulkan instance extension {} is not available", e);
+    exts.push_back(e.c_str());
   }
   VkInstanceCreateInfo info{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
   info.pApplicationInfo = &app;
@@ -71,7 +76,8 @@ Result<VkInstance> create_instance(bool validation) {
   return inst;
 }
 
-DeviceInfo describe(VkPhysicalDevice pd, uint32_t index, uint32_t* family_out) {
+// With a surface, the queue family must also support presenting to it.
+DeviceInfo describe(VkPhysicalDevice pd, uint32_t index, uint32_t* family_out, VkSurfaceKHR surface = VK_NULL_HANDLE) {
   DeviceInfo d;
   d.index = index;
   VkPhysicalDeviceProperties p;
@@ -87,6 +93,10 @@ DeviceInfo describe(VkPhysicalDevice pd, uint32_t index, uint32_t* family_out) {
   for (uint32_t i = 0; i < nq; ++i) {
     const VkQueueFlags need = VK_QUEUE_GRAPHICS_BIT | VK_QUEUE_COMPUTE_BIT;
     if ((q[i].queueFlags & need) == need) {
+      if (surface != VK_NULL_HANDLE) {
+        VkBool32 present = VK_FALSE;
+        if (vkGetPhysicalDeviceSurfaceSupportKHR(pd, i, surface, &present) != VK_SUCCESS || !present) continue;
+      }
       family = int(i);
       break;
     }
@@ -152,7 +162,7 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
   std::unique_ptr<Context> c(new Context());
   c->validation_ = options.validation && layer_available(kValidationLayer) &&
                    instance_extension_available(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
-  MDS_ASSIGN_OR_RETURN(c->instance_, create_instance(c->validation_));
+  MDS_ASSIGN_OR_RETURN(c->instance_, create_instance(c->validation_, options.instance_extensions));
   if (c->validation_) {
     c->debug_ = std::make_unique<Debug>();
     VkDebugUtilsMessengerCreateInfoEXT dinfo{VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
@@ -166,6 +176,11 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
     if (fn) fn(c->instance_, &dinfo, nullptr, &c->messenger_);
   }
 
+  if (options.make_surface) {
+    MDS_ASSIGN_OR_RETURN(c->surface_, options.make_surface(c->instance_));
+  }
+  const VkSurfaceKHR surface = c->surface_;
+
   auto pds = physical_devices(c->instance_);
   if (pds.empty()) return make_error(Errc::unsupported, "no Vulkan physical device found");
   int chosen = -1;
@@ -173,24 +188,26 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
     if (size_t(options.device_index) >= pds.size())
       return make_error(Errc::invalid_argument, "--device {}: only {} Vulkan device(s) present (0..{})",
                         options.device_index, pds.size(), pds.size() - 1);
-    DeviceInfo d = describe(pds[options.device_index], options.device_index, &c->queue_family_);
+    DeviceInfo d = describe(pds[options.device_index], options.device_index, &c->queue_family_, surface);
     if (!d.usable)
-      return make_error(Errc::unsupported, "--device {} ({}): needs Vulkan 1.3 and a graphics+compute queue",
-                        options.device_index, d.name);
+      return make_error(Errc::unsupported, "--device {} ({}): needs Vulkan 1.3 and a graphics+compute queue{}",
+                        options.device_index, d.name, surface ? " that can present to the window" : "");
     chosen = options.device_index;
   } else {
     int best_rank = 1 << 30;
     for (uint32_t i = 0; i < pds.size(); ++i) {
-      DeviceInfo d = describe(pds[i], i, nullptr);
+      DeviceInfo d = describe(pds[i], i, nullptr, surface);
       if (d.usable && type_rank(d.type) < best_rank) {
         best_rank = type_rank(d.type);
         chosen = int(i);
       }
     }
-    if (chosen < 0) return make_error(Errc::unsupported, "no Vulkan 1.3 device with a graphics+compute queue");
+    if (chosen < 0)
+      return make_error(Errc::unsupported, "no Vulkan 1.3 device with a graphics+compute queue{}",
+                        surface ? " that can present to the window" : "");
   }
   c->physical_ = pds[chosen];
-  c->info_ = describe(c->physical_, uint32_t(chosen), &c->queue_family_);
+  c->info_ = describe(c->physical_, uint32_t(chosen), &c->queue_family_, surface);
   vkGetPhysicalDeviceProperties(c->physical_, &c->props_);
   {
     uint32_t nq = 0;
@@ -233,10 +250,14 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
   qinfo.queueFamilyIndex = c->queue_family_;
   qinfo.queueCount = 1;
   qinfo.pQueuePriorities = &priority;
+  std::vector<const char*> device_exts;
+  for (const std::string& e : options.device_extensions) device_exts.push_back(e.c_str());
   VkDeviceCreateInfo dinfo{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
   dinfo.pNext = &e2;
   dinfo.queueCreateInfoCount = 1;
   dinfo.pQueueCreateInfos = &qinfo;
+  dinfo.enabledExtensionCount = uint32_t(device_exts.size());
+  dinfo.ppEnabledExtensionNames = device_exts.data();
   MDS_VK_TRY(vkCreateDevice(c->physical_, &dinfo, nullptr, &c->device_));
   vkGetDeviceQueue(c->device_, c->queue_family_, 0, &c->queue_);
   c->allocator_ = std::make_unique<Allocator>(c->physical_, c->device_, options.budget);
@@ -263,6 +284,7 @@ Context::~Context() {
         vkGetInstanceProcAddr(instance_, "vkDestroyDebugUtilsMessengerEXT"));
     if (fn) fn(instance_, messenger_, nullptr);
   }
+  if (surface_) vkDestroySurfaceKHR(instance_, surface_, nullptr);
   if (instance_) vkDestroyInstance(instance_, nullptr);
 }
 

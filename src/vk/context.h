@@ -5,6 +5,11 @@
 // Device selection: `device_index >= 0` picks that physical device (as listed by enumerate());
 // otherwise the first discrete GPU, then integrated, virtual, CPU (lavapipe) -- any device with
 // Vulkan >= 1.3 and a queue family supporting graphics and compute.
+//
+// Window systems (the viewer): ContextOptions::instance_extensions/device_extensions are enabled
+// in addition, and ContextOptions::make_surface, when set, creates a surface right after the
+// instance; the context then owns it (surface()) and only accepts a queue family that supports
+// graphics, compute and presenting to it. Without these options nothing changes (headless).
 #pragma once
 
 #include <cstdint>
@@ -24,6 +29,10 @@ struct ContextOptions {
   int device_index = -1;   // -1: automatic
   bool validation = false; // enable VK_LAYER_KHRONOS_validation if present
   MemoryBudget budget;
+  // Window system (optional; empty/null for headless use).
+  std::vector<std::string> instance_extensions;  // e.g. from glfwGetRequiredInstanceExtensions
+  std::vector<std::string> device_extensions;    // e.g. VK_KHR_swapchain
+  std::function<Result<VkSurfaceKHR>(VkInstance)> make_surface;  // owned by the context afterwards
   // Reads MDSTREAM_VALIDATION=1 from the environment.
   static ContextOptions from_env();
 };
@@ -52,6 +61,9 @@ class Context {
   VkPhysicalDevice physical() const { return physical_; }
   VkDevice device() const { return device_; }
   VkQueue queue() const { return queue_; }
+  // The surface made by ContextOptions::make_surface (VK_NULL_HANDLE when headless); queue()
+  // can present to it.
+  VkSurfaceKHR surface() const { return surface_; }
   uint32_t queue_family() const { return queue_family_; }
   const DeviceInfo& info() const { return info_; }
   const VkPhysicalDeviceProperties& properties() const { return props_; }
@@ -73,6 +85,7 @@ class Context {
   struct Debug;
 
   VkInstance instance_ = VK_NULL_HANDLE;
+  VkSurfaceKHR surface_ = VK_NULL_HANDLE;
   VkDebugUtilsMessengerEXT messenger_ = VK_NULL_HANDLE;
   std::unique_ptr<Debug> debug_;
   VkPhysicalDevice physical_ = VK_NULL_HANDLE;

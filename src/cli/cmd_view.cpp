@@ -1,0 +1,93 @@
+// `mdstream view STORE [--gpu-budget B] [options]`: the interactive viewer (src/viewer/): a
+// window (GLFW + Vulkan swapchain) showing the progressive, culled rendering of a store, in
+// memory or streamed through a GPU cache of --gpu-budget bytes. Keys are listed by --help.
+#include <memory>
+#include <string>
+
+#include "cli/command.h"
+#include "core/byte_size.h"
+#include "streaming/residency.h"
+#include "viewer/viewer.h"
+
+namespace mds::cli {
+namespace {
+
+struct ViewCliOptions {
+  viewer::ViewerOptions v;
+  std::string gpu_budget;
+  std::string policy = "occlusion";
+  bool no_cull = false;
+  double cocc = MDS_CULL_C_OCC_DEFAULT;
+  double io_latency_ms = 0.0;
+  uint32_t width = 960, height = 540, spp = 16;
+};
+
+Status run_view(ViewCliOptions& o) {
+  viewer::ViewerOptions v = o.v;
+  if (!o.gpu_budget.empty()) {
+    MDS_ASSIGN_OR_RETURN(v.gpu_budget, parse_byte_size(o.gpu_budget));
+  }
+  MDS_ASSIGN_OR_RETURN(v.stream.policy, streaming::parse_policy(o.policy));
+  if (!(o.cocc > 0.0 && o.cocc < 1.0)) return make_error(Errc::invalid_argument, "--cocc {}: expected (0, 1)", o.cocc);
+  if (o.v.fov_y_deg <= 0.0 || o.v.fov_y_deg >= 180.0)
+    return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.v.fov_y_deg);
+  if (o.io_latency_ms < 0.0)
+    return make_error(Errc::invalid_argument, "--io-latency-ms {}: expected >= 0", o.io_latency_ms);
+  v.stream.io.io_latency_ms = o.io_latency_ms;
+  v.render.width = o.width;
+  v.render.height = o.height;
+  v.render.spp = o.spp;
+  v.render.cull = !o.no_cull;
+  v.render.cull_settings.c_occ = o.cocc;
+  return viewer::run_viewer(v);
+}
+
+void setup_view(CLI::App& sub, int& exit_code) {
+  auto opt = std::make_shared<ViewCliOptions>();
+  sub.add_option("store", opt->v.store, "Store file (.mds)")->required();
+  sub.add_option("--gpu-budget", opt->gpu_budget,
+                 "Stream node payloads through a GPU cache of this many bytes (e.g. 256MiB); default: whole store in memory");
+  sub.add_option("--policy", opt->policy, "Cache eviction policy when streaming: occlusion, lru or fifo")
+      ->capture_default_str();
+  sub.add_option("--io-latency-ms", opt->io_latency_ms, "Simulated latency per node read (slow disk), ms")
+      ->capture_default_str();
+  sub.add_option("--width", opt->width, "Initial window width")->check(CLI::Range(16u, 16384u))->capture_default_str();
+  sub.add_option("--height", opt->height, "Initial window height")->check(CLI::Range(16u, 16384u))->capture_default_str();
+  sub.add_option("--spp", opt->spp, "Samples per pixel accumulated while the camera rests")
+      ->check(CLI::Range(1u, 65536u))
+      ->capture_default_str();
+  sub.add_option("--camera", opt->v.camera, "Start camera ex,ey,ez,tx,ty,tz[,ux,uy,uz] (data coordinates)");
+  sub.add_option("--view", opt->v.view, "Default start view: 0 front, 1 oblique top, 2 close-up of a corner")
+      ->check(CLI::Range(0, 2))
+      ->capture_default_str();
+  sub.add_option("--fov", opt->v.fov_y_deg, "Vertical field of view in degrees")->capture_default_str();
+  sub.add_flag("--ortho", opt->v.ortho, "Start with an orthographic projection");
+  sub.add_flag("--no-cull", opt->no_cull, "Start with occlusion culling off (key C toggles)");
+  sub.add_option("--cocc", opt->cocc, "Confidence threshold of occlusion class O (keys [ ] change it)")
+      ->capture_default_str();
+  sub.add_option("--play", opt->v.play,
+                 "Replay the camera keyframes of this camera path file (docs/camera-path.md), or a built-in path: "
+                 "orbit, flythrough, jumps");
+  sub.add_option("--play-frames", opt->v.play_frames, "Frames of a built-in --play path")
+      ->check(CLI::Range(1u, 10000000u))
+      ->capture_default_str();
+  sub.add_option("--record", opt->v.record, "Save the session's camera path to this file when the viewer exits");
+  sub.add_option("--screenshot", opt->v.screenshot, "Save the last displayed frame as PNG when the viewer exits");
+  sub.add_option("--exit-after-frames", opt->v.exit_after_frames,
+                 "Exit after this many displayed frames (default: run until closed, or until a --play path ended "
+                 "and the view converged)");
+  sub.add_option("--frame-log", opt->v.frame_log, "Write one CSV row per displayed frame (times, samples, cache)");
+  sub.add_flag("--no-hud", [opt](int64_t) { opt->v.hud = false; }, "Start with the heads-up display hidden (key H)");
+  sub.add_option("--device", opt->v.device, "Vulkan device index (default: automatic, discrete GPU first)");
+  sub.footer(std::string("\nKeys:\n") + viewer::key_help() +
+             "\n\nNeeds a display (X11/Wayland); headless: xvfb-run mdstream view STORE ...");
+  sub.callback([opt, &exit_code] {
+    Status st = run_view(*opt);
+    exit_code = st.ok() ? 0 : report("view", st.error());
+  });
+}
+
+Registrar reg("view", "Interactive viewer: window, camera, HUD, streaming from a GPU budget", setup_view);
+
+}  // namespace
+}  // namespace mds::cli

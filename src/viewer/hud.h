@@ -1,0 +1,40 @@
+// Heads-up display of the viewer: a text block (stb_easy_font) over the top-left of the frame
+// with frame time, samples, culling, convergence, cache residency and class counts.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "render/renderer.h"
+#include "viewer/canvas.h"
+
+namespace mds::viewer {
+
+struct HudState {
+  std::string store_name;
+  bool streaming = false;
+  bool cull = true;
+  double c_occ = 0.0;
+  uint32_t spp = 0;
+  bool ortho = false;
+  double fov_y_deg = 0.0;
+  double frame_ms = 0.0;      // wall time of the last displayed frame (loop iteration)
+  double step_ms = 0.0;       // renderer step() wall time
+  double gpu_ms = 0.0;
+  bool idle = false;          // converged and accumulated: not stepping
+  bool playing = false;
+  bool recording = false;
+  double read_mb_s = 0.0;     // compressed bytes read from the store per second (recent)
+  std::string view_name;
+  std::string message;        // transient status line (screenshot saved, errors)
+  render::FrameReport report;
+  render::CacheStats cache;
+  uint64_t meshlets = 0;
+};
+
+std::vector<std::string> hud_lines(const HudState& s);
+// Draws the lines over a translucent box at the top-left; scale 1 below 800 px width, else 2.
+void draw_hud(Canvas& canvas, const HudState& s);
+
+}  // namespace mds::viewer

@@ -1,0 +1,51 @@
+// The viewer's renderer and its inputs: the open store, the in-memory scene (when no GPU budget
+// is given) with its density volume, the current render settings, and re-creation of the
+// render::Renderer when its fixed parameters change (window size, culling on/off, C_occ, spp).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "core/result.h"
+#include "render/renderer.h"
+#include "render/scene.h"
+#include "store/store_reader.h"
+#include "viewer/debug_views.h"
+#include "viewer/viewer.h"
+#include "vk/context.h"
+
+namespace mds::viewer {
+
+class RenderHost {
+ public:
+  // Opens the store; in memory (options.gpu_budget == 0) decodes it into a scene.
+  static Result<std::unique_ptr<RenderHost>> open(vk::Context& ctx, const ViewerOptions& options);
+
+  // (Re)creates the renderer at width x height with settings(); the old one is destroyed first.
+  Status recreate(uint32_t width, uint32_t height);
+  render::RenderSettings& settings() { return settings_; }
+  render::Renderer* renderer() { return renderer_.get(); }
+  bool streaming() const { return stream_.gpu_budget > 0; }
+  const render::StreamSettings& stream_settings() const { return stream_; }
+  const render::Bounds& bounds() const { return bounds_; }
+  const render::SceneData* scene() const { return scene_ ? scene_.get() : nullptr; }
+  const store::StoreReader& reader() const { return *reader_; }
+  uint64_t meshlets() const;
+  // Node boxes in world coordinates (from the store's node directory).
+  const std::vector<Box>& node_boxes() const { return node_boxes_; }
+
+ private:
+  RenderHost() = default;
+  vk::Context* ctx_ = nullptr;
+  std::unique_ptr<store::StoreReader> reader_;
+  std::unique_ptr<render::SceneData> scene_;
+  std::shared_ptr<const render::culling::DensityVolume> density_;
+  render::RenderSettings settings_;
+  render::StreamSettings stream_;
+  render::Bounds bounds_;
+  std::vector<Box> node_boxes_;
+  std::unique_ptr<render::Renderer> renderer_;
+};
+
+}  // namespace mds::viewer

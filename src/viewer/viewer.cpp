@@ -1,0 +1,419 @@
+#include "viewer/viewer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <optional>
+
+#include <vulkan/vulkan.h>
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <fmt/format.h>
+
+#include "render/camera_path.h"
+#include "viewer/camera_controller.h"
+#include "viewer/canvas.h"
+#include "viewer/debug_views.h"
+#include "viewer/frame_log.h"
+#include "viewer/hud.h"
+#include "viewer/input.h"
+#include "viewer/path_recorder.h"
+#include "viewer/render_host.h"
+#include "viewer/window.h"
+
+namespace mds::viewer {
+
+const char* key_help() {
+  return "Mouse: left drag orbit, middle or shift+left drag pan, wheel zoom\n"
+         "W/S A/D Q/E  fly forward/back, left/right, down/up (held)\n"
+         "R  reset the view      F/G  field of view -/+ 5 deg      O  orthographic on/off\n"
+         "H  HUD on/off          1  normal view   2  occlusion classes   3  cull buffer depth   4  confidence\n"
+         "B  node bounds on/off  Shift+D  density histogram of the pixel under the cursor\n"
+         "C  culling on/off      [ ]  C_occ -/+ 0.01      - =  spp /2 *2\n"
+         "P  save a screenshot (mdstream-view-<time>.png)  Esc  quit";
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+std::string screenshot_name() {
+  const std::time_t t = std::time(nullptr);
+  char buf[64];
+  std::strftime(buf, sizeof buf, "%Y%m%d-%H%M%S", std::localtime(&t));
+  std::string base = std::string("mdstream-view-") + buf;
+  std::string name = base + ".png";
+  for (int i = 2; std::filesystem::exists(name); ++i) name = base + "-" + std::to_string(i) + ".png";
+  return name;
+}
+
+struct ViewState {
+  bool hud = true;
+  DebugView view = DebugView::normal;
+  bool bounds = false;
+  bool histogram = false;
+};
+
+class Viewer {
+ public:
+  explicit Viewer(const ViewerOptions& o) : o_(o) {}
+  Status run();
+
+ private:
+  Status setup();
+  Status recreate_renderer();
+  void handle_keys(const InputFrame& in, bool& recreate, bool& quit);
+  Status compose(const InputFrame& in);
+
+  const ViewerOptions& o_;
+  std::unique_ptr<Window> window_;
+  std::unique_ptr<vk::Context> ctx_;
+  std::unique_ptr<Swapchain> swapchain_;
+  std::unique_ptr<RenderHost> host_;
+  std::unique_ptr<Input> input_;
+  std::unique_ptr<FrameLog> log_;
+  CameraController controller_;
+  std::optional<render::CameraPath> play_;
+  std::optional<PathRecorder> recorder_;
+  ViewState vs_;
+  HudState hud_;
+  Canvas image_;    // the renderer's image as 8-bit sRGB
+  Canvas display_;  // image_ + debug views + HUD: what is presented (and saved)
+  render::Camera view_camera_;  // camera handed to set_view (near/far fitted)
+  bool have_view_ = false;
+  bool idle_ = false;
+  std::optional<Error> render_error_;
+  std::string message_;
+  Clock::time_point message_time_;
+};
+
+Status Viewer::setup() {
+  if (o_.render.width == 0 || o_.render.height == 0)
+    return make_error(Errc::invalid_argument, "--width/--height must be positive");
+  // A --play file is read before the window opens (errors early); built-in names after the
+  // bounds are known.
+  const bool builtin_play = !o_.play.empty() && !std::filesystem::exists(o_.play) &&
+                            render::parse_builtin_path(o_.play).ok();
+  if (!o_.play.empty() && !builtin_play) {
+    MDS_ASSIGN_OR_RETURN(render::CameraPath path, render::CameraPath::load(o_.play));
+    if (path.empty()) return make_error(Errc::invalid_argument, "--play {}: no keyframes", o_.play);
+    play_ = std::move(path);
+  }
+  if (!o_.record.empty()) recorder_.emplace();
+  if (!o_.frame_log.empty()) {
+    MDS_ASSIGN_OR_RETURN(log_, FrameLog::open(o_.frame_log));
+  }
+  const std::string title = "mdstream view - " + std::filesystem::path(o_.store).filename().string();
+  MDS_ASSIGN_OR_RETURN(window_, Window::create(o_.render.width, o_.render.height, title));
+  vk::ContextOptions copt = vk::ContextOptions::from_env();
+  copt.device_index = o_.device;
+  window_->add_to_context_options(copt);
+  MDS_ASSIGN_OR_RETURN(ctx_, vk::Context::create(copt));
+  uint32_t fw = 0, fh = 0;
+  window_->framebuffer_size(fw, fh);
+  if (fw == 0 || fh == 0) fw = o_.render.width, fh = o_.render.height;
+  MDS_ASSIGN_OR_RETURN(swapchain_, Swapchain::create(*ctx_, fw, fh));
+  MDS_ASSIGN_OR_RETURN(host_, RenderHost::open(*ctx_, o_));
+  input_ = std::make_unique<Input>(window_->handle());
+  vs_.hud = o_.hud;
+  MDS_TRY(host_->recreate(fw, fh));
+
+  // Home camera: --camera or a default view, with --fov/--ortho.
+  render::Camera home;
+  const double aspect = double(fw) / double(std::max(fh, 1u));
+  if (!o_.camera.empty()) {
+    MDS_ASSIGN_OR_RETURN(home, render::parse_camera(o_.camera));
+  } else {
+    MDS_ASSIGN_OR_RETURN(home, render::default_view(o_.view, host_->bounds(), o_.fov_y_deg, aspect));
+  }
+  home.fov_y_deg = o_.fov_y_deg;
+  home.ortho = o_.ortho;
+  controller_ = CameraController(home, host_->bounds());
+  if (builtin_play) {
+    MDS_ASSIGN_OR_RETURN(render::BuiltinPath kind, render::parse_builtin_path(o_.play));
+    play_ = render::builtin_path(kind, host_->bounds(), std::max(o_.play_frames, 1u), o_.fov_y_deg, aspect);
+  }
+
+  hud_.store_name = std::filesystem::path(o_.store).filename().string();
+  hud_.streaming = host_->streaming();
+  hud_.meshlets = host_->meshlets();
+  return {};
+}
+
+Status Viewer::recreate_renderer() {
+  render_error_.reset();
+  Status st = host_->recreate(host_->settings().width, host_->settings().height);
+  have_view_ = false;
+  idle_ = false;
+  return st;
+}
+
+void Viewer::handle_keys(const InputFrame& in, bool& recreate, bool& quit) {
+  auto say = [&](std::string m) {
+    message_ = std::move(m);
+    message_time_ = Clock::now();
+  };
+  auto& rs = host_->settings();
+  for (size_t i = 0; i < in.keys_pressed.size(); ++i) {
+    const int key = in.keys_pressed[i];
+    const bool shift = in.key_mods[i] & GLFW_MOD_SHIFT;
+    switch (key) {
+      case GLFW_KEY_ESCAPE: quit = true; break;
+      case GLFW_KEY_R: controller_.reset(); break;
+      case GLFW_KEY_F: controller_.change_fov(-5.0); break;
+      case GLFW_KEY_G: controller_.change_fov(+5.0); break;
+      case GLFW_KEY_O: controller_.toggle_ortho(); break;
+      case GLFW_KEY_H: vs_.hud = !vs_.hud; break;
+      case GLFW_KEY_1: vs_.view = DebugView::normal; break;
+      case GLFW_KEY_2: vs_.view = DebugView::classes; break;
+      case GLFW_KEY_3: vs_.view = DebugView::cull_depth; break;
+      case GLFW_KEY_4: vs_.view = DebugView::confidence; break;
+      case GLFW_KEY_B: vs_.bounds = !vs_.bounds; break;
+      case GLFW_KEY_D:
+        if (shift) vs_.histogram = !vs_.histogram;
+        break;
+      case GLFW_KEY_C:
+        rs.cull = !rs.cull;
+        recreate = true;
+        say(rs.cull ? "culling on" : "culling off");
+        break;
+      case GLFW_KEY_LEFT_BRACKET:
+      case GLFW_KEY_RIGHT_BRACKET: {
+        const double c = std::clamp(rs.cull_settings.c_occ + (key == GLFW_KEY_LEFT_BRACKET ? -0.01 : 0.01), 0.5, 0.999);
+        if (c != rs.cull_settings.c_occ) {
+          rs.cull_settings.c_occ = c;
+          recreate = rs.cull;
+        }
+        say(fmt::format("C_occ {:.3f}", c));
+        break;
+      }
+      case GLFW_KEY_MINUS:
+      case GLFW_KEY_EQUAL: {
+        const uint32_t spp = key == GLFW_KEY_MINUS ? std::max(rs.spp / 2, 1u) : std::min(rs.spp * 2, 65536u);
+        if (spp != rs.spp) {
+          rs.spp = spp;
+          recreate = true;
+        }
+        say(fmt::format("spp {}", spp));
+        break;
+      }
+      case GLFW_KEY_P: {
+        const std::string name = screenshot_name();
+        Status st = write_canvas_png(name, display_);
+        say(st.ok() ? "saved " + name : st.error().message);
+        break;
+      }
+      default: break;
+    }
+  }
+  if (!message_.empty() && ms_since(message_time_) > 4000) message_.clear();
+}
+
+Status Viewer::compose(const InputFrame& in) {
+  display_ = image_;
+  render::Camera cam = view_camera_;
+  render::fit_clip_planes(cam, host_->bounds());
+  render::culling::CullLoop* loop = host_->renderer() ? host_->renderer()->cull_loop() : nullptr;
+  auto note = [&](const std::string& m) {
+    if (hud_.message.empty()) hud_.message = m;
+  };
+  if (vs_.view != DebugView::normal && render_error_) {
+    // nothing to inspect
+  } else if (vs_.view != DebugView::normal && !loop) {
+    note(fmt::format("{}: culling is off (C)", debug_view_name(vs_.view)));
+  } else if (vs_.view == DebugView::classes) {
+    if (!host_->scene()) {
+      note("classes view: needs the in-memory scene (streaming: no per-slot meshlet bounds API)");
+    } else {
+      MDS_ASSIGN_OR_RETURN(std::vector<uint32_t> classes, loop->read_meshlet_classes());
+      draw_meshlet_classes(display_, cam, *host_->scene(), classes);
+    }
+  } else if (vs_.view == DebugView::cull_depth || vs_.view == DebugView::confidence) {
+    MDS_ASSIGN_OR_RETURN(std::vector<glm::vec4> ps, loop->read_pixel_state());
+    if (vs_.view == DebugView::cull_depth) {
+      draw_cull_depth(display_, ps, cam.near, cam.far);
+    } else {
+      draw_confidence(display_, ps, host_->settings().cull_settings.c_occ);
+    }
+  }
+  if (vs_.bounds) {
+    const Projector proj(cam, display_.width(), display_.height());
+    const auto& boxes = host_->node_boxes();
+    const size_t stride = std::max<size_t>(1, boxes.size() / 20000);
+    for (size_t i = 0; i < boxes.size(); i += stride) draw_box(display_, proj, cam, boxes[i], {80, 200, 255, 160});
+    if (host_->streaming()) note("bounds: all nodes (no per-node residency API)");
+  }
+  if (vs_.histogram) {
+    if (!loop) {
+      note("histogram: culling is off (C)");
+    } else {
+      MDS_ASSIGN_OR_RETURN(std::vector<float> hist, loop->read_histograms());
+      MDS_ASSIGN_OR_RETURN(std::vector<glm::vec2> ranges, loop->read_hist_ranges());
+      const uint32_t x = uint32_t(std::clamp(in.cursor.x, 0.0, double(display_.width() - 1)));
+      const uint32_t y = uint32_t(std::clamp(in.cursor.y, 0.0, double(display_.height() - 1)));
+      draw_histogram(display_, hist, ranges, loop->bins(), x, y);
+    }
+  }
+  if (vs_.hud) draw_hud(display_, hud_);
+  return {};
+}
+
+Status Viewer::run() {
+  MDS_TRY(setup());
+  const auto start = Clock::now();
+  uint32_t frame = 0;
+  render::FrameReport report;
+  uint64_t last_bytes_read = 0;
+  auto last_rate_time = Clock::now();
+  double read_rate = 0.0;
+  auto last_iter = Clock::now();
+  bool quit = false;
+  for (;;) {
+    const auto t0 = Clock::now();
+    const double dt = std::min(std::chrono::duration<double>(t0 - last_iter).count(), 0.25);
+    last_iter = t0;
+    const bool playing = play_ && frame < play_->frame_count();
+    if (idle_ && !playing) glfwWaitEventsTimeout(0.1);
+    else glfwPollEvents();
+    InputFrame in = input_->poll();
+    if (window_->should_close()) break;
+
+    bool recreate = false;
+    handle_keys(in, recreate, quit);  // Esc: this frame is still shown (and recorded), then the loop ends
+
+    // Camera: the path while playing, else the controller.
+    if (playing) {
+      controller_.set(play_->at(frame));
+    } else {
+      if (in.orbit_delta != glm::dvec2(0.0)) controller_.orbit(in.orbit_delta.x, in.orbit_delta.y, swapchain_->height());
+      if (in.pan_delta != glm::dvec2(0.0)) controller_.pan(in.pan_delta.x, in.pan_delta.y, swapchain_->height());
+      if (in.wheel != 0.0) controller_.zoom(in.wheel);
+      if (in.fly != glm::dvec3(0.0) && !(glfwGetKey(window_->handle(), GLFW_KEY_LEFT_SHIFT) == GLFW_PRESS))
+        controller_.fly(in.fly, dt);
+    }
+
+    // Resize: the renderer has a fixed size.
+    if (in.resized) {
+      uint32_t fw = 0, fh = 0;
+      window_->framebuffer_size(fw, fh);
+      if (fw > 0 && fh > 0 && (fw != host_->settings().width || fh != host_->settings().height)) {
+        MDS_TRY(swapchain_->resize(fw, fh));
+        host_->settings().width = fw;
+        host_->settings().height = fh;
+        recreate = true;
+      }
+    }
+    if (recreate) {
+      Status st = recreate_renderer();
+      if (!st.ok()) return st;
+    }
+
+    const render::Camera& cam = controller_.camera();
+    const bool moved = !have_view_ || !same_camera(cam, view_camera_);
+    render::Renderer* r = host_->renderer();
+    double step_ms = 0.0;
+    bool stepped = false;
+    if (moved) {
+      view_camera_ = cam;
+      have_view_ = true;
+      idle_ = false;
+      if (!render_error_) {
+        Status st = r->set_view(cam);
+        if (!st.ok()) render_error_ = st.error();
+      }
+    }
+    if (!idle_ && !render_error_) {
+      const auto ts = Clock::now();
+      auto rep = r->step();
+      if (!rep.ok()) {
+        render_error_ = rep.error();
+      } else {
+        report = std::move(*rep);
+        auto img = r->read_image();
+        if (!img.ok()) render_error_ = img.error();
+        else image_.set_from_linear(*img);
+        stepped = true;
+        idle_ = report.converged && report.samples >= host_->settings().spp;
+      }
+      step_ms = ms_since(ts);
+    }
+    if (render_error_) {
+      idle_ = true;
+      if (image_.width() != host_->settings().width || image_.height() != host_->settings().height)
+        image_ = Canvas(host_->settings().width, host_->settings().height, {60, 30, 30, 255});
+    }
+
+    // HUD state.
+    const render::CacheStats cache = r ? r->stats().cache : render::CacheStats{};
+    const double since_rate = std::chrono::duration<double>(Clock::now() - last_rate_time).count();
+    if (since_rate >= 0.5) {
+      read_rate = double(cache.bytes_read - std::min(cache.bytes_read, last_bytes_read)) / since_rate / 1e6;
+      last_bytes_read = cache.bytes_read;
+      last_rate_time = Clock::now();
+    }
+    const auto& rs = host_->settings();
+    hud_.cull = rs.cull;
+    hud_.c_occ = rs.cull_settings.c_occ;
+    hud_.spp = rs.spp;
+    hud_.ortho = cam.ortho;
+    hud_.fov_y_deg = cam.fov_y_deg;
+    hud_.step_ms = stepped ? step_ms : 0.0;
+    hud_.idle = idle_ && !render_error_;
+    hud_.playing = playing;
+    hud_.recording = recorder_.has_value();
+    hud_.read_mb_s = read_rate;
+    hud_.view_name = debug_view_name(vs_.view);
+    hud_.report = report;
+    hud_.cache = cache;
+    hud_.message = render_error_ ? "render error: " + render_error_->message : message_;
+
+    MDS_TRY(compose(in));
+    MDS_ASSIGN_OR_RETURN(bool presented, swapchain_->present(display_));
+    if (!presented) {
+      uint32_t fw = 0, fh = 0;
+      window_->framebuffer_size(fw, fh);
+      MDS_TRY(swapchain_->resize(fw, fh));
+    }
+    if (recorder_) recorder_->observe(frame, cam);
+    const double frame_ms = ms_since(t0);
+    hud_.frame_ms = frame_ms;
+    if (log_) {
+      FrameLogRow row;
+      row.frame = frame;
+      row.t_ms = ms_since(start);
+      row.frame_ms = frame_ms;
+      row.step_ms = step_ms;
+      row.stepped = stepped;
+      row.camera_moved = moved;
+      row.report = report;
+      row.cache = cache;
+      log_->add(row);
+    }
+    ++frame;
+    if (quit) break;
+    if (o_.exit_after_frames > 0 && frame >= o_.exit_after_frames) break;
+    if (o_.exit_after_frames == 0 && play_ && frame >= play_->frame_count() && idle_) break;
+  }
+
+  // Outputs (each written atomically).
+  if (render_error_) return *render_error_;
+  if (!o_.screenshot.empty()) MDS_TRY(write_canvas_png(o_.screenshot, display_));
+  if (recorder_) {
+    if (recorder_->key_count() == 0) return make_error(Errc::internal, "--record {}: no frame was shown", o_.record);
+    MDS_TRY(recorder_->path().save(o_.record));
+  }
+  if (log_) MDS_TRY(log_->commit());
+  return {};
+}
+
+}  // namespace
+
+Status run_viewer(const ViewerOptions& options) {
+  Viewer v(options);
+  return v.run();
+}
+
+}  // namespace mds::viewer

@@ -1,0 +1,43 @@
+// `mdstream view`: the interactive streaming viewer (issue 5). A GLFW window with a Vulkan
+// swapchain shows the progressive image of render::Renderer (set_view/step/read_image), in
+// memory or streamed through the GPU cache (--gpu-budget). The loop (viewer.cpp): input ->
+// camera (controller or --play path) -> set_view on change -> step() until the view has
+// converged and accumulated --spp samples, then idle (events only) -> sRGB 8-bit frame on the
+// CPU + debug views + HUD -> swapchain copy and present.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "core/result.h"
+#include "render/renderer.h"
+
+namespace mds::viewer {
+
+struct ViewerOptions {
+  std::string store;
+  uint64_t gpu_budget = 0;  // 0: in memory
+  render::RenderSettings render;  // width/height = initial window size; spp = samples to accumulate at rest
+  render::StreamSettings stream;
+  std::string camera;       // --camera spec, empty: default view `view`
+  int view = 0;
+  double fov_y_deg = 40.0;  // --fov
+  bool ortho = false;       // --ortho
+  std::string play;         // --play PATH_FILE, or a built-in path: orbit, flythrough, jumps
+  uint32_t play_frames = 240;  // frames of a built-in --play path
+  std::string record;       // --record PATH_FILE
+  std::string screenshot;   // --screenshot FILE (PNG), saved when exiting
+  std::string frame_log;    // --frame-log CSV: one row per displayed frame
+  uint32_t exit_after_frames = 0;  // 0: run until closed
+  bool hud = true;          // --no-hud: start with the HUD hidden
+  int device = -1;
+};
+
+// The key bindings, one per line ("key  action"), for --help and the docs.
+const char* key_help();
+
+// Runs the viewer until the window is closed (or --exit-after-frames, or the end of --play).
+// Errors as values.
+Status run_viewer(const ViewerOptions& options);
+
+}  // namespace mds::viewer

@@ -1,0 +1,381 @@
+// `mdstream view` (src/viewer/): the camera controller, the path recorder and the 8-bit frame
+// conversion directly; and the real viewer end to end in a window on an Xvfb X server (skipped
+// only when Xvfb or xdotool is not installed):
+//   - a --play path replayed to convergence with --screenshot matches a headless `mdstream
+//     render` of the path's final camera;
+//   - mouse and key input driven by xdotool moves the camera (orbit, wheel zoom) and 'r' resets
+//     it, checked on the --record camera path.
+#include <gtest/gtest.h>
+#include <png.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "render/camera.h"
+#include "render/camera_path.h"
+#include "render/scene.h"
+#include "store/store_reader.h"
+#include "viewer/camera_controller.h"
+#include "viewer/canvas.h"
+#include "viewer/path_recorder.h"
+
+namespace fs = std::filesystem;
+using namespace mds;
+
+namespace {
+
+// ------------------------------------------------------------------------------ pure components
+
+render::Bounds unit_bounds() {
+  render::Bounds b;
+  b.min = glm::dvec3(0.0);
+  b.max = glm::dvec3(10.0);
+  b.radius_max = 0.5;
+  return b;
+}
+
+render::Camera home_camera() {
+  render::Camera c;
+  c.eye = {5, 5, 40};
+  c.target = {5, 5, 5};
+  c.up = {0, 1, 0};
+  c.fov_y_deg = 40;
+  return c;
+}
+
+TEST(ViewerCamera, OrbitKeepsTargetAndDistance) {
+  viewer::CameraController cc(home_camera(), unit_bounds());
+  const double d0 = cc.distance();
+  cc.orbit(50, 0, 100);  // a quarter of the height: 90 degrees of yaw
+  EXPECT_EQ(cc.camera().target, home_camera().target);
+  EXPECT_NEAR(cc.distance(), d0, 1e-9);
+  EXPECT_NEAR(cc.camera().eye.y, 5.0, 1e-9);  // pure yaw about up
+  EXPECT_NEAR(std::abs(cc.camera().eye.x - 5.0), d0, 1e-9);
+  cc.orbit(0, 1e6, 100);  // pitch is clamped short of the pole
+  const glm::dvec3 f = cc.forward();
+  EXPECT_LT(std::abs(glm::dot(f, glm::dvec3(0, 1, 0))), std::cos(glm::radians(0.5)));
+  EXPECT_NEAR(cc.distance(), d0, 1e-9);
+  cc.reset();
+  EXPECT_TRUE(viewer::same_camera(cc.camera(), home_camera()));
+}
+
+TEST(ViewerCamera, PanZoomFlyFovOrtho) {
+  viewer::CameraController cc(home_camera(), unit_bounds());
+  const double d0 = cc.distance();
+  cc.pan(10, 0, 100);  // drag right: the scene follows the cursor, the camera moves left
+  EXPECT_LT(cc.camera().eye.x, 5.0);
+  EXPECT_NEAR(cc.camera().eye.x - cc.camera().target.x, 0.0, 1e-12);
+  EXPECT_NEAR(cc.distance(), d0, 1e-9);
+  // The point at the target depth moves by exactly the dragged pixels: 10 px of 100 = 1/10 of 2 h.
+  EXPECT_NEAR(5.0 - cc.camera().target.x, 0.2 * d0 * std::tan(glm::radians(20.0)), 1e-9);
+  cc.zoom(2);
+  EXPECT_NEAR(cc.distance(), d0 * 0.85 * 0.85, 1e-9);
+  const glm::dvec3 e0 = cc.camera().eye, t0 = cc.camera().target;
+  cc.fly({0, 0, 1}, 1.0);  // forward for a second: half the bounding radius
+  EXPECT_NEAR(glm::length(cc.camera().eye - e0), 0.5 * unit_bounds().bounding_radius(), 1e-9);
+  EXPECT_NEAR(glm::length(cc.camera().target - t0), 0.5 * unit_bounds().bounding_radius(), 1e-9);
+  EXPECT_LT(cc.camera().eye.z, e0.z);
+  cc.change_fov(-100);
+  EXPECT_EQ(cc.camera().fov_y_deg, 5.0);
+  cc.toggle_ortho();
+  EXPECT_TRUE(cc.camera().ortho);
+  const double d1 = cc.distance();
+  cc.zoom(1);  // ortho: the distance (and with it the half height) shrinks
+  EXPECT_NEAR(cc.distance(), 0.85 * d1, 1e-9);
+  EXPECT_EQ(cc.camera().ortho_half_height, 0.0);
+}
+
+TEST(ViewerRecorder, KeysChangesAndHolds) {
+  viewer::PathRecorder rec;
+  render::Camera a = home_camera(), b = home_camera();
+  b.eye.x += 3;
+  for (uint32_t f = 0; f < 5; ++f) rec.observe(f, a);  // rest
+  rec.observe(5, b);                                   // move
+  rec.observe(6, b);
+  const auto path = rec.path();
+  ASSERT_EQ(path.keys().size(), 3u);
+  EXPECT_EQ(path.keys()[0].frame, 0u);
+  EXPECT_EQ(path.keys()[1].frame, 4u);  // the rest is keyed before the move
+  EXPECT_EQ(path.keys()[2].frame, 5u);
+  EXPECT_TRUE(viewer::same_camera(path.at(3), a));
+  EXPECT_TRUE(viewer::same_camera(path.at(5), b));
+}
+
+TEST(ViewerCanvas, SrgbMatchesWritePngAndRoundTrips) {
+  for (int i = 0; i <= 4096; ++i) {
+    const float v = float(i) / 4096.0f;
+    ASSERT_EQ(viewer::linear_to_srgb8(v), uint8_t(std::lround(render::linear_to_srgb(v) * 255.0f))) << v;
+  }
+  viewer::Canvas c(256, 1);
+  for (int i = 0; i < 256; ++i) c.at(i, 0) = {uint8_t(i), uint8_t(255 - i), uint8_t(i / 2), 255};
+  viewer::Canvas back;
+  back.set_from_linear(c.to_linear());
+  for (int i = 0; i < 256; ++i) ASSERT_EQ(back.at(i, 0), c.at(i, 0)) << i;
+  // Text draws something inside its reported box and nothing outside.
+  viewer::Canvas t(64, 16, {0, 0, 0, 255});
+  const glm::ivec2 size = t.text(1, 1, "Hi 42", {255, 255, 255, 255});
+  int lit = 0, outside = 0;
+  for (uint32_t y = 0; y < 16; ++y)
+    for (uint32_t x = 0; x < 64; ++x)
+      if (t.at(x, y).r) (int(x) <= size.x + 1 && int(y) <= size.y + 1 ? lit : outside)++;
+  EXPECT_GT(lit, 10);
+  EXPECT_EQ(outside, 0);
+}
+
+// ------------------------------------------------------------------------------ windowed tests
+
+bool have_program(const char* name) {
+  return std::system(fmt::format("command -v {} >/dev/null 2>&1", name).c_str()) == 0;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream f(p);
+  return std::string(std::istreambuf_iterator<char>(f), {});
+}
+
+// Runs a shell command, stderr to `err`; the exit status.
+int sh(const std::string& cmd) {
+  const int r = std::system(cmd.c_str());
+  return WIFEXITED(r) ? WEXITSTATUS(r) : -1;
+}
+
+// An Xvfb server on a free display number, killed when the object goes.
+class Xvfb {
+ public:
+  Xvfb() {
+    for (int n = 100 + int(::getpid() % 800), tries = 0; tries < 100; ++n, ++tries) {
+      if (fs::exists(fmt::format("/tmp/.X{}-lock", n)) || fs::exists(fmt::format("/tmp/.X11-unix/X{}", n))) continue;
+      pid_ = ::fork();
+      if (pid_ == 0) {
+        const std::string disp = ":" + std::to_string(n);
+        std::freopen("/dev/null", "w", stderr);
+        std::freopen("/dev/null", "w", stdout);
+        ::execlp("Xvfb", "Xvfb", disp.c_str(), "-screen", "0", "640x480x24", "-nolisten", "tcp", (char*)nullptr);
+        ::_exit(127);
+      }
+      // Wait until the server accepts connections on its socket (or died: number taken).
+      const auto t0 = std::chrono::steady_clock::now();
+      while (std::chrono::steady_clock::now() - t0 < std::chrono::seconds(15)) {
+        int status = 0;
+        if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+          pid_ = -1;
+          break;
+        }
+        if (connectable(n)) {
+          display_ = n;
+          return;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      }
+      stop();
+    }
+  }
+  ~Xvfb() { stop(); }
+  bool ok() const { return display_ >= 0; }
+  std::string display() const { return ":" + std::to_string(display_); }
+
+ private:
+  static bool connectable(int n) {
+    const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
+    if (fd < 0) return false;
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::snprintf(addr.sun_path, sizeof addr.sun_path, "/tmp/.X11-unix/X%d", n);
+    const bool ok = ::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
+    ::close(fd);
+    return ok;
+  }
+  void stop() {
+    if (pid_ > 0) {
+      ::kill(pid_, SIGTERM);
+      ::waitpid(pid_, nullptr, 0);
+    }
+    pid_ = -1;
+    display_ = -1;
+  }
+  pid_t pid_ = -1;
+  int display_ = -1;
+};
+
+struct Png {
+  uint32_t width = 0, height = 0;
+  std::vector<uint8_t> rgb;
+};
+
+Png read_png(const fs::path& path) {
+  png_image img{};
+  img.version = PNG_IMAGE_VERSION;
+  Png out;
+  if (!png_image_begin_read_from_file(&img, path.c_str())) return out;
+  img.format = PNG_FORMAT_RGB;
+  out.rgb.resize(PNG_IMAGE_SIZE(img));
+  if (!png_image_finish_read(&img, nullptr, out.rgb.data(), 0, nullptr)) return {};
+  out.width = img.width;
+  out.height = img.height;
+  return out;
+}
+
+class ViewerWindow : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (!have_program("Xvfb")) GTEST_SKIP() << "Xvfb is not installed (apt-get install xvfb)";
+    dir_ = fs::temp_directory_path() / fmt::format("mds_viewer_{}_{}", ::getpid(),
+                                                   ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::create_directories(dir_);
+    ASSERT_EQ(mdstream(fmt::format("synth --scene porous -n 100000 -q -o {}", (dir_ / "p.lammpstrj").string())), 0)
+        << err();
+    ASSERT_EQ(mdstream(fmt::format("convert {} -o {}", (dir_ / "p.lammpstrj").string(), store())), 0) << err();
+    xvfb_ = std::make_unique<Xvfb>();
+    ASSERT_TRUE(xvfb_->ok()) << "Xvfb did not start on any free display";
+  }
+  void TearDown() override {
+    xvfb_.reset();
+    if (!dir_.empty()) fs::remove_all(dir_);
+  }
+  int mdstream(const std::string& args) {
+    return sh(fmt::format("{} {} 2>{}", MDSTREAM_BIN, args, (dir_ / "err.txt").string()));
+  }
+  std::string err() const { return slurp(dir_ / "err.txt"); }
+  std::string store() const { return (dir_ / "p.mds").string(); }
+  std::string env() const { return "DISPLAY=" + xvfb_->display() + " "; }
+
+  fs::path dir_;
+  std::unique_ptr<Xvfb> xvfb_;
+};
+
+// The window shows exactly what the headless renderer makes: a short path replayed to
+// convergence, its screenshot against `mdstream render` of the path's last camera.
+TEST_F(ViewerWindow, PlayedPathScreenshotMatchesHeadlessRender) {
+  auto reader = store::StoreReader::open(store());
+  ASSERT_TRUE(reader.ok()) << reader.error().message;
+  auto scene = render::load_scene(**reader);
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  const uint32_t W = 160, H = 120;
+  const render::CameraPath path =
+      render::builtin_path(render::BuiltinPath::orbit, scene->bounds, 6, 40.0, double(W) / H);
+  ASSERT_EQ(path.frame_count(), 6u);
+  const fs::path path_file = dir_ / "path.txt", shot = dir_ / "view.png", ref = dir_ / "render.png";
+  ASSERT_TRUE(path.save(path_file).ok());
+
+  ASSERT_EQ(sh(fmt::format("{}timeout 50 {} view {} --width {} --height {} --spp 4 --play {} --no-hud --screenshot {} "
+                           "2>{}",
+                           env(), MDSTREAM_BIN, store(), W, H, path_file.string(), shot.string(),
+                           (dir_ / "err.txt").string())),
+            0)
+      << err();
+  const render::Camera last = path.at(path.frame_count() - 1);
+  const std::string cam = fmt::format("{},{},{},{},{},{},{},{},{}", last.eye.x, last.eye.y, last.eye.z, last.target.x,
+                                      last.target.y, last.target.z, last.up.x, last.up.y, last.up.z);
+  ASSERT_EQ(mdstream(fmt::format("render {} -o {} --width {} --height {} --spp 4 --fov {} --camera {}", store(),
+                                 ref.string(), W, H, last.fov_y_deg, cam)),
+            0)
+      << err();
+
+  const Png a = read_png(shot), b = read_png(ref);
+  ASSERT_EQ(a.width, W);
+  ASSERT_EQ(a.height, H);
+  ASSERT_EQ(b.width, W);
+  ASSERT_EQ(b.height, H);
+  double sum = 0.0;
+  size_t differing = 0, lit = 0;
+  for (size_t p = 0; p < size_t(W) * H; ++p) {
+    int maxd = 0;
+    for (int c = 0; c < 3; ++c) {
+      const int d = std::abs(int(a.rgb[3 * p + c]) - int(b.rgb[3 * p + c]));
+      sum += d;
+      maxd = std::max(maxd, d);
+    }
+    if (maxd > 8) ++differing;
+    if (b.rgb[3 * p] != b.rgb[0] || b.rgb[3 * p + 2] != b.rgb[2]) ++lit;  // not background
+  }
+  EXPECT_GT(lit, size_t(W) * H / 10) << "the reference shows almost nothing: a wrong camera?";
+  EXPECT_LT(sum / (3.0 * W * H), 2.0) << "mean absolute difference (of 255)";
+  EXPECT_LT(double(differing) / (W * H), 0.01) << differing << " pixels differ by more than 8/255";
+}
+
+// Input events (X11, through xdotool) move the camera: a left drag orbits, the wheel zooms,
+// 'r' resets; the recorded path shows all three.
+TEST_F(ViewerWindow, XdotoolInputMovesTheCamera) {
+  if (!have_program("xdotool")) GTEST_SKIP() << "xdotool is not installed (apt-get install xdotool)";
+  const fs::path rec = dir_ / "rec.txt", log = dir_ / "viewer_err.txt";
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    const std::string cmd = fmt::format("{}exec {} view {} --width 160 --height 120 --spp 1 --no-cull --record {} 2>{}",
+                                        env(), MDSTREAM_BIN, store(), rec.string(), log.string());
+    ::execl("/bin/sh", "sh", "-c", cmd.c_str(), (char*)nullptr);
+    ::_exit(127);
+  }
+  ASSERT_GT(pid, 0);
+  struct Reaper {
+    pid_t pid;
+    bool done = false;
+    ~Reaper() {
+      if (!done) {
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, nullptr, 0);
+      }
+    }
+  } reaper{pid};
+  const std::string x = env() + "timeout 20 xdotool ";
+  // The window appears once the store is loaded and the first frame is on its way.
+  ASSERT_EQ(sh(x + "search --sync --onlyvisible --name 'mdstream view' > " + (dir_ / "wid.txt").string()), 0)
+      << slurp(log);
+  const std::string wid = slurp(dir_ / "wid.txt").substr(0, slurp(dir_ / "wid.txt").find('\n'));
+  auto pause = [] { std::this_thread::sleep_for(std::chrono::milliseconds(1500)); };
+  pause();
+  // Left drag to the right (orbit), then wheel up twice (zoom in), then 'r', then Esc.
+  ASSERT_EQ(sh(x + "mousemove --window " + wid + " 40 60 mousedown 1 mousemove --window " + wid +
+               " 90 60 mousemove --window " + wid + " 120 60 mouseup 1"),
+            0);
+  pause();
+  ASSERT_EQ(sh(x + "mousemove --window " + wid + " 80 60 click 4 click 4"), 0);
+  pause();
+  ASSERT_EQ(sh(x + "windowfocus --sync " + wid + " key r"), 0);
+  pause();
+  ASSERT_EQ(sh(x + "windowfocus --sync " + wid + " key Escape"), 0);
+
+  int status = -1;
+  const auto t0 = std::chrono::steady_clock::now();
+  while (std::chrono::steady_clock::now() - t0 < std::chrono::seconds(20)) {
+    if (::waitpid(pid, &status, WNOHANG) == pid) {
+      reaper.done = true;
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_TRUE(reaper.done) << "the viewer did not exit on Esc\n" << slurp(log);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << slurp(log);
+
+  auto path = render::CameraPath::load(rec);
+  ASSERT_TRUE(path.ok()) << path.error().message;
+  const auto& keys = path->keys();
+  ASSERT_GE(keys.size(), 2u);
+  const render::Camera home = keys.front().camera;
+  const double d0 = glm::length(home.eye - home.target);
+  bool orbited = false, zoomed = false;
+  for (const auto& k : keys) {
+    const double d = glm::length(k.camera.eye - k.camera.target);
+    if (glm::length(k.camera.eye - home.eye) > 1e-3 * d0 && std::abs(d - d0) < 1e-6 * d0 &&
+        glm::length(k.camera.target - home.target) < 1e-9 * d0)
+      orbited = true;
+    if (d < 0.9 * d0) zoomed = true;
+  }
+  EXPECT_TRUE(orbited) << "no keyframe orbits the start camera\n" << path->to_text();
+  EXPECT_TRUE(zoomed) << "no keyframe is closer to the target\n" << path->to_text();
+  EXPECT_TRUE(viewer::same_camera(keys.back().camera, home)) << "'r' did not reset the view\n" << path->to_text();
+}
+
+}  // namespace

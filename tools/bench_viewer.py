@@ -1,0 +1,273 @@
+#!/usr/bin/python3
+"""Viewer benchmark (issue 5): `mdstream view` replays the built-in fly-through path in a real
+window (Xvfb + the Vulkan swapchain) with a GPU budget of 1/8 of the store (store file bytes / 8,
+as tools/bench_cache.py), logging every displayed frame (--frame-log). Reports the frame-time
+median, p99 and p99/median over the path's frames (target: p99 <= 2x median), for the streaming
+viewer and, as the reference, the same path with the whole store in memory.
+
+Writes docs/results/viewer.md, viewer.csv (one row per run) and viewer.png (frame times).
+
+  /usr/bin/python3 tools/bench_viewer.py [--quick] [--mdstream build-x/mdstream]
+"""
+import argparse
+import csv
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench_common import machine_info, parse_count  # noqa: E402
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def sh(cmd, log, env=None, timeout=None):
+    t0 = time.time()
+    r = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=timeout)
+    log.write(f"$ {' '.join(cmd)}  ({time.time() - t0:.1f} s, rc {r.returncode})\n{r.stdout}{r.stderr}\n")
+    log.flush()
+    if r.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed ({r.returncode}):\n{r.stderr[-3000:]}")
+    return r
+
+
+class Xvfb:
+    """An Xvfb server on a free display number; stopped on exit."""
+
+    def __init__(self):
+        self.proc = None
+        for n in range(200 + os.getpid() % 500, 900):
+            if os.path.exists(f"/tmp/.X{n}-lock") or os.path.exists(f"/tmp/.X11-unix/X{n}"):
+                continue
+            self.proc = subprocess.Popen(["Xvfb", f":{n}", "-screen", "0", "1280x1024x24", "-nolisten", "tcp"],
+                                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            t0 = time.time()
+            while time.time() - t0 < 15 and self.proc.poll() is None:
+                s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+                try:
+                    s.connect(f"/tmp/.X11-unix/X{n}")
+                    self.display = f":{n}"
+                    return
+                except OSError:
+                    time.sleep(0.05)
+                finally:
+                    s.close()
+            self.stop()
+        raise RuntimeError("Xvfb did not start")
+
+    def stop(self):
+        if self.proc and self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            self.proc.wait()
+        self.proc = None
+
+
+def make_store(mds, work, scene, particles, node_size, log):
+    store = os.path.join(work, f"{scene}_{particles}_{node_size}.mds")
+    if os.path.exists(store):
+        return store
+    dump = os.path.join(work, f"{scene}_{particles}.lammpstrj")
+    sh([mds, "synth", "--scene", scene, "-n", str(particles), "-q", "-o", dump], log)
+    sh([mds, "convert", dump, "-o", store, "--node-size", str(node_size)], log)
+    os.remove(dump)
+    return store
+
+
+def read_log(path):
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+def percentile(values, q):
+    v = sorted(values)
+    if not v:
+        return 0.0
+    k = (len(v) - 1) * q
+    lo = int(k)
+    hi = min(lo + 1, len(v) - 1)
+    return v[lo] + (v[hi] - v[lo]) * (k - lo)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--mdstream", default=None, help="mdstream binary (default: newest build-*/mdstream)")
+    ap.add_argument("--quick", action="store_true", help="smoke run: small store, few frames")
+    ap.add_argument("--scene", default="porous")
+    ap.add_argument("--particles", default=None, help="particles (default 1M; quick 100k)")
+    ap.add_argument("--node-size", type=int, default=2000, help="convert --node-size (as bench_cache.py)")
+    ap.add_argument("--frames", type=int, default=None, help="frames of the fly-through (default 120; quick 20)")
+    ap.add_argument("--width", type=int, default=None, help="window width (default 320)")
+    ap.add_argument("--height", type=int, default=None, help="window height (default 180)")
+    ap.add_argument("--spp", type=int, default=4)
+    ap.add_argument("--ratio", type=float, default=8.0, help="store bytes / GPU budget")
+    ap.add_argument("--policy", default="occlusion")
+    ap.add_argument("--out", default=os.path.join(REPO, "docs", "results"))
+    ap.add_argument("--work", default=None, help="scratch folder (default: a temporary one, removed)")
+    ap.add_argument("--modes", default="streaming,in_memory",
+                    help="runs: streaming (the budget) and/or in_memory (reference, slow on lavapipe)")
+    ap.add_argument("--report-only", action="store_true",
+                    help="no viewer runs: rewrite the report from the frame logs already in --work")
+    args = ap.parse_args()
+    if args.report_only and not args.work:
+        sys.exit("--report-only needs --work")
+    q = args.quick
+    args.particles = parse_count(args.particles) if args.particles else (100_000 if q else 1_000_000)
+    args.frames = args.frames or (20 if q else 120)
+    args.width = args.width or 320
+    args.height = args.height or 180
+    if shutil.which("Xvfb") is None:
+        sys.exit("bench_viewer: Xvfb is not installed (apt-get install xvfb)")
+    if args.mdstream is None:
+        cands = [os.path.join(REPO, d, "mdstream") for d in os.listdir(REPO) if d.startswith("build")]
+        cands = [c for c in cands if os.path.exists(c)]
+        if not cands:
+            sys.exit("no build*/mdstream found; pass --mdstream")
+        args.mdstream = max(cands, key=os.path.getmtime)
+    mds = args.mdstream
+    work = args.work or tempfile.mkdtemp(prefix="mds_bench_viewer_")
+    os.makedirs(work, exist_ok=True)
+    os.makedirs(args.out, exist_ok=True)
+    log = open(os.path.join(work, "bench_viewer.log"), "w")
+    print(f"bench_viewer: {mds}, work {work}, log {log.name}", file=sys.stderr)
+
+    store = make_store(mds, work, args.scene, args.particles, args.node_size, log)
+    store_bytes = os.path.getsize(store)
+    budget = int(store_bytes / args.ratio)
+    xvfb = None if args.report_only else Xvfb()
+    env = dict(os.environ, DISPLAY=xvfb.display) if xvfb else None
+    runs = []
+    try:
+        for mode in args.modes.split(","):
+            frame_log = os.path.join(work, f"frames_{mode}.csv")
+            if args.report_only and not os.path.exists(frame_log):
+                continue
+            cmd = [mds, "view", store, "--width", str(args.width), "--height", str(args.height), "--spp",
+                   str(args.spp), "--play", "flythrough", "--play-frames", str(args.frames), "--frame-log", frame_log,
+                   "--screenshot", os.path.join(work, f"last_{mode}.png")]
+            if mode == "streaming":
+                cmd += ["--gpu-budget", str(budget), "--policy", args.policy]
+            t0 = time.time()
+            if not args.report_only:
+                print(f"bench_viewer: {mode} ...", file=sys.stderr)
+                sh(cmd, log, env=env, timeout=7200)
+            wall = time.time() - t0
+            rows = read_log(frame_log)
+            path_rows = [r for r in rows if int(r["frame"]) < args.frames]
+            ft = [float(r["frame_ms"]) for r in path_rows]
+            med, p99 = percentile(ft, 0.5), percentile(ft, 0.99)
+            last = rows[-1]
+            up = [int(r["nodes_uploaded"]) for r in path_rows]
+            corr = 0.0
+            if len(set(up)) > 1:
+                import numpy as np
+                corr = float(np.corrcoef(up, ft)[0, 1])
+            rest = [float(r["frame_ms"]) - float(r["step_ms"]) for r in path_rows]
+            runs.append({
+                "mode": mode, "scene": args.scene, "particles": args.particles, "store_bytes": store_bytes,
+                "gpu_budget_bytes": budget if mode == "streaming" else 0, "policy": args.policy if mode == "streaming" else "",
+                "width": args.width, "height": args.height, "spp": args.spp, "path_frames": args.frames,
+                "frames_total": len(rows), "frame_ms_median": med, "frame_ms_p99": p99,
+                "p99_over_median": p99 / med if med > 0 else 0.0, "frame_ms_max": max(ft),
+                "step_ms_median": percentile([float(r["step_ms"]) for r in path_rows], 0.5),
+                "nodes_uploaded_on_path": sum(up), "frames_with_uploads": sum(1 for u in up if u > 0),
+                "upload_stalls": sum(int(r["upload_stall"]) for r in path_rows),
+                "corr_uploads_frame_ms": corr, "other_ms_median": percentile(rest, 0.5),
+                "other_ms_p99": percentile(rest, 0.99),
+                "bytes_read": int(last["bytes_read"]), "frames_to_converge_after_path": len(rows) - len(path_rows),
+                "wall_s": wall, "frames": [float(r["frame_ms"]) for r in rows],
+                "uploads": [int(r["nodes_uploaded"]) for r in rows]})
+    finally:
+        if xvfb:
+            xvfb.stop()
+
+    keys = [k for k in runs[0] if k not in ("frames", "uploads")]
+    with open(os.path.join(args.out, "viewer.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=keys)
+        w.writeheader()
+        for r in runs:
+            w.writerow({k: (f"{r[k]:.3f}" if isinstance(r[k], float) else r[k]) for k in keys})
+
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(9, 4.2))
+    for r in runs:
+        label = (f"{r['mode'].replace('_', ' ')}" + (f" (budget {r['gpu_budget_bytes'] / 1e6:.2f} MB)"
+                                                     if r["gpu_budget_bytes"] else ""))
+        ax.plot(range(len(r["frames"])), r["frames"], label=label, lw=1.2)
+        if r["gpu_budget_bytes"]:
+            ax.axhline(2 * r["frame_ms_median"], color="grey", ls="--", lw=0.8, label="2x median (streaming)")
+    ax.axvline(args.frames - 0.5, color="black", ls=":", lw=0.8, label="end of path")
+    ax.set_xlabel("displayed frame")
+    ax.set_ylabel("frame time (ms)")
+    ax.set_title(f"mdstream view, fly-through, {args.scene} {args.particles / 1e6:g}M particles, "
+                 f"{args.width}x{args.height}")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(os.path.join(args.out, "viewer.png"), dpi=110)
+
+    m = machine_info(REPO)
+    s = runs[0]
+    L = ["# Viewer benchmark: frame times of a replayed fly-through", "",
+         f"Generated by `tools/bench_viewer.py{' --quick' if q else ''}` on {m['date']} (commit {m['commit']}); "
+         f"{m['cpu']}, {m['nproc']} cores, {m['memory']}, kernel {m['kernel']}; Vulkan device: lavapipe (CPU), "
+         "window on Xvfb.", "",
+         f"`mdstream view` replays the built-in `flythrough` path ({args.frames} frames: a straight flight from "
+         "outside one face through the centre and out of the other side, looking ahead) in a "
+         f"{args.width}x{args.height} window with --spp {args.spp}, culling on, HUD on, and logs every displayed "
+         "frame (`--frame-log`). Frame time = wall time of one loop iteration: events, camera, `set_view`, "
+         "`step`, `read_image`, sRGB conversion, HUD, swapchain copy and present. Statistics over the path's "
+         "frames (after the path the viewer keeps refining the last view until it has converged and "
+         f"accumulated --spp samples, then exits). Store: `synth --scene {args.scene} -n {args.particles}`, "
+         f"`convert --node-size {args.node_size}`, {store_bytes / 1e6:.2f} MB; GPU budget = store bytes / "
+         f"{args.ratio:g} = {budget / 1e6:.3f} MB, policy {args.policy}.", "",
+         "| run | budget | median ms | p99 ms | p99 / median | max ms | step median ms | nodes uploaded on path | "
+         "bytes read | frames after path |",
+         "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in runs:
+        L.append(f"| {r['mode'].replace('_', ' ')} | "
+                 f"{(str(round(r['gpu_budget_bytes'] / 1e6, 3)) + ' MB') if r['gpu_budget_bytes'] else 'whole store'} | "
+                 f"{r['frame_ms_median']:.1f} | {r['frame_ms_p99']:.1f} | {r['p99_over_median']:.2f} | "
+                 f"{r['frame_ms_max']:.1f} | {r['step_ms_median']:.1f} | {r['nodes_uploaded_on_path']} | "
+                 f"{r['bytes_read'] / 1e6:.2f} MB | {r['frames_to_converge_after_path']} |")
+    verdict = "meets" if s["p99_over_median"] <= 2.0 else "MISSES"
+    ref = runs[1] if len(runs) > 1 else None
+    L += ["", f"**Streaming with 1/{args.ratio:g} of the store: p99 / median = {s['p99_over_median']:.2f}, which "
+          f"{verdict} the target p99 <= 2x median (issue 5).**", "",
+          "Where the frame time goes (streaming run, path frames):", "",
+          f"- `step()` + `read_image()` (the renderer): median {s['step_ms_median']:.0f} ms; everything else in the "
+          f"loop (`set_view`, sRGB conversion, HUD, present, events): median {s['other_ms_median']:.0f} ms, p99 "
+          f"{s['other_ms_p99']:.0f} ms.",
+          f"- Disk and uploads: {s['nodes_uploaded_on_path']} node uploads in {s['frames_with_uploads']} of "
+          f"{args.frames} frames, {s['upload_stalls']} upload stalls; correlation of a frame's uploads with its "
+          f"time r = {s['corr_uploads_frame_ms']:.2f}. Reads run on the I/O threads and uploads are capped per "
+          "frame, so no frame waits for the disk."]
+    if ref:
+        L.append(f"- The same path with the whole store in memory: p99 / median = {ref['p99_over_median']:.2f} "
+                 f"(median {ref['frame_ms_median']:.0f} ms, p99 {ref['frame_ms_p99']:.0f} ms).")
+    else:
+        L.append("- No in-memory reference in this report (`--modes`); on lavapipe it is slower than streaming "
+                 "inside the data (more is resident, so more is drawn).")
+    L += ["- Every frame of the flight is a new view (classes restart, one culling iteration + draw). The "
+          "spread follows the view: outside the data a frame is cheap, inside it (the middle of the flight) "
+          "the draw and occlusion-sampling passes on lavapipe cost seconds (large sprites near the eye, much "
+          "overdraw), and after the exit the view is nearly empty."]
+    if abs(s["corr_uploads_frame_ms"]) < 0.3 and s["upload_stalls"] == 0:
+        L.append("- So the ratio measures the renderer's per-view cost on a CPU rasterizer; the frame times do "
+                 "not follow the cache's uploads.")
+    L += ["", "![frame times](viewer.png)", ""]
+    with open(os.path.join(args.out, "viewer.md"), "w") as f:
+        f.write("\n".join(L))
+    print("\n".join(L))
+    if not args.work:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()
