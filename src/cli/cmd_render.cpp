@@ -50,7 +50,7 @@ struct RenderOptions {
   double io_latency_ms = 0.0;
   std::string io_bandwidth;
   std::string upload_per_frame = "32MiB";
-  uint32_t max_outstanding = 16;
+  uint32_t max_outstanding = 64;
 };
 
 Result<glm::vec3> parse_rgb(const std::string& s) {
@@ -315,7 +315,7 @@ void setup_render(CLI::App& sub, int& exit_code) {
   sub.add_option("--io-bandwidth", opt->io_bandwidth, "Simulated read bandwidth per reader, bytes/s (e.g. 200MB)");
   sub.add_option("--upload-per-frame", opt->upload_per_frame, "Upload budget per frame (streaming)")
       ->capture_default_str();
-  sub.add_option("--max-outstanding", opt->max_outstanding, "Node reads queued or in flight at a time (streaming)")
+  sub.add_option("--max-outstanding", opt->max_outstanding, "Cap of the node reads queued or in flight at a time (streaming; the window adapts from 4 per view)")
       ->check(CLI::Range(1u, 100000u))
       ->capture_default_str();
   sub.callback([opt, &exit_code] {

@@ -46,7 +46,11 @@ struct StreamSettings {
   streaming::Policy policy = streaming::Policy::occlusion;  // --policy occlusion|lru|fifo
   streaming::IoOptions io;                                   // reader threads, simulated latency/bandwidth
   uint64_t upload_bytes_per_frame = 32ull << 20;  // transfer budget per frame (Grottel et al. 3.3)
-  uint32_t max_outstanding = 16;  // reads queued or in flight at a time (lets culling classify what lies behind)
+  // Reads queued or in flight at a time: a window that starts at 4 per view, grows by 4 after 3
+  // frames whose finished reads were all still wanted and halves when reads arrived for nodes the
+  // culling loop had meanwhile found occluded (reading ahead of the classification wastes I/O;
+  // too few reads slow convergence). This is its cap.
+  uint32_t max_outstanding = 64;
   bool record_trace = false;  // FrameReport::wanted filled (stress: offline Belady bound)
 };
 

@@ -120,6 +120,8 @@ void StreamCache::set_view(const Camera& camera, double aspect) {
     else if (!was_in) table_->set_class(i, MDS_CULL_CLASS_P);  // entering the frustum: wanted
   }
   has_view_ = true;
+  window_ = std::min(kMinOutstanding, std::max(1u, settings_.max_outstanding));
+  calm_frames_ = 0;
   exhausted_ = false;
 }
 
@@ -200,9 +202,11 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
   std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
     return std::make_pair(table_->node(a).distance, a) < std::make_pair(table_->node(b).distance, b);
   });
+  uint32_t dropped = 0, arrived = uint32_t(order.size());
   for (uint32_t i : order) {
     auto it = ready_.find(i);
     if (!table_->wanted(i)) {  // became O (or left the frustum) while it was read: drop
+      ++dropped;
       MDS_TRY(table_->mark_cancelled(i));
       std::erase(requested_, i);
       ready_.erase(it);
@@ -254,7 +258,15 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
   }
   // Prefetch in the policy's order, a window at a time.
   bool pending = false;
-  const size_t window = std::max<uint32_t>(1, settings_.max_outstanding);
+  const uint32_t cap = std::max(1u, settings_.max_outstanding);
+  if (dropped > 0) {
+    window_ = std::max(std::min(kMinOutstanding, cap), window_ / 2);
+    calm_frames_ = 0;
+  } else if (arrived > 0 && ++calm_frames_ >= kCalmFrames) {
+    window_ = std::min(cap, window_ + kMinOutstanding);
+    calm_frames_ = 0;
+  }
+  const size_t window = window_;
   if (requested_.size() < window) {
     const auto order_next = table_->prefetch_order();
     uint64_t planned = 0;

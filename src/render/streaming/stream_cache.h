@@ -11,9 +11,11 @@
 //      then M, then L/P by least recent use and distance; never a node drawn this frame), at
 //      most upload_bytes_per_frame per frame; a read that is no longer wanted is dropped;
 //   4. prefetch: requests in the policy's order (occlusion: P, then L, then M, front to back),
-//      at most max_outstanding reads at a time, so that the culling loop classifies what lies
-//      behind the first arrivals before it is read: a node classified O before it was ever loaded
-//      is never read. Queued reads of nodes that became unwanted are cancelled.
+//      a window of reads at a time (kMinOutstanding at the start of a view, grown by kMinOutstanding
+//      after kCalmFrames frames whose finished reads were all still wanted, halved when some were not: additive
+//      increase, multiplicative decrease, like TCP's congestion window), so that the culling loop classifies what
+//      lies behind the first arrivals before it is read: a node classified O before it was ever
+//      loaded is never read. Queued reads of nodes that became unwanted are cancelled.
 // The render loop never waits on disk: update() only polls.
 #pragma once
 
@@ -37,6 +39,12 @@
 #include "vk/context.h"
 
 namespace mds::render::streaming_gpu {
+
+// Read window at the start of a view (see the file comment, step 4).
+inline constexpr uint32_t kMinOutstanding = 4;
+// Frames with arrivals and no wasted read before the window grows (a culling iteration per frame:
+// a few iterations let the classification catch up with what arrived).
+inline constexpr uint32_t kCalmFrames = 3;
 
 struct CacheFrame {
   uint32_t nodes_uploaded = 0;
@@ -104,7 +112,9 @@ class StreamCache {
   std::vector<uint32_t> requested_;                                   // queued, in flight or ready
   CacheStats stats_;
   bool exhausted_ = false;
-  bool has_view_ = false;  // the last frame wanted more than the pool can hold
+  bool has_view_ = false;
+  uint32_t window_ = kMinOutstanding;  // reads queued or in flight at a time
+  uint32_t calm_frames_ = 0;  // the last frame wanted more than the pool can hold
 };
 
 }  // namespace mds::render::streaming_gpu
