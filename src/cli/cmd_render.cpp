@@ -15,6 +15,7 @@
 
 #include "core/text_file.h"
 #include "cli/command.h"
+#include "cli/stream_options.h"
 #include "core/byte_size.h"
 #include "render/camera.h"
 #include "render/image_io.h"
@@ -44,13 +45,7 @@ struct RenderOptions {
   double fov = 40.0;
   uint32_t width = 1920, height = 1080, spp = 64;
   int device = -1;
-  std::string gpu_budget;  // empty: in memory
-  std::string policy = "occlusion";
-  unsigned io_threads = 2;
-  double io_latency_ms = 0.0;
-  std::string io_bandwidth;
-  std::string upload_per_frame = "32MiB";
-  uint32_t max_outstanding = 64;
+  StreamOptions stream;  // --gpu-budget empty: in memory
 };
 
 Result<glm::vec3> parse_rgb(const std::string& s) {
@@ -85,19 +80,10 @@ Status run_render(const RenderOptions& o) {
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.fov);
   MDS_ASSIGN_OR_RETURN(glm::vec3 background, parse_rgb(o.background));
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
-  const bool streaming = !o.gpu_budget.empty();
+  const bool streaming = !o.stream.gpu_budget.empty();
   render::StreamSettings ss;
   if (streaming) {
-    MDS_ASSIGN_OR_RETURN(ss.gpu_budget, parse_byte_size(o.gpu_budget));
-    MDS_ASSIGN_OR_RETURN(ss.policy, mds::streaming::parse_policy(o.policy));
-    MDS_ASSIGN_OR_RETURN(ss.upload_bytes_per_frame, parse_byte_size(o.upload_per_frame));
-    if (!o.io_bandwidth.empty()) {
-      MDS_ASSIGN_OR_RETURN(uint64_t bw, parse_byte_size(o.io_bandwidth));
-      ss.io.io_bandwidth = double(bw);
-    }
-    ss.io.threads = o.io_threads;
-    ss.io.io_latency_ms = o.io_latency_ms;
-    ss.max_outstanding = o.max_outstanding;
+    MDS_ASSIGN_OR_RETURN(ss, stream_settings(o.stream));
   }
   // In memory the whole store is decoded; streaming, only the directory is read here.
   render::SceneData scene;
@@ -226,7 +212,7 @@ Status run_render(const RenderOptions& o) {
       j["evictions"] = {{"P", c.evictions[0]}, {"L", c.evictions[1]}, {"M", c.evictions[2]}, {"O", c.evictions[3]}};
       j["upload_stalls"] = c.upload_stalls;
       j["budget_exhausted"] = c.budget_exhausted;
-      j["policy"] = o.policy;
+      j["policy"] = o.stream.policy;
       j["frames"] = stats.frames;
       j["frame_ms_p50"] = stats.frame_wall_ms_p50;
       j["frame_ms_p99"] = stats.frame_wall_ms_p99;
@@ -303,21 +289,7 @@ void setup_render(CLI::App& sub, int& exit_code) {
   sub.add_option("--background", opt->background, "Background colour r,g,b (sRGB, 0..1)")->capture_default_str();
   sub.add_option("--device", opt->device, "Vulkan device index (default: automatic, discrete GPU first)");
   sub.add_option("--stats", opt->stats, "Write statistics (counts, GPU pass times) as JSON");
-  sub.add_option("--gpu-budget", opt->gpu_budget,
-                 "Stream node payloads through a GPU cache of this size (e.g. 512MiB, 2GiB); default: whole store in memory");
-  sub.add_option("--policy", opt->policy, "Cache policy with --gpu-budget: occlusion, lru or fifo")->capture_default_str();
-  sub.add_option("--io-threads", opt->io_threads, "Background reader threads (streaming)")
-      ->check(CLI::Range(1u, 64u))
-      ->capture_default_str();
-  sub.add_option("--io-latency-ms", opt->io_latency_ms, "Simulated latency per node read (streaming)")
-      ->check(CLI::Range(0.0, 60000.0))
-      ->capture_default_str();
-  sub.add_option("--io-bandwidth", opt->io_bandwidth, "Simulated read bandwidth per reader, bytes/s (e.g. 200MB)");
-  sub.add_option("--upload-per-frame", opt->upload_per_frame, "Upload budget per frame (streaming)")
-      ->capture_default_str();
-  sub.add_option("--max-outstanding", opt->max_outstanding, "Cap of the node reads queued or in flight at a time (streaming; the window adapts from 4 per view)")
-      ->check(CLI::Range(1u, 100000u))
-      ->capture_default_str();
+  add_stream_options(sub, opt->stream, false);
   sub.callback([opt, &exit_code] {
     Status st = run_render(*opt);
     exit_code = st.ok() ? 0 : report("render", st.error());

@@ -22,6 +22,7 @@
 
 #include "core/text_file.h"
 #include "cli/command.h"
+#include "cli/stream_options.h"
 #include "cli/stress_report.h"
 #include "core/byte_size.h"
 #include "render/camera.h"
@@ -37,16 +38,11 @@ namespace {
 
 struct StressOptions {
   std::string store;
-  std::string gpu_budget;
+  StreamOptions stream;
   std::string path;
   uint32_t frames = 0;  // 0: 240 for built-in paths, the file's frame count for a file
   uint32_t settle_frames = 200;
   uint32_t converged_frames = 8;
-  std::string policy = "occlusion";
-  double io_latency_ms = 0.0;
-  std::string io_bandwidth;  // empty: unlimited
-  unsigned io_threads = 2;
-  std::string upload_budget = "32MiB";
   uint32_t width = 640, height = 360;
   double fov = 40.0;
   std::string csv, json;
@@ -93,21 +89,12 @@ std::string fmt_rate(double r) { return fmt::format("{:.4f}", r); }
 
 Status run_stress(const StressOptions& o) {
   // --- options (usage errors before any work) ---
-  auto budget_r = parse_byte_size(o.gpu_budget);
-  if (!budget_r.ok()) return make_error(Errc::invalid_argument, "--gpu-budget: {}", budget_r.error().message);
-  const uint64_t budget = *budget_r;
-  MDS_ASSIGN_OR_RETURN(streaming::Policy policy, streaming::parse_policy(o.policy));
-  uint64_t bandwidth = 0;
-  if (!o.io_bandwidth.empty()) {
-    auto bw = parse_byte_size(o.io_bandwidth);
-    if (!bw.ok()) return make_error(Errc::invalid_argument, "--io-bandwidth: {}", bw.error().message);
-    bandwidth = *bw;
-  }
-  auto upload_r = parse_byte_size(o.upload_budget);
-  if (!upload_r.ok()) return make_error(Errc::invalid_argument, "--upload-budget: {}", upload_r.error().message);
-  const uint64_t upload_budget = *upload_r;
-  if (!(o.io_latency_ms >= 0.0 && o.io_latency_ms < 1e6))
-    return make_error(Errc::invalid_argument, "--io-latency-ms {}: expected a number of milliseconds >= 0", o.io_latency_ms);
+  MDS_ASSIGN_OR_RETURN(render::StreamSettings ss, stream_settings(o.stream));
+  ss.record_trace = true;
+  const uint64_t budget = ss.gpu_budget;
+  const streaming::Policy policy = ss.policy;
+  const uint64_t bandwidth = uint64_t(ss.io.io_bandwidth);
+  const uint64_t upload_budget = ss.upload_bytes_per_frame;
   if (!(o.cocc > 0.0 && o.cocc < 1.0)) return make_error(Errc::invalid_argument, "--cocc {}: expected (0, 1)", o.cocc);
   if (o.fov <= 0.0 || o.fov >= 180.0)
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.fov);
@@ -128,14 +115,6 @@ Status run_stress(const StressOptions& o) {
   rs.cull_settings.samples_per_iteration = o.samples_per_iteration;
   rs.cull_settings.converge_iterations = o.converge_iterations;
   rs.cull_settings.max_iterations = o.max_iterations;
-  render::StreamSettings ss;
-  ss.gpu_budget = budget;
-  ss.policy = policy;
-  ss.io.threads = o.io_threads;
-  ss.io.io_latency_ms = o.io_latency_ms;
-  ss.io.io_bandwidth = double(bandwidth);
-  ss.upload_bytes_per_frame = upload_budget;
-  ss.record_trace = true;
   MDS_ASSIGN_OR_RETURN(auto renderer, render::Renderer::create_streaming(*ctx, *reader, rs, ss));
 
   const double aspect = double(o.width) / double(std::max(o.height, 1u));
@@ -266,7 +245,7 @@ Status run_stress(const StressOptions& o) {
   j["converged_frames_run"] = converged_run;
   j["frames_total"] = frames.size();
   j["device"] = st.device;
-  j["io"] = {{"threads", o.io_threads}, {"latency_ms", o.io_latency_ms}, {"bandwidth_bytes_per_s", bandwidth}};
+  j["io"] = {{"threads", ss.io.threads}, {"latency_ms", ss.io.io_latency_ms}, {"bandwidth_bytes_per_s", bandwidth}};
   j["upload_bytes_per_frame"] = upload_budget;
   j["gpu_budget_bytes"] = c.gpu_budget_bytes ? c.gpu_budget_bytes : budget;
   j["pool_bytes"] = c.pool_bytes;
@@ -373,7 +352,7 @@ Status run_stress(const StressOptions& o) {
 void setup_stress(CLI::App& sub, int& exit_code) {
   auto opt = std::make_shared<StressOptions>();
   sub.add_option("store", opt->store, "Store file (.mds)")->required();
-  sub.add_option("--gpu-budget", opt->gpu_budget, "Bytes of the GPU payload pool (e.g. 64MiB, 1GiB)")->required();
+  add_stream_options(sub, opt->stream, true);
   sub.add_option("--path", opt->path,
                  "Camera path: orbit, flythrough, jumps (built-in), view0..view2 (a default view held), or a camera path file (docs/camera-path.md)")
       ->required();
@@ -387,14 +366,6 @@ void setup_stress(CLI::App& sub, int& exit_code) {
   sub.add_option("--converged-frames", opt->converged_frames,
                  "Frames rendered after the final view converged (converged-frame cost)")
       ->check(CLI::Range(0u, 100000u))
-      ->capture_default_str();
-  sub.add_option("--policy", opt->policy, "Cache policy: occlusion, lru or fifo")->capture_default_str();
-  sub.add_option("--io-latency-ms", opt->io_latency_ms, "Simulated latency per node read (ms)")->capture_default_str();
-  sub.add_option("--io-bandwidth", opt->io_bandwidth, "Simulated read bandwidth per request, bytes/s (e.g. 100MB)");
-  sub.add_option("--io-threads", opt->io_threads, "Background reader threads")
-      ->check(CLI::Range(1u, 64u))
-      ->capture_default_str();
-  sub.add_option("--upload-budget", opt->upload_budget, "Bytes uploaded to the GPU per frame at most")
       ->capture_default_str();
   sub.add_option("--width", opt->width, "Image width")->check(CLI::Range(1u, 16384u))->capture_default_str();
   sub.add_option("--height", opt->height, "Image height")->check(CLI::Range(1u, 16384u))->capture_default_str();

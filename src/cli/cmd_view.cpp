@@ -7,6 +7,7 @@
 #include "cli/command.h"
 #include "core/byte_size.h"
 #include "streaming/residency.h"
+#include "cli/stream_options.h"
 #include "viewer/viewer.h"
 
 namespace mds::cli {
@@ -14,26 +15,21 @@ namespace {
 
 struct ViewCliOptions {
   viewer::ViewerOptions v;
-  std::string gpu_budget;
-  std::string policy = "occlusion";
+  StreamOptions stream;
   bool no_cull = false;
   double cocc = MDS_CULL_C_OCC_DEFAULT;
-  double io_latency_ms = 0.0;
   uint32_t width = 960, height = 540, spp = 16;
 };
 
 Status run_view(ViewCliOptions& o) {
   viewer::ViewerOptions v = o.v;
-  if (!o.gpu_budget.empty()) {
-    MDS_ASSIGN_OR_RETURN(v.gpu_budget, parse_byte_size(o.gpu_budget));
+  if (!o.stream.gpu_budget.empty()) {
+    MDS_ASSIGN_OR_RETURN(v.stream, stream_settings(o.stream));
+    v.gpu_budget = v.stream.gpu_budget;
   }
-  MDS_ASSIGN_OR_RETURN(v.stream.policy, streaming::parse_policy(o.policy));
   if (!(o.cocc > 0.0 && o.cocc < 1.0)) return make_error(Errc::invalid_argument, "--cocc {}: expected (0, 1)", o.cocc);
   if (o.v.fov_y_deg <= 0.0 || o.v.fov_y_deg >= 180.0)
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.v.fov_y_deg);
-  if (o.io_latency_ms < 0.0)
-    return make_error(Errc::invalid_argument, "--io-latency-ms {}: expected >= 0", o.io_latency_ms);
-  v.stream.io.io_latency_ms = o.io_latency_ms;
   v.render.width = o.width;
   v.render.height = o.height;
   v.render.spp = o.spp;
@@ -45,12 +41,7 @@ Status run_view(ViewCliOptions& o) {
 void setup_view(CLI::App& sub, int& exit_code) {
   auto opt = std::make_shared<ViewCliOptions>();
   sub.add_option("store", opt->v.store, "Store file (.mds)")->required();
-  sub.add_option("--gpu-budget", opt->gpu_budget,
-                 "Stream node payloads through a GPU cache of this many bytes (e.g. 256MiB); default: whole store in memory");
-  sub.add_option("--policy", opt->policy, "Cache eviction policy when streaming: occlusion, lru or fifo")
-      ->capture_default_str();
-  sub.add_option("--io-latency-ms", opt->io_latency_ms, "Simulated latency per node read (slow disk), ms")
-      ->capture_default_str();
+  add_stream_options(sub, opt->stream, false);
   sub.add_option("--width", opt->width, "Initial window width")->check(CLI::Range(16u, 16384u))->capture_default_str();
   sub.add_option("--height", opt->height, "Initial window height")->check(CLI::Range(16u, 16384u))->capture_default_str();
   sub.add_option("--spp", opt->spp, "Samples per pixel accumulated while the camera rests")

@@ -1,0 +1,49 @@
+#include "cli/stream_options.h"
+
+#include "core/byte_size.h"
+
+namespace mds::cli {
+
+void add_stream_options(CLI::App& sub, StreamOptions& o, bool budget_required) {
+  auto* b = sub.add_option("--gpu-budget", o.gpu_budget,
+                           std::string("Stream node payloads through a GPU cache of this size (e.g. 512MiB, 2GiB)") +
+                               (budget_required ? "" : "; default: the whole store in memory"));
+  if (budget_required) b->required();
+  sub.add_option("--policy", o.policy, "Cache policy: occlusion, lru or fifo (docs/streaming.md)")->capture_default_str();
+  sub.add_option("--io-threads", o.io_threads, "Background reader threads")->check(CLI::Range(1u, 64u))->capture_default_str();
+  sub.add_option("--io-latency-ms", o.io_latency_ms, "Simulated latency per node read (a slow disk), ms")
+      ->check(CLI::Range(0.0, 60000.0))
+      ->capture_default_str();
+  sub.add_option("--io-bandwidth", o.io_bandwidth, "Simulated read bandwidth per reader, bytes/s (e.g. 200MB); default unlimited");
+  sub.add_option("--upload-per-frame,--upload-budget", o.upload_per_frame, "Bytes uploaded to the GPU per frame at most")
+      ->capture_default_str();
+  sub.add_option("--max-outstanding", o.max_outstanding,
+                 "Cap of the node reads queued or in flight at a time (the window adapts from 4 per view)")
+      ->check(CLI::Range(1u, 100000u))
+      ->capture_default_str();
+}
+
+Result<render::StreamSettings> stream_settings(const StreamOptions& o) {
+  render::StreamSettings ss;
+  auto named = [](const char* option, const Error& e) { return make_error(Errc::invalid_argument, "{}: {}", option, e.message); };
+  auto budget = parse_byte_size(o.gpu_budget);
+  if (!budget.ok()) return named("--gpu-budget", budget.error());
+  ss.gpu_budget = *budget;
+  MDS_ASSIGN_OR_RETURN(ss.policy, mds::streaming::parse_policy(o.policy));
+  auto upload = parse_byte_size(o.upload_per_frame);
+  if (!upload.ok()) return named("--upload-per-frame", upload.error());
+  ss.upload_bytes_per_frame = *upload;
+  if (!o.io_bandwidth.empty()) {
+    auto bw = parse_byte_size(o.io_bandwidth);
+    if (!bw.ok()) return named("--io-bandwidth", bw.error());
+    ss.io.io_bandwidth = double(*bw);
+  }
+  if (!(o.io_latency_ms >= 0.0 && o.io_latency_ms < 1e6))
+    return make_error(Errc::invalid_argument, "--io-latency-ms {}: expected a number of milliseconds >= 0", o.io_latency_ms);
+  ss.io.threads = o.io_threads;
+  ss.io.io_latency_ms = o.io_latency_ms;
+  ss.max_outstanding = o.max_outstanding;
+  return ss;
+}
+
+}  // namespace mds::cli

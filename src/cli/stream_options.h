@@ -1,0 +1,31 @@
+// The streaming-cache options shared by `render`, `view` and `stress` (--gpu-budget and the I/O
+// and policy knobs of docs/streaming.md): one set of names, defaults, help texts and checks.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "core/result.h"
+#include "render/renderer.h"
+
+namespace mds::cli {
+
+struct StreamOptions {
+  std::string gpu_budget;  // empty: in memory (render, view)
+  std::string policy = "occlusion";
+  unsigned io_threads = 2;
+  double io_latency_ms = 0.0;
+  std::string io_bandwidth;  // empty: unlimited
+  std::string upload_per_frame = "32MiB";
+  uint32_t max_outstanding = 64;
+};
+
+// Adds --gpu-budget (required when budget_required) and the others.
+void add_stream_options(CLI::App& sub, StreamOptions& o, bool budget_required);
+// The settings; Errc::invalid_argument naming the option for a bad value. Precondition:
+// !o.gpu_budget.empty().
+Result<render::StreamSettings> stream_settings(const StreamOptions& o);
+
+}  // namespace mds::cli
