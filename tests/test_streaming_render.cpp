@@ -210,6 +210,81 @@ TEST_F(StreamingRender, CameraChangeEvictsTheOldViewFirstAndConvergesAgain) {
   EXPECT_LE(differing(ref.value(), img.value()), size_t(kW * kH / 100));
 }
 
+TEST_F(StreamingRender, ResizeKeepsTheCacheAndReturnsToTheSameImage) {
+  // Renderer::resize (window resize, dynamic resolution) rebuilds only the size-dependent
+  // resources: the nodes resident before stay resident, and after returning to the full size the
+  // converged image equals the one rendered before any resize (and the in-memory render).
+  auto reader = store::StoreReader::open(store_path());
+  ASSERT_TRUE(reader.ok());
+  StreamSettings ss;
+  ss.gpu_budget = file_size() / 8;
+  auto r = Renderer::create_streaming(*ctx_, *reader.value(), settings(true), ss);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  Renderer& rr = *r.value();
+  const Camera cam = view(*reader.value(), 2);
+  auto before = rr.render(cam);
+  ASSERT_TRUE(before.ok()) << before.error().message;
+  const CacheStats c0 = rr.stats().cache;
+  ASSERT_GT(c0.nodes_resident, 0u);
+
+  ASSERT_TRUE(rr.resize(kW / 2, kH / 3).ok());
+  EXPECT_EQ(rr.width(), kW / 2);
+  EXPECT_EQ(rr.height(), kH / 3);
+  const CacheStats c1 = rr.stats().cache;
+  EXPECT_EQ(c1.nodes_resident, c0.nodes_resident) << "resize dropped resident nodes";
+  EXPECT_EQ(c1.resident_bytes, c0.resident_bytes);
+  EXPECT_EQ(c1.nodes_loaded, c0.nodes_loaded);
+  // Moving frames at the reduced size (the view restarts by itself after the resize).
+  Camera moved = cam;
+  for (int f = 0; f < 6; ++f) {
+    moved.eye += 0.01 * (cam.target - cam.eye);
+    ASSERT_TRUE(rr.set_view(moved).ok());
+    auto rep = rr.step();
+    ASSERT_TRUE(rep.ok()) << rep.error().message;
+  }
+  auto small = rr.read_image();
+  ASSERT_TRUE(small.ok());
+  EXPECT_EQ(small.value().width, kW / 2);
+  EXPECT_EQ(small.value().height, kH / 3);
+  EXPECT_LE(rr.stats().cache.gpu_peak_bytes, ss.gpu_budget);
+
+  ASSERT_TRUE(rr.resize(kW, kH).ok());
+  RenderStats st;
+  auto after = rr.render(cam, &st);
+  ASSERT_TRUE(after.ok()) << after.error().message;
+  ASSERT_EQ(after.value().width, kW);
+  ASSERT_EQ(after.value().height, kH);
+  EXPECT_TRUE(st.cull.converged);
+  EXPECT_LE(differing(before.value(), after.value()), size_t(kW * kH / 100));
+  Image mem = in_memory(*reader.value(), true, 2);
+  EXPECT_LE(differing(mem.img, after.value()), size_t(kW * kH / 100));
+  EXPECT_LE(st.cache.gpu_peak_bytes, st.cache.gpu_budget_bytes);
+}
+
+TEST_F(StreamingRender, InMemoryResizeRoundTripIsPixelIdentical) {
+  auto reader = store::StoreReader::open(store_path());
+  ASSERT_TRUE(reader.ok());
+  auto scene = load_scene(*reader.value());
+  ASSERT_TRUE(scene.ok());
+  RenderSettings rs = settings(true);
+  rs.spp = 2;
+  rs.cull_settings.max_iterations = 6;  // the culling state at the same iteration count, quickly
+  auto r = Renderer::create(*ctx_, scene.value(), rs);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const Camera cam = view(*reader.value(), 2);
+  auto a = r.value()->render(cam);
+  ASSERT_TRUE(a.ok());
+  ASSERT_TRUE(r.value()->resize(kW / 4, kH / 4).ok());
+  auto small = r.value()->render(cam);
+  ASSERT_TRUE(small.ok()) << small.error().message;
+  EXPECT_EQ(small.value().width, kW / 4);
+  ASSERT_TRUE(r.value()->resize(kW, kH).ok());
+  auto b = r.value()->render(cam);
+  ASSERT_TRUE(b.ok());
+  EXPECT_TRUE(a.value().rgba == b.value().rgba) << differing(a.value(), b.value()) << " pixels differ";
+  EXPECT_FALSE(r.value()->resize(0, kH).ok());
+}
+
 TEST_F(StreamingRender, CorruptedNodeIsSkippedWithAMessage) {
   const fs::path bad = dir_ / "bad.mds";
   fs::copy_file(store_path(), bad, fs::copy_options::overwrite_existing);

@@ -334,6 +334,49 @@ TEST_F(StressCli, ContinuousPathsSettleTheFinalViewAndAcceptSlowDiskOptions) {
   }
 }
 
+TEST_F(StressCli, DynamicResolutionScalesOnlyMovingFrames) {
+  // An unreachable target (1 ms) drives every moving frame after the first to --min-scale; the
+  // held final camera (settle frames) renders at full size, and the report stays consistent.
+  const uint64_t budget = fs::file_size(store()) / 4;
+  const fs::path js = dir_ / "dyn.json";
+  ASSERT_EQ(run("stress " + store() + " --gpu-budget " + std::to_string(budget) +
+                " --path flythrough --frames 10 --settle-frames 40 --dynamic-resolution --frame-ms-target 1"
+                " --min-scale 0.5 --json " + js.string() + small()),
+            0)
+      << last_stderr();
+  std::ifstream f(js);
+  const auto j = nlohmann::json::parse(f);
+  check_report(j, budget);
+  EXPECT_TRUE(j["dynamic_resolution"].get<bool>());
+  EXPECT_DOUBLE_EQ(j["frame_ms_target"].get<double>(), 1.0);
+  EXPECT_DOUBLE_EQ(j["scale_min"].get<double>(), 0.5);
+  const auto& scale = j["per_frame"]["scale"];
+  const auto& settle = j["per_frame"]["settle"];
+  ASSERT_EQ(scale.size(), settle.size());
+  ASSERT_GT(scale.size(), 10u);
+  EXPECT_DOUBLE_EQ(scale[0].get<double>(), 1.0);  // no frame time seen yet
+  for (size_t i = 1; i < 10; ++i) EXPECT_DOUBLE_EQ(scale[i].get<double>(), 0.5) << "path frame " << i;
+  for (size_t i = 10; i < scale.size(); ++i) {
+    EXPECT_TRUE(settle[i].get<bool>());
+    EXPECT_DOUBLE_EQ(scale[i].get<double>(), 1.0) << "held frame " << i;
+  }
+  // Without the flag every frame is at full size.
+  const fs::path fixed = dir_ / "fixed.json";
+  ASSERT_EQ(run("stress " + store() + " --gpu-budget " + std::to_string(budget) +
+                " --path flythrough --frames 4 --settle-frames 0 --json " + fixed.string() + small()),
+            0)
+      << last_stderr();
+  std::ifstream g(fixed);
+  const auto k = nlohmann::json::parse(g);
+  EXPECT_FALSE(k["dynamic_resolution"].get<bool>());
+  for (const auto& v : k["per_frame"]["scale"]) EXPECT_DOUBLE_EQ(v.get<double>(), 1.0);
+  // Bad values are usage errors naming the option.
+  EXPECT_EQ(run("stress " + store() + " --gpu-budget 1MiB --path orbit --dynamic-resolution --min-scale 0" + small()), 2);
+  EXPECT_NE(last_stderr().find("--min-scale"), std::string::npos) << last_stderr();
+  EXPECT_EQ(run("stress " + store() + " --gpu-budget 1MiB --path orbit --frame-ms-target -5" + small()), 2);
+  EXPECT_NE(last_stderr().find("--frame-ms-target"), std::string::npos) << last_stderr();
+}
+
 TEST_F(StressCli, CameraPathFile) {
   // Two held views with a cut; frames default to the file's frame count.
   const fs::path cam = dir_ / "two_views.cam", js = dir_ / "file.json";

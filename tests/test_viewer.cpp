@@ -13,6 +13,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -270,12 +271,50 @@ TEST_F(ViewerWindow, PlayedPathScreenshotMatchesHeadlessRender) {
   const fs::path path_file = dir_ / "path.txt", shot = dir_ / "view.png", ref = dir_ / "render.png";
   ASSERT_TRUE(path.save(path_file).ok());
 
+  // Dynamic resolution with an unreachable target (1 ms): the moving frames render at the
+  // smallest scale, upscaled to the window; at rest the full size returns, so the final
+  // screenshot must still equal the headless render.
+  const fs::path log = dir_ / "frames.csv";
   ASSERT_EQ(sh(fmt::format("{}timeout 50 {} view {} --width {} --height {} --spp 4 --play {} --no-hud --screenshot {} "
-                           "2>{}",
-                           env(), MDSTREAM_BIN, store(), W, H, path_file.string(), shot.string(),
+                           "--dynamic-resolution --frame-ms-target 1 --min-scale 0.25 --frame-log {} 2>{}",
+                           env(), MDSTREAM_BIN, store(), W, H, path_file.string(), shot.string(), log.string(),
                            (dir_ / "err.txt").string())),
             0)
       << err();
+  {
+    std::ifstream f(log);
+    std::string line;
+    ASSERT_TRUE(std::getline(f, line));
+    std::vector<std::string> head;
+    for (size_t a = 0, b; a <= line.size(); a = b + 1) {
+      b = line.find(',', a);
+      if (b == std::string::npos) b = line.size();
+      head.push_back(line.substr(a, b - a));
+    }
+    const auto col = [&](const char* name) { return size_t(std::find(head.begin(), head.end(), name) - head.begin()); };
+    const size_t c_frame = col("frame"), c_scale = col("scale"), c_w = col("render_width"), c_h = col("render_height");
+    ASSERT_LT(c_h, head.size()) << line;
+    std::vector<std::vector<std::string>> rows;
+    while (std::getline(f, line)) {
+      std::vector<std::string> r;
+      for (size_t a = 0, b; a <= line.size(); a = b + 1) {
+        b = line.find(',', a);
+        if (b == std::string::npos) b = line.size();
+        r.push_back(line.substr(a, b - a));
+      }
+      rows.push_back(r);
+    }
+    ASSERT_GT(rows.size(), 6u);
+    size_t reduced = 0;
+    for (const auto& r : rows)
+      if (std::stoi(r[c_frame]) >= 1 && std::stoi(r[c_frame]) < 6 && std::stod(r[c_scale]) == 0.25 &&
+          std::stoul(r[c_w]) == W / 4 && std::stoul(r[c_h]) == H / 4)
+        ++reduced;
+    EXPECT_GE(reduced, 4u) << "moving frames 1..5 should render at 1/4 of the window size";
+    EXPECT_EQ(std::stod(rows.back()[c_scale]), 1.0);
+    EXPECT_EQ(std::stoul(rows.back()[c_w]), W);
+    EXPECT_EQ(std::stoul(rows.back()[c_h]), H);
+  }
   const render::Camera last = path.at(path.frame_count() - 1);
   const std::string cam = fmt::format("{},{},{},{},{},{},{},{},{}", last.eye.x, last.eye.y, last.eye.z, last.target.x,
                                       last.target.y, last.target.z, last.up.x, last.up.y, last.up.z);

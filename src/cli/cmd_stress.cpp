@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,7 @@
 #include "core/byte_size.h"
 #include "render/camera.h"
 #include "render/camera_path.h"
+#include "render/frame_pacer.h"
 #include "render/renderer.h"
 #include "store/store_reader.h"
 #include "streaming/belady.h"
@@ -39,6 +41,7 @@ namespace {
 struct StressOptions {
   std::string store;
   StreamOptions stream;
+  PacingOptions pacing;
   std::string path;
   uint32_t frames = 0;  // 0: 240 for built-in paths, the file's frame count for a file
   uint32_t settle_frames = 200;
@@ -99,6 +102,9 @@ Status run_stress(const StressOptions& o) {
   if (o.fov <= 0.0 || o.fov >= 180.0)
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.fov);
   MDS_ASSIGN_OR_RETURN(PathChoice choice, choose_path(o.path));
+  MDS_ASSIGN_OR_RETURN(render::PacerSettings pacer_cfg, pacer_settings(o.pacing));
+  std::optional<render::FramePacer> pacer;
+  if (o.pacing.dynamic) pacer.emplace(pacer_cfg);
 
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
   vk::ContextOptions copt = vk::ContextOptions::from_env();
@@ -146,15 +152,26 @@ Status run_stress(const StressOptions& o) {
   uint32_t view = 0;
   render::Camera prev_cam;
   auto one_frame = [&](const render::Camera& cam, bool first, bool settle, bool after) -> Result<stress::FrameRecord> {
-    if (!first && !render::identical_cameras(cam, prev_cam)) ++view;
+    const bool moving = first || !render::identical_cameras(cam, prev_cam);
+    if (!first && moving) ++view;
     prev_cam = cam;
-    // A frame's time is set_view (a new camera waits for the frame in flight and restarts the
-    // culling state) plus step (which waits for the previous frame before recording).
+    // A frame's time is [resize (--dynamic-resolution)] + set_view (a new camera waits for the
+    // frame in flight and restarts the culling state) + step (which waits for the previous
+    // frame before recording).
     const auto t0 = std::chrono::steady_clock::now();
+    double scale = 1.0;
+    if (pacer) {
+      scale = pacer->next_scale(moving);
+      uint32_t sw = 0, sh = 0;
+      render::FramePacer::scaled_size(o.width, o.height, scale, sw, sh);
+      MDS_TRY(renderer->resize(sw, sh));
+    }
     MDS_TRY(renderer->set_view(cam));
     MDS_ASSIGN_OR_RETURN(render::FrameReport fr, renderer->step());
     fr.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    if (pacer) pacer->observe(fr.wall_ms);
     stress::FrameRecord r;
+    r.scale = scale;
     r.view = view;
     r.settle = settle;
     r.after_converged = after;
@@ -241,6 +258,16 @@ Status run_stress(const StressOptions& o) {
   j["width"] = o.width;
   j["height"] = o.height;
   j["frames"] = path_frames;
+  {
+    std::vector<double> path_scales;
+    for (const auto& f : frames)
+      if (!f.settle) path_scales.push_back(f.scale);
+    j["dynamic_resolution"] = o.pacing.dynamic;
+    j["frame_ms_target"] = pacer ? pacer->target_ms() : 0.0;  // automatic: the final value
+    j["min_scale"] = pacer ? pacer->settings().min_scale : 1.0;
+    j["scale_p50"] = stress::quantile(path_scales, 0.5);
+    j["scale_min"] = path_scales.empty() ? 1.0 : *std::min_element(path_scales.begin(), path_scales.end());
+  }
   j["settle_frames_run"] = settle_run;
   j["converged_frames_run"] = converged_run;
   j["frames_total"] = frames.size();
@@ -302,7 +329,8 @@ Status run_stress(const StressOptions& o) {
                                {"view", nlohmann::ordered_json::array()},    {"settle", nlohmann::ordered_json::array()},
                                {"complete", nlohmann::ordered_json::array()}, {"converged", nlohmann::ordered_json::array()},
                                {"hits", nlohmann::ordered_json::array()},    {"misses", nlohmann::ordered_json::array()},
-                               {"bytes_read_total", nlohmann::ordered_json::array()}};
+                               {"bytes_read_total", nlohmann::ordered_json::array()},
+                               {"scale", nlohmann::ordered_json::array()}};
   for (const auto& f : frames) {
     pf["wall_ms"].push_back(f.wall_ms);
     pf["gpu_ms"].push_back(f.gpu_ms);
@@ -313,6 +341,7 @@ Status run_stress(const StressOptions& o) {
     pf["hits"].push_back(f.hits);
     pf["misses"].push_back(f.misses);
     pf["bytes_read_total"].push_back(f.bytes_read_total);
+    pf["scale"].push_back(f.scale);
   }
   j["per_frame"] = pf;  // arrays: in the JSON only (the CSV keeps scalars)
 
@@ -334,6 +363,10 @@ Status run_stress(const StressOptions& o) {
   row("evictions O / M / L / P", fmt::format("{} / {} / {} / {}", c.evictions[3], c.evictions[2], c.evictions[1], c.evictions[0]));
   row("upload stalls", fmt::format("{}", c.upload_stalls));
   row("frame ms p50 / p99 / max (path)", fmt::format("{:.2f} / {:.2f} / {:.2f} (p99/p50 {:.2f})", q_path.p50, q_path.p99, q_path.max, q_path.ratio()));
+  if (pacer)
+    row("dynamic resolution", fmt::format("target {:.1f} ms{}, scale p50 {:.3f}, min {:.3f} (path)", pacer->target_ms(),
+                                          o.pacing.frame_ms_target > 0.0 ? "" : " (auto)", j["scale_p50"].get<double>(),
+                                          j["scale_min"].get<double>()));
   row("frame ms p50 / p99 (streaming)", fmt::format("{:.2f} / {:.2f} over {} frames", q_stream.p50, q_stream.p99, q_stream.n));
   if (!conv_wall.empty()) row("converged frame ms (wall / GPU)", fmt::format("{:.2f} / {:.2f}", stress::quantile(conv_wall, 0.5), stress::quantile(conv_gpu, 0.5)));
   row("views held / converged", fmt::format("{} / {}", views.size(), views_converged));
@@ -353,6 +386,7 @@ void setup_stress(CLI::App& sub, int& exit_code) {
   auto opt = std::make_shared<StressOptions>();
   sub.add_option("store", opt->store, "Store file (.mds)")->required();
   add_stream_options(sub, opt->stream, true);
+  add_pacing_options(sub, opt->pacing, false);
   sub.add_option("--path", opt->path,
                  "Camera path: orbit, flythrough, jumps (built-in), view0..view2 (a default view held), or a camera path file (docs/camera-path.md)")
       ->required();

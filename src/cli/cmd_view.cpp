@@ -16,6 +16,7 @@ namespace {
 struct ViewCliOptions {
   viewer::ViewerOptions v;
   StreamOptions stream;
+  PacingOptions pacing;
   bool no_cull = false;
   double cocc = MDS_CULL_C_OCC_DEFAULT;
   uint32_t width = 960, height = 540, spp = 16;
@@ -35,6 +36,8 @@ Status run_view(ViewCliOptions& o) {
   v.render.spp = o.spp;
   v.render.cull = !o.no_cull;
   v.render.cull_settings.c_occ = o.cocc;
+  v.dynamic_resolution = o.pacing.dynamic;
+  MDS_ASSIGN_OR_RETURN(v.pacer, pacer_settings(o.pacing));
   return viewer::run_viewer(v);
 }
 
@@ -42,6 +45,7 @@ void setup_view(CLI::App& sub, int& exit_code) {
   auto opt = std::make_shared<ViewCliOptions>();
   sub.add_option("store", opt->v.store, "Store file (.mds)")->required();
   add_stream_options(sub, opt->stream, false);
+  add_pacing_options(sub, opt->pacing, true);
   sub.add_option("--width", opt->width, "Initial window width")->check(CLI::Range(16u, 16384u))->capture_default_str();
   sub.add_option("--height", opt->height, "Initial window height")->check(CLI::Range(16u, 16384u))->capture_default_str();
   sub.add_option("--spp", opt->spp, "Samples per pixel accumulated while the camera rests")

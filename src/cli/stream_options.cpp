@@ -46,4 +46,29 @@ Result<render::StreamSettings> stream_settings(const StreamOptions& o) {
   return ss;
 }
 
+void add_pacing_options(CLI::App& sub, PacingOptions& o, bool default_on) {
+  o.dynamic = default_on;
+  sub.add_flag("--dynamic-resolution,!--fixed-resolution", o.dynamic,
+               std::string("While the camera moves, render at a reduced resolution picked from recent frame times "
+                           "against --frame-ms-target; full resolution when it rests (default: ") +
+                   (default_on ? "on" : "off") + ")");
+  sub.add_option("--frame-ms-target", o.frame_ms_target,
+                 "Frame time target of the dynamic resolution, ms (0: 1.25x the median full-resolution moving frame)")
+      ->capture_default_str();
+  sub.add_option("--min-scale", o.min_scale, "Smallest render scale (of width and height) of the dynamic resolution")
+      ->capture_default_str();
+}
+
+Result<render::PacerSettings> pacer_settings(const PacingOptions& o) {
+  if (!(o.frame_ms_target >= 0.0 && o.frame_ms_target < 1e7))
+    return make_error(Errc::invalid_argument, "--frame-ms-target {}: expected milliseconds >= 0 (0: automatic)",
+                      o.frame_ms_target);
+  if (!(o.min_scale > 0.0 && o.min_scale <= 1.0))
+    return make_error(Errc::invalid_argument, "--min-scale {}: expected a fraction in (0, 1]", o.min_scale);
+  render::PacerSettings p;
+  p.target_ms = o.frame_ms_target;
+  p.min_scale = o.min_scale;
+  return p;
+}
+
 }  // namespace mds::cli

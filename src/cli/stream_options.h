@@ -8,6 +8,7 @@
 #include <CLI/CLI.hpp>
 
 #include "core/result.h"
+#include "render/frame_pacer.h"
 #include "render/renderer.h"
 
 namespace mds::cli {
@@ -27,5 +28,18 @@ void add_stream_options(CLI::App& sub, StreamOptions& o, bool budget_required);
 // The settings; Errc::invalid_argument naming the option for a bad value. Precondition:
 // !o.gpu_budget.empty().
 Result<render::StreamSettings> stream_settings(const StreamOptions& o);
+
+// Dynamic resolution while the camera moves (render/frame_pacer.h), shared by `view` (on by
+// default) and `stress` (off by default).
+struct PacingOptions {
+  bool dynamic = false;
+  double frame_ms_target = 0.0;  // 0: automatic
+  double min_scale = 0.125;
+};
+
+// Adds --dynamic-resolution/--fixed-resolution (default: default_on), --frame-ms-target, --min-scale.
+void add_pacing_options(CLI::App& sub, PacingOptions& o, bool default_on);
+// The controller's settings; Errc::invalid_argument naming the option for a bad value.
+Result<render::PacerSettings> pacer_settings(const PacingOptions& o);
 
 }  // namespace mds::cli

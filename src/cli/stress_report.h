@@ -33,6 +33,7 @@ struct FrameRecord {
   uint64_t bytes_read_total = 0;      // cumulative compressed bytes read after this frame
   uint32_t wanted_nodes = 0;
   uint64_t wanted_payload_bytes = 0;  // compressed store bytes of this frame's wanted nodes
+  double scale = 1.0;                 // --dynamic-resolution: render scale of this frame
 };
 
 // Linear-interpolated quantiles (numpy's default), p in [0, 1].

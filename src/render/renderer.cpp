@@ -117,7 +117,7 @@ Status Renderer::Impl::create_targets() {
                                                        VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
                                                    VK_IMAGE_ASPECT_COLOR_BIT, "accumulation image"));
   const uint64_t vis_bytes = 8ull * w * h;  // depth bits + sprite index per pixel
-  if (vis_bytes > ctx->limits().maxStorageBufferRange) vis_bytes_ok = false;
+  vis_bytes_ok = vis_bytes <= ctx->limits().maxStorageBufferRange;
   MDS_ASSIGN_OR_RETURN(visibility,
                        vk::Buffer::create(alloc, vis_bytes_ok ? vis_bytes : 8,
                                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,

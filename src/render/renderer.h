@@ -193,8 +193,23 @@ class Renderer {
   // Accumulation restarts on a new view and, when streaming, on any frame that uploaded nodes.
   Status set_view(const Camera& camera);
   Result<FrameReport> step();
-  // The current accumulated image (average of FrameReport::samples samples).
+  // The current accumulated image (average of FrameReport::samples samples), at the current size.
   Result<FrameImage> read_image();
+  // Changes the render size without re-creating the renderer (window resize; dynamic resolution,
+  // render/frame_pacer.h). Only the size-dependent resources are rebuilt: the colour, depth and
+  // accumulation targets, the small-sprite visibility buffer, and the culling loop's per-pixel
+  // state (CullLoop::resize: histograms, cull/accumulation buffers, pyramid, sample image).
+  // Everything sized by the scene or the budget stays: the streaming cache (pool, resident
+  // nodes, reads in flight, its classes), the node directory, the density volume, pipelines.
+  // The current view restarts (accumulation and culling classes, as for a new camera) at the
+  // next set_view() or step(). Reallocating instead of rendering into a sub-rectangle of fixed
+  // targets keeps every pass exactly as at a fixed size (the pyramid, histograms and jitter
+  // are defined over the whole target), so an image after returning to a size equals one that
+  // never left it; on lavapipe the reallocation costs a few ms at 320x180, well below a frame.
+  // Waits for the frame in flight. Errc::invalid_argument outside 1..16384.
+  Status resize(uint32_t width, uint32_t height);
+  uint32_t width() const;
+  uint32_t height() const;
   // Statistics so far (pass times over the frames since the last set_view()).
   RenderStats stats() const;
   const Bounds& bounds() const;

@@ -67,6 +67,7 @@ struct Renderer::Impl {
   // Progressive state (set_view / step).
   Camera view_camera;
   bool has_view = false;
+  bool view_stale = false;     // resize(): the view restarts at the next set_view()/step()
   uint32_t samples = 0;        // accumulated in the current image
   uint32_t quiet = 0;          // culling iterations without class changes
   bool culling_converged = false;
@@ -85,6 +86,7 @@ struct Renderer::Impl {
   Result<double> collect_frame_ms();
   void after_iteration();
   Status create_targets();
+  Status resize(uint32_t w, uint32_t h);
   Status create_pipelines();
   void record_pass(VkCommandBuffer cmd, bool first, bool accumulate = true);
   void record_cull_only(VkCommandBuffer cmd);

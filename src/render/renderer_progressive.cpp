@@ -161,7 +161,8 @@ Status Renderer::set_view(const Camera& camera_in) {
   Impl& m = *impl_;
   Camera camera = camera_in;
   fit_clip_planes(camera, m.bounds);
-  if (m.has_view && identical_cameras(camera, m.view_camera)) return {};
+  if (m.has_view && !m.view_stale && identical_cameras(camera, m.view_camera)) return {};
+  m.view_stale = false;
   MDS_TRY(m.slot.wait());  // the frame in flight belongs to the old view
   // Its culling iteration still tells the cache what is occluded (the view did not mature).
   if (m.pending_iteration && m.cache) m.cache->set_classes(m.cull->node_classes(), false);
@@ -191,6 +192,7 @@ Status Renderer::set_view(const Camera& camera_in) {
 Result<FrameReport> Renderer::step() {
   Impl& m = *impl_;
   if (!m.has_view) return make_error(Errc::internal, "Renderer::step() before set_view()");
+  if (m.view_stale) MDS_TRY(set_view(m.view_camera));  // resized: restart the view at the new size
   const auto t0 = std::chrono::steady_clock::now();
   FrameReport rep;
   rep.frame = m.frame_index;
@@ -245,6 +247,36 @@ Result<FrameReport> Renderer::step() {
   m.frame_wall_ms.push_back(rep.wall_ms);
   return rep;
 }
+
+Status Renderer::Impl::resize(uint32_t w, uint32_t h) {
+  if (w == 0 || h == 0 || w > 16384 || h > 16384)
+    return make_error(Errc::invalid_argument, "resize to {}x{}: outside 1..16384", w, h);
+  if (w == settings.width && h == settings.height) return {};
+  MDS_TRY(slot.wait());  // the frame in flight uses the old targets
+  // Its culling iteration still tells the cache what is occluded (as set_view does).
+  if (pending_iteration && cache && cull) cache->set_classes(cull->node_classes(), false);
+  pending_iteration = false;
+  const bool small_sprites = small_px > 0.0f;
+  settings.width = w;
+  settings.height = h;
+  MDS_TRY(create_targets());  // replaces (and releases) the old colour/depth/accumulation/visibility
+  if (small_sprites && !vis_bytes_ok)
+    return make_error(Errc::budget,
+                      "resize to {}x{}: the small-sprite visibility buffer ({} bytes) exceeds maxStorageBufferRange ({})",
+                      w, h, 8ull * w * h, ctx->limits().maxStorageBufferRange);
+  set.write_storage_image(gpu::kBindColorImage, color.view());
+  set.write_storage_image(gpu::kBindAccumImage, accum.view());
+  set.write_buffer(gpu::kBindVisibility, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, visibility.get());
+  if (cull) MDS_TRY(cull->resize(w, h));
+  samples = 0;
+  rendered = false;  // read_last_depth(): no frame at this size yet
+  if (has_view) view_stale = true;
+  return {};
+}
+
+Status Renderer::resize(uint32_t width, uint32_t height) { return impl_->resize(width, height); }
+uint32_t Renderer::width() const { return impl_->settings.width; }
+uint32_t Renderer::height() const { return impl_->settings.height; }
 
 Result<FrameImage> Renderer::read_image() {
   Impl& m = *impl_;

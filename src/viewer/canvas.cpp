@@ -73,6 +73,21 @@ uint8_t linear_to_srgb8(float v) {
 Canvas::Canvas(uint32_t width, uint32_t height, Rgba8 fill)
     : width_(width), height_(height), pixels_(size_t(width) * height, fill) {}
 
+Canvas Canvas::resized_nearest(uint32_t width, uint32_t height) const {
+  if (width == width_ && height == height_) return *this;
+  Canvas out(width, height);
+  if (width_ == 0 || height_ == 0) return out;
+  std::vector<uint32_t> sx(width);
+  for (uint32_t x = 0; x < width; ++x) sx[x] = std::min(width_ - 1, uint32_t((2 * uint64_t(x) + 1) * width_ / (2 * uint64_t(width))));
+  for (uint32_t y = 0; y < height; ++y) {
+    const uint32_t syy = std::min(height_ - 1, uint32_t((2 * uint64_t(y) + 1) * height_ / (2 * uint64_t(height))));
+    const Rgba8* src = &pixels_[size_t(syy) * width_];
+    Rgba8* dst = &out.pixels_[size_t(y) * width];
+    for (uint32_t x = 0; x < width; ++x) dst[x] = src[sx[x]];
+  }
+  return out;
+}
+
 void Canvas::set_from_linear(const render::FrameImage& image) {
   if (image.width != width_ || image.height != height_) *this = Canvas(image.width, image.height);
   const size_t n = size_t(width_) * height_;

@@ -30,6 +30,9 @@ class Canvas {
 
   // rgb -> sRGB 8-bit (rounded as write_png does), alpha 255. Sizes must match or the canvas is resized.
   void set_from_linear(const render::FrameImage& image);
+  // The canvas resampled to width x height, nearest pixel (dynamic resolution: the reduced
+  // render of a moving camera shown at the window's size; blocky, but no blur and no cost).
+  Canvas resized_nearest(uint32_t width, uint32_t height) const;
   // The canvas as a linear float image (exact round trip through set_from_linear and write_png).
   render::FrameImage to_linear() const;
 

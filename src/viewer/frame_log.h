@@ -21,6 +21,8 @@ struct FrameLogRow {
   bool camera_moved = false;
   render::FrameReport report;
   render::CacheStats cache;
+  double scale = 1.0;                          // dynamic resolution: render scale of this frame
+  uint32_t render_width = 0, render_height = 0;  // the renderer's size this frame
 };
 
 class FrameLog {

@@ -19,6 +19,11 @@ std::vector<std::string> hud_lines(const HudState& s) {
                       : (s.streaming && !r.complete) ? "loading"
                                                      : "refining";
   l.push_back(fmt::format("samples {}/{}  {}", r.samples, s.spp, state));
+  if (s.dynamic_resolution)
+    l.push_back(fmt::format("render {}x{}  scale {:.2f}  target {}", s.render_width, s.render_height, s.render_scale,
+                            s.frame_ms_target > 0.0 ? fmt::format("{:.0f} ms", s.frame_ms_target) : std::string("auto")));
+  else
+    l.push_back(fmt::format("render {}x{}  fixed resolution", s.render_width, s.render_height));
   const uint64_t total = uint64_t(r.class_counts[0]) + r.class_counts[1] + r.class_counts[2] + r.class_counts[3];
   if (s.cull)
     l.push_back(fmt::format("culled {:.1f}% of {} meshlets  C_occ {:.3f}",

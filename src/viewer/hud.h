@@ -31,6 +31,12 @@ struct HudState {
   render::FrameReport report;
   render::CacheStats cache;
   uint64_t meshlets = 0;
+  // Dynamic resolution (render/frame_pacer.h): the render size of the image shown and the
+  // controller's target (0: automatic target not known yet).
+  bool dynamic_resolution = false;
+  uint32_t render_width = 0, render_height = 0;
+  double render_scale = 1.0;
+  double frame_ms_target = 0.0;
 };
 
 std::vector<std::string> hud_lines(const HudState& s);

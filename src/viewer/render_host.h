@@ -1,6 +1,7 @@
 // The viewer's renderer and its inputs: the open store, the in-memory scene (when no GPU budget
-// is given) with its density volume, the current render settings, and re-creation of the
-// render::Renderer when its fixed parameters change (window size, culling on/off, C_occ, spp).
+// is given) with its density volume, the current render settings (width/height = the window),
+// and re-creation of the render::Renderer when its fixed parameters change (culling on/off,
+// C_occ, spp). Size changes (window, dynamic resolution) use Renderer::resize instead.
 #pragma once
 
 #include <cstdint>

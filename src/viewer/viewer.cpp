@@ -76,6 +76,8 @@ class Viewer {
   std::unique_ptr<Input> input_;
   std::unique_ptr<FrameLog> log_;
   CameraController controller_;
+  std::optional<render::FramePacer> pacer_;  // dynamic resolution (--fixed-resolution: none)
+  double render_scale_ = 1.0;
   std::optional<render::CameraPath> play_;
   std::optional<PathRecorder> recorder_;
   ViewState vs_;
@@ -119,6 +121,7 @@ Status Viewer::setup() {
   MDS_ASSIGN_OR_RETURN(host_, RenderHost::open(*ctx_, o_));
   input_ = std::make_unique<Input>(window_->handle());
   vs_.hud = o_.hud;
+  if (o_.dynamic_resolution) pacer_.emplace(o_.pacer);
   MDS_TRY(host_->recreate(fw, fh));
 
   // Home camera: --camera or a default view, with --fov/--ortho.
@@ -212,8 +215,11 @@ void Viewer::handle_keys(const InputFrame& in, bool& recreate, bool& quit) {
   if (!message_.empty() && ms_since(message_time_) > 4000) message_.clear();
 }
 
+// Debug views that read the culling loop's per-pixel state are drawn at the render size; the
+// result is upscaled to the window (dynamic resolution), then bounds and the HUD are drawn.
 Status Viewer::compose(const InputFrame& in) {
   display_ = image_;
+  const uint32_t win_w = host_->settings().width, win_h = host_->settings().height;
   render::Camera cam = view_camera_;
   render::fit_clip_planes(cam, host_->bounds());
   render::culling::CullLoop* loop = host_->renderer() ? host_->renderer()->cull_loop() : nullptr;
@@ -239,23 +245,26 @@ Status Viewer::compose(const InputFrame& in) {
       draw_confidence(display_, ps, host_->settings().cull_settings.c_occ);
     }
   }
-  if (vs_.bounds) {
-    const Projector proj(cam, display_.width(), display_.height());
-    const auto& boxes = host_->node_boxes();
-    const size_t stride = std::max<size_t>(1, boxes.size() / 20000);
-    for (size_t i = 0; i < boxes.size(); i += stride) draw_box(display_, proj, cam, boxes[i], {80, 200, 255, 160});
-    if (host_->streaming()) note("bounds: all nodes (no per-node residency API)");
-  }
   if (vs_.histogram) {
     if (!loop) {
       note("histogram: culling is off (C)");
     } else {
       MDS_ASSIGN_OR_RETURN(std::vector<float> hist, loop->read_histograms());
       MDS_ASSIGN_OR_RETURN(std::vector<glm::vec2> ranges, loop->read_hist_ranges());
-      const uint32_t x = uint32_t(std::clamp(in.cursor.x, 0.0, double(display_.width() - 1)));
-      const uint32_t y = uint32_t(std::clamp(in.cursor.y, 0.0, double(display_.height() - 1)));
+      const double sx = double(display_.width()) / double(std::max(win_w, 1u));
+      const double sy = double(display_.height()) / double(std::max(win_h, 1u));
+      const uint32_t x = uint32_t(std::clamp(in.cursor.x * sx, 0.0, double(display_.width() - 1)));
+      const uint32_t y = uint32_t(std::clamp(in.cursor.y * sy, 0.0, double(display_.height() - 1)));
       draw_histogram(display_, hist, ranges, loop->bins(), x, y);
     }
+  }
+  if (display_.width() != win_w || display_.height() != win_h) display_ = display_.resized_nearest(win_w, win_h);
+  if (vs_.bounds) {
+    const Projector proj(cam, display_.width(), display_.height());
+    const auto& boxes = host_->node_boxes();
+    const size_t stride = std::max<size_t>(1, boxes.size() / 20000);
+    for (size_t i = 0; i < boxes.size(); i += stride) draw_box(display_, proj, cam, boxes[i], {80, 200, 255, 160});
+    if (host_->streaming()) note("bounds: all nodes (no per-node residency API)");
   }
   if (vs_.hud) draw_hud(display_, hud_);
   return {};
@@ -295,7 +304,8 @@ Status Viewer::run() {
         controller_.fly(in.fly, dt);
     }
 
-    // Resize: the renderer has a fixed size.
+    // Window resize: the swapchain is re-created; the renderer only resizes (below, with the
+    // dynamic resolution), so its streaming cache and resident nodes survive.
     if (in.resized) {
       uint32_t fw = 0, fh = 0;
       window_->framebuffer_size(fw, fh);
@@ -303,7 +313,7 @@ Status Viewer::run() {
         MDS_TRY(swapchain_->resize(fw, fh));
         host_->settings().width = fw;
         host_->settings().height = fh;
-        recreate = true;
+        idle_ = false;
       }
     }
     if (recreate) {
@@ -316,6 +326,15 @@ Status Viewer::run() {
     render::Renderer* r = host_->renderer();
     double step_ms = 0.0;
     bool stepped = false;
+    // Render size: the window's, scaled down by the pacer while the camera moves; at rest the
+    // full size returns and the view refines (culling convergence, super-sampling) there.
+    if (r && !render_error_ && (moved || !idle_)) {
+      render_scale_ = pacer_ ? pacer_->next_scale(moved) : 1.0;
+      uint32_t sw = 0, sh = 0;
+      render::FramePacer::scaled_size(host_->settings().width, host_->settings().height, render_scale_, sw, sh);
+      Status st = r->resize(sw, sh);
+      if (!st.ok()) render_error_ = st.error();
+    }
     if (moved) {
       view_camera_ = cam;
       have_view_ = true;
@@ -369,6 +388,11 @@ Status Viewer::run() {
     hud_.report = report;
     hud_.cache = cache;
     hud_.message = render_error_ ? "render error: " + render_error_->message : message_;
+    hud_.dynamic_resolution = pacer_.has_value();
+    hud_.render_scale = render_scale_;
+    hud_.render_width = r ? r->width() : 0;
+    hud_.render_height = r ? r->height() : 0;
+    hud_.frame_ms_target = pacer_ ? pacer_->target_ms() : 0.0;
 
     MDS_TRY(compose(in));
     MDS_ASSIGN_OR_RETURN(bool presented, swapchain_->present(display_));
@@ -380,6 +404,7 @@ Status Viewer::run() {
     if (recorder_) recorder_->observe(frame, cam);
     const double frame_ms = ms_since(t0);
     hud_.frame_ms = frame_ms;
+    if (pacer_ && stepped) pacer_->observe(frame_ms);
     if (log_) {
       FrameLogRow row;
       row.frame = frame;
@@ -390,6 +415,9 @@ Status Viewer::run() {
       row.camera_moved = moved;
       row.report = report;
       row.cache = cache;
+      row.scale = render_scale_;
+      row.render_width = r ? r->width() : 0;
+      row.render_height = r ? r->height() : 0;
       log_->add(row);
     }
     ++frame;

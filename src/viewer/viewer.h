@@ -10,6 +10,7 @@
 #include <string>
 
 #include "core/result.h"
+#include "render/frame_pacer.h"
 #include "render/renderer.h"
 
 namespace mds::viewer {
@@ -30,6 +31,8 @@ struct ViewerOptions {
   std::string frame_log;    // --frame-log CSV: one row per displayed frame
   uint32_t exit_after_frames = 0;  // 0: run until closed
   bool hud = true;          // --no-hud: start with the HUD hidden
+  bool dynamic_resolution = true;  // --fixed-resolution: off (render/frame_pacer.h)
+  render::PacerSettings pacer;     // --frame-ms-target, --min-scale
   int device = -1;
 };
 

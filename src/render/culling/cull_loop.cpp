@@ -66,6 +66,9 @@ struct CullLoop::Impl {
       draw_list_pipe, sample_pipe;
 
   Status create_buffers(const CullScene& scene_data, const DensityVolume& vol);
+  Status create_pixel_buffers();
+  void set_pixel_uniforms();
+  void write_pixel_descriptors();
   Status create_sets();
   Status create_pipelines();
   void bind(VkCommandBuffer cmd, VkPipelineBindPoint bp, VkPipeline pipe, const vk::DescriptorSet& s0) const;
@@ -102,8 +105,7 @@ CullScene cull_scene(const SceneData& s, const DensityVolume& vol) {
 
 Status CullLoop::Impl::create_buffers(const CullScene& s, const DensityVolume& vol) {
   auto& alloc = ctx->allocator();
-  const uint64_t px = uint64_t(width) * height;
-  auto make = [&](vk::Buffer& b, uint64_t bytes, const char* what, VkBufferUsageFlags extra = 0) -> Status {
+    auto make = [&](vk::Buffer& b, uint64_t bytes, const char* what, VkBufferUsageFlags extra = 0) -> Status {
     if (bytes > ctx->limits().maxStorageBufferRange)
       return make_error(Errc::budget, "culling: {} need {} bytes, more than maxStorageBufferRange ({})", what, bytes,
                         ctx->limits().maxStorageBufferRange);
@@ -111,17 +113,7 @@ Status CullLoop::Impl::create_buffers(const CullScene& s, const DensityVolume& v
                                                vk::MemoryIntent::device_local, what));
     return {};
   };
-  levels = 1;
-  pyramid_texels = px;
-  for (uint32_t w = width, h = height; w > 1 || h > 1; ++levels) {
-    w = (w + 1) / 2;
-    h = (h + 1) / 2;
-    pyramid_texels += uint64_t(w) * h;
-  }
-  MDS_TRY(make(histogram, px * bins * sizeof(float), "density histograms"));
-  MDS_TRY(make(hist_range, px * 8, "histogram ranges"));
-  MDS_TRY(make(pixel_state, px * 32, "cull/accumulation buffers"));
-  MDS_TRY(make(pyramid, pyramid_texels * 8, "confidence pyramid"));
+  MDS_TRY(create_pixel_buffers());
   MDS_TRY(make(volume, vol.counts.size() * 4, "density volume"));
   MDS_TRY(make(volume_init, vol.counts.size() * 4, "density volume (initial)"));
   MDS_TRY(make(meshlet_voxel_first, s.voxel_first.size() * 4, "voxel list index"));
@@ -154,14 +146,6 @@ Status CullLoop::Impl::create_buffers(const CullScene& s, const DensityVolume& v
   MDS_ASSIGN_OR_RETURN(indices, vk::Buffer::create(alloc, idx.size() * 2,
                                                    VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                                    vk::MemoryIntent::device_local, "sampling billboard indices"));
-  MDS_ASSIGN_OR_RETURN(sample_image, vk::Image::create_2d(alloc, width, height, kSampleFormat,
-                                                          VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT |
-                                                              VK_IMAGE_USAGE_STORAGE_BIT |
-                                                              VK_IMAGE_USAGE_TRANSFER_DST_BIT,
-                                                          VK_IMAGE_ASPECT_COLOR_BIT, "occlusion sample image"));
-  MDS_ASSIGN_OR_RETURN(depth, vk::Image::create_2d(alloc, width, height, kDepthFormat,
-                                                   VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
-                                                   VK_IMAGE_ASPECT_DEPTH_BIT, "occlusion sample depth"));
   MDS_ASSIGN_OR_RETURN(vk::StagingRing ring, vk::StagingRing::create(*ctx));
   MDS_TRY(ring.upload_span(volume_init, 0, std::span<const int32_t>(vol.counts)));
   MDS_TRY(ring.upload_span(meshlet_voxel_first, 0, std::span<const uint32_t>(s.voxel_first)));
@@ -170,16 +154,65 @@ Status CullLoop::Impl::create_buffers(const CullScene& s, const DensityVolume& v
   MDS_TRY(ring.flush());
 
   gpu::CullUniforms& u = uniforms;
-  u.viewport = glm::vec4(float(width), float(height), 1.0f / float(width), 1.0f / float(height));
   u.grid_origin = glm::vec4(glm::vec3(vol.origin), 0.0f);
   u.grid_cell = glm::vec4(glm::vec3(vol.cell), float(1.0 / (vol.cell.x * vol.cell.y * vol.cell.z)));
   u.grid_dims = glm::uvec4(uint32_t(vol.dims.x), uint32_t(vol.dims.y), uint32_t(vol.dims.z), bins);
+  set_pixel_uniforms();
   u.thresholds = glm::vec4(float(settings.c_occ), float(settings.c_medium), 0.0f, 0.0f);
   u.params = glm::uvec4(uint32_t(settings.acceptance), settings.n_budget, budget, 0u);
   node_flags = node_density ? gpu::kCullNodeDensity : 0u;
   u.counts = glm::uvec4(meshlet_count, node_count, 0u, settings.seed);
-  u.pyramid = glm::uvec4(levels, 0u, 0u, 0u);
   return {};
+}
+
+// The buffers and images with one entry per pixel (or pyramid texel): created with the loop and
+// again by resize(); bins, levels and the size uniforms follow the size.
+Status CullLoop::Impl::create_pixel_buffers() {
+  auto& alloc = ctx->allocator();
+  const uint64_t px = uint64_t(width) * height;
+  auto make = [&](vk::Buffer& b, uint64_t bytes, const char* what) -> Status {
+    if (bytes > ctx->limits().maxStorageBufferRange)
+      return make_error(Errc::budget, "culling: {} need {} bytes, more than maxStorageBufferRange ({})", what, bytes,
+                        ctx->limits().maxStorageBufferRange);
+    MDS_ASSIGN_OR_RETURN(b, vk::Buffer::create(alloc, std::max<uint64_t>(bytes, 16), kSsbo,
+                                               vk::MemoryIntent::device_local, what));
+    return {};
+  };
+  levels = 1;
+  pyramid_texels = px;
+  for (uint32_t w = width, h = height; w > 1 || h > 1; ++levels) {
+    w = (w + 1) / 2;
+    h = (h + 1) / 2;
+    pyramid_texels += uint64_t(w) * h;
+  }
+  MDS_TRY(make(histogram, px * bins * sizeof(float), "density histograms"));
+  MDS_TRY(make(hist_range, px * 8, "histogram ranges"));
+  MDS_TRY(make(pixel_state, px * 32, "cull/accumulation buffers"));
+  MDS_TRY(make(pyramid, pyramid_texels * 8, "confidence pyramid"));
+  MDS_ASSIGN_OR_RETURN(sample_image, vk::Image::create_2d(alloc, width, height, kSampleFormat,
+                                                          VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT |
+                                                              VK_IMAGE_USAGE_STORAGE_BIT |
+                                                              VK_IMAGE_USAGE_TRANSFER_DST_BIT,
+                                                          VK_IMAGE_ASPECT_COLOR_BIT, "occlusion sample image"));
+  MDS_ASSIGN_OR_RETURN(depth, vk::Image::create_2d(alloc, width, height, kDepthFormat,
+                                                   VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                                                   VK_IMAGE_ASPECT_DEPTH_BIT, "occlusion sample depth"));
+  return {};
+}
+
+void CullLoop::Impl::set_pixel_uniforms() {
+  uniforms.viewport = glm::vec4(float(width), float(height), 1.0f / float(width), 1.0f / float(height));
+  uniforms.grid_dims.w = bins;
+  uniforms.pyramid = glm::uvec4(levels, 0u, 0u, 0u);
+}
+
+void CullLoop::Impl::write_pixel_descriptors() {
+  const VkDescriptorType SSBO = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  set1.write_buffer(gpu::kCullHistogram, SSBO, histogram.get());
+  set1.write_buffer(gpu::kCullHistRange, SSBO, hist_range.get());
+  set1.write_buffer(gpu::kCullPixelState, SSBO, pixel_state.get());
+  set1.write_buffer(gpu::kCullPyramid, SSBO, pyramid.get());
+  set1.write_storage_image(gpu::kCullSampleImage, sample_image.view());
 }
 
 Status CullLoop::Impl::create_sets() {
@@ -371,6 +404,25 @@ uint32_t CullLoop::budget() const { return impl_->budget; }
 uint32_t CullLoop::samples_per_iteration() const { return impl_->passes; }
 uint32_t CullLoop::pyramid_levels() const { return impl_->levels; }
 const CullSettings& CullLoop::settings() const { return impl_->settings; }
+uint32_t CullLoop::width() const { return impl_->width; }
+uint32_t CullLoop::height() const { return impl_->height; }
+
+Status CullLoop::resize(uint32_t width, uint32_t height) {
+  Impl& m = *impl_;
+  if (width == 0 || height == 0) return make_error(Errc::invalid_argument, "culling: resize to {}x{}", width, height);
+  if (width == m.width && height == m.height) return {};
+  const uint32_t bins = bins_for(width, height, m.ctx->limits().maxStorageBufferRange, m.settings.bins);
+  if (bins == 0)
+    return make_error(Errc::budget, "culling: one histogram bin for {}x{} pixels exceeds maxStorageBufferRange ({})",
+                      width, height, m.ctx->limits().maxStorageBufferRange);
+  m.width = width;
+  m.height = height;
+  m.bins = bins;
+  MDS_TRY(m.create_pixel_buffers());  // the old ones are released here (the caller waited for the GPU)
+  m.set_pixel_uniforms();
+  m.write_pixel_descriptors();
+  return {};
+}
 
 Status CullLoop::begin_view(const Camera& camera, uint32_t live_meshlets) {
   Impl& m = *impl_;

@@ -135,6 +135,15 @@ class CullLoop {
   uint32_t samples_per_iteration() const;
   uint32_t pyramid_levels() const;
   const CullSettings& settings() const;
+  uint32_t width() const;
+  uint32_t height() const;
+
+  // Dynamic resolution (render/frame_pacer.h): re-creates only the per-pixel state (density
+  // histograms and their ranges, cull/accumulation buffers, confidence pyramid, the occlusion
+  // sample image and its depth) at width x height; the scene-sized state (density volume, voxel
+  // lists, meshlet/node classes, pipelines) stays. The caller must have waited for the GPU to
+  // finish with the loop, and must call begin_view() before the next iteration.
+  Status resize(uint32_t width, uint32_t height);
 
   // Inspection and test hooks (each submits and waits).
   Result<std::vector<uint32_t>> read_meshlet_classes();

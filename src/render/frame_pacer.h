@@ -1,0 +1,81 @@
+// Dynamic resolution while the camera moves: a controller that picks the internal render scale
+// (a fraction of the full width and height) from recent frame times against a target, so that
+// frame time tracks the target instead of following the view's cost (docs/viewer.md "Dynamic
+// resolution"). No Vulkan here: the viewer and `mdstream stress` apply the scale with
+// Renderer::resize(); tests/test_frame_pacer.cpp drives it with synthetic frame times.
+//
+// The model. A moving frame is a new view (culling restarts, one culling iteration + draw); its
+// cost on a rasterizer grows with the pixels p = s^2 (s = scale) sub-linearly: measured on
+// lavapipe inside the porous scene (docs/viewer.md "Dynamic resolution") a frame at 1/4 of the pixels costs
+// about 1/3, at 1/16 about 1/8, i.e. t ~ p^0.8. After a moving frame of time t at scale s the
+// next scale is s * (target / t)^(0.5 / 0.8): one step lands near the target when the view's
+// cost changes slowly, as it does along a camera path. Down-steps are taken at once (a slow
+// frame is what the user sees), up-steps at most x1.5 per frame and only when the frame was
+// faster than (1 - band) * target (no oscillation around the target). Scales are quantized to
+// 1/16 (rounded down) so that small fluctuations do not resize the renderer every frame, and
+// kept within [min_scale, max_scale].
+// Trend: a camera entering dense data makes each view costlier than the last (on lavapipe by
+// 3-5x per frame of a coarse path). Reacting to the last frame alone is then one frame late at
+// every step, so the cost is normalized to full scale (c = t / s^(1/exponent)) and, when c grew
+// from the previous moving frame, the growth (at most max_trend) is extrapolated one frame
+// ahead; a falling cost is not extrapolated (up-steps stay cautious).
+//
+// The target. Fixed (--frame-ms-target MS), or automatic (0, default): auto_factor (1.25) times
+// the median of the last auto_window moving frames rendered at full scale. The frames the
+// camera costs least (outside the data, an overview) set the pace, and only views that would
+// be slower than 1.25x that pace lose resolution; on a fast GPU the same rule holds at 1-10 ms.
+// A target in ms that fits every machine does not exist (lavapipe needs ~0.3-1 s per view at
+// 320x180, a GPU ~5 ms), hence the automatic default. Until the first full-scale moving frame
+// has been seen there is no target and the scale stays at max_scale.
+//
+// At rest (the camera did not move) the scale is max_scale at once: the progressive refinement
+// (culling convergence + super-sampling) always runs at full resolution.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+
+namespace mds::render {
+
+struct PacerSettings {
+  double target_ms = 0.0;      // 0: automatic (see the file comment)
+  double auto_factor = 1.25;   // automatic target = auto_factor x median full-scale moving frame
+  uint32_t auto_window = 32;   // full-scale moving frames in that median
+  double min_scale = 0.125;    // of width and height (1/64 of the pixels)
+  double max_scale = 1.0;
+  double quantum = 1.0 / 16.0; // scales are multiples of this (rounded down), except max_scale
+  double band = 0.15;          // up-steps only below (1 - band) x target
+  double max_up = 1.5;         // largest up-step factor per frame
+  double exponent = 0.5 / 0.8; // s' = s * (target / t)^exponent (t ~ pixels^0.8)
+  double max_trend = 4.0;      // cap of the growth extrapolated from the last two moving frames
+};
+
+class FramePacer {
+ public:
+  explicit FramePacer(PacerSettings settings = {});
+
+  // The scale of the next frame: the controller's for a moving frame, max_scale at rest.
+  double next_scale(bool moving);
+  // The frame rendered at the scale next_scale() returned took frame_ms (wall time of the
+  // whole frame); a moving frame updates the controller (and the automatic target).
+  void observe(double frame_ms);
+
+  double scale() const { return scale_; }          // controller's scale for moving frames
+  double last_scale() const { return last_scale_; }  // what next_scale() returned last
+  double target_ms() const;                         // 0 while the automatic target is unknown
+  const PacerSettings& settings() const { return s_; }
+
+  // width/height x scale, rounded, at least 1 pixel (and exactly w x h at scale >= 1).
+  static void scaled_size(uint32_t width, uint32_t height, double scale, uint32_t& out_w, uint32_t& out_h);
+
+ private:
+  double quantize(double s) const;
+  PacerSettings s_;
+  double scale_ = 1.0;
+  double last_scale_ = 1.0;
+  bool last_moving_ = false;
+  double last_cost_ = 0.0;  // full-scale-normalized cost of the previous moving frame (0: none)
+  std::deque<double> full_scale_ms_;  // recent full-scale moving frames (automatic target)
+};
+
+}  // namespace mds::render

@@ -1,0 +1,138 @@
+// The dynamic-resolution controller (render/frame_pacer.h) on synthetic frame times: a cost
+// model t = fixed + k * view_cost * pixels^0.8 stands in for the renderer. Checks: it converges
+// to the target, never leaves [min_scale, max_scale], returns to full scale when the camera
+// rests, derives the automatic target from full-scale moving frames, and brings the frame times
+// of a view whose cost jumps back under the target within a few frames.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "render/frame_pacer.h"
+
+using mds::render::FramePacer;
+using mds::render::PacerSettings;
+
+namespace {
+
+// Frame time of a view of relative cost `view_cost` rendered at `scale`.
+double model_ms(double view_cost, double scale, double fixed = 5.0) {
+  return fixed + 100.0 * view_cost * std::pow(scale * scale, 0.8);
+}
+
+}  // namespace
+
+TEST(FramePacer, ConvergesToAFixedTargetAndStaysInBounds) {
+  PacerSettings ps;
+  ps.target_ms = 40.0;
+  FramePacer p(ps);
+  double t = 0.0;
+  for (int f = 0; f < 30; ++f) {
+    const double s = p.next_scale(true);
+    EXPECT_GE(s, ps.min_scale);
+    EXPECT_LE(s, ps.max_scale);
+    t = model_ms(1.0, s);
+    p.observe(t);
+  }
+  // Full scale costs 105 ms; the controller settles where a frame meets the target, within a
+  // quantum of the best scale (never above the target by more than the band's worth).
+  EXPECT_LE(t, 40.0 * 1.15);
+  EXPECT_GT(t, 40.0 * 0.5);
+  EXPECT_LT(p.scale(), 1.0);
+  // Stable: no resize once settled.
+  const double settled = p.scale();
+  for (int f = 0; f < 10; ++f) {
+    p.next_scale(true);
+    p.observe(model_ms(1.0, settled));
+  }
+  EXPECT_EQ(p.scale(), settled);
+}
+
+TEST(FramePacer, NeverLeavesTheBoundsEvenForExtremeTimes) {
+  PacerSettings ps;
+  ps.target_ms = 10.0;
+  ps.min_scale = 0.3;
+  ps.max_scale = 0.9;
+  FramePacer p(ps);
+  const double times[] = {1e6, 1e-3, 5e4, 0.0, -3.0, std::nan(""), 1e9, 0.5, 0.5, 0.5, 0.5, 0.5};
+  for (double t : times) {
+    const double s = p.next_scale(true);
+    EXPECT_GE(s, 0.3 - 1e-12);
+    EXPECT_LE(s, 0.9 + 1e-12);
+    p.observe(t);
+  }
+  EXPECT_GE(p.scale(), 0.3 - 1e-12);
+  EXPECT_LE(p.scale(), 0.9 + 1e-12);
+  EXPECT_EQ(p.next_scale(false), 0.9);  // rest: the largest scale allowed
+}
+
+TEST(FramePacer, ReturnsToFullScaleWhenTheCameraRests) {
+  PacerSettings ps;
+  ps.target_ms = 20.0;
+  FramePacer p(ps);
+  for (int f = 0; f < 10; ++f) p.observe((p.next_scale(true), model_ms(2.0, p.last_scale())));
+  ASSERT_LT(p.scale(), 1.0);
+  EXPECT_EQ(p.next_scale(false), 1.0);
+  p.observe(model_ms(2.0, 1.0));  // a resting frame does not teach the controller
+  EXPECT_EQ(p.next_scale(false), 1.0);
+  EXPECT_LT(p.next_scale(true), 1.0);  // moving again resumes at the controller's scale
+}
+
+TEST(FramePacer, AutomaticTargetFollowsFullScaleMovingFrames) {
+  FramePacer p;  // target 0: automatic
+  EXPECT_EQ(p.target_ms(), 0.0);
+  // Cheap views at full scale: no target exceeded, full scale kept; target auto_factor x their median.
+  for (int f = 0; f < 8; ++f) {
+    EXPECT_EQ(p.next_scale(true), 1.0);
+    p.observe(100.0 + f);  // 100..107 ms
+  }
+  EXPECT_NEAR(p.target_ms(), PacerSettings{}.auto_factor * 103.5, 1e-9);
+  EXPECT_EQ(p.scale(), 1.0);
+  // A view 10x as costly: the scale drops at once and the following frames meet the target.
+  std::vector<double> times;
+  for (int f = 0; f < 8; ++f) {
+    const double s = p.next_scale(true);
+    const double t = model_ms(10.0, s, 0.0);  // 1000 ms at full scale
+    times.push_back(t);
+    p.observe(t);
+  }
+  EXPECT_GT(times[0], 900.0);  // the jump itself is seen once at full scale
+  for (size_t f = 2; f < times.size(); ++f) EXPECT_LE(times[f], 1.15 * p.target_ms()) << "frame " << f;
+  // Frames at reduced scale do not move the automatic target; the full-scale frame of the jump
+  // joined the median window: median of 100..107 and 1000 = 104.
+  EXPECT_NEAR(p.target_ms(), PacerSettings{}.auto_factor * 104.0, 1e-9);
+}
+
+TEST(FramePacer, RisingCostIsAnticipated) {
+  // A camera flying into dense data: the view's cost grows by 1.6x per frame. Extrapolating the
+  // trend keeps the frames near the target; without it each frame would overshoot by 1.6x.
+  PacerSettings ps;
+  ps.target_ms = 50.0;
+  ps.min_scale = 1.0 / 16.0;
+  FramePacer p(ps);
+  double cost = 0.3;
+  int over = 0;
+  for (int f = 0; f < 12; ++f) {
+    const double t = model_ms(cost, p.next_scale(true), 0.0);
+    if (f >= 3 && t > 1.3 * ps.target_ms) ++over;
+    p.observe(t);
+    cost *= 1.6;
+  }
+  EXPECT_EQ(over, 0);
+}
+
+TEST(FramePacer, ScaledSizeRoundsAndKeepsAtLeastOnePixel) {
+  uint32_t w = 0, h = 0;
+  FramePacer::scaled_size(320, 180, 1.0, w, h);
+  EXPECT_EQ(w, 320u);
+  EXPECT_EQ(h, 180u);
+  FramePacer::scaled_size(320, 180, 0.5, w, h);
+  EXPECT_EQ(w, 160u);
+  EXPECT_EQ(h, 90u);
+  FramePacer::scaled_size(320, 180, 0.0625, w, h);
+  EXPECT_EQ(w, 20u);
+  EXPECT_EQ(h, 11u);
+  FramePacer::scaled_size(3, 2, 0.01, w, h);
+  EXPECT_EQ(w, 1u);
+  EXPECT_EQ(h, 1u);
+}
