@@ -78,19 +78,27 @@ inline void prefault(const void* data, size_t bytes) {
 class BackgroundPrefault {
  public:
   BackgroundPrefault() = default;
-  BackgroundPrefault(void* data, size_t bytes) {
+  BackgroundPrefault(void* data, size_t bytes) : BackgroundPrefault(std::vector<std::pair<void*, size_t>>{{data, bytes}}) {}
+  // Several arrays, one after the other on the one thread.
+  explicit BackgroundPrefault(std::vector<std::pair<void*, size_t>> regions) {
 #ifdef MADV_POPULATE_WRITE
     const uintptr_t page = uintptr_t(::sysconf(_SC_PAGESIZE));
-    const uintptr_t b = (uintptr_t(data) + page - 1) / page * page, e = (uintptr_t(data) + bytes) / page * page;
-    if (e <= b) return;
-    thread_ = std::thread([this, b, e] {
+    std::vector<std::pair<uintptr_t, uintptr_t>> ranges;
+    for (const auto& [data, bytes] : regions) {
+      const uintptr_t b = (uintptr_t(data) + page - 1) / page * page, e = (uintptr_t(data) + bytes) / page * page;
+      if (e > b) ranges.push_back({b, e});
+    }
+    if (ranges.empty()) return;
+    thread_ = std::thread([this, ranges = std::move(ranges)] {
       constexpr uintptr_t kChunk = uintptr_t(8) << 20;
-      for (uintptr_t at = b; at < e && !stop_.load(std::memory_order_relaxed); at += kChunk)
-        if (::madvise(reinterpret_cast<void*>(at), std::min(kChunk, e - at), MADV_POPULATE_WRITE) != 0) return;
+      for (const auto& [b, e] : ranges)
+        for (uintptr_t at = b; at < e; at += kChunk) {
+          if (stop_.load(std::memory_order_relaxed)) return;
+          if (::madvise(reinterpret_cast<void*>(at), std::min(kChunk, e - at), MADV_POPULATE_WRITE) != 0) return;
+        }
     });
 #else
-    (void)data;
-    (void)bytes;
+    (void)regions;
 #endif
   }
   ~BackgroundPrefault() { stop(); }

@@ -252,6 +252,23 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   TempDir tmp(tmp_parent);
 
   rep.seconds_setup = meter.lap("setup");
+  // When everything will fit in memory, the sort arrays (keys, permutation and their scratch)
+  // are allocated now and their pages mapped on a background thread during pass A, which
+  // leaves part of a core idle; the keys step then runs on mapped memory.
+  SortBuffers sb;
+  std::unique_ptr<BackgroundPrefault> sort_prefault;
+  if (declared <= plan.max_memory_records && declared >= (uint64_t(1) << 16)) {
+    const size_t n = size_t(declared);
+    sb.keys.resize(n);
+    sb.perm.resize(n);
+    sb.keys_tmp.resize(n);
+    sb.perm_tmp.resize(n);
+    sort_prefault = std::make_unique<BackgroundPrefault>(std::vector<std::pair<void*, size_t>>{
+        {sb.keys.data(), n * sizeof(uint64_t)},
+        {sb.perm.data(), n * sizeof(uint32_t)},
+        {sb.keys_tmp.data(), n * sizeof(uint64_t)},
+        {sb.perm_tmp.data(), n * sizeof(uint32_t)}});
+  }
   // ---- pass A
   InputScan scan;
   {
@@ -264,6 +281,9 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
     so.max_memory_records = plan.max_memory_records;
     MDS_TRY(scan_inputs(so, readers, tmp, scan, progress));
   }
+  if (sort_prefault) sort_prefault->stop();  // before the arrays are resized or freed
+  sort_prefault.reset();
+  if (!scan.in_memory) sb.release();
   rep.seconds_read = meter.lap("read");
   rep.particles = scan.count;
   rep.spilled = !scan.in_memory;
@@ -295,8 +315,7 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   rep.seconds_setup += meter.lap("setup");
 
   if (scan.in_memory) {
-    // ---- everything fits: one bin, the root cell
-    SortBuffers sb;
+    // ---- everything fits: one bin, the root cell (sb possibly allocated before pass A)
     progress.stage("build", scan.count);
     const SortTimes st = key_and_sort(scan.memory, grid, o.threads, sb);
     sb.keys_tmp = {};
