@@ -76,6 +76,32 @@ TEST_F(RenderCli, RendersPngWithStats) {
   EXPECT_TRUE(j["pass_ms_median"].contains("draw"));
   EXPECT_TRUE(j["pass_ms_median"].contains("draw_list"));
   EXPECT_TRUE(j["pass_ms_median"].contains("accumulate"));
+  // auto: the mesh path exactly where the device has VK_EXT_mesh_shader (docs/rendering.md).
+  EXPECT_EQ(j["sprite_path"].get<std::string>(), j["mesh_shader_available"].get<bool>() ? "mesh" : "compute");
+}
+
+// --mesh-shaders on a device without mesh shaders (lavapipe): a clear error, no image; a bad
+// value is an error too; off always renders with the compute path.
+TEST_F(RenderCli, MeshShaderSelection) {
+  const fs::path png = dir_ / "m.png", stats = dir_ / "m.json";
+  const std::string base = "render " + store() + " -o " + png.string() + " --no-cull --spp 1 --width 48 --height 32";
+  EXPECT_NE(run(base + " --mesh-shaders maybe"), 0);
+  EXPECT_NE(last_stderr().find("--mesh-shaders 'maybe'"), std::string::npos) << last_stderr();
+  EXPECT_FALSE(fs::exists(png));
+  ASSERT_EQ(run(base + " --mesh-shaders off --stats " + stats.string()), 0) << last_stderr();
+  std::ifstream js(stats);
+  auto j = nlohmann::json::parse(js);
+  EXPECT_EQ(j["sprite_path"].get<std::string>(), "compute");
+  const bool available = j["mesh_shader_available"].get<bool>();
+  fs::remove(png);
+  const int rc = run(base + " --mesh-shaders on");
+  if (available) {
+    EXPECT_EQ(rc, 0) << last_stderr();
+  } else {
+    EXPECT_NE(rc, 0);
+    EXPECT_NE(last_stderr().find("VK_EXT_mesh_shader"), std::string::npos) << last_stderr();
+    EXPECT_FALSE(fs::exists(png));
+  }
 }
 
 TEST_F(RenderCli, ExrOutputHoldsCoverageInAlpha) {

@@ -31,6 +31,11 @@ MDS_CONST(uint, kSpriteHidden, 0x100u);  // nothing to draw (behind the near pla
 MDS_CONST(uint, kSpriteQuad, 0x200u);    // drawn as a quad (point path: too large or centre off screen)
 MDS_CONST(uint, kSpriteSmall, 0x400u);   // rasterized in compute into the visibility buffer
 
+// Mesh sprite path (sphere.task / sphere.mesh, where VK_EXT_mesh_shader exists).
+MDS_CONST(uint, kMeshTaskMeshlets, 64u);  // draw-list entries per task workgroup (= sprite_args' dispatch_x unit)
+MDS_CONST(uint, kMeshParticles, 32u);     // particles per mesh workgroup: 128 vertices, 64 triangles (<= 256 each on every vendor)
+MDS_CONST(uint, kMeshChunksMax, 8u);      // mesh workgroups per meshlet: ceil(255 / 32); task payload 64 * 8 * 4 B = 2 KiB
+
 // FrameUniforms.flags
 MDS_CONST(uint, kFrameOrtho, 1u);
 MDS_CONST(uint, kFramePerParticleRadius, 2u);

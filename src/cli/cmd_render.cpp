@@ -45,6 +45,7 @@ struct RenderOptions {
   double fov = 40.0;
   uint32_t width = 1920, height = 1080, spp = 64;
   int device = -1;
+  std::string mesh_shaders = "auto";
   StreamOptions stream;  // --gpu-budget empty: in memory
 };
 
@@ -117,6 +118,7 @@ Status run_render(const RenderOptions& o) {
   rs.spp = o.spp;
   rs.background_srgb = background;
   rs.cull = !o.no_cull;
+  MDS_ASSIGN_OR_RETURN(rs.mesh_shaders, render::parse_mesh_shader_mode(o.mesh_shaders));
   rs.cull_settings.c_occ = o.cocc;
   rs.cull_settings.acceptance = o.acceptance == "random" ? MDS_CULL_ACCEPT_RANDOM : MDS_CULL_ACCEPT_NORMAL;
   rs.cull_settings.budget = o.budget;
@@ -148,6 +150,7 @@ Status run_render(const RenderOptions& o) {
     j["device"] = stats.device;
     j["device_type"] = vk::device_type_name(ctx->info().type);
     j["mesh_shader_available"] = ctx->info().mesh_shader;
+    j["sprite_path"] = stats.mesh_sprites ? "mesh" : "compute";
     j["particles"] = stats.particles;
     j["meshlets"] = stats.meshlets;
     j["nodes"] = reader->nodes().size();
@@ -289,6 +292,10 @@ void setup_render(CLI::App& sub, int& exit_code) {
   sub.add_option("--background", opt->background, "Background colour r,g,b (sRGB, 0..1)")->capture_default_str();
   sub.add_option("--device", opt->device, "Vulkan device index (default: automatic, discrete GPU first)");
   sub.add_option("--stats", opt->stats, "Write statistics (counts, GPU pass times) as JSON");
+  sub.add_option("--mesh-shaders", opt->mesh_shaders,
+                 "Sprite path: auto (task/mesh shaders where the device has VK_EXT_mesh_shader, else compute + "
+                 "indirect draws), on (require them), off (compute + indirect draws); docs/rendering.md")
+      ->capture_default_str();
   add_stream_options(sub, opt->stream, false);
   sub.callback([opt, &exit_code] {
     Status st = run_render(*opt);

@@ -61,13 +61,15 @@ Status Renderer::Impl::upload(const SceneData& scene) {
 }
 
 // The draw list (a meshlet id per slot), the sprite pre-pass output (one GpuSprite per particle
-// slot: a list holds each meshlet at most once, so the slots bound it) and the frame uniforms.
+// slot: a list holds each meshlet at most once, so the slots bound it; none on the mesh path)
+// and the frame uniforms.
 Status Renderer::Impl::create_draw_buffers(uint64_t meshlet_slots, uint64_t particle_slots) {
   auto& alloc = ctx->allocator();
   const VkBufferUsageFlags ssbo = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
   const uint64_t max_range = ctx->limits().maxStorageBufferRange;
   const uint64_t sprite_capacity = std::max<uint64_t>(particle_slots, 1);
-  if (sprite_capacity * sizeof(gpu::GpuSprite) > max_range)
+  const uint64_t record_capacity = mesh_path ? 1 : sprite_capacity;  // mesh path: no records
+  if (record_capacity * sizeof(gpu::GpuSprite) > max_range)
     return make_error(Errc::budget,
                       "sprite records for {} particles need {} bytes, more than this device's maxStorageBufferRange "
                       "({} bytes); use a smaller --gpu-budget (streaming) or a smaller data set",
@@ -76,7 +78,7 @@ Status Renderer::Impl::create_draw_buffers(uint64_t meshlet_slots, uint64_t part
                        vk::Buffer::create(alloc, sizeof(gpu::DrawListHeader) + 4ull * meshlet_slots,
                                           ssbo | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                                           vk::MemoryIntent::device_local, "draw list"));
-  MDS_ASSIGN_OR_RETURN(sprites, vk::Buffer::create(alloc, sprite_capacity * sizeof(gpu::GpuSprite), ssbo,
+  MDS_ASSIGN_OR_RETURN(sprites, vk::Buffer::create(alloc, record_capacity * sizeof(gpu::GpuSprite), ssbo,
                                                    vk::MemoryIntent::device_local, "sprite records"));
   MDS_ASSIGN_OR_RETURN(sprite_draw,
                        vk::Buffer::create(alloc, sizeof(gpu::SpriteDrawHeader) + 4 * (sprite_capacity + meshlet_slots),
@@ -174,6 +176,14 @@ Status Renderer::Impl::create_pipelines() {
   small_px = vis_bytes_ok ? kSmallSpritePx : 0.0f;
   if (const char* e = std::getenv("MDSTREAM_SMALL_PX")) small_px = vis_bytes_ok ? float(std::atof(e)) : 0.0f;
   MDS_ASSIGN_OR_RETURN(sprite_args_pipe, vk::create_compute_pipeline(dev, layout, "sprite_args.comp"));
+  // Task/mesh sprites where the device has them (--mesh-shaders): no pre-pass records, no
+  // compute rasterization, no points; sprite_args.comp still sizes the task launch.
+  if (mesh_path) {  // decided at creation (use_mesh_sprites), before the draw buffers
+    MDS_ASSIGN_OR_RETURN(mesh, MeshSprites::create(*ctx, layout, kColorFormat, kDepthFormat));
+    point_sprites = false;
+    small_px = 0.0f;
+    sprite_read_stages = MeshSprites::kReadStages;
+  }
   MDS_ASSIGN_OR_RETURN(raster_id_pipe, vk::create_compute_pipeline(dev, layout, "sprite_raster_id.comp"));
   vk::SpecConstants prepass_spec;
   prepass_spec.add(0u, VkBool32(point_sprites)).add(1u, max_point).add(2u, small_px);
@@ -206,6 +216,17 @@ Status Renderer::Impl::create_pipelines() {
 // visible to compute reads) -> sprite records and the sprite draw commands.
 void Renderer::Impl::record_sprite_prepass(VkCommandBuffer cmd) {
   VkDescriptorSet ds = set.set();
+  if (mesh_path) {  // only the launch size: ceil(list / kMeshTaskMeshlets) task workgroups
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT, VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT,
+                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, sprite_args_pipe);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &ds, 0, nullptr);
+    vkCmdDispatch(cmd, 1, 1, 1);
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | sprite_read_stages,
+                       VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+    return;
+  }
   // The previous draw's reads of the sprites and commands are done before they are rewritten.
   vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT,
                      VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT,
@@ -246,6 +267,10 @@ void Renderer::Impl::record_sprite_prepass(VkCommandBuffer cmd) {
 // sprites as points (when enabled) and quads.
 void Renderer::Impl::record_sprite_draws(VkCommandBuffer cmd) {
   VkDescriptorSet ds = set.set();
+  if (mesh_path) {
+    mesh.record_draw(cmd, ds, sprite_draw.get(), offsetof(gpu::SpriteDrawHeader, dispatch_x));
+    return;
+  }
   if (small_px > 0.0f) {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, resolve_pipe);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &ds, 0, nullptr);
@@ -292,7 +317,7 @@ void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first, bool accumulat
   timestamps.begin(cmd, "draw_list");
   gpu::DrawListHeader head{};
   head.index_count = 6 * max_meshlet;
-  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT,
+  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | sprite_read_stages,
                      VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT,
                      VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
   vkCmdUpdateBuffer(cmd, draw_list.get(), 0, sizeof(head), &head);
@@ -307,7 +332,7 @@ void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first, bool accumulat
     vkCmdDispatch(cmd, (meshlet_count + 63) / 64, 1, 1);
   }
   vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                     VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT,
+                     VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | sprite_read_stages,
                      VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
   timestamps.end(cmd);
 
@@ -385,6 +410,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(vk::Context& ctx, const Scene
   Impl& m = *r->impl_;
   m.ctx = &ctx;
   m.settings = settings;
+  MDS_ASSIGN_OR_RETURN(m.mesh_path, use_mesh_sprites(ctx, settings.mesh_shaders));
   m.origin = scene.origin;
   m.bounds = scene.bounds;
   m.meshlet_count = uint32_t(scene.meshlets.size());

@@ -31,6 +31,7 @@
 #include "render/camera.h"
 #include "render/culling/cull_loop.h"
 #include "render/culling/density_volume.h"
+#include "render/mesh_sprites.h"
 #include "render/scene.h"
 #include "store/store_reader.h"
 #include "streaming/io_pool.h"
@@ -62,6 +63,7 @@ struct RenderSettings {
   bool cull = false;                                 // probabilistic occlusion culling (false: --no-cull)
   culling::CullSettings cull_settings;               // used when cull is set
   std::shared_ptr<const culling::DensityVolume> density;  // from the store; null: built from the scene
+  MeshShaderMode mesh_shaders = MeshShaderMode::automatic;  // sprite path (render/mesh_sprites.h)
 };
 
 // Culling loop statistics of one render() (RenderStats::cull).
@@ -158,6 +160,7 @@ struct RenderStats {
   uint64_t upload_bytes = 0;
   uint64_t device_bytes = 0;
   double near = 0.0, far = 0.0;
+  bool mesh_sprites = false;  // sprites drawn by the task/mesh path (else compute + indirect draws)
   CullStats cull;
   CacheStats cache;                 // streaming only
   double frame_wall_ms_p50 = 0.0;   // CPU wall time per frame (step), all frames of the render

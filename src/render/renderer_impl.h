@@ -40,6 +40,11 @@ struct Renderer::Impl {
   bool vis_bytes_ok = true;         // the visibility buffer fits maxStorageBufferRange
   bool point_sprites = false;       // small on-screen sprites drawn as points (see create_pipelines)
   float small_px = 0.0f;            // sprites up to this size rasterized in compute (0: none)
+  bool mesh_path = false;           // task/mesh sprites instead of the pre-pass (render/mesh_sprites.h)
+  MeshSprites mesh;                 // its pipeline (mesh_path only)
+  // Stages that read the draw list and the sprite commands: the barriers before they are
+  // rewritten and after they are written name these.
+  VkPipelineStageFlags2 sprite_read_stages = VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT;
   vk::Image color, depth, accum;
   vk::DescriptorSet set;
   vk::UniquePipelineLayout layout;

@@ -64,11 +64,13 @@ Result<std::unique_ptr<Renderer>> Renderer::create_streaming(vk::Context& ctx, c
   Impl& m = *r->impl_;
   m.ctx = &ctx;
   m.settings = settings;
+  MDS_ASSIGN_OR_RETURN(m.mesh_path, use_mesh_sprites(ctx, settings.mesh_shaders));
   m.reader = &reader;
   m.origin = dir.origin;
   m.bounds = dir.bounds;
-  // One GpuSprite of scratch per particle slot, bound whole: the slots must fit maxStorageBufferRange.
-  const uint64_t max_slots = ctx.limits().maxStorageBufferRange / sizeof(gpu::GpuSprite);
+  // One GpuSprite of scratch per particle slot, bound whole: the slots must fit maxStorageBufferRange
+  // (the mesh path writes no sprite records: only the 4-byte quad-id scratch bounds them).
+  const uint64_t max_slots = ctx.limits().maxStorageBufferRange / (m.mesh_path ? 4u : sizeof(gpu::GpuSprite));
   MDS_ASSIGN_OR_RETURN(m.cache, streaming_gpu::StreamCache::create(ctx, reader, stream, dir.origin, max_slots));
   dir.nodes = m.cache->directory();
   m.meshlet_count = m.cache->pool().meshlet_slots();
@@ -297,6 +299,7 @@ RenderStats Renderer::stats() const {
   const Impl& m = *impl_;
   RenderStats s;
   s.device = m.ctx->info().name;
+  s.mesh_sprites = m.mesh_path;
   s.particles = m.particle_count;
   s.meshlets = m.cache ? m.cache->live_meshlets() : m.meshlet_count;
   s.spp = m.settings.spp;

@@ -221,6 +221,8 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
   VkPhysicalDeviceVulkan13Features f13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
   VkPhysicalDeviceVulkan12Features f12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
   f12.pNext = &f13;
+  VkPhysicalDeviceMeshShaderFeaturesEXT fmesh{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MESH_SHADER_FEATURES_EXT};
+  if (c->info_.mesh_shader) f13.pNext = &fmesh;  // only chained when the extension exists
   VkPhysicalDeviceFeatures2 f2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
   f2.pNext = &f12;
   vkGetPhysicalDeviceFeatures2(c->physical_, &f2);
@@ -252,6 +254,15 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
   qinfo.pQueuePriorities = &priority;
   std::vector<const char*> device_exts;
   for (const std::string& e : options.device_extensions) device_exts.push_back(e.c_str());
+  // Task/mesh shaders (the renderer's mesh sprite path) whenever the device has both stages.
+  VkPhysicalDeviceMeshShaderFeaturesEXT emesh{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MESH_SHADER_FEATURES_EXT};
+  if (c->info_.mesh_shader && fmesh.taskShader && fmesh.meshShader) {
+    emesh.taskShader = VK_TRUE;
+    emesh.meshShader = VK_TRUE;
+    e13.pNext = &emesh;
+    device_exts.push_back(VK_EXT_MESH_SHADER_EXTENSION_NAME);
+    c->mesh_shaders_ = true;
+  }
   VkDeviceCreateInfo dinfo{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
   dinfo.pNext = &e2;
   dinfo.queueCreateInfoCount = 1;

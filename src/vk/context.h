@@ -71,6 +71,8 @@ class Context {
   bool timestamps() const { return timestamp_valid_bits_ > 0; }
   double timestamp_period_ns() const { return props_.limits.timestampPeriod; }
   bool validation_enabled() const { return validation_; }
+  // VK_EXT_mesh_shader enabled with its task and mesh stages (only where the device has them).
+  bool mesh_shaders() const { return mesh_shaders_; }
   // Number of validation warnings/errors reported so far (0 without validation).
   uint64_t validation_messages() const;
   Allocator& allocator() { return *allocator_; }
@@ -94,6 +96,7 @@ class Context {
   uint32_t queue_family_ = 0;
   uint32_t timestamp_valid_bits_ = 0;
   bool validation_ = false;
+  bool mesh_shaders_ = false;
   DeviceInfo info_;
   VkPhysicalDeviceProperties props_{};
   std::unique_ptr<Allocator> allocator_;

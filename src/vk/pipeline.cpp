@@ -1,6 +1,7 @@
 #include "vk/pipeline.h"
 
 #include <map>
+#include <utility>
 
 #include "vk/embedded_shaders.h"
 
@@ -100,18 +101,31 @@ Result<UniquePipeline> create_compute_pipeline(VkDevice device, VkPipelineLayout
 
 Result<UniquePipeline> create_graphics_pipeline(VkDevice device, VkPipelineLayout layout,
                                                 const GraphicsPipelineDesc& desc) {
-  MDS_ASSIGN_OR_RETURN(UniqueShaderModule vs, load_shader(device, desc.vertex_shader));
-  MDS_ASSIGN_OR_RETURN(UniqueShaderModule fs, load_shader(device, desc.fragment_shader));
-  VkPipelineShaderStageCreateInfo stages[2] = {{VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO},
-                                               {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO}};
-  stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
-  stages[0].module = vs;
-  stages[0].pName = "main";
-  stages[0].pSpecializationInfo = desc.vertex_spec ? desc.vertex_spec->info() : nullptr;
-  stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
-  stages[1].module = fs;
-  stages[1].pName = "main";
-  stages[1].pSpecializationInfo = desc.fragment_spec ? desc.fragment_spec->info() : nullptr;
+  const bool mesh = !desc.mesh_shader.empty();
+  // Stages in pipeline order: vertex, or [task,] mesh; then fragment.
+  std::vector<std::pair<VkShaderStageFlagBits, const std::string*>> names;
+  if (mesh) {
+    if (!desc.task_shader.empty()) names.push_back({VK_SHADER_STAGE_TASK_BIT_EXT, &desc.task_shader});
+    names.push_back({VK_SHADER_STAGE_MESH_BIT_EXT, &desc.mesh_shader});
+  } else {
+    names.push_back({VK_SHADER_STAGE_VERTEX_BIT, &desc.vertex_shader});
+  }
+  names.push_back({VK_SHADER_STAGE_FRAGMENT_BIT, &desc.fragment_shader});
+  std::vector<UniqueShaderModule> modules;
+  std::vector<VkPipelineShaderStageCreateInfo> stages;
+  for (auto& [stage, name] : names) {
+    MDS_ASSIGN_OR_RETURN(UniqueShaderModule m, load_shader(device, *name));
+    VkPipelineShaderStageCreateInfo si{VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+    si.stage = stage;
+    si.module = m;
+    si.pName = "main";
+    if (stage == VK_SHADER_STAGE_VERTEX_BIT || stage == VK_SHADER_STAGE_MESH_BIT_EXT)
+      si.pSpecializationInfo = desc.vertex_spec ? desc.vertex_spec->info() : nullptr;
+    if (stage == VK_SHADER_STAGE_FRAGMENT_BIT)
+      si.pSpecializationInfo = desc.fragment_spec ? desc.fragment_spec->info() : nullptr;
+    stages.push_back(si);
+    modules.push_back(std::move(m));
+  }
 
   VkPipelineVertexInputStateCreateInfo vin{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
   VkPipelineInputAssemblyStateCreateInfo ia{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
@@ -148,10 +162,10 @@ Result<UniquePipeline> create_graphics_pipeline(VkDevice device, VkPipelineLayou
 
   VkGraphicsPipelineCreateInfo info{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
   info.pNext = &rinfo;
-  info.stageCount = 2;
-  info.pStages = stages;
-  info.pVertexInputState = &vin;
-  info.pInputAssemblyState = &ia;
+  info.stageCount = uint32_t(stages.size());
+  info.pStages = stages.data();
+  info.pVertexInputState = mesh ? nullptr : &vin;
+  info.pInputAssemblyState = mesh ? nullptr : &ia;
   info.pViewportState = &vp;
   info.pRasterizationState = &rs;
   info.pMultisampleState = &ms;
@@ -162,8 +176,8 @@ Result<UniquePipeline> create_graphics_pipeline(VkDevice device, VkPipelineLayou
   VkPipeline p = VK_NULL_HANDLE;
   VkResult r = vkCreateGraphicsPipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &p);
   if (r != VK_SUCCESS)
-    return make_error(Errc::internal, "graphics pipeline {}+{}: {}", desc.vertex_shader, desc.fragment_shader,
-                      vk_result_name(r));
+    return make_error(Errc::internal, "graphics pipeline {}{}+{}: {}", mesh ? desc.task_shader + "+" : "",
+                      mesh ? desc.mesh_shader : desc.vertex_shader, desc.fragment_shader, vk_result_name(r));
   return UniquePipeline(device, p);
 }
 

@@ -70,8 +70,13 @@ Result<UniquePipeline> create_compute_pipeline(VkDevice device, VkPipelineLayout
                                                SpecConstants* spec = nullptr);
 
 struct GraphicsPipelineDesc {
-  std::string vertex_shader;
+  std::string vertex_shader;  // empty when mesh_shader is set
   std::string fragment_shader;
+  // Task/mesh pipeline (VK_EXT_mesh_shader must be enabled, Context::mesh_shaders()): the mesh
+  // shader replaces the vertex stage; the task shader is optional. Vertex input and topology
+  // are then unused.
+  std::string task_shader;
+  std::string mesh_shader;
   SpecConstants* vertex_spec = nullptr;
   SpecConstants* fragment_spec = nullptr;
   std::vector<VkFormat> color_formats;

@@ -1,0 +1,85 @@
+// GLSL-only: the glyph of one particle -- its view-space sphere and the conservative screen
+// rectangle of the projected sphere -- shared by the compute sprite pre-pass
+// (sphere_prepass.comp) and the mesh shader path (sphere.mesh), so both draw the same glyphs.
+//  - perspective: per screen axis, the slopes of the two tangent planes through the eye,
+//    s = (a z -/+ r sqrt(a^2 + z^2 - r^2)) / (z^2 - r^2) for centre (a, z) (z = view distance)
+//    (Mara & McGuire 2013, "2D polyhedral bounds of a clipped, perspective-projected 3D sphere");
+//  - orthographic: centre +- r;
+// placed at the sphere's nearest view distance (z - r) so that the fragment shader's
+// depth_greater promise holds, and grown by half a pixel on every side: sub-pixel spheres get a
+// rectangle of at least one pixel, so every jittered sample that hits the sphere is rasterized
+// and the exact ray test in the fragment shader keeps only those -- over spp jittered passes a
+// sub-pixel sphere contributes exactly its expected covered area (its "effective sub-pixel area").
+// Needs bindings.h (frame, nodes, particles, types, radii_q).
+#ifndef MDS_SPRITE_MAKE_H
+#define MDS_SPRITE_MAKE_H
+
+vec3 mds_project(vec3 v) {
+  vec4 c = frame.proj * vec4(v, 1.0);
+  return c.xyz / c.w;
+}
+
+// The sprite of local particle `local` of meshlet m (node = nodes[m.node]). flags = type, plus
+// kSpriteHidden when nothing can be drawn (behind the near plane, radius 0, off screen, beyond
+// the far plane); rect = NDC (lo.x, lo.y, hi.x, hi.y); zndc = depth of the rectangle.
+GpuSprite mds_make_sprite(GpuMeshlet m, GpuNode node, uint local) {
+  uint pi = mds_meshlet_particle(m, local);
+  uvec2 raw = particles[pi];
+  uvec3 q = uvec3(raw.x & 0xffffu, raw.x >> 16, raw.y & 0xffffu);
+  uint type = (raw.y >> 16) & 0xffu;
+  vec3 world = node.origin + vec3(q) * node.step;
+  float r = types[type].radius;
+  if ((frame.counts.z & kFramePerParticleRadius) != 0u) {
+    uint w = radii_q[pi >> 1];
+    uint rq = (pi & 1u) != 0u ? (w >> 16) : (w & 0xffffu);
+    r = frame.radius_range.x + float(rq) * frame.radius_range.y / 65535.0;
+  }
+  float near = frame.radius_range.z;
+  bool ortho = (frame.counts.z & kFrameOrtho) != 0u;
+  vec3 c = (frame.view * vec4(world, 1.0)).xyz;
+  float zc = -c.z;  // view distance of the centre
+  GpuSprite s;
+  s.center_radius = vec4(c, r);
+  s.flags = type;
+  s.pad0 = 0u;
+  s.pad1 = 0u;
+  s.rect = vec4(0.0);
+  s.zndc = 0.0;
+  if (zc + r <= near || r <= 0.0) {
+    s.flags |= kSpriteHidden;
+    return s;
+  }
+  vec2 ndc_lo, ndc_hi;
+  float zq = max(zc - r, near);
+  if (ortho) {
+    vec3 a = mds_project(vec3(c.xy - r, -zq));
+    vec3 b = mds_project(vec3(c.xy + r, -zq));
+    ndc_lo = min(a.xy, b.xy);
+    ndc_hi = max(a.xy, b.xy);
+  } else if (zc - r <= near) {
+    // The sphere crosses the near plane: cover the whole viewport.
+    ndc_lo = vec2(-1.0);
+    ndc_hi = vec2(1.0);
+  } else {
+    float denom = zc * zc - r * r;
+    vec2 t = sqrt(max(c.xy * c.xy + denom, 0.0));
+    vec2 s_lo = (c.xy * zc - r * t) / denom;
+    vec2 s_hi = (c.xy * zc + r * t) / denom;
+    vec3 a = mds_project(vec3(s_lo * zq, -zq));
+    vec3 b = mds_project(vec3(s_hi * zq, -zq));
+    ndc_lo = min(a.xy, b.xy);
+    ndc_hi = max(a.xy, b.xy);
+  }
+  // Half a pixel of margin on every side (viewport.zw = 1/size; 1 NDC unit = size/2 pixels).
+  ndc_lo -= frame.viewport.zw;
+  ndc_hi += frame.viewport.zw;
+  ndc_lo = max(ndc_lo, vec2(-1.01));
+  ndc_hi = min(ndc_hi, vec2(1.01));
+  s.rect = vec4(ndc_lo, ndc_hi);
+  s.zndc = max(mds_project(vec3(0.0, 0.0, -zq)).z, 0.0);
+  if (any(greaterThanEqual(ndc_lo, ndc_hi))) s.flags |= kSpriteHidden;  // entirely off screen
+  if (s.zndc > 1.0) s.flags |= kSpriteHidden;                           // beyond the far plane
+  return s;
+}
+
+#endif

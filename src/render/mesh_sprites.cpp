@@ -1,0 +1,63 @@
+// The task/mesh shader sprite path; see mesh_sprites.h.
+#include "render/mesh_sprites.h"
+
+#include "vk/context.h"
+#include "vk/pipeline.h"
+
+namespace mds::render {
+
+Result<MeshShaderMode> parse_mesh_shader_mode(std::string_view text) {
+  if (text == "auto") return MeshShaderMode::automatic;
+  if (text == "off") return MeshShaderMode::off;
+  if (text == "on") return MeshShaderMode::on;
+  return make_error(Errc::invalid_argument, "--mesh-shaders '{}': expected auto, on or off", text);
+}
+
+const char* mesh_shader_mode_name(MeshShaderMode mode) {
+  switch (mode) {
+    case MeshShaderMode::automatic: return "auto";
+    case MeshShaderMode::off: return "off";
+    case MeshShaderMode::on: return "on";
+  }
+  return "?";
+}
+
+Result<bool> use_mesh_sprites(const vk::Context& ctx, MeshShaderMode mode) {
+  if (mode == MeshShaderMode::off) return false;
+  if (mode == MeshShaderMode::on && !ctx.mesh_shaders())
+    return make_error(Errc::unsupported,
+                      "--mesh-shaders on: device '{}' has no VK_EXT_mesh_shader with task and mesh stages "
+                      "(use --mesh-shaders auto or off: compute + indirect draws)",
+                      ctx.info().name);
+  return ctx.mesh_shaders();
+}
+
+Result<MeshSprites> MeshSprites::create(const vk::Context& ctx, VkPipelineLayout layout, VkFormat color_format,
+                                        VkFormat depth_format) {
+  if (!ctx.mesh_shaders())
+    return make_error(Errc::unsupported, "mesh sprite path: VK_EXT_mesh_shader is not enabled on '{}'",
+                      ctx.info().name);
+  MeshSprites m;
+  m.layout_ = layout;
+  m.draw_indirect_ = reinterpret_cast<PFN_vkCmdDrawMeshTasksIndirectEXT>(
+      vkGetDeviceProcAddr(ctx.device(), "vkCmdDrawMeshTasksIndirectEXT"));
+  if (!m.draw_indirect_)
+    return make_error(Errc::unsupported, "mesh sprite path: '{}' exposes no vkCmdDrawMeshTasksIndirectEXT",
+                      ctx.info().name);
+  vk::GraphicsPipelineDesc g;
+  g.task_shader = "sphere.task";
+  g.mesh_shader = "sphere.mesh";
+  g.fragment_shader = "sphere.frag";
+  g.color_formats = {color_format};
+  g.depth_format = depth_format;
+  MDS_ASSIGN_OR_RETURN(m.pipe_, vk::create_graphics_pipeline(ctx.device(), layout, g));
+  return m;
+}
+
+void MeshSprites::record_draw(VkCommandBuffer cmd, VkDescriptorSet set, VkBuffer args, VkDeviceSize offset) const {
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipe_);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout_, 0, 1, &set, 0, nullptr);
+  draw_indirect_(cmd, args, offset, 1, sizeof(VkDrawMeshTasksIndirectCommandEXT));
+}
+
+}  // namespace mds::render

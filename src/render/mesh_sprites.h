@@ -1,0 +1,59 @@
+// The task/mesh shader sprite path (issue 3: "a task/mesh shader path where VK_EXT_mesh_shader
+// exists, selected at run time"). The default path -- and the only one on lavapipe, which has
+// no mesh shaders -- is compute + indirect draws: sphere_prepass.comp writes one glyph record
+// per particle of the draw list, then points/quads are pulled by the vertex stage. On a device
+// with task and mesh stages the same draw list instead feeds sphere.task (one invocation per
+// listed meshlet: frustum test, then ceil(particles / 32) mesh workgroups) and sphere.mesh (the
+// glyphs of include/sprite_make.h, four vertices and two triangles each), with sphere.frag as
+// the fragment stage: no per-particle records in memory and no pre-pass.
+#pragma once
+
+#include <string_view>
+
+#include <vulkan/vulkan.h>
+
+#include "core/result.h"
+#include "vk/check.h"
+
+namespace mds::vk {
+class Context;
+}
+
+namespace mds::render {
+
+// --mesh-shaders: auto = the mesh path where the context enabled VK_EXT_mesh_shader
+// (vk::Context::mesh_shaders()), else compute + indirect draws; on = the mesh path or an error;
+// off = compute + indirect draws.
+enum class MeshShaderMode { automatic, off, on };
+Result<MeshShaderMode> parse_mesh_shader_mode(std::string_view text);
+const char* mesh_shader_mode_name(MeshShaderMode mode);
+// Whether the renderer takes the mesh path on `ctx`; `on` without device support is an error
+// that names the device.
+Result<bool> use_mesh_sprites(const vk::Context& ctx, MeshShaderMode mode);
+
+class MeshSprites {
+ public:
+  // Stages that read the draw list and the sprite draw header on this path (for the barriers
+  // of the renderer before it rewrites them, and after).
+  static constexpr VkPipelineStageFlags2 kReadStages =
+      VK_PIPELINE_STAGE_2_TASK_SHADER_BIT_EXT | VK_PIPELINE_STAGE_2_MESH_SHADER_BIT_EXT;
+
+  // Precondition: ctx.mesh_shaders(). `layout` is the renderer's pipeline layout (set 0 of
+  // include/bindings.h, all stages); the formats are those of its colour and depth targets.
+  static Result<MeshSprites> create(const vk::Context& ctx, VkPipelineLayout layout, VkFormat color_format,
+                                    VkFormat depth_format);
+  MeshSprites() = default;
+
+  // Inside the rendering scope of the draw, with viewport and scissor set: one indirect mesh
+  // task draw of `args` (VkDrawMeshTasksIndirectCommandEXT at `offset`: sprite_args.comp's
+  // dispatch_x/y/z = ceil(draw list / kMeshTaskMeshlets), 1, 1). Precondition: the draw list
+  // and `args` written by compute are visible to kReadStages and DRAW_INDIRECT.
+  void record_draw(VkCommandBuffer cmd, VkDescriptorSet set, VkBuffer args, VkDeviceSize offset) const;
+
+ private:
+  vk::UniquePipeline pipe_;
+  VkPipelineLayout layout_ = VK_NULL_HANDLE;
+  PFN_vkCmdDrawMeshTasksIndirectEXT draw_indirect_ = nullptr;
+};
+
+}  // namespace mds::render
