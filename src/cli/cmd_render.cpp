@@ -15,6 +15,7 @@
 
 #include "core/text_file.h"
 #include "cli/command.h"
+#include "cli/render_options.h"
 #include "cli/stream_options.h"
 #include "core/byte_size.h"
 #include "render/camera.h"
@@ -35,17 +36,10 @@ struct RenderOptions {
   std::string background = "0.12,0.12,0.13";
   int view = 0;
   bool ortho = false;
-  bool no_cull = false;
-  std::string acceptance = "normal";
-  double cocc = MDS_CULL_C_OCC_DEFAULT;
-  uint32_t budget = 0, converge_iterations = render::culling::kDefaultConvergeIterations, bins = 0,
-           n_budget = MDS_CULL_N_BUDGET_DEFAULT, seed = 1;
-  uint32_t samples_per_iteration = render::culling::kDefaultSamplesPerIteration;
-  uint32_t max_iterations = render::culling::kDefaultMaxIterations;
+  CullingOptions cull;
   double fov = 40.0;
   uint32_t width = 1920, height = 1080, spp = 64;
   int device = -1;
-  std::string mesh_shaders = "auto";
   StreamOptions stream;  // --gpu-budget empty: in memory
 };
 
@@ -74,9 +68,8 @@ nlohmann::json vec3_json(const glm::dvec3& v) { return nlohmann::json::array({v.
 
 
 Status run_render(const RenderOptions& o) {
-  if (o.acceptance != "normal" && o.acceptance != "random")
-    return make_error(Errc::invalid_argument, "--acceptance '{}': expected normal or random", o.acceptance);
-  if (!(o.cocc > 0.0 && o.cocc < 1.0)) return make_error(Errc::invalid_argument, "--cocc {}: expected (0, 1)", o.cocc);
+  render::RenderSettings rs;
+  MDS_TRY(apply_culling_options(o.cull, rs));
   if (o.fov <= 0.0 || o.fov >= 180.0)
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.fov);
   MDS_ASSIGN_OR_RETURN(glm::vec3 background, parse_rgb(o.background));
@@ -112,22 +105,10 @@ Status run_render(const RenderOptions& o) {
   vk::ContextOptions copt = vk::ContextOptions::from_env();
   copt.device_index = o.device;
   MDS_ASSIGN_OR_RETURN(auto ctx, vk::Context::create(copt));
-  render::RenderSettings rs;
   rs.width = o.width;
   rs.height = o.height;
   rs.spp = o.spp;
   rs.background_srgb = background;
-  rs.cull = !o.no_cull;
-  MDS_ASSIGN_OR_RETURN(rs.mesh_shaders, render::parse_mesh_shader_mode(o.mesh_shaders));
-  rs.cull_settings.c_occ = o.cocc;
-  rs.cull_settings.acceptance = o.acceptance == "random" ? MDS_CULL_ACCEPT_RANDOM : MDS_CULL_ACCEPT_NORMAL;
-  rs.cull_settings.budget = o.budget;
-  rs.cull_settings.converge_iterations = o.converge_iterations;
-  rs.cull_settings.samples_per_iteration = o.samples_per_iteration;
-  rs.cull_settings.max_iterations = o.max_iterations;
-  rs.cull_settings.bins = o.bins;
-  rs.cull_settings.n_budget = o.n_budget;
-  rs.cull_settings.seed = o.seed;
   if (rs.cull) {
     MDS_ASSIGN_OR_RETURN(render::culling::DensityVolume vol, render::culling::density_from_store(*reader, scene));
     rs.density = std::make_shared<const render::culling::DensityVolume>(std::move(vol));
@@ -157,9 +138,9 @@ Status run_render(const RenderOptions& o) {
     j["spp"] = stats.spp;
     j["width"] = stats.width;
     j["height"] = stats.height;
-    j["no_cull"] = o.no_cull;
+    j["no_cull"] = o.cull.no_cull;
     j["view"] = o.camera.empty() ? o.view : -1;
-    if (o.no_cull) {
+    if (o.cull.no_cull) {
       j["frame_ms_no_cull"] = stats.frame_ms_median;
     } else {
       const auto& c = stats.cull;
@@ -181,15 +162,16 @@ Status run_render(const RenderOptions& o) {
                            {"O", c.class_counts.size() == 4 ? c.class_counts[3] : 0}};
       j["changed_per_iteration"] = c.changed_per_iteration;
       j["culled_per_iteration"] = c.culled_per_iteration;
-      j["parameters"] = {{"cocc", o.cocc},
-                         {"acceptance", o.acceptance},
+      j["parameters"] = {{"cocc", o.cull.cocc},
+                         {"acceptance", o.cull.acceptance},
                          {"occluder_budget", c.budget},
-                         {"converge_iterations", o.converge_iterations},
+                         {"converge_iterations", o.cull.converge_iterations},
                          {"samples_per_iteration", c.samples_per_iteration},
-                         {"max_iterations", o.max_iterations},
+                         {"max_iterations", o.cull.max_iterations},
                          {"histogram_bins", c.bins},
-                         {"n_budget", o.n_budget},
-                         {"seed", o.seed},
+                         {"n_budget", o.cull.n_budget},
+                         {"seed", o.cull.seed},
+                         {"mesh_shaders", o.cull.mesh_shaders},
                          {"spp", stats.spp},
                          {"width", stats.width},
                          {"height", stats.height},
@@ -233,7 +215,7 @@ Status run_render(const RenderOptions& o) {
     j["validation_messages"] = ctx->validation_messages();
     MDS_TRY(write_text_atomically(o.stats, j.dump(2) + "\n"));
   }
-  if (!o.no_cull)
+  if (!o.cull.no_cull)
     std::fprintf(stderr, "mdstream render: culled %llu of %llu meshlets (%.1f %%), %s after %u iterations\n",
                  (unsigned long long)stats.cull.meshlets_culled, (unsigned long long)stats.meshlets,
                  stats.meshlets ? 100.0 * double(stats.cull.meshlets_culled) / double(stats.meshlets) : 0.0,
@@ -248,34 +230,7 @@ void setup_render(CLI::App& sub, int& exit_code) {
   auto opt = std::make_shared<RenderOptions>();
   sub.add_option("store", opt->store, "Store file (.mds)")->required();
   sub.add_option("-o,--output", opt->output, "Output image (.png: 8-bit sRGB; .exr: float linear RGBA)")->required();
-  sub.add_flag("--no-cull", opt->no_cull, "Render every particle (no occlusion culling; the reference)");
-  sub.add_option("--acceptance", opt->acceptance,
-                 "Sample acceptance of Algorithm 1: normal (Eq. 21, normal approximation) or random (50:50 coin)")
-      ->capture_default_str();
-  sub.add_option("--cocc", opt->cocc, "Confidence threshold of occlusion class O (paper: 0.95)")->capture_default_str();
-  sub.add_option("--occluder-budget", opt->budget,
-                 "Occluder meshlets drawn per occlusion sampling pass (0: max(2 per node, meshlets / " +
-                     std::to_string(render::culling::kDefaultBudgetDivisor) + "))")
-      ->capture_default_str();
-  sub.add_option("--samples-per-iteration", opt->samples_per_iteration,
-                 "Occlusion sampling passes (one depth sample per pixel each) per culling iteration")
-      ->check(CLI::Range(1u, 64u))
-      ->capture_default_str();
-  sub.add_option("--max-iterations", opt->max_iterations,
-                 "Culling iterations at most; past --spp culling continues alone until converged or this cap")
-      ->check(CLI::Range(1u, 100000u))
-      ->capture_default_str();
-  sub.add_option("--converge-iterations", opt->converge_iterations,
-                 "Culling has converged after this many iterations without class changes")
-      ->check(CLI::Range(1u, 1000000u))
-      ->capture_default_str();
-  sub.add_option("--histogram-bins", opt->bins, "Density histogram bins per pixel (0: as many as fit, <= 64)")
-      ->check(CLI::Range(0u, 64u))
-      ->capture_default_str();
-  sub.add_option("--n-budget", opt->n_budget, "N_budget of Eq. 21 (samples we are willing to wait for)")
-      ->check(CLI::Range(1u, 1000000u))
-      ->capture_default_str();
-  sub.add_option("--seed", opt->seed, "Random seed of occluder selection and sample acceptance")->capture_default_str();
+  add_culling_options(sub, opt->cull, "Render every particle (no occlusion culling; the reference)");
   sub.add_option("--spp", opt->spp, "Jittered samples per pixel (progressive super-sampling)")
       ->check(CLI::Range(1u, 65536u))
       ->capture_default_str();
@@ -292,10 +247,6 @@ void setup_render(CLI::App& sub, int& exit_code) {
   sub.add_option("--background", opt->background, "Background colour r,g,b (sRGB, 0..1)")->capture_default_str();
   sub.add_option("--device", opt->device, "Vulkan device index (default: automatic, discrete GPU first)");
   sub.add_option("--stats", opt->stats, "Write statistics (counts, GPU pass times) as JSON");
-  sub.add_option("--mesh-shaders", opt->mesh_shaders,
-                 "Sprite path: auto (task/mesh shaders where the device has VK_EXT_mesh_shader, else compute + "
-                 "indirect draws), on (require them), off (compute + indirect draws); docs/rendering.md")
-      ->capture_default_str();
   add_stream_options(sub, opt->stream, false);
   sub.callback([opt, &exit_code] {
     Status st = run_render(*opt);

@@ -23,6 +23,7 @@
 
 #include "core/text_file.h"
 #include "cli/command.h"
+#include "cli/render_options.h"
 #include "cli/stream_options.h"
 #include "cli/stress_report.h"
 #include "core/byte_size.h"
@@ -49,12 +50,7 @@ struct StressOptions {
   uint32_t width = 640, height = 360;
   double fov = 40.0;
   std::string csv, json;
-  bool no_cull = false;
-  double cocc = MDS_CULL_C_OCC_DEFAULT;
-  uint32_t seed = 1;
-  uint32_t samples_per_iteration = render::culling::kDefaultSamplesPerIteration;
-  uint32_t converge_iterations = render::culling::kDefaultConvergeIterations;
-  uint32_t max_iterations = render::culling::kDefaultMaxIterations;
+  CullingOptions cull;
   int device = -1;
   bool quiet = false;
 };
@@ -98,7 +94,8 @@ Status run_stress(const StressOptions& o) {
   const streaming::Policy policy = ss.policy;
   const uint64_t bandwidth = uint64_t(ss.io.io_bandwidth);
   const uint64_t upload_budget = ss.upload_bytes_per_frame;
-  if (!(o.cocc > 0.0 && o.cocc < 1.0)) return make_error(Errc::invalid_argument, "--cocc {}: expected (0, 1)", o.cocc);
+  render::RenderSettings rs;
+  MDS_TRY(apply_culling_options(o.cull, rs));
   if (o.fov <= 0.0 || o.fov >= 180.0)
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.fov);
   MDS_ASSIGN_OR_RETURN(PathChoice choice, choose_path(o.path));
@@ -111,16 +108,9 @@ Status run_stress(const StressOptions& o) {
   copt.device_index = o.device;
   MDS_ASSIGN_OR_RETURN(auto ctx, vk::Context::create(copt));
 
-  render::RenderSettings rs;
   rs.width = o.width;
   rs.height = o.height;
   rs.spp = 65536;  // keep accumulating: every frame draws (converged-frame cost is a real frame)
-  rs.cull = !o.no_cull;
-  rs.cull_settings.c_occ = o.cocc;
-  rs.cull_settings.seed = o.seed;
-  rs.cull_settings.samples_per_iteration = o.samples_per_iteration;
-  rs.cull_settings.converge_iterations = o.converge_iterations;
-  rs.cull_settings.max_iterations = o.max_iterations;
   MDS_ASSIGN_OR_RETURN(auto renderer, render::Renderer::create_streaming(*ctx, *reader, rs, ss));
 
   const double aspect = double(o.width) / double(std::max(o.height, 1u));
@@ -254,7 +244,7 @@ Status run_stress(const StressOptions& o) {
   j["nodes"] = nodes.size();
   j["path"] = path_name;
   j["policy"] = streaming::policy_name(policy);
-  j["cull"] = !o.no_cull;
+  j["cull"] = !o.cull.no_cull;
   j["width"] = o.width;
   j["height"] = o.height;
   j["frames"] = path_frames;
@@ -406,19 +396,7 @@ void setup_stress(CLI::App& sub, int& exit_code) {
   sub.add_option("--fov", opt->fov, "Vertical field of view of the built-in paths (degrees)")->capture_default_str();
   sub.add_option("--csv", opt->csv, "Write the summary as CSV (header + one row)");
   sub.add_option("--json", opt->json, "Write the full report (summary, views, offline bounds) as JSON");
-  sub.add_flag("--no-cull", opt->no_cull, "No occlusion culling (every node in the frustum is wanted)");
-  sub.add_option("--cocc", opt->cocc, "Confidence threshold of occlusion class O")->capture_default_str();
-  sub.add_option("--seed", opt->seed, "Random seed of the culling loop")->capture_default_str();
-  sub.add_option("--samples-per-iteration", opt->samples_per_iteration, "Occlusion sampling passes per culling iteration")
-      ->check(CLI::Range(1u, 64u))
-      ->capture_default_str();
-  sub.add_option("--converge-iterations", opt->converge_iterations,
-                 "Culling has converged after this many iterations without class changes")
-      ->check(CLI::Range(1u, 1000000u))
-      ->capture_default_str();
-  sub.add_option("--max-iterations", opt->max_iterations, "Culling iterations per view at most")
-      ->check(CLI::Range(1u, 100000u))
-      ->capture_default_str();
+  add_culling_options(sub, opt->cull, "No occlusion culling (every node in the frustum is wanted)");
   sub.add_option("--device", opt->device, "Vulkan device index (default: automatic, discrete GPU first)");
   sub.add_flag("-q,--quiet", opt->quiet, "No progress on stderr");
   sub.callback([opt, &exit_code] {

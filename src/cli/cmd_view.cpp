@@ -7,6 +7,7 @@
 #include "cli/command.h"
 #include "core/byte_size.h"
 #include "streaming/residency.h"
+#include "cli/render_options.h"
 #include "cli/stream_options.h"
 #include "viewer/viewer.h"
 
@@ -17,8 +18,7 @@ struct ViewCliOptions {
   viewer::ViewerOptions v;
   StreamOptions stream;
   PacingOptions pacing;
-  bool no_cull = false;
-  double cocc = MDS_CULL_C_OCC_DEFAULT;
+  CullingOptions cull;
   uint32_t width = 960, height = 540, spp = 16;
 };
 
@@ -28,14 +28,12 @@ Status run_view(ViewCliOptions& o) {
     MDS_ASSIGN_OR_RETURN(v.stream, stream_settings(o.stream));
     v.gpu_budget = v.stream.gpu_budget;
   }
-  if (!(o.cocc > 0.0 && o.cocc < 1.0)) return make_error(Errc::invalid_argument, "--cocc {}: expected (0, 1)", o.cocc);
+  MDS_TRY(apply_culling_options(o.cull, v.render));
   if (o.v.fov_y_deg <= 0.0 || o.v.fov_y_deg >= 180.0)
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.v.fov_y_deg);
   v.render.width = o.width;
   v.render.height = o.height;
   v.render.spp = o.spp;
-  v.render.cull = !o.no_cull;
-  v.render.cull_settings.c_occ = o.cocc;
   v.dynamic_resolution = o.pacing.dynamic;
   MDS_ASSIGN_OR_RETURN(v.pacer, pacer_settings(o.pacing));
   return viewer::run_viewer(v);
@@ -57,9 +55,7 @@ void setup_view(CLI::App& sub, int& exit_code) {
       ->capture_default_str();
   sub.add_option("--fov", opt->v.fov_y_deg, "Vertical field of view in degrees")->capture_default_str();
   sub.add_flag("--ortho", opt->v.ortho, "Start with an orthographic projection");
-  sub.add_flag("--no-cull", opt->no_cull, "Start with occlusion culling off (key C toggles)");
-  sub.add_option("--cocc", opt->cocc, "Confidence threshold of occlusion class O (keys [ ] change it)")
-      ->capture_default_str();
+  add_culling_options(sub, opt->cull, "Start with occlusion culling off (key C toggles; keys [ ] change --cocc)");
   sub.add_option("--play", opt->v.play,
                  "Replay the camera keyframes of this camera path file (docs/camera-path.md), or a built-in path: "
                  "orbit, flythrough, jumps");

@@ -1,0 +1,61 @@
+// The rendering options shared by `render`, `view` and `stress`; see render_options.h.
+#include "cli/render_options.h"
+
+namespace mds::cli {
+
+void add_culling_options(CLI::App& sub, CullingOptions& o, const std::string& no_cull_help) {
+  sub.add_flag("--no-cull", o.no_cull, no_cull_help);
+  sub.add_option("--acceptance", o.acceptance,
+                 "Sample acceptance of Algorithm 1: normal (Eq. 21, normal approximation) or random (50:50 coin)")
+      ->capture_default_str();
+  sub.add_option("--cocc", o.cocc, "Confidence threshold of occlusion class O (paper: 0.95)")->capture_default_str();
+  sub.add_option("--occluder-budget", o.budget,
+                 "Occluder meshlets drawn per occlusion sampling pass (0: max(2 per node, meshlets / " +
+                     std::to_string(render::culling::kDefaultBudgetDivisor) + "))")
+      ->capture_default_str();
+  sub.add_option("--samples-per-iteration", o.samples_per_iteration,
+                 "Occlusion sampling passes (one depth sample per pixel each) per culling iteration")
+      ->check(CLI::Range(1u, 64u))
+      ->capture_default_str();
+  sub.add_option("--max-iterations", o.max_iterations,
+                 "Culling iterations per view at most (render: past --spp culling continues alone until converged "
+                 "or this cap)")
+      ->check(CLI::Range(1u, 100000u))
+      ->capture_default_str();
+  sub.add_option("--converge-iterations", o.converge_iterations,
+                 "Culling has converged after this many iterations without class changes")
+      ->check(CLI::Range(1u, 1000000u))
+      ->capture_default_str();
+  sub.add_option("--histogram-bins", o.bins, "Density histogram bins per pixel (0: as many as fit, <= 64)")
+      ->check(CLI::Range(0u, 64u))
+      ->capture_default_str();
+  sub.add_option("--n-budget", o.n_budget, "N_budget of Eq. 21 (samples we are willing to wait for)")
+      ->check(CLI::Range(1u, 1000000u))
+      ->capture_default_str();
+  sub.add_option("--seed", o.seed, "Random seed of occluder selection and sample acceptance")->capture_default_str();
+  sub.add_option("--mesh-shaders", o.mesh_shaders,
+                 "Sprite path: auto (task/mesh shaders where the device has VK_EXT_mesh_shader, else compute + "
+                 "indirect draws), on (require them), off (compute + indirect draws); docs/rendering.md")
+      ->capture_default_str();
+}
+
+Status apply_culling_options(const CullingOptions& o, render::RenderSettings& rs) {
+  if (o.acceptance != "normal" && o.acceptance != "random")
+    return make_error(Errc::invalid_argument, "--acceptance '{}': expected normal or random", o.acceptance);
+  if (!(o.cocc > 0.0 && o.cocc < 1.0)) return make_error(Errc::invalid_argument, "--cocc {}: expected (0, 1)", o.cocc);
+  MDS_ASSIGN_OR_RETURN(rs.mesh_shaders, render::parse_mesh_shader_mode(o.mesh_shaders));
+  rs.cull = !o.no_cull;
+  auto& c = rs.cull_settings;
+  c.c_occ = o.cocc;
+  c.acceptance = o.acceptance == "random" ? MDS_CULL_ACCEPT_RANDOM : MDS_CULL_ACCEPT_NORMAL;
+  c.budget = o.budget;
+  c.samples_per_iteration = o.samples_per_iteration;
+  c.converge_iterations = o.converge_iterations;
+  c.max_iterations = o.max_iterations;
+  c.bins = o.bins;
+  c.n_budget = o.n_budget;
+  c.seed = o.seed;
+  return {};
+}
+
+}  // namespace mds::cli

@@ -1,0 +1,36 @@
+// The rendering options shared by `render`, `view` and `stress`: the culling loop of paper 000
+// (docs/culling-math.md) and the sprite path (docs/rendering.md) -- one set of names, defaults,
+// help texts and checks, as cli/stream_options.h is for the streaming cache.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "core/result.h"
+#include "render/renderer.h"
+
+namespace mds::cli {
+
+struct CullingOptions {
+  bool no_cull = false;
+  std::string acceptance = "normal";  // normal (Eq. 21) | random (50:50 coin, paper Table 4)
+  double cocc = MDS_CULL_C_OCC_DEFAULT;
+  uint32_t budget = 0;  // occluder meshlets per sampling pass (0: automatic)
+  uint32_t samples_per_iteration = render::culling::kDefaultSamplesPerIteration;
+  uint32_t converge_iterations = render::culling::kDefaultConvergeIterations;
+  uint32_t max_iterations = render::culling::kDefaultMaxIterations;
+  uint32_t bins = 0;  // histogram bins per pixel (0: as many as fit)
+  uint32_t n_budget = MDS_CULL_N_BUDGET_DEFAULT;
+  uint32_t seed = 1;
+  std::string mesh_shaders = "auto";
+};
+
+// Adds --no-cull (with this command's help text) and the culling and sprite-path options.
+void add_culling_options(CLI::App& sub, CullingOptions& o, const std::string& no_cull_help);
+// Sets rs.cull, rs.cull_settings and rs.mesh_shaders; Errc::invalid_argument naming the option
+// for a bad value.
+Status apply_culling_options(const CullingOptions& o, render::RenderSettings& rs);
+
+}  // namespace mds::cli
