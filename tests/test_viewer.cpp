@@ -25,12 +25,14 @@
 
 #include <fmt/format.h>
 
+#include "culling/culling_constants.h"
 #include "render/camera.h"
 #include "render/camera_path.h"
 #include "render/scene.h"
 #include "store/store_reader.h"
 #include "viewer/camera_controller.h"
 #include "viewer/canvas.h"
+#include "viewer/debug_views.h"
 #include "viewer/path_recorder.h"
 
 namespace fs = std::filesystem;
@@ -134,6 +136,34 @@ TEST(ViewerCanvas, SrgbMatchesWritePngAndRoundTrips) {
       if (t.at(x, y).r) (int(x) <= size.x + 1 && int(y) <= size.y + 1 ? lit : outside)++;
   EXPECT_GT(lit, 10);
   EXPECT_EQ(outside, 0);
+}
+
+// The classes debug view (in memory over meshlet boxes, streaming over node boxes): a box's
+// projection takes its class colour, pixels outside every box are only dimmed, and a pixel
+// covered by boxes of two classes mixes them.
+TEST(ViewerDebugViews, ClassBoxesColourTheirProjection) {
+  render::Camera cam = home_camera();
+  render::fit_clip_planes(cam, unit_bounds());
+  const uint32_t W = 80, H = 60;
+  viewer::Canvas c(W, H, {90, 90, 90, 255});
+  const std::vector<viewer::Box> boxes = {{{0, 4, 4}, {3, 6, 6}},    // left: O
+                                          {{7, 4, 4}, {10, 6, 6}},   // right: P
+                                          {{7, 4, 0}, {10, 6, 2}},   // behind the right one: O
+                                          {{4, 8, 4}, {6, 9, 6}}};   // top: class 7, skipped
+  const std::vector<uint32_t> classes = {MDS_CULL_CLASS_O, MDS_CULL_CLASS_P, MDS_CULL_CLASS_O, 7};
+  viewer::draw_class_boxes(c, cam, boxes, classes);
+  const viewer::Projector proj(cam, W, H);
+  auto pixel = [&](glm::dvec3 p) {
+    glm::dvec3 q;
+    EXPECT_TRUE(proj.project(p, q));
+    return c.at(uint32_t(q.x), uint32_t(q.y));
+  };
+  const viewer::Rgba8 left = pixel({1.5, 5, 5}), right = pixel({8.5, 5, 5}), top = pixel({5, 8.5, 5});
+  EXPECT_GT(left.r, 2 * left.g) << "O is red";
+  EXPECT_GT(right.r, 60) << "P and O mixed: red and green";
+  EXPECT_GT(right.g, 60);
+  EXPECT_EQ(top, (viewer::Rgba8{30, 30, 30, 255})) << "an out-of-range class is not drawn, only dimmed";
+  EXPECT_EQ(c.at(0, 0), (viewer::Rgba8{30, 30, 30, 255}));
 }
 
 // ------------------------------------------------------------------------------ windowed tests

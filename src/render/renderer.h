@@ -219,6 +219,9 @@ class Renderer {
   // Streaming: device bytes each node occupies when resident (the cache's unit of accounting,
   // for offline simulations of the same budget); empty when in memory.
   std::vector<uint64_t> node_device_bytes() const;
+  // Streaming: 1 for each node whose payload is in the device pool now, else 0 (the viewer's
+  // resident-bounds view); empty when in memory.
+  std::vector<uint8_t> resident_nodes() const;
   bool streaming() const;
   // Depth buffer (z_ndc, 1 = background) of the last drawn frame, row-major from the top-left.
   Result<std::vector<float>> read_last_depth();

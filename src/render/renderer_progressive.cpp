@@ -338,6 +338,13 @@ const Bounds& Renderer::bounds() const { return impl_->bounds; }
 std::vector<uint64_t> Renderer::node_device_bytes() const {
   return impl_->cache ? impl_->cache->node_device_bytes() : std::vector<uint64_t>{};
 }
+std::vector<uint8_t> Renderer::resident_nodes() const {
+  if (!impl_->cache) return {};
+  const auto& pool = impl_->cache->pool();
+  std::vector<uint8_t> r(impl_->cache->directory().size());
+  for (uint32_t i = 0; i < r.size(); ++i) r[i] = pool.resident(i) ? 1 : 0;
+  return r;
+}
 bool Renderer::streaming() const { return impl_->cache != nullptr; }
 
 // Headless render with a budget: frames until the view has converged with every wanted node

@@ -70,24 +70,20 @@ void draw_box(Canvas& canvas, const Projector& proj, const render::Camera& camer
   }
 }
 
-void draw_meshlet_classes(Canvas& canvas, const render::Camera& camera, const render::SceneData& scene,
-                          const std::vector<uint32_t>& classes) {
-  // Per pixel, how many meshlets of each class its ray passes through (their projected bounding
-  // boxes): the colour mixes the class colours by those counts (red: most of what lies behind
-  // the pixel is culled), brighter with more meshlets; over the dimmed image.
+void draw_class_boxes(Canvas& canvas, const render::Camera& camera, std::span<const Box> boxes,
+                      std::span<const uint32_t> classes) {
+  // Red dominating a pixel: most of what lies behind it is culled.
   const uint32_t w = canvas.width(), h = canvas.height();
   std::vector<std::array<uint32_t, 4>> count(size_t(w) * h, std::array<uint32_t, 4>{});
   const Projector proj(camera, w, h);
-  const size_t n = std::min(classes.size(), scene.meshlets.size());
+  const size_t n = std::min(classes.size(), boxes.size());
   for (size_t i = 0; i < n; ++i) {
-    const auto& m = scene.meshlets[i];
-    if (m.particle_count == 0 || classes[i] > 3) continue;
+    if (classes[i] > 3) continue;
+    const Box& b = boxes[i];
     glm::dvec3 lo(1e300), hi(-1e300);
     bool ok = true;
     for (int c = 0; c < 8 && ok; ++c) {
-      const glm::dvec3 p = scene.origin + glm::dvec3((c & 1) ? m.aabb_max.x : m.aabb_min.x,
-                                                     (c & 2) ? m.aabb_max.y : m.aabb_min.y,
-                                                     (c & 4) ? m.aabb_max.z : m.aabb_min.z);
+      const glm::dvec3 p((c & 1) ? b.max.x : b.min.x, (c & 2) ? b.max.y : b.min.y, (c & 4) ? b.max.z : b.min.z);
       glm::dvec3 q;
       ok = proj.project(p, q) && q.z >= 0.0;
       lo = glm::min(lo, q);
@@ -113,6 +109,18 @@ void draw_meshlet_classes(Canvas& canvas, const render::Camera& camera, const re
       const double a = 0.45 + 0.5 * std::sqrt(double(total) / peak);
       canvas.blend(int(x), int(y), Rgba8(uint8_t(mix.r), uint8_t(mix.g), uint8_t(mix.b), uint8_t(255 * a)));
     }
+}
+
+void draw_meshlet_classes(Canvas& canvas, const render::Camera& camera, const render::SceneData& scene,
+                          const std::vector<uint32_t>& classes) {
+  std::vector<Box> boxes(scene.meshlets.size());
+  std::vector<uint32_t> cls(boxes.size(), 4u);  // empty meshlets: skipped
+  for (size_t i = 0; i < boxes.size() && i < classes.size(); ++i) {
+    const auto& m = scene.meshlets[i];
+    boxes[i] = {scene.origin + glm::dvec3(m.aabb_min), scene.origin + glm::dvec3(m.aabb_max)};
+    if (m.particle_count != 0) cls[i] = classes[i];
+  }
+  draw_class_boxes(canvas, camera, boxes, cls);
 }
 
 void draw_cull_depth(Canvas& canvas, const std::vector<glm::vec4>& pixel_state, double near, double far) {

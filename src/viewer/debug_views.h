@@ -13,6 +13,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -50,6 +51,11 @@ class Projector {
 // Box edges as lines (edges crossing the near plane are clipped in view space).
 void draw_box(Canvas& canvas, const Projector& proj, const render::Camera& camera, const Box& box, Rgba8 color);
 
+// Occlusion classes of boxes (world coordinates), classes[i] for boxes[i] (values > 3 are
+// skipped): per pixel, the class colours mixed by how many boxes of each class its ray passes
+// through (their projected rectangles), brighter with more boxes, over the dimmed image.
+void draw_class_boxes(Canvas& canvas, const render::Camera& camera, std::span<const Box> boxes,
+                      std::span<const uint32_t> classes);
 // In-memory scene: meshlet classes. `classes` indexed like scene.meshlets.
 void draw_meshlet_classes(Canvas& canvas, const render::Camera& camera, const render::SceneData& scene,
                           const std::vector<uint32_t>& classes);

@@ -232,7 +232,10 @@ Status Viewer::compose(const InputFrame& in) {
     note(fmt::format("{}: culling is off (C)", debug_view_name(vs_.view)));
   } else if (vs_.view == DebugView::classes) {
     if (!host_->scene()) {
-      note("classes view: needs the in-memory scene (streaming: no per-slot meshlet bounds API)");
+      // Streaming: the pool's slots change owners, so show the node classes, which the loop
+      // keeps for every node, resident or not (the classes that drive the cache).
+      draw_class_boxes(display_, cam, host_->node_boxes(), loop->node_classes());
+      note("classes: nodes (streaming)");
     } else {
       MDS_ASSIGN_OR_RETURN(std::vector<uint32_t> classes, loop->read_meshlet_classes());
       draw_meshlet_classes(display_, cam, *host_->scene(), classes);
@@ -262,9 +265,16 @@ Status Viewer::compose(const InputFrame& in) {
   if (vs_.bounds) {
     const Projector proj(cam, display_.width(), display_.height());
     const auto& boxes = host_->node_boxes();
-    const size_t stride = std::max<size_t>(1, boxes.size() / 20000);
-    for (size_t i = 0; i < boxes.size(); i += stride) draw_box(display_, proj, cam, boxes[i], {80, 200, 255, 160});
-    if (host_->streaming()) note("bounds: all nodes (no per-node residency API)");
+    // Streaming: the nodes resident in the device pool now; in memory: every node.
+    const std::vector<uint8_t> resident =
+        host_->renderer() ? host_->renderer()->resident_nodes() : std::vector<uint8_t>{};
+    std::vector<uint32_t> show;
+    for (uint32_t i = 0; i < boxes.size(); ++i)
+      if (!host_->streaming() || (i < resident.size() && resident[i])) show.push_back(i);
+    const size_t stride = std::max<size_t>(1, show.size() / 20000);  // at most ~20k boxes per frame
+    for (size_t k = 0; k < show.size(); k += stride)
+      draw_box(display_, proj, cam, boxes[show[k]], {80, 200, 255, 160});
+    if (host_->streaming()) note(fmt::format("bounds: the {} resident nodes of {}", show.size(), boxes.size()));
   }
   if (vs_.hud) draw_hud(display_, hud_);
   return {};
