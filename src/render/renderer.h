@@ -211,6 +211,12 @@ class Renderer {
   // never left it; on lavapipe the reallocation costs a few ms at 320x180, well below a frame.
   // Waits for the frame in flight. Errc::invalid_argument outside 1..16384.
   Status resize(uint32_t width, uint32_t height);
+  // The viewer's keys, without re-creating the renderer (so a streaming cache survives):
+  // C_occ in (0, 1) -- with culling, the current view restarts at the next step() (classes only
+  // move upward within a view); spp >= 1 -- the accumulation goes on to the new count (or
+  // stops where it is, if that is already more). Errc::invalid_argument outside those ranges.
+  Status set_c_occ(double c_occ);
+  Status set_spp(uint32_t spp);
   uint32_t width() const;
   uint32_t height() const;
   // Statistics so far (pass times over the frames since the last set_view()).

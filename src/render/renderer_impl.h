@@ -72,7 +72,7 @@ struct Renderer::Impl {
   // Progressive state (set_view / step).
   Camera view_camera;
   bool has_view = false;
-  bool view_stale = false;     // resize(): the view restarts at the next set_view()/step()
+  bool view_stale = false;     // resize(), set_c_occ(): the view restarts at the next set_view()/step()
   uint32_t samples = 0;        // accumulated in the current image
   uint32_t quiet = 0;          // culling iterations without class changes
   bool culling_converged = false;

@@ -277,6 +277,28 @@ Status Renderer::Impl::resize(uint32_t w, uint32_t h) {
 }
 
 Status Renderer::resize(uint32_t width, uint32_t height) { return impl_->resize(width, height); }
+
+Status Renderer::set_c_occ(double c_occ) {
+  Impl& m = *impl_;
+  if (!(c_occ > 0.0 && c_occ < 1.0)) return make_error(Errc::invalid_argument, "C_occ {}: expected (0, 1)", c_occ);
+  if (c_occ == m.settings.cull_settings.c_occ) return {};
+  MDS_TRY(m.slot.wait());  // the frame in flight was recorded with the old threshold
+  m.settings.cull_settings.c_occ = c_occ;
+  if (m.cull) {
+    // Its culling iteration still tells the cache what is occluded (as set_view does).
+    if (m.pending_iteration && m.cache) m.cache->set_classes(m.cull->node_classes(), false);
+    m.pending_iteration = false;
+    m.cull->set_c_occ(c_occ);
+    if (m.has_view) m.view_stale = true;
+  }
+  return {};
+}
+
+Status Renderer::set_spp(uint32_t spp) {
+  if (spp == 0) return make_error(Errc::invalid_argument, "spp {}: expected >= 1", spp);
+  impl_->settings.spp = spp;
+  return {};
+}
 uint32_t Renderer::width() const { return impl_->settings.width; }
 uint32_t Renderer::height() const { return impl_->settings.height; }
 

@@ -186,21 +186,17 @@ void Viewer::handle_keys(const InputFrame& in, bool& recreate, bool& quit) {
       case GLFW_KEY_LEFT_BRACKET:
       case GLFW_KEY_RIGHT_BRACKET: {
         const double c = std::clamp(rs.cull_settings.c_occ + (key == GLFW_KEY_LEFT_BRACKET ? -0.01 : 0.01), 0.5, 0.999);
-        if (c != rs.cull_settings.c_occ) {
-          rs.cull_settings.c_occ = c;
-          recreate = rs.cull;
-        }
-        say(fmt::format("C_occ {:.3f}", c));
+        rs.cull_settings.c_occ = c;  // kept for a later re-creation (key C)
+        Status st = host_->renderer() ? host_->renderer()->set_c_occ(c) : Status{};
+        say(st.ok() ? fmt::format("C_occ {:.3f}", c) : st.error().message);
         break;
       }
       case GLFW_KEY_MINUS:
       case GLFW_KEY_EQUAL: {
         const uint32_t spp = key == GLFW_KEY_MINUS ? std::max(rs.spp / 2, 1u) : std::min(rs.spp * 2, 65536u);
-        if (spp != rs.spp) {
-          rs.spp = spp;
-          recreate = true;
-        }
-        say(fmt::format("spp {}", spp));
+        rs.spp = spp;
+        Status st = host_->renderer() ? host_->renderer()->set_spp(spp) : Status{};
+        say(st.ok() ? fmt::format("spp {}", spp) : st.error().message);
         break;
       }
       case GLFW_KEY_P: {

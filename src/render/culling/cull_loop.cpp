@@ -403,6 +403,10 @@ uint32_t CullLoop::bins() const { return impl_->bins; }
 uint32_t CullLoop::budget() const { return impl_->budget; }
 uint32_t CullLoop::samples_per_iteration() const { return impl_->passes; }
 uint32_t CullLoop::pyramid_levels() const { return impl_->levels; }
+void CullLoop::set_c_occ(double c_occ) {
+  impl_->settings.c_occ = c_occ;
+  impl_->uniforms.thresholds.x = float(c_occ);
+}
 const CullSettings& CullLoop::settings() const { return impl_->settings; }
 uint32_t CullLoop::width() const { return impl_->width; }
 uint32_t CullLoop::height() const { return impl_->height; }

@@ -144,6 +144,9 @@ class CullLoop {
   // lists, meshlet/node classes, pipelines) stays. The caller must have waited for the GPU to
   // finish with the loop, and must call begin_view() before the next iteration.
   Status resize(uint32_t width, uint32_t height);
+  // Changes C_occ (the O threshold of Sect. 5.1) from the next recorded iteration on. Classes
+  // only move upward within a view, so the caller restarts the view (begin_view()).
+  void set_c_occ(double c_occ);
 
   // Inspection and test hooks (each submits and waits).
   Result<std::vector<uint32_t>> read_meshlet_classes();

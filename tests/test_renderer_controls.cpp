@@ -1,0 +1,158 @@
+// The renderer's controls for the viewer, on a real store streamed through a real pool on
+// lavapipe:
+//  - resident_nodes (the resident-bounds view) agrees with the cache's own accounting (count and
+//    device bytes of the resident nodes) after a view converged and after a camera change, and is
+//    empty in memory;
+//  - set_c_occ / set_spp change the settings in place: the cache survives, the view restarts and
+//    converges to the image of a renderer created with the new C_occ; bad values are errors.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+#include "render/camera.h"
+#include "render/renderer.h"
+#include "render/scene.h"
+#include "store/store_reader.h"
+#include "vk/context.h"
+
+namespace fs = std::filesystem;
+using namespace mds;
+using namespace mds::render;
+
+namespace {
+
+int run(const std::string& args) {
+  const std::string cmd = std::string(MDSTREAM_BIN) + " " + args + " >/dev/null 2>&1";
+  const int r = std::system(cmd.c_str());
+  return WIFEXITED(r) ? WEXITSTATUS(r) : -1;
+}
+
+// Resident count and device bytes by resident_nodes(), against the cache statistics.
+void expect_consistent(const Renderer& r) {
+  const std::vector<uint8_t> res = r.resident_nodes();
+  const std::vector<uint64_t> bytes = r.node_device_bytes();
+  ASSERT_EQ(res.size(), bytes.size());
+  uint64_t n = 0, b = 0;
+  for (size_t i = 0; i < res.size(); ++i) {
+    ASSERT_LE(res[i], 1u);
+    if (res[i]) {
+      ++n;
+      b += bytes[i];
+    }
+  }
+  const CacheStats c = r.stats().cache;
+  EXPECT_EQ(n, c.nodes_resident);
+  EXPECT_EQ(b, c.resident_bytes);
+  EXPECT_GT(n, 0u);
+  EXPECT_LT(n, res.size()) << "the budget holds part of the store";
+}
+
+// Steps until the view converged (and at least `samples` were accumulated); the last report.
+FrameReport settle(Renderer& r, uint32_t samples = 0) {
+  FrameReport rep;
+  for (int f = 0; f < 400; ++f) {
+    auto s = r.step();
+    EXPECT_TRUE(s.ok()) << s.error().message;
+    if (!s.ok()) break;
+    rep = *s;
+    if (rep.converged && rep.samples >= samples) break;
+  }
+  EXPECT_TRUE(rep.converged);
+  return rep;
+}
+
+size_t differing(const FrameImage& a, const FrameImage& b) {
+  size_t n = 0;
+  for (uint32_t y = 0; y < a.height; ++y)
+    for (uint32_t x = 0; x < a.width; ++x) {
+      const glm::vec4 p = a.at(x, y), q = b.at(x, y);
+      if (std::max({std::abs(p.r - q.r), std::abs(p.g - q.g), std::abs(p.b - q.b)}) > 0.1f) ++n;
+    }
+  return n;
+}
+
+}  // namespace
+
+TEST(RendererControls, ResidencyAndLiveSettingsOnAStreamedStore) {
+  const fs::path dir = fs::temp_directory_path() / ("mds_residency_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string dump = (dir / "p.dump").string(), store = (dir / "p.mds").string();
+  ASSERT_EQ(run("synth --scene porous --particles 100000 -q -o " + dump), 0);
+  ASSERT_EQ(run("convert " + dump + " --node-size 1000 -q -o " + store), 0);
+  auto reader = store::StoreReader::open(store);
+  ASSERT_TRUE(reader.ok()) << reader.error().message;
+  auto ctx = vk::Context::create(vk::ContextOptions::from_env());
+  ASSERT_TRUE(ctx.ok()) << ctx.error().message;
+  RenderSettings rs;
+  rs.width = 96;
+  rs.height = 72;
+  rs.spp = 2;
+  rs.cull = true;
+  StreamSettings ss;
+  ss.gpu_budget = fs::file_size(store) / 4;
+  auto r = Renderer::create_streaming(**ctx, **reader, rs, ss);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  for (int view : {2, 0}) {
+    SCOPED_TRACE(testing::Message() << "view " << view);
+    auto cam = default_view(view, (*r)->bounds(), 40.0, 96.0 / 72.0);
+    ASSERT_TRUE(cam.ok());
+    ASSERT_TRUE((*r)->set_view(*cam).ok());
+    bool converged = false;
+    for (int f = 0; f < 400 && !converged; ++f) {
+      auto rep = (*r)->step();
+      ASSERT_TRUE(rep.ok()) << rep.error().message;
+      converged = rep->converged;
+    }
+    EXPECT_TRUE(converged);
+    expect_consistent(**r);
+  }
+  // set_c_occ: nothing is evicted by the call; the view restarts (culling runs again) and
+  // converges to what a renderer created with the new C_occ shows.
+  const std::vector<uint8_t> before = (*r)->resident_nodes();
+  EXPECT_FALSE((*r)->set_c_occ(1.0).ok());
+  EXPECT_FALSE((*r)->set_c_occ(0.0).ok());
+  ASSERT_TRUE((*r)->set_c_occ(0.9).ok());
+  EXPECT_EQ((*r)->resident_nodes(), before);
+  EXPECT_DOUBLE_EQ((*r)->cull_loop()->settings().c_occ, 0.9);
+  auto first = (*r)->step();
+  ASSERT_TRUE(first.ok()) << first.error().message;
+  EXPECT_TRUE(first->culling_active);
+  EXPECT_LE(first->samples, 1u) << "the accumulation restarted";
+  const uint64_t loaded_before = (*r)->stats().cache.nodes_loaded;
+  settle(**r, rs.spp);
+  // set_spp: accumulation goes on to the new count without a restart.
+  EXPECT_FALSE((*r)->set_spp(0).ok());
+  ASSERT_TRUE((*r)->set_spp(6).ok());
+  const FrameReport more = settle(**r, 6);
+  EXPECT_EQ(more.samples, 6u);
+  auto img = (*r)->read_image();
+  ASSERT_TRUE(img.ok());
+  RenderSettings rs9 = rs;
+  rs9.cull_settings.c_occ = 0.9;
+  rs9.spp = 6;
+  auto fresh = Renderer::create_streaming(**ctx, **reader, rs9, ss);
+  ASSERT_TRUE(fresh.ok()) << fresh.error().message;
+  auto cam0 = default_view(0, (*fresh)->bounds(), 40.0, 96.0 / 72.0);
+  ASSERT_TRUE((*fresh)->set_view(*cam0).ok());
+  settle(**fresh, 6);
+  auto ref = (*fresh)->read_image();
+  ASSERT_TRUE(ref.ok());
+  EXPECT_LE(differing(*img, *ref), img->rgba.size() / 4 / 100) << "within the renderer's 1 % tolerance";
+  EXPECT_GE((*r)->stats().cache.nodes_loaded, loaded_before);
+  fresh->reset();
+
+  // In memory: no residency.
+  auto scene = load_scene(**reader);
+  ASSERT_TRUE(scene.ok());
+  auto mem = Renderer::create(**ctx, *scene, rs);
+  ASSERT_TRUE(mem.ok()) << mem.error().message;
+  EXPECT_TRUE((*mem)->resident_nodes().empty());
+  r->reset();
+  mem->reset();
+  fs::remove_all(dir);
+}
