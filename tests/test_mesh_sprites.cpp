@@ -113,7 +113,7 @@ TEST_F(MeshSpritesTest, MeshPathMatchesComputePath) {
   if (!ctx_->mesh_shaders()) GTEST_SKIP() << ctx_->info().name << " has no VK_EXT_mesh_shader";
   for (uint32_t meshlet_size : {16u, 40u}) {
     for (bool cull : {false, true}) {
-      SCOPED_TRACE(testing::Message() << "meshlet size " << meshlet_size << ", cull " << cull);
+      SCOPED_TRACE(::testing::Message() << "meshlet size " << meshlet_size << ", cull " << cull);
       SceneData scene = block(meshlet_size);
       RenderStats sm, sc;
       auto mesh = render(scene, MeshShaderMode::on, cull, &sm);

@@ -15,6 +15,7 @@
 #include <string>
 
 #include "render/camera.h"
+#include "render_test_helpers.h"
 #include "render/renderer.h"
 #include "render/scene.h"
 #include "store/store_reader.h"
@@ -26,11 +27,8 @@ using namespace mds::render;
 
 namespace {
 
-int run(const std::string& args) {
-  const std::string cmd = std::string(MDSTREAM_BIN) + " " + args + " >/dev/null 2>&1";
-  const int r = std::system(cmd.c_str());
-  return WIFEXITED(r) ? WEXITSTATUS(r) : -1;
-}
+using mds::testing::differing_pixels;
+int run(const std::string& args) { return mds::testing::run_mdstream_quietly(args); }
 
 // Resident count and device bytes by resident_nodes(), against the cache statistics.
 void expect_consistent(const Renderer& r) {
@@ -66,15 +64,6 @@ FrameReport settle(Renderer& r, uint32_t samples = 0) {
   return rep;
 }
 
-size_t differing(const FrameImage& a, const FrameImage& b) {
-  size_t n = 0;
-  for (uint32_t y = 0; y < a.height; ++y)
-    for (uint32_t x = 0; x < a.width; ++x) {
-      const glm::vec4 p = a.at(x, y), q = b.at(x, y);
-      if (std::max({std::abs(p.r - q.r), std::abs(p.g - q.g), std::abs(p.b - q.b)}) > 0.1f) ++n;
-    }
-  return n;
-}
 
 }  // namespace
 
@@ -98,7 +87,7 @@ TEST(RendererControls, ResidencyAndLiveSettingsOnAStreamedStore) {
   auto r = Renderer::create_streaming(**ctx, **reader, rs, ss);
   ASSERT_TRUE(r.ok()) << r.error().message;
   for (int view : {2, 0}) {
-    SCOPED_TRACE(testing::Message() << "view " << view);
+    SCOPED_TRACE(::testing::Message() << "view " << view);
     auto cam = default_view(view, (*r)->bounds(), 40.0, 96.0 / 72.0);
     ASSERT_TRUE(cam.ok());
     ASSERT_TRUE((*r)->set_view(*cam).ok());
@@ -142,7 +131,7 @@ TEST(RendererControls, ResidencyAndLiveSettingsOnAStreamedStore) {
   settle(**fresh, 6);
   auto ref = (*fresh)->read_image();
   ASSERT_TRUE(ref.ok());
-  EXPECT_LE(differing(*img, *ref), img->rgba.size() / 4 / 100) << "within the renderer's 1 % tolerance";
+  EXPECT_LE(differing_pixels(*img, *ref), img->rgba.size() / 4 / 100) << "within the renderer's 1 % tolerance";
   EXPECT_GE((*r)->stats().cache.nodes_loaded, loaded_before);
   fresh->reset();
 
