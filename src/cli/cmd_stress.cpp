@@ -31,6 +31,7 @@
 #include "render/camera_path.h"
 #include "render/frame_pacer.h"
 #include "render/renderer.h"
+#include "render/visible_nodes.h"
 #include "store/store_reader.h"
 #include "streaming/belady.h"
 #include "streaming/residency.h"
@@ -212,6 +213,23 @@ Status run_stress(const StressOptions& o) {
     }
   }
 
+  // The nodes holding a visible particle of the converged final view (render/visible_nodes.h),
+  // from its last frame's depth: the reference of "bytes read to converge a dense view".
+  std::optional<std::pair<uint64_t, uint64_t>> visible;  // nodes, compressed payload bytes
+  if (final_converged) {
+    MDS_ASSIGN_OR_RETURN(std::vector<float> depth, renderer->read_last_depth());
+    render::Camera cam = final_cam;
+    render::fit_clip_planes(cam, renderer->bounds());
+    MDS_ASSIGN_OR_RETURN(std::vector<uint8_t> vis,
+                         render::visible_nodes(*reader, cam, renderer->width(), renderer->height(), depth));
+    visible.emplace(0, 0);
+    for (uint32_t i = 0; i < vis.size(); ++i)
+      if (vis[i]) {
+        ++visible->first;
+        visible->second += reader->nodes()[i].payload_bytes;
+      }
+  }
+
   // --- report ---
   const render::RenderStats st = renderer->stats();
   const render::CacheStats& c = st.cache;
@@ -304,6 +322,12 @@ Status run_stress(const StressOptions& o) {
       last.converged && last.wanted_bytes_at_convergence
           ? nlohmann::ordered_json(double(last.bytes_read_to_converge) / double(last.wanted_bytes_at_convergence))
           : nlohmann::ordered_json(nullptr);
+  j["final_view"]["visible_nodes"] = visible ? nlohmann::ordered_json(visible->first) : nlohmann::ordered_json(nullptr);
+  j["final_view"]["visible_node_bytes"] = visible ? nlohmann::ordered_json(visible->second) : nlohmann::ordered_json(nullptr);
+  j["final_view"]["bytes_read_over_visible"] =
+      last.converged && visible && visible->second
+          ? nlohmann::ordered_json(double(last.bytes_read_to_converge) / double(visible->second))
+          : nlohmann::ordered_json(nullptr);
   j["bound"] = {{"budget_bytes", bounds.budget_bytes},
                 {"requests", bounds.belady.requests},
                 {"belady", stress::sim_json(bounds.belady)},
@@ -368,6 +392,12 @@ Status run_stress(const StressOptions& o) {
     else
       row(fmt::format("view {} (frame {}, {} frames)", v.view, v.first_frame, v.frames), "not converged");
   }
+  if (visible)
+    row("final view: visible nodes / bytes",
+        fmt::format("{} / {} (read to converge / visible: {})", visible->first, fmt_bytes(visible->second),
+                    last.converged && visible->second
+                        ? fmt::format("{:.2f}", double(last.bytes_read_to_converge) / double(visible->second))
+                        : std::string("n/a")));
   for (const auto& e : c.errors) std::fprintf(stderr, "mdstream stress: %s\n", e.c_str());
   return {};
 }

@@ -624,7 +624,8 @@ void Renderer::set_iteration_hook(std::function<void(uint32_t)> hook) { impl_->i
 
 Result<std::vector<float>> Renderer::read_last_depth() {
   Impl& m = *impl_;
-  if (!m.rendered) return make_error(Errc::internal, "read_last_depth() before render()");
+  if (!m.rendered) return make_error(Errc::internal, "read_last_depth() before render() or step()");
+  MDS_TRY(m.slot.wait());  // the frame in flight writes it
   MDS_ASSIGN_OR_RETURN(std::vector<std::byte> raw,
                        vk::read_image(*m.ctx, m.depth, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, 4));
   std::vector<float> d(size_t(m.settings.width) * m.settings.height);

@@ -229,7 +229,8 @@ class Renderer {
   // resident-bounds view); empty when in memory.
   std::vector<uint8_t> resident_nodes() const;
   bool streaming() const;
-  // Depth buffer (z_ndc, 1 = background) of the last drawn frame, row-major from the top-left.
+  // Depth buffer (z_ndc, 1 = background) of the last drawn frame (render() or step()), row-major
+  // from the top-left; waits for the frame in flight.
   Result<std::vector<float>> read_last_depth();
   // The culling loop (null without RenderSettings::cull).
   culling::CullLoop* cull_loop();

@@ -229,6 +229,7 @@ Result<FrameReport> Renderer::step() {
   m.write_frame_uniforms(m.samples);
   m.record_pass(cmd, m.samples == 0, accumulate);
   MDS_TRY(m.slot.submit(m.ctx->queue()));
+  m.rendered = true;  // read_last_depth(): this frame's depth
   ++m.frame_index;
   if (accumulate) ++m.samples;
 
