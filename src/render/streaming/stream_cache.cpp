@@ -76,6 +76,7 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
                       largest_node, format_bytes(largest));
   c->table_ = std::make_unique<mds::streaming::ResidencyTable>(c->node_bytes_, settings.policy);
   MDS_ASSIGN_OR_RETURN(c->io_, mds::streaming::IoPool::create(reader, settings.io));
+  c->window_ = mds::streaming::ReadWindow({.min = 4, .calm_frames = 3, .cap = settings.max_outstanding});
 
   CacheStats& s = c->stats_;
   s.enabled = true;
@@ -119,9 +120,8 @@ void StreamCache::set_view(const Camera& camera, double aspect) {
     if (!in) table_->set_class(i, MDS_CULL_CLASS_O);
     else if (!was_in) table_->set_class(i, MDS_CULL_CLASS_P);  // entering the frustum: wanted
   }
+  window_.new_view();  // restarts at rest, keeps its state while the camera moves (read_window.h)
   has_view_ = true;
-  window_ = std::min(kMinOutstanding, std::max(1u, settings_.max_outstanding));
-  calm_frames_ = 0;
   exhausted_ = false;
 }
 
@@ -177,23 +177,13 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
     ready_.emplace(i, std::move(*done));
   }
 
-  // Demand of this frame: hits, misses, use.
-  for (uint32_t i = 0; i < n_nodes; ++i) {
-    if (!demanded(i)) continue;
-    if (settings_.record_trace) out.wanted.push_back(i);
-    if (table_->node(i).residency == Residency::resident) {
-      ++out.hits;
-      table_->touch(i, frame);
-    } else {
-      ++out.misses;
-    }
-  }
+  // Use: the resident nodes this frame draws are kept by the placement below (touch = drawn now).
+  for (uint32_t i = 0; i < n_nodes; ++i)
+    if (demanded(i) && table_->node(i).residency == Residency::resident) table_->touch(i, frame);
   // Class-blind policies keep every resident node in the frustum in use.
   if (table_->policy() != mds::streaming::Policy::occlusion)
     for (uint32_t i = 0; i < n_nodes; ++i)
       if (table_->node(i).residency == Residency::resident && table_->wanted(i)) table_->touch(i, frame);
-  stats_.cache_hits += out.hits;
-  stats_.cache_misses += out.misses;
 
   // Place finished reads, front first, within the frame's upload budget.
   pool_->begin_frame();
@@ -202,11 +192,11 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
   std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
     return std::make_pair(table_->node(a).distance, a) < std::make_pair(table_->node(b).distance, b);
   });
-  uint32_t dropped = 0, arrived = uint32_t(order.size());
+  uint32_t occluded = 0, arrived = uint32_t(order.size());
   for (uint32_t i : order) {
     auto it = ready_.find(i);
     if (!table_->wanted(i)) {  // became O (or left the frustum) while it was read: drop
-      ++dropped;
+      if (table_->node(i).in_frustum) ++occluded;  // found O meanwhile (not: left the frustum)
       MDS_TRY(table_->mark_cancelled(i));
       std::erase(requested_, i);
       ready_.erase(it);
@@ -242,6 +232,19 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
     ready_.erase(it);
   }
   pool_->end_frame(cmd);
+  // Demand of this frame: hits and misses, counted after the placement because the frame draws
+  // after it (the uploads are recorded into the same command buffer before the draw): a node
+  // placed now is drawn by this frame.
+  for (uint32_t i = 0; i < n_nodes; ++i) {
+    if (!demanded(i)) continue;
+    if (settings_.record_trace) out.wanted.push_back(i);
+    if (table_->node(i).residency == Residency::resident)
+      ++out.hits;
+    else
+      ++out.misses;
+  }
+  stats_.cache_hits += out.hits;
+  stats_.cache_misses += out.misses;
   if (out.upload_stall) ++stats_.upload_stalls;
   stats_.nodes_loaded += out.nodes_uploaded;
   stats_.bytes_uploaded += out.bytes_uploaded;
@@ -258,15 +261,10 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
   }
   // Prefetch in the policy's order, a window at a time.
   bool pending = false;
-  const uint32_t cap = std::max(1u, settings_.max_outstanding);
-  if (dropped > 0) {
-    window_ = std::max(std::min(kMinOutstanding, cap), window_ / 2);
-    calm_frames_ = 0;
-  } else if (arrived > 0 && ++calm_frames_ >= kCalmFrames) {
-    window_ = std::min(cap, window_ + kMinOutstanding);
-    calm_frames_ = 0;
-  }
-  const size_t window = window_;
+  // Waste = a read that arrived for a node found occluded meanwhile (a read of a node that left the
+  // frustum is the camera's motion, not a window too wide).
+  window_.end_frame(arrived, occluded);
+  const size_t window = window_.size();
   if (requested_.size() < window) {
     const auto order_next = table_->prefetch_order();
     uint64_t planned = 0;

@@ -5,17 +5,22 @@
 // Per frame (StreamCache::update, on the render thread, recorded into the frame's command buffer):
 //   1. node classes of the last culling iteration (every node of the store, resident or not:
 //      the node directory stays on the GPU) -> streaming::ResidencyTable;
-//   2. demand: the nodes the frame needs (in the frustum, not O) -> cache hits / misses, trace;
+//   2. demand: the nodes the frame needs (in the frustum, not O), marked in use (kept by step 3);
 //   3. finished reads (streaming::IoPool: pread + XXH3 check + lz4 decode on background threads)
 //      are placed into the paged pool (NodePool), evicting by the policy's order (occlusion: O,
 //      then M, then L/P by least recent use and distance; never a node drawn this frame), at
 //      most upload_bytes_per_frame per frame; a read that is no longer wanted is dropped;
 //   4. prefetch: requests in the policy's order (occlusion: P, then L, then M, front to back),
-//      a window of reads at a time (kMinOutstanding at the start of a view, grown by kMinOutstanding
-//      after kCalmFrames frames whose finished reads were all still wanted, halved when some were not: additive
-//      increase, multiplicative decrease, like TCP's congestion window), so that the culling loop classifies what
-//      lies behind the first arrivals before it is read: a node classified O before it was ever
-//      loaded is never read. Queued reads of nodes that became unwanted are cancelled.
+//      a window of reads at a time (streaming::ReadWindow), like TCP's congestion window: at rest (a held view) it starts
+//      at 4, grows by 4 after 3 frames whose arrivals were
+//      all still wanted and is halved when a read arrives for a node found occluded meanwhile
+//      (additive increase, multiplicative decrease), so that the culling loop classifies what lies
+//      behind the first arrivals before it is read: a node classified O before it was ever loaded
+//      is never read. While the camera moves (every frame a new view whose classes never mature)
+//      the window opens to max_outstanding when the motion starts and keeps its state across the
+//      views (halved by waste, doubled by a calm frame); a read of a node that merely left the
+//      frustum is not counted as waste. Queued reads of nodes that became unwanted are cancelled.
+//   5. hits / misses of the frame's demand, counted after step 3 (the frame draws after it).
 // The render loop never waits on disk: update() only polls.
 #pragma once
 
@@ -35,16 +40,11 @@
 #include "render/streaming/node_pool.h"
 #include "store/store_reader.h"
 #include "streaming/io_pool.h"
+#include "streaming/read_window.h"
 #include "streaming/residency.h"
 #include "vk/context.h"
 
 namespace mds::render::streaming_gpu {
-
-// Read window at the start of a view (see the file comment, step 4).
-inline constexpr uint32_t kMinOutstanding = 4;
-// Frames with arrivals and no wasted read before the window grows (a culling iteration per frame:
-// a few iterations let the classification catch up with what arrived).
-inline constexpr uint32_t kCalmFrames = 3;
 
 struct CacheFrame {
   uint32_t nodes_uploaded = 0;
@@ -113,8 +113,7 @@ class StreamCache {
   CacheStats stats_;
   bool exhausted_ = false;
   bool has_view_ = false;
-  uint32_t window_ = kMinOutstanding;  // reads queued or in flight at a time
-  uint32_t calm_frames_ = 0;  // the last frame wanted more than the pool can hold
+  mds::streaming::ReadWindow window_;  // reads queued or in flight at a time (step 4)
 };
 
 }  // namespace mds::render::streaming_gpu

@@ -1,0 +1,40 @@
+// Adaptive read window (AIMD / slow start); see read_window.h.
+#include "streaming/read_window.h"
+
+#include <algorithm>
+
+namespace mds::streaming {
+
+ReadWindow::ReadWindow(ReadWindowSettings settings) : s_(settings) {
+  s_.cap = std::max(1u, s_.cap);
+  s_.min = std::clamp(s_.min, 1u, s_.cap);
+  s_.calm_frames = std::max(1u, s_.calm_frames);
+  window_ = s_.min;
+}
+
+void ReadWindow::new_view() {
+  const bool moving = has_view_ && view_frames_ <= 1;
+  if (!moving) {
+    window_ = s_.min;
+    calm_ = 0;
+  } else if (!moving_) {  // the camera starts moving
+    window_ = s_.cap;
+    calm_ = 0;
+  }
+  moving_ = moving;
+  has_view_ = true;
+  view_frames_ = 0;
+}
+
+void ReadWindow::end_frame(uint32_t arrived, uint32_t wasted) {
+  ++view_frames_;
+  if (wasted > 0) {
+    window_ = std::max(s_.min, window_ / 2);
+    calm_ = 0;
+  } else if (arrived > 0 && ++calm_ >= (moving_ ? 1u : s_.calm_frames)) {
+    window_ = std::min(s_.cap, moving_ ? window_ * 2 : window_ + s_.min);
+    calm_ = 0;
+  }
+}
+
+}  // namespace mds::streaming

@@ -1,0 +1,99 @@
+// Tests of the adaptive read window of the streaming cache (streaming/read_window.h): additive
+// increase / multiplicative decrease at rest, an opened window kept across views while the
+// camera moves.
+#include <gtest/gtest.h>
+
+#include "streaming/read_window.h"
+
+namespace {
+
+using mds::streaming::ReadWindow;
+using mds::streaming::ReadWindowSettings;
+
+// Runs `frames` frames of a view in which every frame has arrivals and no waste.
+void calm(ReadWindow& w, int frames) {
+  for (int k = 0; k < frames; ++k) w.end_frame(2, 0);
+}
+
+TEST(StreamingWindow, HeldViewsStartSmallAndGrowAdditively) {
+  ReadWindow w(ReadWindowSettings{.min = 4, .calm_frames = 3, .cap = 64});
+  w.new_view();
+  EXPECT_FALSE(w.moving());
+  EXPECT_EQ(w.size(), 4u);
+  calm(w, 2);
+  EXPECT_EQ(w.size(), 4u);  // not yet 3 calm frames
+  calm(w, 1);
+  EXPECT_EQ(w.size(), 8u);
+  w.end_frame(0, 0);        // nothing arrived: no evidence, no growth
+  calm(w, 2);
+  EXPECT_EQ(w.size(), 8u);
+  calm(w, 1);
+  EXPECT_EQ(w.size(), 12u);
+  // The next held view (the last one ran several frames) restarts at the minimum.
+  w.new_view();
+  EXPECT_FALSE(w.moving());
+  EXPECT_EQ(w.size(), 4u);
+}
+
+TEST(StreamingWindow, WasteHalvesTheWindowButNotBelowTheMinimum) {
+  ReadWindow w(ReadWindowSettings{.min = 4, .calm_frames = 1, .cap = 64});
+  w.new_view();
+  calm(w, 3);
+  EXPECT_EQ(w.size(), 16u);
+  w.end_frame(5, 1);
+  EXPECT_EQ(w.size(), 8u);
+  w.end_frame(5, 5);
+  EXPECT_EQ(w.size(), 4u);
+  w.end_frame(5, 2);
+  EXPECT_EQ(w.size(), 4u);
+  // Waste also resets the calm count.
+  calm(w, 1);
+  EXPECT_EQ(w.size(), 8u);
+}
+
+TEST(StreamingWindow, AMovingCameraOpensTheWindowAndKeepsItAcrossViews) {
+  ReadWindow w(ReadWindowSettings{.min = 4, .calm_frames = 3, .cap = 40});
+  w.new_view();      // first view: at rest
+  w.end_frame(0, 0);
+  EXPECT_EQ(w.size(), 4u);
+  w.new_view();      // the previous view ran one frame: the camera moves
+  EXPECT_TRUE(w.moving());
+  EXPECT_EQ(w.size(), 40u);
+  w.end_frame(10, 3);  // waste
+  EXPECT_EQ(w.size(), 20u);
+  w.new_view();        // still moving: the state is kept, not reopened
+  EXPECT_TRUE(w.moving());
+  EXPECT_EQ(w.size(), 20u);
+  w.end_frame(10, 0);  // calm while moving: doubled at once, up to the cap
+  EXPECT_EQ(w.size(), 40u);
+  w.new_view();
+  w.end_frame(10, 0);
+  EXPECT_EQ(w.size(), 40u);
+  // The camera rests (a view of several frames); the view after it starts small again.
+  w.new_view();
+  w.end_frame(0, 0);
+  w.end_frame(0, 0);
+  w.new_view();
+  EXPECT_FALSE(w.moving());
+  EXPECT_EQ(w.size(), 4u);
+  // Moving again reopens the window.
+  w.end_frame(0, 0);
+  w.new_view();
+  EXPECT_TRUE(w.moving());
+  EXPECT_EQ(w.size(), 40u);
+}
+
+TEST(StreamingWindow, TheCapBoundsEverything) {
+  ReadWindow w(ReadWindowSettings{.min = 4, .calm_frames = 1, .cap = 2});
+  EXPECT_EQ(w.size(), 2u);
+  w.new_view();
+  calm(w, 5);
+  EXPECT_EQ(w.size(), 2u);
+  w.end_frame(1, 1);
+  EXPECT_EQ(w.size(), 2u);
+  ReadWindow one(ReadWindowSettings{.min = 4, .calm_frames = 3, .cap = 0});  // 0 means 1
+  one.new_view();
+  EXPECT_EQ(one.size(), 1u);
+}
+
+}  // namespace
