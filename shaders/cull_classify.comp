@@ -2,7 +2,10 @@
 // Confidence-based occlusion classification (paper 000, Sect. 5, Fig. 10), hierarchical:
 // push.mode 0 tests every node, push.mode 1 every meshlet (a meshlet of a node in O is O).
 // The box test: the axis-aligned box is projected (8 corners, unjittered projection); its pixel
-// rectangle selects the pyramid level where it covers at most 4 x 4 texels. The depth test fails
+// rectangle selects the pyramid level where it covers at most kNodeExtent^2 texels (nodes: few,
+// so a fine level whose texels reach little beyond the box, which the max-depth test would
+// otherwise take in -- e.g. the far depths seen through a neighbouring pore) or kMeshletExtent^2
+// (meshlets: many, one pass over all of them). The depth test fails
 // (occluded) when the box's nearest view depth is >= the largest d_cull over the covered texels
 // (the pyramid stores max depth, so this is conservative); the aggregated confidence is the
 // mean C_cull over the covered texels (Eq. 23 averages, so this is the covered area's mean).
@@ -18,9 +21,11 @@
 #include "cull_bindings.h"
 
 layout(local_size_x = 64) in;
+const int kNodeExtent = 16;    // texels per side at most: <= 256 reads per node
+const int kMeshletExtent = 4;  // <= 16 reads per meshlet
 
 // Returns MDS_CULL_CLASS_* for the box without the "upward" rule (-1: outside the image).
-int classify_box(vec3 bmin, vec3 bmax) {
+int classify_box(vec3 bmin, vec3 bmax, int max_extent) {
   float W = cull.viewport.x, H = cull.viewport.y;
   vec2 lo = vec2(3.0e38), hi = vec2(-3.0e38);
   float znear = 3.0e38;
@@ -43,7 +48,7 @@ int classify_box(vec3 bmin, vec3 bmax) {
   p1 = max(p1, p0);
   int extent = max(p1.x - p0.x, p1.y - p0.y) + 1;
   uint level = 0u;
-  while (extent > 4 && level + 1u < cull.pyramid.x) {
+  while (extent > max_extent && level + 1u < cull.pyramid.x) {
     level++;
     extent = max((p1.x >> level) - (p0.x >> level), (p1.y >> level) - (p0.y >> level)) + 1;
   }
@@ -77,7 +82,7 @@ void main() {
     uint prev = node_class[i];
     uint now = prev;
     if (prev != uint(MDS_CULL_CLASS_O)) {
-      int c = classify_box(nodes[i].aabb_min, nodes[i].aabb_max);
+      int c = classify_box(nodes[i].aabb_min, nodes[i].aabb_max, kNodeExtent);
       now = c < 0 ? uint(MDS_CULL_CLASS_O) : max(prev, uint(c));
       node_class[i] = now;
     }
@@ -97,7 +102,7 @@ void main() {
     if (node_class[m.node] == uint(MDS_CULL_CLASS_O)) {
       now = uint(MDS_CULL_CLASS_O);
     } else {
-      int c = classify_box(m.aabb_min, m.aabb_max);
+      int c = classify_box(m.aabb_min, m.aabb_max, kMeshletExtent);
       now = c < 0 ? uint(MDS_CULL_CLASS_O) : max(prev, uint(c));  // classes only move upward
     }
   }
