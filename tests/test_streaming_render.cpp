@@ -18,6 +18,7 @@
 #include "render/renderer.h"
 #include "render/scene.h"
 #include "render/streaming/node_pool.h"
+#include "render_test_helpers.h"
 #include "store/store_reader.h"
 #include "vk/context.h"
 
@@ -29,28 +30,14 @@ namespace {
 
 constexpr uint32_t kW = 160, kH = 120;
 
-int run(const std::string& args) {
-  const std::string cmd = std::string(MDSTREAM_BIN) + " " + args + " >/dev/null 2>&1";
-  const int r = std::system(cmd.c_str());
-  return WIFEXITED(r) ? WEXITSTATUS(r) : -1;
-}
+int run(const std::string& args) { return mds::testing::run_mdstream_quietly(args); }
 
 struct Image {
   FrameImage img;
   RenderStats stats;
 };
 
-// Pixels whose colour differs by more than 0.1 in some channel: the renderer's own tolerance for
-// culled vs. unculled renders (test_cull_render.cpp: at most 1 % of the pixels).
-size_t differing(const FrameImage& a, const FrameImage& b) {
-  size_t n = 0;
-  for (uint32_t y = 0; y < a.height; ++y)
-    for (uint32_t x = 0; x < a.width; ++x) {
-      const glm::vec4 p = a.at(x, y), q = b.at(x, y);
-      if (std::max({std::abs(p.r - q.r), std::abs(p.g - q.g), std::abs(p.b - q.b)}) > 0.1f) ++n;
-    }
-  return n;
-}
+using mds::testing::differing_pixels;
 
 class StreamingRender : public ::testing::Test {
  protected:
@@ -141,11 +128,11 @@ TEST_F(StreamingRender, EighthOfTheStoreMatchesInMemoryOnADenseView) {
   EXPECT_TRUE(s.value().stats.cull.converged);
 
   Image mem = in_memory(*reader.value(), true, 2);
-  const size_t diff = differing(mem.img, s.value().img);
+  const size_t diff = differing_pixels(mem.img, s.value().img);
   EXPECT_LE(diff, size_t(kW * kH / 100)) << diff << " pixels differ";
   // And the unculled in-memory reference (what the culling's own test bounds too).
   Image ref = in_memory(*reader.value(), false, 2);
-  EXPECT_LE(differing(ref.img, s.value().img), size_t(kW * kH / 100));
+  EXPECT_LE(differing_pixels(ref.img, s.value().img), size_t(kW * kH / 100));
 }
 
 TEST_F(StreamingRender, WithoutCullingAnAmpleBudgetIsPixelIdentical) {
@@ -155,7 +142,7 @@ TEST_F(StreamingRender, WithoutCullingAnAmpleBudgetIsPixelIdentical) {
   ASSERT_TRUE(s.ok()) << s.error().message;
   Image mem = in_memory(*reader.value(), false, 0);
   ASSERT_EQ(mem.img.rgba.size(), s.value().img.rgba.size());
-  EXPECT_TRUE(mem.img.rgba == s.value().img.rgba) << differing(mem.img, s.value().img) << " pixels differ";
+  EXPECT_TRUE(mem.img.rgba == s.value().img.rgba) << differing_pixels(mem.img, s.value().img) << " pixels differ";
   const CacheStats& c = s.value().stats.cache;
   EXPECT_LE(c.gpu_peak_bytes, c.gpu_budget_bytes);
   EXPECT_EQ(c.nodes_never_loaded, 0u);  // the whole block is in view and nothing is culled
@@ -207,7 +194,7 @@ TEST_F(StreamingRender, CameraChangeEvictsTheOldViewFirstAndConvergesAgain) {
   ASSERT_TRUE(mem.ok());
   auto ref = mem.value()->render(b);
   ASSERT_TRUE(ref.ok());
-  EXPECT_LE(differing(ref.value(), img.value()), size_t(kW * kH / 100));
+  EXPECT_LE(differing_pixels(ref.value(), img.value()), size_t(kW * kH / 100));
 }
 
 TEST_F(StreamingRender, ResizeKeepsTheCacheAndReturnsToTheSameImage) {
@@ -255,9 +242,9 @@ TEST_F(StreamingRender, ResizeKeepsTheCacheAndReturnsToTheSameImage) {
   ASSERT_EQ(after.value().width, kW);
   ASSERT_EQ(after.value().height, kH);
   EXPECT_TRUE(st.cull.converged);
-  EXPECT_LE(differing(before.value(), after.value()), size_t(kW * kH / 100));
+  EXPECT_LE(differing_pixels(before.value(), after.value()), size_t(kW * kH / 100));
   Image mem = in_memory(*reader.value(), true, 2);
-  EXPECT_LE(differing(mem.img, after.value()), size_t(kW * kH / 100));
+  EXPECT_LE(differing_pixels(mem.img, after.value()), size_t(kW * kH / 100));
   EXPECT_LE(st.cache.gpu_peak_bytes, st.cache.gpu_budget_bytes);
 }
 
@@ -281,7 +268,7 @@ TEST_F(StreamingRender, InMemoryResizeRoundTripIsPixelIdentical) {
   ASSERT_TRUE(r.value()->resize(kW, kH).ok());
   auto b = r.value()->render(cam);
   ASSERT_TRUE(b.ok());
-  EXPECT_TRUE(a.value().rgba == b.value().rgba) << differing(a.value(), b.value()) << " pixels differ";
+  EXPECT_TRUE(a.value().rgba == b.value().rgba) << differing_pixels(a.value(), b.value()) << " pixels differ";
   EXPECT_FALSE(r.value()->resize(0, kH).ok());
 }
 
