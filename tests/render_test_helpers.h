@@ -1,6 +1,8 @@
-// Test helpers for the rendering tests: the renderer's image tolerance and running the CLI.
+// Test helpers for the rendering tests: a validated Vulkan context per suite, the renderer's
+// image tolerance, and running the CLI.
 #pragma once
 
+#include <gtest/gtest.h>
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -9,8 +11,28 @@
 #include <string>
 
 #include "render/renderer.h"
+#include "vk/context.h"
 
 namespace mds::testing {
+
+// A suite sharing one Vulkan context with the Khronos validation layer (where installed); every
+// test must end without a validation message.
+class VulkanSuite : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    vk::ContextOptions o;
+    o.validation = true;
+    auto c = vk::Context::create(o);
+    ASSERT_TRUE(c.ok()) << c.error().message;
+    ctx_ = std::move(c).value().release();
+  }
+  static void TearDownTestSuite() {
+    delete ctx_;
+    ctx_ = nullptr;
+  }
+  void TearDown() override { EXPECT_EQ(ctx_->validation_messages(), 0u); }
+  static inline vk::Context* ctx_ = nullptr;
+};
 
 // Pixels whose colour differs by more than `tol` in some channel. 0.1 is the renderer's own
 // tolerance for culled vs. unculled renders (test_cull_render.cpp: at most 1 % of the pixels).

@@ -13,6 +13,7 @@
 #include "render/mesh_sprites.h"
 #include "render/renderer.h"
 #include "render/scene.h"
+#include "render_test_helpers.h"
 #include "vk/context.h"
 
 using namespace mds;
@@ -20,21 +21,8 @@ using namespace mds::render;
 
 namespace {
 
-class MeshSpritesTest : public ::testing::Test {
+class MeshSpritesTest : public mds::testing::VulkanSuite {
  protected:
-  static void SetUpTestSuite() {
-    vk::ContextOptions o;
-    o.validation = true;
-    auto c = vk::Context::create(o);
-    ASSERT_TRUE(c.ok()) << c.error().message;
-    ctx_ = std::move(c).value().release();
-  }
-  static void TearDownTestSuite() {
-    delete ctx_;
-    ctx_ = nullptr;
-  }
-  void TearDown() override { EXPECT_EQ(ctx_->validation_messages(), 0u); }
-
   // A dense random block of 20k particles of three types and radii, in meshlets of 16 and 40
   // (40 > kMeshParticles: two mesh workgroups per meshlet).
   static SceneData block(uint32_t meshlet_size) {
@@ -64,9 +52,7 @@ class MeshSpritesTest : public ::testing::Test {
     return r->render(cam, stats);
   }
 
-  static vk::Context* ctx_;
 };
-vk::Context* MeshSpritesTest::ctx_ = nullptr;
 
 }  // namespace
 

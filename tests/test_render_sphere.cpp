@@ -10,6 +10,7 @@
 #include "render/camera.h"
 #include "render/renderer.h"
 #include "render/scene.h"
+#include "render_test_helpers.h"
 #include "vk/context.h"
 
 using namespace mds;
@@ -70,21 +71,8 @@ double hit_t(const Ray& ray, const Sphere& s) {
   return -b - std::sqrt(disc);
 }
 
-class RenderSphere : public ::testing::Test {
+class RenderSphere : public mds::testing::VulkanSuite {
  protected:
-  static void SetUpTestSuite() {
-    vk::ContextOptions o;
-    o.validation = true;
-    auto c = vk::Context::create(o);
-    ASSERT_TRUE(c.ok()) << c.error().message;
-    ctx_ = std::move(c).value().release();
-  }
-  static void TearDownTestSuite() {
-    delete ctx_;
-    ctx_ = nullptr;
-  }
-  void TearDown() override { EXPECT_EQ(ctx_->validation_messages(), 0u); }
-
   static SceneData scene_of(const std::vector<Sphere>& spheres) {
     std::vector<glm::dvec3> pos;
     std::vector<uint8_t> types;
@@ -153,9 +141,7 @@ class RenderSphere : public ::testing::Test {
     return covered;
   }
 
-  static vk::Context* ctx_;
 };
-vk::Context* RenderSphere::ctx_ = nullptr;
 
 Camera perspective_camera() {
   Camera c;
