@@ -146,9 +146,10 @@ Status run_stress(const StressOptions& o) {
     const bool moving = first || !render::identical_cameras(cam, prev_cam);
     if (!first && moving) ++view;
     prev_cam = cam;
-    // A frame's time is [resize (--dynamic-resolution)] + set_view (a new camera waits for the
-    // frame in flight and restarts the culling state) + step (which waits for the previous
-    // frame before recording).
+    // A frame's time is its own work: [resize (--dynamic-resolution)] + set_view (restarts the
+    // culling state for a new camera) + step + finish (its GPU work), as a viewer frame that
+    // shows its image. Without the finish a frame would pay for the previous one's GPU work,
+    // and the pacer would judge each scale by the frame before it.
     const auto t0 = std::chrono::steady_clock::now();
     double scale = 1.0;
     if (pacer) {
@@ -159,6 +160,7 @@ Status run_stress(const StressOptions& o) {
     }
     MDS_TRY(renderer->set_view(cam));
     MDS_ASSIGN_OR_RETURN(render::FrameReport fr, renderer->step());
+    MDS_TRY(renderer->finish());
     fr.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     if (pacer) pacer->observe(fr.wall_ms);
     stress::FrameRecord r;

@@ -196,6 +196,8 @@ class Renderer {
   // Accumulation restarts on a new view and, when streaming, on any frame that uploaded nodes.
   Status set_view(const Camera& camera);
   Result<FrameReport> step();
+  // Waits until the frame in flight (the last step()) has finished on the device.
+  Status finish();
   // The current accumulated image (average of FrameReport::samples samples), at the current size.
   Result<FrameImage> read_image();
   // Changes the render size without re-creating the renderer (window resize; dynamic resolution,

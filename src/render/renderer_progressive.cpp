@@ -295,6 +295,8 @@ Status Renderer::set_c_occ(double c_occ) {
   return {};
 }
 
+Status Renderer::finish() { return impl_->slot.wait(); }
+
 Status Renderer::set_spp(uint32_t spp) {
   if (spp == 0) return make_error(Errc::invalid_argument, "spp {}: expected >= 1", spp);
   impl_->settings.spp = spp;
