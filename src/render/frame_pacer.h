@@ -10,7 +10,7 @@
 // about 1/3, at 1/16 about 1/8, i.e. t ~ p^0.8. After a moving frame of time t at scale s the
 // next scale is s * (target / t)^(0.5 / 0.8): one step lands near the target when the view's
 // cost changes slowly, as it does along a camera path. Down-steps are taken at once (a slow
-// frame is what the user sees), up-steps at most x1.5 per frame and only when the frame was
+// frame is what the user sees), up-steps at most x1.25 per frame and only when the frame was
 // faster than (1 - band) * target (no oscillation around the target). Scales are quantized to
 // 1/16 (rounded down) so that small fluctuations do not resize the renderer every frame, and
 // kept within [min_scale, max_scale].
@@ -45,7 +45,7 @@ struct PacerSettings {
   double max_scale = 1.0;
   double quantum = 1.0 / 16.0; // scales are multiples of this (rounded down), except max_scale
   double band = 0.15;          // up-steps only below (1 - band) x target
-  double max_up = 1.5;         // largest up-step factor per frame
+  double max_up = 1.25;        // largest up-step factor per frame
   double exponent = 0.5 / 0.8; // s' = s * (target / t)^exponent (t ~ pixels^0.8)
   double max_trend = 4.0;      // cap of the growth extrapolated from the last two moving frames
 };

@@ -219,6 +219,11 @@ class Renderer {
   // stops where it is, if that is already more). Errc::invalid_argument outside those ranges.
   Status set_c_occ(double c_occ);
   Status set_spp(uint32_t spp);
+  // Camera in motion (dynamic resolution, render/frame_pacer.h): one occlusion sampling pass per
+  // culling iteration instead of RenderSettings' count -- a moving frame is a new view whose
+  // classes never mature, so the extra passes cost time (a fixed cost per particle, not per
+  // pixel) and buy nothing; at rest (false) the configured count returns.
+  void set_motion(bool moving);
   uint32_t width() const;
   uint32_t height() const;
   // Statistics so far (pass times over the frames since the last set_view()).

@@ -297,6 +297,11 @@ Status Renderer::set_c_occ(double c_occ) {
 
 Status Renderer::finish() { return impl_->slot.wait(); }
 
+void Renderer::set_motion(bool moving) {
+  Impl& m = *impl_;
+  if (m.cull) m.cull->set_samples_per_iteration(moving ? 1u : m.settings.cull_settings.samples_per_iteration);
+}
+
 Status Renderer::set_spp(uint32_t spp) {
   if (spp == 0) return make_error(Errc::invalid_argument, "spp {}: expected >= 1", spp);
   impl_->settings.spp = spp;

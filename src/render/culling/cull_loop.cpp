@@ -402,6 +402,9 @@ CullLoop::~CullLoop() = default;
 uint32_t CullLoop::bins() const { return impl_->bins; }
 uint32_t CullLoop::budget() const { return impl_->budget; }
 uint32_t CullLoop::samples_per_iteration() const { return impl_->passes; }
+void CullLoop::set_samples_per_iteration(uint32_t passes) {
+  impl_->passes = std::clamp(passes, 1u, std::max(1u, impl_->settings.samples_per_iteration));
+}
 uint32_t CullLoop::pyramid_levels() const { return impl_->levels; }
 void CullLoop::set_c_occ(double c_occ) {
   impl_->settings.c_occ = c_occ;

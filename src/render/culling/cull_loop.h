@@ -147,6 +147,9 @@ class CullLoop {
   // Changes C_occ (the O threshold of Sect. 5.1) from the next recorded iteration on. Classes
   // only move upward within a view, so the caller restarts the view (begin_view()).
   void set_c_occ(double c_occ);
+  // Occlusion sampling passes per iteration from the next recorded iteration on, in
+  // 1..settings().samples_per_iteration (the timestamp pool is sized for that many).
+  void set_samples_per_iteration(uint32_t passes);
 
   // Inspection and test hooks (each submits and waits).
   Result<std::vector<uint32_t>> read_meshlet_classes();
