@@ -19,11 +19,10 @@ import os
 import shutil
 import subprocess
 import sys
-import tempfile
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench_common import machine_info, parse_count  # noqa: E402
+from bench_common import machine_info, newest_mdstream, open_work, parse_count  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -102,16 +101,9 @@ def main():
     args.width = args.width or (320 if q else 640)
     args.height = args.height or (180 if q else 360)
     if args.mdstream is None:
-        cands = [os.path.join(REPO, d, "mdstream") for d in os.listdir(REPO) if d.startswith("build")]
-        cands = [c for c in cands if os.path.exists(c)]
-        if not cands:
-            sys.exit("no build*/mdstream found; pass --mdstream")
-        args.mdstream = max(cands, key=os.path.getmtime)
+        args.mdstream = newest_mdstream(REPO)
     mds = args.mdstream
-    work = args.work or tempfile.mkdtemp(prefix="mds_bench_cache_")
-    os.makedirs(work, exist_ok=True)
-    os.makedirs(args.out, exist_ok=True)
-    log = open(os.path.join(work, "bench_cache.log"), "w")
+    work, log = open_work("bench_cache", args.work, args.out)
     print(f"bench_cache: {mds}, work {work}, log {log.name}", file=sys.stderr)
     t_start = time.time()
 

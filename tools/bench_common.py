@@ -1,4 +1,4 @@
-"""Shared helpers of the benchmarks in tools/ (bench_convert.py, bench_render.py)."""
+"""Shared helpers of the benchmarks in tools/."""
 import datetime
 import os
 import platform
@@ -42,3 +42,25 @@ def machine_info(repo):
         pass
     return {"nproc": os.cpu_count(), "cpu": cpu, "memory": mem, "kernel": platform.release(),
             "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"), "commit": commit}
+
+
+def newest_mdstream(repo):
+    """The most recently built build*/mdstream of `repo`; exits with a message when there is none."""
+    import sys
+    cands = [os.path.join(repo, d, "mdstream") for d in os.listdir(repo) if d.startswith("build")]
+    cands = [c for c in cands if os.path.exists(c)]
+    if not cands:
+        sys.exit("no build*/mdstream found; pass --mdstream")
+    return max(cands, key=os.path.getmtime)
+
+
+def open_work(name, work, out):
+    """Creates the work folder (a temporary one when `work` is empty) and `out`; returns the work
+    folder and an open log file in it."""
+    import sys
+    import tempfile
+    work = work or tempfile.mkdtemp(prefix=f"mds_{name}_")
+    os.makedirs(work, exist_ok=True)
+    os.makedirs(out, exist_ok=True)
+    log = open(os.path.join(work, f"{name}.log"), "w")
+    return work, log
