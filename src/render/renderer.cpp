@@ -60,6 +60,14 @@ Status Renderer::Impl::upload(const SceneData& scene) {
   return {};
 }
 
+Status Renderer::Impl::create_frame_resources() {
+  MDS_TRY(create_targets());
+  MDS_TRY(create_pipelines());
+  MDS_ASSIGN_OR_RETURN(slot, vk::FrameSlot::create(*ctx));
+  MDS_ASSIGN_OR_RETURN(timestamps, vk::TimestampPool::create(*ctx, timestamp_capacity()));
+  return {};
+}
+
 // The draw list (a meshlet id per slot), the sprite pre-pass output (one GpuSprite per particle
 // slot: a list holds each meshlet at most once, so the slots bound it; none on the mesh path)
 // and the frame uniforms.
@@ -420,10 +428,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(vk::Context& ctx, const Scene
   m.radius_min = scene.radius_min;
   m.radius_max = scene.radius_max;
   MDS_TRY(m.upload(scene));
-  MDS_TRY(m.create_targets());
-  MDS_TRY(m.create_pipelines());
-  MDS_ASSIGN_OR_RETURN(m.slot, vk::FrameSlot::create(ctx));
-  MDS_ASSIGN_OR_RETURN(m.timestamps, vk::TimestampPool::create(ctx, m.timestamp_capacity()));
+  MDS_TRY(m.create_frame_resources());
   if (settings.cull) {
     std::shared_ptr<const culling::DensityVolume> vol = settings.density;
     if (!vol) vol = std::make_shared<culling::DensityVolume>(culling::density_from_scene(scene));

@@ -93,6 +93,8 @@ struct Renderer::Impl {
   Status create_targets();
   Status resize(uint32_t w, uint32_t h);
   Status create_pipelines();
+  // After the scene or the pool is on the device: targets, pipelines, frame slot, timestamps.
+  Status create_frame_resources();
   void record_pass(VkCommandBuffer cmd, bool first, bool accumulate = true);
   void record_cull_only(VkCommandBuffer cmd);
   void record_sprite_prepass(VkCommandBuffer cmd);

@@ -80,10 +80,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create_streaming(vk::Context& ctx, c
   m.radius_min = h.radius_min;
   m.radius_max = h.radius_max;
   MDS_TRY(m.upload_streaming(dir));
-  MDS_TRY(m.create_targets());
-  MDS_TRY(m.create_pipelines());
-  MDS_ASSIGN_OR_RETURN(m.slot, vk::FrameSlot::create(ctx));
-  MDS_ASSIGN_OR_RETURN(m.timestamps, vk::TimestampPool::create(ctx, m.timestamp_capacity()));
+  MDS_TRY(m.create_frame_resources());
   if (settings.cull) {
     culling::DensityVolume vol;
     if (settings.density) {
