@@ -17,36 +17,13 @@ import csv
 import json
 import os
 import shutil
-import subprocess
 import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench_common import machine_info, newest_mdstream, open_work, parse_count  # noqa: E402
+from bench_common import machine_info, make_store, newest_mdstream, open_work, parse_count, sh  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-def sh(cmd, log):
-    t0 = time.time()
-    r = subprocess.run(cmd, capture_output=True, text=True)
-    dt = time.time() - t0
-    log.write(f"$ {' '.join(cmd)}  ({dt:.1f} s, rc {r.returncode})\n{r.stdout}{r.stderr}\n")
-    log.flush()
-    if r.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)} failed ({r.returncode}):\n{r.stderr[-3000:]}")
-    return r
-
-
-def make_store(mds, work, scene, particles, node_size, log):
-    store = os.path.join(work, f"{scene}_{particles}.mds")
-    if os.path.exists(store):
-        return store
-    dump = os.path.join(work, f"{scene}_{particles}.lammpstrj")
-    sh([mds, "synth", "--scene", scene, "-n", str(particles), "-q", "-o", dump], log)
-    sh([mds, "convert", dump, "-o", store, "--node-size", str(node_size)], log)
-    os.remove(dump)
-    return store
 
 
 def stress(mds, store, budget, path, policy, args, work, log, extra=()):

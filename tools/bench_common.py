@@ -64,3 +64,27 @@ def open_work(name, work, out):
     os.makedirs(out, exist_ok=True)
     log = open(os.path.join(work, f"{name}.log"), "w")
     return work, log
+
+
+def sh(cmd, log, env=None, timeout=None):
+    """Runs `cmd`, appends it with its output and time to `log`; raises on a non-zero exit."""
+    import time
+    t0 = time.time()
+    r = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=timeout)
+    log.write(f"$ {' '.join(cmd)}  ({time.time() - t0:.1f} s, rc {r.returncode})\n{r.stdout}{r.stderr}\n")
+    log.flush()
+    if r.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed ({r.returncode}):\n{r.stderr[-3000:]}")
+    return r
+
+
+def make_store(mds, work, scene, particles, node_size, log):
+    """`mdstream synth` + `convert --node-size` into `work`, reused when it is already there."""
+    store = os.path.join(work, f"{scene}_{particles}_{node_size}.mds")
+    if os.path.exists(store):
+        return store
+    dump = os.path.join(work, f"{scene}_{particles}.lammpstrj")
+    sh([mds, "synth", "--scene", scene, "-n", str(particles), "-q", "-o", dump], log)
+    sh([mds, "convert", dump, "-o", store, "--node-size", str(node_size)], log)
+    os.remove(dump)
+    return store

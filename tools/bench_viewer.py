@@ -21,19 +21,9 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench_common import machine_info, newest_mdstream, open_work, parse_count  # noqa: E402
+from bench_common import machine_info, make_store, newest_mdstream, open_work, parse_count, sh  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-def sh(cmd, log, env=None, timeout=None):
-    t0 = time.time()
-    r = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=timeout)
-    log.write(f"$ {' '.join(cmd)}  ({time.time() - t0:.1f} s, rc {r.returncode})\n{r.stdout}{r.stderr}\n")
-    log.flush()
-    if r.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)} failed ({r.returncode}):\n{r.stderr[-3000:]}")
-    return r
 
 
 class Xvfb:
@@ -65,17 +55,6 @@ class Xvfb:
             self.proc.send_signal(signal.SIGTERM)
             self.proc.wait()
         self.proc = None
-
-
-def make_store(mds, work, scene, particles, node_size, log):
-    store = os.path.join(work, f"{scene}_{particles}_{node_size}.mds")
-    if os.path.exists(store):
-        return store
-    dump = os.path.join(work, f"{scene}_{particles}.lammpstrj")
-    sh([mds, "synth", "--scene", scene, "-n", str(particles), "-q", "-o", dump], log)
-    sh([mds, "convert", dump, "-o", store, "--node-size", str(node_size)], log)
-    os.remove(dump)
-    return store
 
 
 def read_log(path):
