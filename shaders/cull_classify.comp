@@ -2,13 +2,15 @@
 // Confidence-based occlusion classification (paper 000, Sect. 5, Fig. 10), hierarchical:
 // push.mode 0 tests every node, push.mode 1 every meshlet (a meshlet of a node in O is O).
 // The box test: the axis-aligned box is projected (8 corners, unjittered projection); its pixel
-// rectangle selects the pyramid level where it covers at most kNodeExtent^2 texels (nodes: few,
-// so a fine level whose texels reach little beyond the box, which the max-depth test would
-// otherwise take in -- e.g. the far depths seen through a neighbouring pore) or kMeshletExtent^2
-// (meshlets: many, one pass over all of them). The depth test fails
-// (occluded) when the box's nearest view depth is >= the largest d_cull over the covered texels
-// (the pyramid stores max depth, so this is conservative); the aggregated confidence is the
-// mean C_cull over the covered texels (Eq. 23 averages, so this is the covered area's mean).
+// rectangle selects the pyramid level where it covers at most kNodeExtent^2 (nodes) or
+// kMeshletExtent^2 (meshlets) texels. The paper rasterizes the box and depth-tests its fragments
+// against d_cull; here, per texel of the rectangle, the box's conservative entry depth on the
+// texel's centre ray (mds_ray_box_entry on the box grown by the texel's half diagonal, see
+// culling_math.h): texels the box does not reach are skipped -- so the far depths seen through
+// a neighbouring pore, at the corners of the rectangle, no longer keep a box visible -- and the
+// depth test fails (occluded) when the entry depth is >= d_cull on every covered texel (the
+// pyramid stores max depth, so coarser levels stay conservative); the aggregated confidence is
+// the mean C_cull over the covered texels (Eq. 23 averages: the covered area's mean).
 // Boxes reaching behind the near plane pass. Boxes entirely outside the image are O (frustum
 // culled: they cannot contribute to any pixel, and their particles are not on any pixel ray).
 // Classes only move upward (mds_classify_occlusion keeps max(previous, new)). A meshlet that
@@ -21,14 +23,14 @@
 #include "cull_bindings.h"
 
 layout(local_size_x = 64) in;
-const int kNodeExtent = 16;    // texels per side at most: <= 256 reads per node
-const int kMeshletExtent = 4;  // <= 16 reads per meshlet
+const int kNodeExtent = 32;     // texels per side at most: <= 1024 ray tests per node
+const int kMeshletExtent = 32;  // <= 1024 ray tests per meshlet
 
 // Returns MDS_CULL_CLASS_* for the box without the "upward" rule (-1: outside the image).
 int classify_box(vec3 bmin, vec3 bmax, int max_extent) {
   float W = cull.viewport.x, H = cull.viewport.y;
   vec2 lo = vec2(3.0e38), hi = vec2(-3.0e38);
-  float znear = 3.0e38;
+  float znear = 3.0e38, zfar = 0.0;
   for (int i = 0; i < 8; ++i) {
     vec3 c = vec3((i & 1) != 0 ? bmax.x : bmin.x, (i & 2) != 0 ? bmax.y : bmin.y,
                   (i & 4) != 0 ? bmax.z : bmin.z);
@@ -36,6 +38,7 @@ int classify_box(vec3 bmin, vec3 bmax, int max_extent) {
     float z = -v.z;
     if (z <= cull.camera.z) return MDS_CULL_CLASS_P;  // reaches the near plane: visible
     znear = min(znear, z);
+    zfar = max(zfar, z);
     vec4 clip = cull.proj * v;
     vec2 ndc = clip.xy / clip.w;
     vec2 px = (ndc * 0.5 + 0.5) * vec2(W, H);
@@ -55,15 +58,34 @@ int classify_box(vec3 bmin, vec3 bmax, int max_extent) {
   uvec2 ls = cull_level_size(level);
   uint lo_off = cull_level_offset(level);
   ivec2 t0 = p0 >> int(level), t1 = p1 >> int(level);
-  float dmax = 0.0, csum = 0.0, n = 0.0;
+  // Per covered texel, the box's conservative entry depth on the texel's centre ray (the box
+  // grown by the texel's half diagonal at the box's far side, culling_math.h ray_box_entry):
+  // texels of the rectangle the box does not reach take no part in the test.
+  bool ortho = (cull.params.w & kCullOrtho) != 0u;
+  float texel_px = float(1u << level);
+  float grow = 1.001 * mds_texel_half_diagonal(texel_px, zfar, !ortho, cull.camera.x, cull.camera.y);
+  vec3 eye = (cull.inv_view * vec4(0.0, 0.0, 0.0, 1.0)).xyz;
+  bool failed = true;
+  float csum = 0.0, n = 0.0;
   for (int y = t0.y; y <= t1.y; ++y)
     for (int x = t0.x; x <= t1.x; ++x) {
+      vec2 ndc = (vec2(x, y) + 0.5) * texel_px * cull.viewport.zw * 2.0 - 1.0;
+      vec3 o = eye, dir;
+      if (ortho) {
+        o = (cull.inv_view * vec4(ndc.x / cull.proj[0][0], ndc.y / cull.proj[1][1], 0.0, 1.0)).xyz;
+        dir = mat3(cull.inv_view) * vec3(0.0, 0.0, -1.0);
+      } else {
+        dir = mat3(cull.inv_view) * vec3(ndc.x / cull.proj[0][0], ndc.y / cull.proj[1][1], -1.0);
+      }
+      float t_entry = mds_ray_box_entry(o.x, o.y, o.z, dir.x, dir.y, dir.z, bmin.x, bmin.y, bmin.z,
+                                        bmax.x, bmax.y, bmax.z, grow, cull.camera.z);
+      if (!(t_entry < float(MDS_CULL_DEPTH_EMPTY))) continue;  // the box does not reach this texel
       vec2 dc = pyramid[lo_off + uint(y) * ls.x + uint(x)];
-      dmax = max(dmax, dc.x);
+      failed = failed && t_entry >= dc.x;
       csum += dc.y;
       n += 1.0;
     }
-  bool failed = znear >= dmax;
+  if (n == 0.0) return MDS_CULL_CLASS_P;  // (not expected: the box projects into the image)
   return mds_classify_occlusion(MDS_CULL_CLASS_P, failed, csum / n, cull.thresholds.x,
                                 cull.thresholds.y);
 }

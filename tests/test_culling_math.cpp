@@ -687,6 +687,125 @@ TEST(Classes, RulesAndOnlyUpward) {
   }
 }
 
+// ---- Sect. 5: the box depth test per texel ---------------------------------------------------
+
+// Random boxes in front of a camera at the origin looking down -z (world = view space), random
+// texels of random pyramid levels: every box point whose projection falls into the texel is
+// behind the entry depth of the texel's centre ray into the grown box, and such a texel is
+// never reported as missed. Perspective and orthographic.
+TEST(BoxTest, TexelEntryDepthIsConservative) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  const double W = 320, H = 180, P11 = 1.0 / std::tan(0.5 * 40.0 * std::numbers::pi / 180.0), P00 = P11 * H / W;
+  const double focal = 0.5 * H * P11;
+  const double ortho_half_h = 20.0, ortho_P11 = 1.0 / ortho_half_h, ortho_P00 = ortho_P11 * H / W;
+  const double ortho_pixel = (2.0 / (ortho_P00 * W)) * (2.0 / (ortho_P11 * H));
+  int covered_texels = 0, skipped_texels = 0, checked_points = 0;
+  for (int t = 0; t < 4000; ++t) {
+    const bool perspective = t % 2 == 0;
+    const double p00 = perspective ? P00 : ortho_P00, p11 = perspective ? P11 : ortho_P11;
+    double lo[3], hi[3];
+    const double size = std::pow(10.0, -1.0 + 2.0 * U(rng));
+    const double z = 5.0 + 100.0 * U(rng);
+    for (int a = 0; a < 2; ++a) {
+      lo[a] = (perspective ? z * 0.5 : 20.0) * (2.0 * U(rng) - 1.0);
+      hi[a] = lo[a] + size * (0.2 + U(rng));
+    }
+    lo[2] = -z - size;
+    hi[2] = -z;
+    const int level = int(5 * U(rng));
+    const double s = double(1 << level);
+    double zfar = 0.0;
+    for (int c = 0; c < 8; ++c) zfar = std::max(zfar, -((c & 4) ? hi[2] : lo[2]));
+    const double grow = texel_half_diagonal(s, zfar, perspective, focal, ortho_pixel);
+    // Project points of the box; each names the texel it falls into.
+    auto texel_of = [&](const double q[3], int& tx, int& ty) {
+      const double w = perspective ? -q[2] : 1.0;
+      const double px = (q[0] * p00 / w * 0.5 + 0.5) * W, py = (q[1] * p11 / w * 0.5 + 0.5) * H;
+      if (px < 0 || py < 0 || px >= W || py >= H) return false;
+      tx = int(px / s);
+      ty = int(py / s);
+      return true;
+    };
+    auto entry_of = [&](int tx, int ty) {
+      const double nx = (tx + 0.5) * s / W * 2.0 - 1.0, ny = (ty + 0.5) * s / H * 2.0 - 1.0;
+      double o[3] = {0, 0, 0}, dir[3] = {nx / p00, ny / p11, -1.0};
+      if (!perspective) {
+        o[0] = nx / p00;
+        o[1] = ny / p11;
+        dir[0] = dir[1] = 0.0;
+      }
+      return ray_box_entry(o, dir, lo, hi, grow, 0.1);
+    };
+    for (int k = 0; k < 64; ++k) {
+      const double q[3] = {lo[0] + (hi[0] - lo[0]) * U(rng), lo[1] + (hi[1] - lo[1]) * U(rng),
+                           lo[2] + (hi[2] - lo[2]) * U(rng)};
+      int tx, ty;
+      if (!texel_of(q, tx, ty)) continue;
+      const double e = entry_of(tx, ty);
+      ASSERT_LT(e, MDS_CULL_DEPTH_EMPTY) << "texel " << tx << "," << ty << " level " << level << " missed";
+      ASSERT_LE(e, -q[2] * (1.0 + 1e-12)) << "entry behind a box point of the texel";
+      ++checked_points;
+    }
+    // Texels far from the box are skipped (the test is not "always covered").
+    int tx, ty;
+    const double c[3] = {0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), hi[2]};
+    if (texel_of(c, tx, ty)) {
+      for (int dx : {-3, 3}) {
+        const int x = tx + dx * (1 + int(size * focal / (perspective ? z : 1.0) / s));
+        if (x < 0 || x * s >= W) continue;
+        ++(entry_of(x, ty) < MDS_CULL_DEPTH_EMPTY ? covered_texels : skipped_texels);
+      }
+    }
+  }
+  EXPECT_GT(checked_points, 100000);
+  EXPECT_GT(skipped_texels, 1000) << "covered " << covered_texels;
+}
+
+TEST(BoxTest, FloatMirrorMatchesDouble) {
+  std::mt19937_64 rng(12);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  int hits = 0, disagree = 0;
+  for (int t = 0; t < 20000; ++t) {
+    double o[3], dir[3], lo[3], hi[3];
+    double target[3];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = 20.0 * U(rng);
+      hi[a] = lo[a] + 5.0 * (1.0 + U(rng));
+      target[a] = 0.5 * (lo[a] + hi[a]) + 8.0 * U(rng);  // near the box: hits and misses
+    }
+    const double dist = 30.0 + 20.0 * U(rng);
+    o[2] = target[2] + dist;
+    dir[2] = -1.0;
+    for (int a = 0; a < 2; ++a) {
+      o[a] = target[a] + 20.0 * U(rng);
+      dir[a] = (target[a] - o[a]) / dist;
+    }
+    if (t % 10 == 0) {  // parallel to a slab
+      dir[0] = 0.0;
+      o[0] = target[0];
+    }
+    const double grow = 0.5 * (1.0 + U(rng));
+    const double e = ray_box_entry(o, dir, lo, hi, grow, 0.1);
+    const float f = glslf::mds_ray_box_entry(float(o[0]), float(o[1]), float(o[2]), float(dir[0]), float(dir[1]),
+                                             float(dir[2]), float(lo[0]), float(lo[1]), float(lo[2]), float(hi[0]),
+                                             float(hi[1]), float(hi[2]), float(grow), 0.1f);
+    const bool hd = e < MDS_CULL_DEPTH_EMPTY, hf = f < float(MDS_CULL_DEPTH_EMPTY);
+    if (hd != hf) { ++disagree; continue; }  // grazing rays: float rounding at a slab edge
+    if (hd) {
+      ++hits;
+      ASSERT_NEAR(f, e, 1e-4 * std::max(1.0, std::abs(e)));
+    }
+  }
+  EXPECT_GT(hits, 1000);
+  EXPECT_LT(disagree, 20);
+  for (double z : {0.5, 10.0, 1e4})
+    EXPECT_NEAR(glslf::mds_texel_half_diagonal(4.0f, float(z), true, 500.0f, 0.0f),
+                texel_half_diagonal(4.0, z, true, 500.0, 0.0), 1e-6 * z);
+  EXPECT_NEAR(glslf::mds_texel_half_diagonal(2.0f, 1.0f, false, 0.0f, 0.04f), texel_half_diagonal(2.0, 1.0, false, 0.0, 0.04),
+              1e-7);
+}
+
 // ---- GLSL mirror -------------------------------------------------------------------------------
 
 TEST(Glsl, CheckShaderCompilesToSpirv) {

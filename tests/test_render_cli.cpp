@@ -151,6 +151,27 @@ TEST_F(RenderCli, WithoutNoCullRendersWithCullingStats) {
   EXPECT_NE(run("render " + store() + " -o " + png.string() + " --acceptance coin"), 0);
 }
 
+// --visible-reference: the meshlets holding a visible particle of the last frame, from that
+// frame's depth. They were drawn in it, so they are a subset of the meshlets the culling kept;
+// the shell's far half hides behind its near half, so the set is a strict part of all meshlets.
+TEST_F(RenderCli, VisibleReferenceCountsVisibleMeshlets) {
+  const fs::path png = dir_ / "vis.png", stats = dir_ / "vis.json", png_nc = dir_ / "visnc.png",
+                 stats_nc = dir_ / "visnc.json";
+  const std::string base = "render " + store() + " --spp 2 --width 96 --height 64 --visible-reference ";
+  ASSERT_EQ(run(base + "-o " + png.string() + " --stats " + stats.string()), 0) << last_stderr();
+  ASSERT_EQ(run(base + "--no-cull -o " + png_nc.string() + " --stats " + stats_nc.string()), 0) << last_stderr();
+  std::ifstream f(stats), fnc(stats_nc);
+  const nlohmann::json j = nlohmann::json::parse(f), jnc = nlohmann::json::parse(fnc);
+  const uint64_t meshlets = j["meshlets"], culled = j["meshlets_culled"], visible = j["visible_meshlets"];
+  EXPECT_GT(visible, 0u);
+  EXPECT_LE(visible, meshlets - culled);
+  EXPECT_GE(j["kept_over_visible_meshlets"].get<double>(), 1.0);
+  const uint64_t visible_nc = jnc["visible_meshlets"];
+  EXPECT_GT(visible_nc, 0u);
+  EXPECT_LT(visible_nc, meshlets / 2) << "a shell shows less than half of itself";
+  EXPECT_FALSE(jnc.contains("kept_over_visible_meshlets"));
+}
+
 TEST_F(RenderCli, BadCameraAndMissingStoreFailCleanly) {
   const fs::path png = dir_ / "bad.png";
   EXPECT_EQ(run("render " + store() + " -o " + png.string() + " --no-cull --camera 1,2,3"), 2);

@@ -250,6 +250,35 @@ int mds_classify_occlusion(int previous_class, bool depth_test_failed, float C_a
   return max(previous_class, now);
 }
 
+// ---- Sect. 5: box depth test per texel (culling_math.h) ---------------------------------------
+
+float mds_texel_half_diagonal(float texel_px, float z, bool perspective, float focal_px,
+                              float ortho_pixel_area) {
+  float pixel = perspective ? z / focal_px : sqrt(ortho_pixel_area);
+  return texel_px * pixel * 0.70710678f;
+}
+
+// One slab of mds_ray_box_entry: narrows [t0, t1] to the ray's interval in [l, h] on one axis;
+// false when the ray runs parallel to the slab outside it.
+bool mds_ray_slab(float o, float dir, float l, float h, MDS_INOUT(float) t0, MDS_INOUT(float) t1) {
+  if (dir == 0.0f) return o >= l && o <= h;
+  float ta = (l - o) / dir, tb = (h - o) / dir;
+  t0 = max(t0, min(ta, tb));
+  t1 = min(t1, max(ta, tb));
+  return true;
+}
+
+// Scalar arguments (the file's C++-compatible subset): ray origin o, direction dir, box lo/hi.
+float mds_ray_box_entry(float ox, float oy, float oz, float dx, float dy, float dz, float lox,
+                        float loy, float loz, float hix, float hiy, float hiz, float grow,
+                        float t_min) {
+  float t0 = t_min, t1 = 3.0e38f;
+  bool inside = mds_ray_slab(ox, dx, lox - grow, hix + grow, t0, t1);
+  inside = mds_ray_slab(oy, dy, loy - grow, hiy + grow, t0, t1) && inside;
+  inside = mds_ray_slab(oz, dz, loz - grow, hiz + grow, t0, t1) && inside;
+  return inside && t0 <= t1 ? t0 : float(MDS_CULL_DEPTH_EMPTY);
+}
+
 // ---- Sect. 4.4, Eq. 9-11 ------------------------------------------------------------------------
 
 float mds_footprint_area(float z, bool perspective, float focal_px, float ortho_pixel_area) {

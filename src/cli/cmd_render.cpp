@@ -7,7 +7,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <algorithm>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 
@@ -22,6 +24,7 @@
 #include "render/image_io.h"
 #include "render/renderer.h"
 #include "render/scene.h"
+#include "render/visible_nodes.h"
 #include "store/store_reader.h"
 #include "vk/context.h"
 
@@ -41,6 +44,7 @@ struct RenderOptions {
   uint32_t width = 1920, height = 1080, spp = 64;
   int device = -1;
   StreamOptions stream;  // --gpu-budget empty: in memory
+  bool visible_reference = false;
 };
 
 Result<glm::vec3> parse_rgb(const std::string& s) {
@@ -124,6 +128,16 @@ Status run_render(const RenderOptions& o) {
   for (const std::string& e : stats.cache.errors) std::fprintf(stderr, "mdstream render: skipped node: %s\n", e.c_str());
   MDS_TRY(render::write_image(o.output, image));
 
+  // The meshlets holding a visible particle of the last frame (render/visible_nodes.h): the
+  // smallest set the culling could keep, the reference for the culled fraction.
+  std::optional<render::VisibleSet> visible;
+  if (o.visible_reference) {
+    MDS_ASSIGN_OR_RETURN(std::vector<float> depth, renderer->read_last_depth());
+    render::Camera cam = camera;
+    render::fit_clip_planes(cam, renderer->bounds());
+    MDS_ASSIGN_OR_RETURN(visible, render::visible_set(*reader, cam, renderer->width(), renderer->height(), depth, true));
+  }
+
   if (!o.stats.empty()) {
     nlohmann::json j;
     j["store"] = o.store;
@@ -202,6 +216,15 @@ Status run_render(const RenderOptions& o) {
       j["frame_ms_p50"] = stats.frame_wall_ms_p50;
       j["frame_ms_p99"] = stats.frame_wall_ms_p99;
     }
+    if (visible) {
+      const auto count = [](const std::vector<uint8_t>& v) { return uint64_t(std::count(v.begin(), v.end(), 1)); };
+      const uint64_t vm = count(visible->meshlets);
+      j["visible_meshlets"] = vm;
+      j["visible_nodes"] = count(visible->nodes);
+      j["visible_meshlet_fraction"] = stats.meshlets ? double(vm) / double(stats.meshlets) : 0.0;
+      if (!o.cull.no_cull)
+        j["kept_over_visible_meshlets"] = vm ? double(stats.meshlets - stats.cull.meshlets_culled) / double(vm) : 0.0;
+    }
     j["pass_ms_median"] = stats.pass_ms_median;
     j["wall_ms"] = stats.wall_ms;
     j["upload_bytes"] = stats.upload_bytes;
@@ -248,6 +271,9 @@ void setup_render(CLI::App& sub, int& exit_code) {
   sub.add_option("--device", opt->device, "Vulkan device index (default: automatic, discrete GPU first)");
   sub.add_option("--stats", opt->stats, "Write statistics (counts, GPU pass times) as JSON");
   add_stream_options(sub, opt->stream, false);
+  sub.add_flag("--visible-reference", opt->visible_reference,
+               "Also compute, on the CPU, which meshlets hold a visible particle of the last frame "
+               "(stats: visible_meshlets, visible_meshlet_fraction, kept_over_visible_meshlets)");
   sub.callback([opt, &exit_code] {
     Status st = run_render(*opt);
     exit_code = st.ok() ? 0 : report("render", st.error());

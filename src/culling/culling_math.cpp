@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include <boost/math/special_functions/beta.hpp>
@@ -220,6 +221,29 @@ int classify_occlusion(int previous_class, bool depth_test_failed, double C_agg,
     else now = MDS_CULL_CLASS_L;
   }
   return std::max(previous_class, now);  // classes only move upward within one view
+}
+
+// ---- Sect. 5: box depth test per texel ---------------------------------------------------------
+
+double texel_half_diagonal(double texel_px, double z, bool perspective, double focal_px, double ortho_pixel_area) {
+  const double pixel = perspective ? z / focal_px : std::sqrt(ortho_pixel_area);
+  return texel_px * pixel * 0.70710678118654752;
+}
+
+double ray_box_entry(const double o[3], const double dir[3], const double lo[3], const double hi[3], double grow,
+                     double t_min) {
+  double t0 = t_min, t1 = std::numeric_limits<double>::infinity();
+  for (int a = 0; a < 3; ++a) {
+    const double l = lo[a] - grow, h = hi[a] + grow;
+    if (dir[a] == 0.0) {
+      if (o[a] < l || o[a] > h) return MDS_CULL_DEPTH_EMPTY;
+      continue;
+    }
+    const double ta = (l - o[a]) / dir[a], tb = (h - o[a]) / dir[a];
+    t0 = std::max(t0, std::min(ta, tb));
+    t1 = std::min(t1, std::max(ta, tb));
+  }
+  return t0 <= t1 ? t0 : double(MDS_CULL_DEPTH_EMPTY);
 }
 
 // ---- Sect. 4.4 ----------------------------------------------------------------------------------

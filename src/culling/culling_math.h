@@ -147,6 +147,27 @@ double pyramid_confidence(double c00, double c10, double c01, double c11, bool h
 int classify_occlusion(int previous_class, bool depth_test_failed, double C_agg, double c_occ,
                        double c_medium);
 
+// ---- Sect. 5: the box depth test, per texel of the cull pyramid --------------------------------
+// The paper rasterizes a meshlet's/node's bounding box and depth-tests its fragments against
+// d_cull. Per texel t of a pyramid level (s x s pixels), the conservative equivalent used here:
+// grow the box by the texel's half diagonal at the box's farthest view distance
+// (texel_half_diagonal) and cut it with t's centre ray o + t_v dir, parameterised by view
+// distance t_v (dir = the view-space direction with z = -1, in world coordinates). Every point
+// of the box inside t's pixel frustum lies within that half diagonal of the centre ray, so
+//  - the ray misses the grown box  =>  the box covers no pixel of t (t takes no part in the test);
+//  - it hits at t_entry            =>  t_entry <= the view distance of every box point in t,
+// and "t_entry >= d_cull(t) for every covered texel" is a conservative failed depth test.
+
+// Half diagonal of an s x s pixel texel at view distance z: s (z / focal_px) / sqrt(2)
+// (perspective; focal_px = pixels per unit at distance 1) or s sqrt(ortho_pixel_area) / sqrt(2).
+double texel_half_diagonal(double texel_px, double z, bool perspective, double focal_px, double ortho_pixel_area);
+
+// Entry view distance (>= t_min) of the ray o + t dir into the box [lo - grow, hi + grow], or
+// MDS_CULL_DEPTH_EMPTY when it misses (or the box lies entirely before t_min).
+// o, dir, lo, hi: 3 values each (world coordinates); dir need not be normalised.
+double ray_box_entry(const double o[3], const double dir[3], const double lo[3], const double hi[3], double grow,
+                     double t_min);
+
 // ---- Sect. 4.4, Eq. 9-10: pixel footprint ------------------------------------------------------
 // The histogram depth is the view depth z (distance along the optical axis, linear). For a
 // pinhole camera with focal length f (pixels) the pixel footprint in the plane z = const has area

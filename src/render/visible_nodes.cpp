@@ -109,8 +109,8 @@ bool sphere_visible(const Frame& f, std::span<const float> depth, const glm::dve
 
 }  // namespace
 
-Result<std::vector<uint8_t>> visible_nodes(const store::StoreReader& reader, const Camera& camera, uint32_t width,
-                                           uint32_t height, std::span<const float> depth_ndc) {
+Result<VisibleSet> visible_set(const store::StoreReader& reader, const Camera& camera, uint32_t width, uint32_t height,
+                               std::span<const float> depth_ndc, bool meshlets) {
   if (width == 0 || height == 0 || depth_ndc.size() != size_t(width) * height)
     return make_error(Errc::invalid_argument, "visible_nodes: depth has {} values, expected {}x{}", depth_ndc.size(),
                       width, height);
@@ -127,7 +127,9 @@ Result<std::vector<uint8_t>> visible_nodes(const store::StoreReader& reader, con
   const auto types = reader.types();
   const store::FileHeader& h = reader.header();
   const bool ppr = (h.flags & store::kFlagPerParticleRadius) != 0;
-  std::vector<uint8_t> out(nodes.size(), 0);
+  VisibleSet out;
+  out.nodes.assign(nodes.size(), 0);
+  if (meshlets) out.meshlets.assign(size_t(h.meshlet_count), 0);
   store::NodeData data;
   std::vector<uint8_t> scratch;
   for (uint32_t i = 0; i < nodes.size(); ++i) {
@@ -147,17 +149,34 @@ Result<std::vector<uint8_t>> visible_nodes(const store::StoreReader& reader, con
       }
     if (!in_front) continue;
     MDS_TRY(reader.read_node(i, data, scratch));
+    if (meshlets && e.first_meshlet + data.meshlet_size.size() > out.meshlets.size())
+      return make_error(Errc::format, "visible_nodes: node {} has meshlets {}..{} beyond the header's {}", i,
+                        e.first_meshlet, e.first_meshlet + data.meshlet_size.size(), out.meshlets.size());
     const double step[3] = {store::quant_step(e, 0), store::quant_step(e, 1), store::quant_step(e, 2)};
-    for (size_t k = 0; k < data.particle_count() && !out[i]; ++k) {
+    // Particles are stored in meshlet order: meshlet m holds [start, start + meshlet_size[m]).
+    size_t m = 0, meshlet_end = data.meshlet_size.empty() ? data.particle_count() : data.meshlet_size[0];
+    for (size_t k = 0; k < data.particle_count(); ++k) {
+      while (k >= meshlet_end && m + 1 < data.meshlet_size.size()) meshlet_end += data.meshlet_size[++m];
+      if (!meshlets && out.nodes[i]) break;
+      if (meshlets && out.meshlets[e.first_meshlet + m]) continue;
       const glm::dvec3 p(e.center_min[0] + data.qpos[3 * k] * step[0], e.center_min[1] + data.qpos[3 * k + 1] * step[1],
                          e.center_min[2] + data.qpos[3 * k + 2] * step[2]);
       double r = types[data.type_index[k]].radius;
       if (ppr) r = h.radius_min + double(data.radius_q[k]) * (h.radius_max - h.radius_min) / store::kQuantMax;
       const glm::dvec3 c = glm::dvec3(f.view * glm::dvec4(p, 1.0));
-      if (sphere_visible(f, depth_ndc, c, r)) out[i] = 1;
+      if (sphere_visible(f, depth_ndc, c, r)) {
+        out.nodes[i] = 1;
+        if (meshlets) out.meshlets[e.first_meshlet + m] = 1;
+      }
     }
   }
   return out;
+}
+
+Result<std::vector<uint8_t>> visible_nodes(const store::StoreReader& reader, const Camera& camera, uint32_t width,
+                                           uint32_t height, std::span<const float> depth_ndc) {
+  MDS_ASSIGN_OR_RETURN(VisibleSet v, visible_set(reader, camera, width, height, depth_ndc, false));
+  return std::move(v.nodes);
 }
 
 }  // namespace mds::render

@@ -37,4 +37,16 @@ inline constexpr double kRadiusSlack = 0.01;
 Result<std::vector<uint8_t>> visible_nodes(const store::StoreReader& reader, const Camera& camera, uint32_t width,
                                            uint32_t height, std::span<const float> depth_ndc);
 
+// The same test per meshlet as well: which meshlets hold a visible particle (the smallest
+// potentially visible set the occlusion culling could reach for this frame, issue 3's reference
+// for the culled fraction). meshlets: one flag per global meshlet index (NodeEntry::first_meshlet
+// + the meshlet's index in its node), filled only when `meshlets` is true (every particle of a
+// node in front is tested then, not only up to its first visible one).
+struct VisibleSet {
+  std::vector<uint8_t> nodes;
+  std::vector<uint8_t> meshlets;
+};
+Result<VisibleSet> visible_set(const store::StoreReader& reader, const Camera& camera, uint32_t width, uint32_t height,
+                               std::span<const float> depth_ndc, bool meshlets);
+
 }  // namespace mds::render
