@@ -22,7 +22,9 @@
 #include "convert/node_encoder.h"
 #include "convert/progress.h"
 #include "convert/radix_sort.h"
+#include "convert/record_view.h"
 #include "convert/spill.h"
+#include "readers/raw_reader.h"
 #include "store/store_writer.h"
 
 namespace mds::convert {
@@ -120,7 +122,8 @@ struct SortTimes {
   double keys = 0, radix = 0;
 };
 
-SortTimes key_and_sort(std::span<const SpillRecord> recs, const MortonGrid& grid, unsigned threads, SortBuffers& sb) {
+template <class Recs>
+SortTimes key_and_sort(const Recs& recs, const MortonGrid& grid, unsigned threads, SortBuffers& sb) {
   SortTimes st;
   auto t = Clock::now();
   const size_t n = recs.size();
@@ -135,7 +138,8 @@ SortTimes key_and_sort(std::span<const SpillRecord> recs, const MortonGrid& grid
     prefault(sb.keys_tmp.data() + b, (e - b) * sizeof(uint64_t));
     prefault(sb.perm_tmp.data() + b, (e - b) * sizeof(uint32_t));
     for (size_t i = b; i < e; ++i) {
-      sb.keys[i] = grid.key(recs[i].x, recs[i].y, recs[i].z);
+      const SpillRecord r = recs[i];
+      sb.keys[i] = grid.key(r.x, r.y, r.z);
       sb.perm[i] = uint32_t(i);
     }
   };
@@ -210,7 +214,7 @@ void prepare_bin(const Bin& bin, const MortonGrid& grid, unsigned threads, Prepa
   // The sort scratch is shared by both slots (only one bin is sorted at a time).
   std::swap(pb.sb.keys_tmp, scratch.keys_tmp);
   std::swap(pb.sb.perm_tmp, scratch.perm_tmp);
-  pb.times = key_and_sort(pb.recs, grid, threads, pb.sb);
+  pb.times = key_and_sort(SpillRecords{pb.recs}, grid, threads, pb.sb);
   std::swap(pb.sb.keys_tmp, scratch.keys_tmp);
   std::swap(pb.sb.perm_tmp, scratch.perm_tmp);
   if (!pb.recs.empty() && morton_prefix(pb.sb.keys.front(), bin.prefix_bits) != bin.prefix)
@@ -270,8 +274,19 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
         {sb.perm_tmp.data(), n * sizeof(uint32_t)}});
   }
   // ---- pass A
+  // One raw float32 input that fits in memory is validated and built in place from its
+  // mapping (record_view.h); everything else is read into records (or spilled).
   InputScan scan;
-  {
+  RawXyzRecords raw_view;
+  RawReader* raw_reader = o.inputs.size() == 1 ? dynamic_cast<RawReader*>(readers[0].get()) : nullptr;
+  const bool raw_mapped = raw_reader && declared <= plan.max_memory_records;
+  if (raw_mapped) {
+    ScanOptions so;
+    so.inputs = o.inputs;
+    so.radius = o.radius;
+    so.radius_by_type = o.radius_by_type;
+    MDS_TRY(scan_raw_mapped(so, *raw_reader, o.threads, scan, raw_view, progress));
+  } else {
     ScanOptions so;
     so.inputs = o.inputs;
     so.radius = o.radius;
@@ -317,13 +332,15 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   if (scan.in_memory) {
     // ---- everything fits: one bin, the root cell (sb possibly allocated before pass A)
     progress.stage("build", scan.count);
-    const SortTimes st = key_and_sort(scan.memory, grid, o.threads, sb);
+    const SortTimes st = raw_mapped ? key_and_sort(raw_view, grid, o.threads, sb)
+                                    : key_and_sort(SpillRecords{scan.memory}, grid, o.threads, sb);
     sb.keys_tmp = {};
     sb.perm_tmp = {};
     rep.seconds_keys = st.keys;
     rep.seconds_radix = st.radix;
     rep.seconds_sort = meter.lap("sort");
-    MDS_TRY(build_bin(ctx, workers, sb.keys, sb.perm, scan.memory, 0, *writer, tot, progress));
+    if (raw_mapped) MDS_TRY(build_bin(ctx, workers, sb.keys, sb.perm, raw_view, 0, *writer, tot, progress));
+    else MDS_TRY(build_bin(ctx, workers, sb.keys, sb.perm, scan.memory, 0, *writer, tot, progress));
     scan.memory = {};
     sb.release();
     rep.seconds_nodes = meter.lap("nodes");

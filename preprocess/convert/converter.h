@@ -1,6 +1,9 @@
 // The conversion pipeline: simulation dumps -> the node/meshlet store (.mds).
 //   Pass A  parse every input once, validate, spill 32-byte records to a temporary file (or
 //           keep them in memory when they fit the budget); global bounds, counts, types.
+//           One raw float32 input that fits the budget is not copied: it is mapped, validated
+//           in place on all threads (scan_raw_mapped), and the build reads the mapping
+//           (record_view.h).
 //   Pass B  scatter the spill file into Morton-prefix bins that fit the budget (binning.h).
 //           Reading runs on its own thread, one batch ahead of the validation (input_scan.h).
 //   Build   per bin: Morton keys (split across the threads) + parallel radix sort of

@@ -1,7 +1,11 @@
 // Pass A with a read-ahead thread (see input_scan.h).
 #include "convert/input_scan.h"
 
+#include <sys/mman.h>
+#include <unistd.h>
+
 #include <cmath>
+#include <cstring>
 #include <condition_variable>
 #include <deque>
 #include <mutex>
@@ -235,6 +239,77 @@ Status scan_inputs(const ScanOptions& o, std::vector<std::unique_ptr<ParticleRea
     for (const auto& p : o.inputs) names += (names.empty() ? "" : ", ") + p.string();
     return make_error(Errc::format, "{}: no particles in the input", names);
   }
+  return {};
+}
+
+Status scan_raw_mapped(const ScanOptions& o, RawReader& reader, unsigned threads, InputScan& s, RawXyzRecords& view,
+                       Progress& progress) {
+  const FrameInfo info = reader.info();
+  const size_t n = size_t(info.particle_count);
+  if (n == 0) return make_error(Errc::format, "{}: no particles in the input", o.inputs.at(0).string());
+  MDS_ASSIGN_OR_RETURN(std::span<const float> xyz, reader.map_coordinates());
+  progress.stage("read", n);
+  // Each thread maps its share of the file's pages in bulk, then takes bounds and checks that
+  // every coordinate is finite (exponent bits not all ones), without branches.
+  struct Part {
+    float lo[3], hi[3];
+    bool bad = false;
+  };
+  const unsigned parts = (threads > 1 && n >= (size_t(1) << 16)) ? threads : 1;
+  std::vector<Part> part(parts);
+  auto scan = [&](unsigned k) {
+    const size_t b = n * k / parts, e = n * (k + 1) / parts;
+    Part& p = part[k];
+#ifdef MADV_POPULATE_READ
+    const uintptr_t page = uintptr_t(::sysconf(_SC_PAGESIZE));
+    const uintptr_t pb = uintptr_t(xyz.data() + 3 * b) / page * page, pe = uintptr_t(xyz.data() + 3 * e);
+    if (pe > pb) (void)::madvise(reinterpret_cast<void*>(pb), pe - pb, MADV_POPULATE_READ);
+#endif
+    float lo[3] = {xyz[3 * b], xyz[3 * b + 1], xyz[3 * b + 2]}, hi[3] = {lo[0], lo[1], lo[2]};
+    uint32_t special = 0;
+    for (size_t i = b; i < e; ++i) {
+      const float* q = &xyz[3 * i];
+      for (int a = 0; a < 3; ++a) {
+        uint32_t bits;
+        std::memcpy(&bits, &q[a], 4);
+        special |= uint32_t((bits & 0x7f800000u) == 0x7f800000u);
+        lo[a] = std::min(lo[a], q[a]);
+        hi[a] = std::max(hi[a], q[a]);
+      }
+    }
+    for (int a = 0; a < 3; ++a) p.lo[a] = lo[a], p.hi[a] = hi[a];
+    p.bad = special != 0;
+  };
+  {
+    std::vector<std::thread> pool;
+    for (unsigned k = 1; k < parts; ++k) pool.emplace_back(scan, k);
+    scan(0);
+    for (auto& t : pool) t.join();
+  }
+  for (const Part& p : part)
+    if (p.bad) {
+      for (size_t i = 0; i < n; ++i)  // the first offending particle, as the reader names it
+        if (!std::isfinite(xyz[3 * i]) || !std::isfinite(xyz[3 * i + 1]) || !std::isfinite(xyz[3 * i + 2]))
+          return reader.non_finite_error(i);
+    }
+  for (const Part& p : part)
+    for (int a = 0; a < 3; ++a) {
+      s.lo[a] = std::min(s.lo[a], double(p.lo[a]));
+      s.hi[a] = std::max(s.hi[a], double(p.hi[a]));
+    }
+  const int32_t type = 1;  // the raw reader's one type
+  const float radius = type_radius(o, info, type);
+  TypeStat st{radius, n, {}};
+  if (auto names = reader.type_names(); names.count(type)) st.name = names[type];
+  s.types.clear();
+  s.types.emplace(type, st);
+  s.per_particle_radius = false;
+  s.prad_min = s.prad_max = radius;
+  s.count = n;
+  s.in_memory = true;
+  view = RawXyzRecords{xyz.data(), n, type, radius};
+  progress.update(n);
+  progress.finish();
   return {};
 }
 

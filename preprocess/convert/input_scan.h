@@ -17,8 +17,10 @@
 
 #include "convert/big_buffer.h"
 #include "convert/progress.h"
+#include "convert/record_view.h"
 #include "convert/spill.h"
 #include "core/result.h"
+#include "readers/raw_reader.h"
 #include "readers/reader.h"
 
 namespace mds::convert {
@@ -61,5 +63,12 @@ struct InputScan {
 // Reads every reader to its end (readers are released as they finish).
 Status scan_inputs(const ScanOptions& o, std::vector<std::unique_ptr<ParticleReader>>& readers, TempDir& tmp,
                    InputScan& s, Progress& progress);
+
+// Pass A for one raw float32 input that fits in memory: the file is mapped and validated in
+// place (finite coordinates, bounds) on `threads` threads; no records are copied. `view`
+// reads the mapping, which lives as long as `reader`. Same checks and messages as
+// scan_inputs over the reader.
+Status scan_raw_mapped(const ScanOptions& o, RawReader& reader, unsigned threads, InputScan& s, RawXyzRecords& view,
+                       Progress& progress);
 
 }  // namespace mds::convert

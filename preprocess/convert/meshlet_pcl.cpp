@@ -16,6 +16,7 @@ struct PclMeshletBuilder::Impl {
   std::vector<float> dist;
   std::vector<uint8_t> assigned;
   std::vector<std::pair<float, uint32_t>> cand;  // exact fallback: (squared distance, run index)
+  std::vector<uint32_t> free_list;  // exact fallback: unassigned run indices, ascending (compacted lazily)
 
   // Greedy meshlets over cloud[0, n) (local indices); appends base + local index to `order`.
   void run(size_t n, size_t base, uint32_t meshlet_size, std::vector<uint32_t>& order, std::vector<uint8_t>& sizes);
@@ -27,21 +28,24 @@ PclMeshletBuilder::~PclMeshletBuilder() = default;
 void PclMeshletBuilder::Impl::run(size_t n, size_t base, uint32_t meshlet_size, std::vector<uint32_t>& order,
                                   std::vector<uint8_t>& sizes) {
   assigned.assign(n, 0);
+  free_list.resize(n);
+  for (size_t i = 0; i < n; ++i) free_list[i] = uint32_t(i);
   if (n <= meshlet_size) {
     for (size_t i = 0; i < n; ++i) order.push_back(uint32_t(base + i));
     sizes.push_back(uint8_t(n));
     return;
   }
-  // One kd-tree over the whole run, built once (the whole cloud: PCL's identity index mapping).
-  tree.setInputCloud(cloud);
+  // One kd-tree over the whole run, built once, on the first query (the whole cloud: PCL's
+  // identity index mapping); a run left entirely to the exact scan builds none.
+  bool tree_built = false;
   size_t remaining = n;
   size_t cursor = 0;  // first possibly unassigned index in Morton order
   // Query size: twice the meshlet size (measured on porous 10M: k 16 or 24 leave more meshlets
   // to the exact scan below, 82% and 66% instead of 45%, for about the same total time).
   const size_t k = std::min(n, std::max<size_t>(std::min<size_t>(2 * size_t(meshlet_size), 64), meshlet_size));
-  // The last few meshlets of a run are filled by the exact scan below without asking the tree:
-  // with at most kPclScanMeshlets meshlets' worth of particles left, most of a seed's k nearest
-  // are taken and the query would come back short anyway.
+  // The last kPclScanMeshlets meshlets of a run are filled by the exact scan below without
+  // asking the tree: late in a run most of a seed's k nearest are taken (the query comes back
+  // short), and the scan of the few free particles is cheaper than a query (meshlet_builder.h).
   const size_t scan_below = size_t(kPclScanMeshlets) * meshlet_size;
   while (remaining > 0) {
     while (assigned[cursor]) ++cursor;
@@ -60,6 +64,10 @@ void PclMeshletBuilder::Impl::run(size_t n, size_t base, uint32_t meshlet_size, 
     } else {
       size_t found = 0;  // free neighbours other than the seed among the k nearest
       if (remaining > scan_below) {
+        if (!tree_built) {
+          tree.setInputCloud(cloud);
+          tree_built = true;
+        }
         tree.nearestKSearch((*cloud)[cursor], int(k), idx, dist);
         for (auto j : idx)
           if (!assigned[size_t(j)] && ++found >= want - 1) break;
@@ -80,17 +88,27 @@ void PclMeshletBuilder::Impl::run(size_t n, size_t base, uint32_t meshlet_size, 
         // by index. The same meshlet as widening the query or rebuilding the tree over the
         // unassigned particles (what this did before), at a fraction of the cost: the run has
         // at most a few hundred particles and most of them are assigned by now.
+        // The unassigned ones come from the free list, which drops the assigned entries as it
+        // is walked (so the scans cost what is left, not the run's size). The want - 1 nearest,
+        // ordered by (squared distance, index), are kept in a small sorted array while walking.
         const auto& q = (*cloud)[cursor];
+        const size_t limit = want - 1;
         cand.clear();
-        for (size_t i = cursor + 1; i < n; ++i)
-          if (!assigned[i]) {
-            const auto& p = (*cloud)[i];
-            const float dx = p.x - q.x, dy = p.y - q.y, dz = p.z - q.z;
-            cand.push_back({dx * dx + dy * dy + dz * dz, uint32_t(i)});
+        size_t kept = 0;
+        for (const uint32_t i : free_list) {
+          if (assigned[i] || limit == 0) continue;
+          free_list[kept++] = i;
+          const auto& p = (*cloud)[i];
+          const float dx = p.x - q.x, dy = p.y - q.y, dz = p.z - q.z;
+          const std::pair<float, uint32_t> c{dx * dx + dy * dy + dz * dz, i};
+          if (cand.size() == limit) {
+            if (!(c < cand.back())) continue;
+            cand.pop_back();
           }
-        const size_t take = std::min(cand.size(), want - 1);
-        if (take < cand.size()) std::nth_element(cand.begin(), cand.begin() + ptrdiff_t(take), cand.end());
-        std::sort(cand.begin(), cand.begin() + ptrdiff_t(take));
+          cand.insert(std::upper_bound(cand.begin(), cand.end(), c), c);
+        }
+        free_list.resize(kept);
+        const size_t take = cand.size();
         for (size_t c = 0; c < take; ++c) {
           assigned[cand[c].second] = 1;
           order.push_back(uint32_t(base + cand[c].second));

@@ -53,8 +53,9 @@ struct NodeResult {
   double t_gather = 0, t_meshlets = 0, t_encode = 0;
 };
 
+template <class Recs>
 Result<NodeResult> build_node(const BuildContext& ctx, NodeWorker& w, std::span<const uint64_t> keys,
-                              std::span<const uint32_t> perm, std::span<const SpillRecord> recs) {
+                              std::span<const uint32_t> perm, const Recs& recs) {
   NodeResult res;
   const size_t n = keys.size();
   const double t0 = thread_cpu_seconds();
@@ -74,7 +75,7 @@ Result<NodeResult> build_node(const BuildContext& ctx, NodeWorker& w, std::span<
   float max_radius = 0;
   for (size_t i = 0; i < n; ++i) {
     // The records are in input order: the gather is a random access, prefetched a few ahead.
-    if (i + kGatherPrefetch < n) __builtin_prefetch(&recs[perm[i + kGatherPrefetch]]);
+    if (i + kGatherPrefetch < n) __builtin_prefetch(recs.address(perm[i + kGatherPrefetch]));
     const SpillRecord& r = recs[perm[i]];
     w.xyz[3 * i] = r.x;
     w.xyz[3 * i + 1] = r.y;
@@ -109,14 +110,19 @@ Result<NodeResult> build_node(const BuildContext& ctx, NodeWorker& w, std::span<
   // Quantize in meshlet order; permute types and radii alike (in place through scratch).
   const QuantFrame frame = make_frame(lo, hi);
   w.qpos.resize(3 * n);
+  QuantError err;  // a local: stays in registers in the loop
+  uint16_t* qpos = w.qpos.data();
+  const double* xyz = w.xyz.data();
+  const uint32_t* order = w.order.data();
   for (size_t k = 0; k < n; ++k) {
-    const double* p = &w.xyz[3 * size_t(w.order[k])];
+    const double* p = &xyz[3 * size_t(order[k])];
     for (int a = 0; a < 3; ++a) {
       const uint16_t q = quantize(frame, a, p[a]);
-      w.qpos[3 * k + a] = q;
-      res.error.add(frame, a, p[a], q);
+      qpos[3 * k + a] = q;
+      err.add(frame, a, p[a], q);
     }
   }
+  res.error = err;
   bool identity = true;
   for (size_t k = 0; k < n && identity; ++k) identity = w.order[k] == k;
   if (!identity) {
@@ -148,11 +154,10 @@ Result<NodeResult> build_node(const BuildContext& ctx, NodeWorker& w, std::span<
   return res;
 }
 
-}  // namespace
-
-Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
-                 std::span<const uint64_t> keys, std::span<const uint32_t> perm, std::span<const SpillRecord> recs,
-                 int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress) {
+template <class Recs>
+Status build_bin_impl(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
+                      std::span<const uint64_t> keys, std::span<const uint32_t> perm, const Recs& recs,
+                      int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress) {
   if (keys.empty()) return {};
   const std::vector<NodeRange> nodes = build_nodes(keys, start_level, ctx.node_size);
   const size_t window = workers.size() * kWindowPerThread;
@@ -231,6 +236,20 @@ Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker
   cv_space.notify_all();
   for (auto& t : threads) t.join();
   return status;
+}
+
+}  // namespace
+
+Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
+                 std::span<const uint64_t> keys, std::span<const uint32_t> perm, std::span<const SpillRecord> recs,
+                 int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress) {
+  return build_bin_impl(ctx, workers, keys, perm, SpillRecords{recs}, start_level, writer, tot, progress);
+}
+
+Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
+                 std::span<const uint64_t> keys, std::span<const uint32_t> perm, const RawXyzRecords& recs,
+                 int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress) {
+  return build_bin_impl(ctx, workers, keys, perm, recs, start_level, writer, tot, progress);
 }
 
 }  // namespace mds::convert

@@ -17,6 +17,7 @@
 #include "convert/morton.h"
 #include "convert/progress.h"
 #include "convert/quantize.h"
+#include "convert/record_view.h"
 #include "convert/spill.h"
 #include "core/result.h"
 #include "store/store_writer.h"
@@ -77,6 +78,10 @@ struct NodeWorker {
 // all keys inside the octree cell of depth `start_level`.
 Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
                  std::span<const uint64_t> keys, std::span<const uint32_t> perm, std::span<const SpillRecord> recs,
+                 int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress);
+// The same over the mapped raw float32 input (record_view.h).
+Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
+                 std::span<const uint64_t> keys, std::span<const uint32_t> perm, const RawXyzRecords& recs,
                  int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress);
 
 // CPU time of the calling thread.

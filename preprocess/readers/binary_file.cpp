@@ -4,6 +4,7 @@
 #include <cstring>
 
 #include <fcntl.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -56,6 +57,37 @@ Status BinaryFile::read_at(uint64_t offset, void* dst, size_t n, const char* wha
     done += static_cast<size_t>(r);
   }
   return Status::success();
+}
+
+Result<FileMapping> FileMapping::map(const BinaryFile& file) {
+  FileMapping m;
+  if (file.size() == 0) return m;
+  void* p = ::mmap(nullptr, static_cast<size_t>(file.size()), PROT_READ, MAP_PRIVATE, file.fd(), 0);
+  if (p == MAP_FAILED) return make_error(Errc::io, "{}: cannot map the file: {}", file.name(), std::strerror(errno));
+  (void)::madvise(p, static_cast<size_t>(file.size()), MADV_SEQUENTIAL);
+  m.data_ = p;
+  m.size_ = file.size();
+  return m;
+}
+
+FileMapping::FileMapping(FileMapping&& o) noexcept : data_(o.data_), size_(o.size_) {
+  o.data_ = nullptr;
+  o.size_ = 0;
+}
+
+FileMapping& FileMapping::operator=(FileMapping&& o) noexcept {
+  if (this != &o) {
+    if (data_) ::munmap(data_, static_cast<size_t>(size_));
+    data_ = o.data_;
+    size_ = o.size_;
+    o.data_ = nullptr;
+    o.size_ = 0;
+  }
+  return *this;
+}
+
+FileMapping::~FileMapping() {
+  if (data_) ::munmap(data_, static_cast<size_t>(size_));
 }
 
 }  // namespace mds

@@ -1,6 +1,7 @@
 // Read-only binary file with positional reads (pread), RAII-closed. Used by the
 // binary readers (MMPLD, raw) so that every read is bounds-checked against the
-// file size and every error names the file and the byte offset.
+// file size and every error names the file and the byte offset. FileMapping maps a
+// whole file read-only (the raw reader's bulk path for the converter).
 #pragma once
 
 #include <cstddef>
@@ -29,6 +30,8 @@ class BinaryFile {
   // range lies (partly) outside the file or the read fails.
   Status read_at(uint64_t offset, void* dst, size_t n, const char* what) const;
 
+  int fd() const { return fd_; }
+
   template <class T>
   Result<T> read_pod(uint64_t offset, const char* what) const {
     T v{};
@@ -41,6 +44,25 @@ class BinaryFile {
   int fd_ = -1;
   uint64_t size_ = 0;
   std::string name_;
+};
+
+// A read-only, private mapping of a whole file; unmapped on destruction.
+class FileMapping {
+ public:
+  FileMapping() = default;
+  static Result<FileMapping> map(const BinaryFile& file);
+  FileMapping(FileMapping&& o) noexcept;
+  FileMapping& operator=(FileMapping&& o) noexcept;
+  FileMapping(const FileMapping&) = delete;
+  FileMapping& operator=(const FileMapping&) = delete;
+  ~FileMapping();
+
+  const void* data() const { return data_; }
+  uint64_t size() const { return size_; }
+
+ private:
+  void* data_ = nullptr;
+  uint64_t size_ = 0;
 };
 
 }  // namespace mds

@@ -47,17 +47,33 @@ Result<size_t> RawReader::read(ParticleBatch& out, size_t max_particles) {
   out.type.assign(n, 1);
   for (size_t i = 0; i < n; ++i) {
     const float* p = &buffer_[3 * i];
-    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) {
-      const int bad = !std::isfinite(p[0]) ? 0 : (!std::isfinite(p[1]) ? 1 : 2);
-      return make_error(Errc::range, "{}: byte offset {}: particle {} has a non-finite coordinate ({})", file_.name(),
-                        offset + i * kBytesPerParticle + 4 * bad, next_ + i, p[bad]);
-    }
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) return non_finite_error(p, next_ + i);
     out.x[i] = p[0];
     out.y[i] = p[1];
     out.z[i] = p[2];
   }
   next_ += n;
   return n;
+}
+
+Error RawReader::non_finite_error(const float* p, uint64_t particle) const {
+  const int bad = !std::isfinite(p[0]) ? 0 : (!std::isfinite(p[1]) ? 1 : 2);
+  return make_error(Errc::range, "{}: byte offset {}: particle {} has a non-finite coordinate ({})", file_.name(),
+                    particle * kBytesPerParticle + 4 * bad, particle, p[bad]);
+}
+
+Error RawReader::non_finite_error(uint64_t particle) const {
+  float p[3] = {0, 0, 0};
+  if (auto st = file_.read_at(particle * kBytesPerParticle, p, sizeof p, "particle coordinates"); !st.ok())
+    return st.error();
+  return non_finite_error(p, particle);
+}
+
+Result<std::span<const float>> RawReader::map_coordinates() {
+  if (!mapping_.data()) {
+    MDS_ASSIGN_OR_RETURN(mapping_, FileMapping::map(file_));
+  }
+  return std::span<const float>(static_cast<const float*>(mapping_.data()), size_t(info_.particle_count) * 3);
 }
 
 Result<std::unique_ptr<ParticleReader>> open_raw_reader(const std::filesystem::path& path,

@@ -288,6 +288,25 @@ const char* after_nth_newline(const char* b, const char* e, size_t k) {
   }
 }
 
+// Pointer one past the k-th '\n' in [b, e) (k >= 1), or e when [b, e) holds fewer; `found` is
+// the number of newlines in [b, result). Counts only as far as it needs to.
+const char* after_up_to_n_newlines(const char* b, const char* e, size_t k, size_t& found) {
+  constexpr size_t kChunk = 64 * 1024;
+  found = 0;
+  while (b < e) {
+    const char* ce = std::min(e, b + kChunk);
+    const size_t c = count_newlines(b, ce);
+    if (found + c >= k) {
+      const char* r = after_nth_newline(b, ce, k - found);
+      found = k;
+      return r;
+    }
+    found += c;
+    b = ce;
+  }
+  return e;
+}
+
 }  // namespace
 
 TextSource::~TextSource() = default;
@@ -424,17 +443,14 @@ Result<LineBlock> TextSource::take_lines(size_t max_lines) {
     size_t avail = end_ - pos_;
     const char* last = avail ? static_cast<const char*>(memrchr(b, '\n', avail)) : nullptr;
     if (last) {
-      const char* e = last + 1;
-      size_t n = count_newlines(b, e);
+      // At most max_lines lines (counted only as far as needed).
+      size_t n = 0;
+      const char* e = after_up_to_n_newlines(b, last + 1, max_lines, n);
       // A small tail at the end of the buffer: compact and read more first, so that
       // blocks stay large (the callers parse blocks in parallel).
       if (n < max_lines && !eof_ && (pos_ > 0 || end_ < cap_) && static_cast<size_t>(e - b) < cap_ / 2) {
         MDS_TRY(fill());
         continue;
-      }
-      if (n > max_lines) {
-        e = after_nth_newline(b, e, max_lines);
-        n = max_lines;
       }
       blk.begin = b;
       blk.end = e;

@@ -21,27 +21,35 @@ inline uint16_t load16(const uint8_t* p) {
 
 inline void store16(uint8_t* p, uint16_t v) { std::memcpy(p, &v, 2); }
 
-// Appends little-endian, LSB-first bit fields to a byte vector.
+// Writes little-endian, LSB-first bit fields of <= 16 bits into a buffer sized in advance
+// (the caller computed the stream's length from the widths): 64 bits are collected in a
+// register and stored 8 bytes at a time.
 class BitWriter {
  public:
-  explicit BitWriter(std::vector<uint8_t>& out) : out_(out) {}
+  explicit BitWriter(uint8_t* out) : p_(out) {}
+  // value < 2^width, width <= 16
   void put(uint32_t value, unsigned width) {
     acc_ |= uint64_t(value) << bits_;
     bits_ += width;
-    while (bits_ >= 8) {
-      out_.push_back(uint8_t(acc_));
-      acc_ >>= 8;
-      bits_ -= 8;
+    if (bits_ >= 64) {
+      std::memcpy(p_, &acc_, 8);
+      p_ += 8;
+      bits_ -= 64;
+      acc_ = uint64_t(value) >> (width - bits_);  // the bits that did not fit (0 when none)
     }
   }
-  void flush() {
-    if (bits_ > 0) out_.push_back(uint8_t(acc_));
+  // Stores the last partial word (its unused high bits are zero); returns the end.
+  uint8_t* flush() {
+    const unsigned bytes = (bits_ + 7) / 8;
+    std::memcpy(p_, &acc_, bytes);
+    p_ += bytes;
     acc_ = 0;
     bits_ = 0;
+    return p_;
   }
 
  private:
-  std::vector<uint8_t>& out_;
+  uint8_t* p_;
   uint64_t acc_ = 0;
   unsigned bits_ = 0;
 };
@@ -88,8 +96,8 @@ void encode_payload(const NodeInput& node, std::vector<uint8_t>& raw) {
   const size_t n = node.type_index.size(), m = node.meshlet_size.size();
   const bool radius = !node.radius_q.empty();
   const size_t fixed = node_payload_fixed_bytes(n, m, radius);
-  raw.assign(fixed, 0);
-  raw.reserve(fixed + 7 * n);
+  // Large enough for the widest stream; trimmed to the exact size at the end.
+  raw.resize(node_payload_max_bytes(n, m, radius));
   uint8_t* sizes = raw.data();
   uint8_t* base = sizes + m;
   uint8_t* widths = base + 6 * m;
@@ -97,45 +105,42 @@ void encode_payload(const NodeInput& node, std::vector<uint8_t>& raw) {
   uint8_t* type_bits = type_base + m;
   std::memcpy(sizes, node.meshlet_size.data(), m);
   if (radius) std::memcpy(type_bits + m, node.radius_q.data(), 2 * n);
+  const uint16_t* q = node.qpos.data();
+  const uint8_t* t = node.type_index.data();
+  BitWriter bw(raw.data() + fixed);
   size_t k0 = 0;
   for (size_t j = 0; j < m; ++j) {
     const size_t end = k0 + node.meshlet_size[j];
-    uint16_t w = 0;
-    for (int a = 0; a < 3; ++a) {
-      uint16_t lo = 0xFFFF, hi = 0;
-      for (size_t k = k0; k < end; ++k) {
-        lo = std::min(lo, node.qpos[3 * k + a]);
-        hi = std::max(hi, node.qpos[3 * k + a]);
+    uint16_t lo[3] = {0xFFFF, 0xFFFF, 0xFFFF}, hi[3] = {0, 0, 0};
+    for (size_t k = k0; k < end; ++k)
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = std::min(lo[a], q[3 * k + a]);
+        hi[a] = std::max(hi[a], q[3 * k + a]);
       }
-      store16(base + 2 * (a * m + j), lo);
-      w = uint16_t(w | (std::bit_width(unsigned(hi - lo)) << (5 * a)));
+    uint16_t w = 0;
+    unsigned wa[3];
+    for (int a = 0; a < 3; ++a) {
+      store16(base + 2 * (a * m + j), lo[a]);
+      wa[a] = unsigned(std::bit_width(unsigned(hi[a] - lo[a])));
+      w = uint16_t(w | (wa[a] << (5 * a)));
     }
     store16(widths + 2 * j, w);
     uint8_t tlo = 0xFF, thi = 0;
     for (size_t k = k0; k < end; ++k) {
-      tlo = std::min(tlo, node.type_index[k]);
-      thi = std::max(thi, node.type_index[k]);
+      tlo = std::min(tlo, t[k]);
+      thi = std::max(thi, t[k]);
     }
+    const unsigned tw = unsigned(std::bit_width(unsigned(thi - tlo)));
     type_base[j] = tlo;
-    type_bits[j] = uint8_t(std::bit_width(unsigned(thi - tlo)));
+    type_bits[j] = uint8_t(tw);
+    // The meshlet's bit fields: x offsets, y offsets, z offsets, type offsets.
+    for (int a = 0; a < 3; ++a)
+      for (size_t k = k0; k < end; ++k) bw.put(uint32_t(q[3 * k + a] - lo[a]), wa[a]);
+    if (tw != 0)
+      for (size_t k = k0; k < end; ++k) bw.put(uint32_t(t[k] - tlo), tw);
     k0 = end;
   }
-  // The bit stream (appending may reallocate: re-derive pointers from offsets only).
-  BitWriter bw(raw);
-  k0 = 0;
-  for (size_t j = 0; j < m; ++j) {
-    const size_t end = k0 + node.meshlet_size[j];
-    const uint16_t w = load16(raw.data() + 7 * m + 2 * j);
-    for (int a = 0; a < 3; ++a) {
-      const unsigned wa = (w >> (5 * a)) & 31u;
-      const uint16_t b = load16(raw.data() + m + 2 * (a * m + j));
-      for (size_t k = k0; k < end; ++k) bw.put(uint32_t(node.qpos[3 * k + a] - b), wa);
-    }
-    const uint8_t tb = raw[9 * m + j], tw = raw[10 * m + j];
-    for (size_t k = k0; k < end; ++k) bw.put(uint32_t(node.type_index[k] - tb), tw);
-    k0 = end;
-  }
-  bw.flush();
+  raw.resize(size_t(bw.flush() - raw.data()));
 }
 
 Status decode_payload_raw(std::span<const uint8_t> raw, const PayloadLimits& lim, NodeData& out) {

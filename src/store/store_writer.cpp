@@ -2,9 +2,13 @@
 // docs/store-format.md), appends them to "<path>.tmp.<pid>" through an 8 MiB buffer, then writes
 // the type table, the node directory, and the LZ4-compressed voxel lists and density volume
 // (section_codec.h), each with its XXH3-64 hash, and finally the header (hashed with header_hash = 0), fsync and rename.
+// Writeback of the payloads is started (sync_file_range) while nodes are still appended, so the
+// final fsync mostly waits for the last few MiB.
 #include "store/store_writer.h"
 
+#include <fcntl.h>
 #include <lz4.h>
+#include <unistd.h>
 
 #include <bit>
 #include <cmath>
@@ -68,13 +72,16 @@ Result<EncodedNode> encode_node(const NodeInput& node) {
   encode_payload(node, raw);
   const uint64_t raw_size = raw.size();
 
-  EncodedNode out;
-  out.payload.resize(static_cast<size_t>(LZ4_compressBound(static_cast<int>(raw_size))));
-  int c = LZ4_compress_default(reinterpret_cast<const char*>(raw.data()), reinterpret_cast<char*>(out.payload.data()),
-                               static_cast<int>(raw_size), static_cast<int>(out.payload.size()));
+  // Compressed into per-thread scratch, then copied out at its exact size (no zero fill of the
+  // bound, no shrinking reallocation).
+  thread_local std::vector<uint8_t> packed;
+  const size_t bound = static_cast<size_t>(LZ4_compressBound(static_cast<int>(raw_size)));
+  if (packed.size() < bound) packed.resize(bound);
+  int c = LZ4_compress_default(reinterpret_cast<const char*>(raw.data()), reinterpret_cast<char*>(packed.data()),
+                               static_cast<int>(raw_size), static_cast<int>(bound));
   if (c <= 0) return make_error(Errc::internal, "encode_node: LZ4 compression of {} bytes failed", raw_size);
-  out.payload.resize(static_cast<size_t>(c));
-  out.payload.shrink_to_fit();
+  EncodedNode out;
+  out.payload.assign(packed.begin(), packed.begin() + c);
 
   NodeEntry& e = out.entry;
   std::memset(&e, 0, sizeof(e));
@@ -100,9 +107,32 @@ Result<EncodedNode> encode_node(const NodeInput& node) {
   return out;
 }
 
+// Written payload bytes between two writeback kicks (see StoreWriter::Impl::kick_writeback).
+constexpr uint64_t kWritebackChunk = uint64_t(16) << 20;
+constexpr size_t kWriteBuffer = size_t(8) << 20;
+
 struct StoreWriter::Impl {
   AtomicOutput out;
   std::unique_ptr<BufferedWriter> writer;
+  // A second descriptor of the temporary file for sync_file_range: the pages written so far
+  // are handed to writeback while the nodes are still being built, so that the fsync of
+  // commit() (which the atomic-rename contract needs) finds little left to write. Best effort.
+  int writeback_fd = -1;
+  uint64_t kicked = 0;  // bytes [0, kicked) handed to writeback
+  ~Impl() {
+    if (writeback_fd >= 0) ::close(writeback_fd);
+  }
+  void kick_writeback() {
+    if (writeback_fd < 0) return;
+    // Everything before offset - buffer size has left the write buffer for the page cache.
+    const uint64_t off = writer->offset();
+    if (off < kWriteBuffer + kicked + kWritebackChunk) return;
+    const uint64_t end = off - kWriteBuffer;
+#ifdef SYNC_FILE_RANGE_WRITE
+    (void)::sync_file_range(writeback_fd, off64_t(kicked), off64_t(end - kicked), SYNC_FILE_RANGE_WRITE);
+#endif
+    kicked = end;
+  }
   std::vector<NodeEntry> entries;
   std::vector<VoxelRef> voxels;
   std::vector<uint64_t> type_counts;
@@ -123,7 +153,8 @@ Result<std::unique_ptr<StoreWriter>> StoreWriter::create(const std::filesystem::
   std::unique_ptr<StoreWriter> w(new StoreWriter());
   w->impl_ = std::make_unique<Impl>();
   MDS_ASSIGN_OR_RETURN(w->impl_->out, AtomicOutput::create(path));
-  w->impl_->writer = std::make_unique<BufferedWriter>(w->impl_->out.file(), size_t(8) << 20, 0);
+  w->impl_->writer = std::make_unique<BufferedWriter>(w->impl_->out.file(), kWriteBuffer, 0);
+  w->impl_->writeback_fd = ::open(w->impl_->out.temp_path().c_str(), O_WRONLY | O_CLOEXEC);
   // Reserve the header; it is written last.
   std::vector<uint8_t> zeros(kHeaderBytes, 0);
   MDS_TRY(w->impl_->writer->write(zeros.data(), zeros.size()));
@@ -171,6 +202,7 @@ Status StoreWriter::append(EncodedNode&& node) {
   for (size_t t = 0; t < node.type_counts.size(); ++t) s.type_counts[t] += node.type_counts[t];
   s.voxels.insert(s.voxels.end(), node.voxels.begin(), node.voxels.end());
   s.entries.push_back(e);
+  s.kick_writeback();
   return {};
 }
 

@@ -1,0 +1,35 @@
+// Random access to the converter's particle records during the build: either the 32-byte
+// records of pass A (spill.h) or, for one raw float32 input that fits the budget, the mapped
+// input file itself (3 floats per particle, one type, one radius): the build then reads the
+// 12-byte input directly instead of a 32-byte copy of it (no record array to write, map and
+// read back). Both give a SpillRecord per index.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include "convert/spill.h"
+
+namespace mds::convert {
+
+struct SpillRecords {
+  std::span<const SpillRecord> recs;
+  size_t size() const { return recs.size(); }
+  const SpillRecord& operator[](size_t i) const { return recs[i]; }
+  const void* address(size_t i) const { return &recs[i]; }
+};
+
+struct RawXyzRecords {
+  const float* xyz = nullptr;  // 3 per particle
+  size_t n = 0;
+  int32_t type = 1;
+  float radius = 0;
+  size_t size() const { return n; }
+  SpillRecord operator[](size_t i) const {
+    return SpillRecord{double(xyz[3 * i]), double(xyz[3 * i + 1]), double(xyz[3 * i + 2]), type, radius};
+  }
+  const void* address(size_t i) const { return xyz + 3 * i; }
+};
+
+}  // namespace mds::convert
