@@ -12,19 +12,15 @@
 #include <string>
 #include <vector>
 
+#include "scoped_temp_dir.h"
+
 using namespace std::string_literals;
 namespace fs = std::filesystem;
 
 namespace {
 
-struct TmpDir {
-  fs::path p;
-  TmpDir() {
-    p = fs::temp_directory_path() / ("mds_convert_err_" + std::to_string(::getpid()) + "_" +
-                                     std::to_string(std::random_device{}()));
-    fs::create_directories(p);
-  }
-  ~TmpDir() { fs::remove_all(p); }
+struct TmpDir : mds::test::ScopedTempDir {
+  TmpDir() : ScopedTempDir("mds_convert_err_") {}
 };
 
 struct Run {

@@ -24,20 +24,15 @@
 #include "convert/converter.h"
 #include "convert/spill.h"
 #include "store/store_reader.h"
+#include "scoped_temp_dir.h"
 
 using namespace mds;
 namespace fs = std::filesystem;
 
 namespace {
 
-struct TmpDir {
-  fs::path p;
-  TmpDir() {
-    p = fs::temp_directory_path() / ("mds_convert_rt_" + std::to_string(::getpid()) + "_" +
-                                     std::to_string(std::random_device{}()));
-    fs::create_directories(p);
-  }
-  ~TmpDir() { fs::remove_all(p); }
+struct TmpDir : mds::test::ScopedTempDir {
+  TmpDir() : ScopedTempDir("mds_convert_rt_") {}
 };
 
 struct Particle {

@@ -23,6 +23,7 @@
 #include "convert/quantize.h"
 #include "convert/radix_sort.h"
 #include "convert/spill.h"
+#include "scoped_temp_dir.h"
 
 using namespace mds;
 using namespace mds::convert;
@@ -81,15 +82,8 @@ struct Box {
   double max_extent() const { return std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]}); }
 };
 
-struct TmpDir {
-  std::filesystem::path p;
-  TmpDir() {
-    p = std::filesystem::temp_directory_path() /
-        ("mds_convert_units_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
-         std::to_string(std::random_device{}()));
-    std::filesystem::create_directories(p);
-  }
-  ~TmpDir() { std::filesystem::remove_all(p); }
+struct TmpDir : mds::test::ScopedTempDir {
+  TmpDir() : ScopedTempDir("mds_convert_units_") {}
 };
 
 }  // namespace
