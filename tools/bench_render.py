@@ -333,6 +333,9 @@ def main():
     ap.add_argument("--lock", default=None,
                     help="hold this flock(1) lock file during each render (not between them), so other timed work "
                          "on a shared machine runs between renders instead of during them")
+    ap.add_argument("--modes", default=",".join(MODES),
+                    help="renders per view, a subset of nocull,normal,random (default all three; the tables show "
+                         "n/a for a mode left out)")
     ap.add_argument("--fresh", action="store_true", help="regenerate the stores even when cached")
     args = ap.parse_args()
     args.particles = parse_count(args.particles or ("100k" if args.quick else "1M"))
@@ -341,6 +344,9 @@ def main():
     args.views = args.views or ("0" if args.quick else "0,1,2")
     if args.repeats < 1:
         sys.exit("bench_render: --repeats must be >= 1")
+    args.modes = [m for m in args.modes.split(",") if m]
+    if not args.modes or any(m not in MODES for m in args.modes):
+        sys.exit(f"bench_render: --modes takes a subset of {','.join(MODES)}")
 
     exe = os.path.abspath(os.path.join(args.build_dir, "mdstream"))
     if not os.access(exe, os.X_OK):
@@ -363,7 +369,7 @@ def main():
             for view in views:
                 runs = {m: [] for m in MODES}
                 for rep in range(args.repeats):
-                    for mode in MODES:
+                    for mode in args.modes:
                         s = render_once(exe, args, stores[scene], scene, view, mode, rep, work, args.particles)
                         runs[mode].append(s)
                         all_stats.append({"scene": scene, "view": view, "mode": mode, "repeat": rep, "stats": s})
