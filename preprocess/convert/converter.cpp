@@ -280,20 +280,16 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   RawXyzRecords raw_view;
   RawReader* raw_reader = o.inputs.size() == 1 ? dynamic_cast<RawReader*>(readers[0].get()) : nullptr;
   const bool raw_mapped = raw_reader && declared <= plan.max_memory_records;
+  ScanOptions so;
+  so.inputs = o.inputs;
+  so.radius = o.radius;
+  so.radius_by_type = o.radius_by_type;
+  so.batch_particles = plan.batch_particles;
+  so.spill_buffer_bytes = plan.spill_buffer_bytes;
+  so.max_memory_records = plan.max_memory_records;
   if (raw_mapped) {
-    ScanOptions so;
-    so.inputs = o.inputs;
-    so.radius = o.radius;
-    so.radius_by_type = o.radius_by_type;
     MDS_TRY(scan_raw_mapped(so, *raw_reader, o.threads, scan, raw_view, progress));
   } else {
-    ScanOptions so;
-    so.inputs = o.inputs;
-    so.radius = o.radius;
-    so.radius_by_type = o.radius_by_type;
-    so.batch_particles = plan.batch_particles;
-    so.spill_buffer_bytes = plan.spill_buffer_bytes;
-    so.max_memory_records = plan.max_memory_records;
     MDS_TRY(scan_inputs(so, readers, tmp, scan, progress));
   }
   if (sort_prefault) sort_prefault->stop();  // before the arrays are resized or freed

@@ -22,10 +22,6 @@
 #include <thread>
 #include <vector>
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
-
 #include "core/result.h"
 
 namespace mds {
@@ -129,23 +125,10 @@ std::string excerpt(std::string_view s, size_t max_chars = 60);
 
 namespace mds {
 
-// Number of '\n' bytes in [b, e). On x86-64, 16 bytes at a time with SSE2 (part of the
-// baseline): byte compares subtracted into 8-bit lane counters, summed every 255 steps;
-// then eight bytes at a time (exact zero-byte test on the XOR) and single bytes.
+// Number of '\n' bytes in [b, e); eight bytes at a time (exact zero-byte test on the XOR).
 inline size_t count_newlines(const char* b, const char* e) {
   constexpr uint64_t k7f = 0x7f7f7f7f7f7f7f7fULL, knl = 0x0a0a0a0a0a0a0a0aULL;
   size_t n = 0;
-#if defined(__SSE2__)
-  const __m128i nl = _mm_set1_epi8('\n');
-  while (e - b >= 16) {
-    const size_t steps = std::min<size_t>(255, static_cast<size_t>(e - b) / 16);
-    __m128i acc = _mm_setzero_si128();
-    for (size_t i = 0; i < steps; ++i, b += 16)
-      acc = _mm_sub_epi8(acc, _mm_cmpeq_epi8(_mm_loadu_si128(reinterpret_cast<const __m128i*>(b)), nl));
-    const __m128i sums = _mm_sad_epu8(acc, _mm_setzero_si128());  // two 64-bit lane sums
-    n += static_cast<size_t>(_mm_cvtsi128_si64(sums)) + static_cast<size_t>(_mm_extract_epi16(sums, 4));
-  }
-#endif
   while (e - b >= 8) {
     uint64_t w;
     std::memcpy(&w, b, 8);
