@@ -1,6 +1,7 @@
 #version 460
 // Progressive super-sampling: adds this pass's colour (rgb, a = coverage) to the float
-// accumulation image; the final image is accum / spp.
+// accumulation image; the final image is accum / spp. Timing frames (kFrameTimingOnly) add it
+// with weight 0: the same work, the image unchanged.
 #extension GL_GOOGLE_include_directive : require
 #include "bindings.h"
 
@@ -11,5 +12,6 @@ layout(set = 0, binding = kBindAccumImage, rgba32f) uniform image2D accum_image;
 void main() {
   ivec2 p = ivec2(gl_GlobalInvocationID.xy);
   if (p.x >= int(frame.viewport.x) || p.y >= int(frame.viewport.y)) return;
-  imageStore(accum_image, p, imageLoad(accum_image, p) + imageLoad(color_image, p));
+  float weight = (frame.counts.z & kFrameTimingOnly) != 0u ? 0.0 : 1.0;
+  imageStore(accum_image, p, imageLoad(accum_image, p) + weight * imageLoad(color_image, p));
 }

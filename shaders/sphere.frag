@@ -1,12 +1,31 @@
 #version 460
-// Exact sphere ray casting inside the billboard (include/sphere_shading.h): discard on a
-// miss, else the hit's depth and shading.
+// Exact sphere ray casting inside the billboard (include/sphere_shading.h): discard on a miss.
+// Attachment route: the hit's depth and shading into the depth and colour attachments.
+// Visibility route (built as sphere_vis.frag with MDS_VISIBILITY_ROUTE): no attachments; the
+// hit's depth and the sprite index go into the visibility buffer (sprite_raster.h), and
+// visibility_resolve.comp shades each pixel once.
 #extension GL_GOOGLE_include_directive : require
+#ifdef MDS_VISIBILITY_ROUTE
+#define MDS_VISIBILITY
+#endif
 #include "bindings.h"
 #include "sphere_shading.h"
+#ifdef MDS_VISIBILITY_ROUTE
+#include "sprite_raster.h"
+#endif
 
 layout(location = 0) flat in vec4 v_center_radius;
 layout(location = 1) flat in vec3 v_color;
+layout(location = 2) flat in uint v_sprite;
+
+#ifdef MDS_VISIBILITY_ROUTE
+void main() {
+  vec3 p, n, d;
+  float depth;
+  if (!ray_sphere(gl_FragCoord.xy, v_center_radius, p, n, d, depth)) return;
+  visibility_write(uint(gl_FragCoord.y) * uint(frame.viewport.x) + uint(gl_FragCoord.x), depth, v_sprite);
+}
+#else
 layout(location = 0) out vec4 o_color;
 layout(depth_greater) out float gl_FragDepth;
 
@@ -17,3 +36,4 @@ void main() {
   gl_FragDepth = depth;
   o_color = shade_sphere(n, d, v_color);
 }
+#endif

@@ -11,16 +11,19 @@ layout(constant_id = 0) const bool kQuadList = false;
 
 layout(location = 0) flat out vec4 v_center_radius;  // view space
 layout(location = 1) flat out vec3 v_color;
+layout(location = 2) flat out uint v_sprite;  // index into sprites[] (the visibility route)
 
 void main() {
   uint v = uint(gl_VertexIndex);
   uint q = v / 6u;
   uint k = v - 6u * q;
-  GpuSprite s = sprites[kQuadList ? quad_ids[q] : q];
+  uint sprite = kQuadList ? quad_ids[q] : q;
+  GpuSprite s = sprites[sprite];
   if ((s.flags & (kSpriteHidden | kSpriteSmall)) != 0u) {
     gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // beyond x = w: clipped
     v_center_radius = vec4(0.0);
     v_color = vec3(0.0);
+    v_sprite = 0u;
     return;
   }
   // Triangles (0, 1, 2) and (2, 1, 3) of the corners 0 = lo.x lo.y, 1 = hi.x lo.y, 2 = lo.x hi.y, 3 = hi.
@@ -29,4 +32,5 @@ void main() {
   gl_Position = vec4(xy, s.zndc, 1.0);
   v_center_radius = s.center_radius;
   v_color = types[s.flags & 0xffu].color.rgb;
+  v_sprite = sprite;
 }

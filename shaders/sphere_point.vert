@@ -5,12 +5,13 @@
 // pre-pass sends to the quad list (kSpriteQuad) every sprite whose rectangle centre is off
 // screen -- a point whose vertex lies outside the view volume is discarded whole -- or whose
 // square exceeds the device's point size range.
-// Small sprites (kSpriteSmall) are drawn by the compute path (sphere_resolve.frag), not here.
+// Small sprites (kSpriteSmall) are rasterized by the pre-pass (sprite_raster.h), not here.
 #extension GL_GOOGLE_include_directive : require
 #include "bindings.h"
 
 layout(location = 0) flat out vec4 v_center_radius;  // view space
 layout(location = 1) flat out vec3 v_color;
+layout(location = 2) flat out uint v_sprite;  // index into sprites[] (the visibility route)
 
 void main() {
   GpuSprite s = sprites[gl_VertexIndex];
@@ -19,6 +20,7 @@ void main() {
     gl_PointSize = 1.0;
     v_center_radius = vec4(0.0);
     v_color = vec3(0.0);
+    v_sprite = 0u;
     return;
   }
   vec2 side_px = (s.rect.zw - s.rect.xy) * 0.5 * frame.viewport.xy;
@@ -26,4 +28,5 @@ void main() {
   gl_PointSize = max(side_px.x, side_px.y) + 1.0;
   v_center_radius = s.center_radius;
   v_color = types[s.flags & 0xffu].color.rgb;
+  v_sprite = uint(gl_VertexIndex);
 }

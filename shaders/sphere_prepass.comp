@@ -5,14 +5,21 @@
 // One thread per list entry: one atomicAdd reserves the meshlet's run of sprites.
 // kPoints: sprites whose rectangle centre lies on screen and whose square fits the point size
 // are drawn as points (one vertex each); the others are appended to the quad list.
-// kSmallPx > 0: sprites whose rectangle is at most kSmallPx pixels wide and high are rasterized
-// here, in compute (sprite_raster.h, first pass: nearest depth), instead of by the rasterizer:
-// lavapipe sets up primitives on one thread at ~1 us each, which dominates small glyphs.
+// kSmallPx > 0 (only in the variant built with MDS_COMPUTE_RASTER, sphere_prepass_raster.comp,
+// which needs shaderInt64 and 64-bit buffer atomics): sprites whose rectangle is at most kSmallPx
+// pixels wide and high are rasterized here, in compute (sprite_raster.h: nearest depth and sprite
+// index), instead of by the rasterizer: lavapipe sets up primitives on one thread at ~1 us each,
+// which dominates small glyphs.
 #extension GL_GOOGLE_include_directive : require
 #define MDS_SPRITES_WRITABLE
+#ifdef MDS_COMPUTE_RASTER
+#define MDS_VISIBILITY
+#endif
 #include "bindings.h"
 #include "sphere_shading.h"
+#ifdef MDS_COMPUTE_RASTER
 #include "sprite_raster.h"
+#endif
 #include "sprite_make.h"
 
 layout(local_size_x = 64) in;
@@ -29,7 +36,6 @@ void main() {
   uint base = kPoints ? atomicAdd(sprite_draw.point_vertex_count, count)
                       : atomicAdd(sprite_draw.quad_vertex_count, 6u * count) / 6u;
   if (base + count > sprite_draw.capacity) return;  // a list with repeated meshlets (never expected)
-  quad_ids[sprite_draw.capacity + e] = base;        // for sprite_raster_id.comp
   for (uint local = 0u; local < count; ++local) {
     GpuSprite s = mds_make_sprite(m, node, local);
     if ((s.flags & kSpriteHidden) == 0u) {
@@ -37,7 +43,9 @@ void main() {
       vec2 side_px = (ndc_hi - ndc_lo) * 0.5 * frame.viewport.xy;
       if (kSmallPx > 0.0 && max(side_px.x, side_px.y) <= kSmallPx) {
         s.flags |= kSpriteSmall;
-        raster_small_sprite(s, base + local, false);
+#ifdef MDS_COMPUTE_RASTER
+        raster_small_sprite(s, base + local);
+#endif
       } else if (kPoints) {
         vec2 mid = 0.5 * (ndc_lo + ndc_hi);
         bool on_screen = all(lessThan(abs(mid), vec2(1.0)));

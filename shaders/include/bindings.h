@@ -41,9 +41,14 @@ layout(std430, set = 0, binding = kBindSpriteDraw) MDS_SPRITES_ACCESS buffer Spr
   SpriteDrawHeader sprite_draw;
   uint quad_ids[];
 };
-// Compute rasterization of small sprites: [0, W*H) nearest depth bits (atomicMin), [W*H, 2*W*H)
-// the sprite index at that depth; 0xffffffff = empty.
-layout(std430, set = 0, binding = kBindVisibility) coherent buffer VisibilityBlock { uint visibility[]; };
+// Compute rasterization of small sprites (sprite_raster.h): per pixel one uint64, the nearest
+// depth's float bits << 32 | that sprite's index, by 64-bit atomicMin; all ones = empty. Only the
+// shaders that define MDS_VISIBILITY before including this file see it (they need shaderInt64).
+#ifdef MDS_VISIBILITY
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+#extension GL_EXT_shader_atomic_int64 : require
+layout(std430, set = 0, binding = kBindVisibility) coherent buffer VisibilityBlock { uint64_t visibility[]; };
+#endif
 
 #endif
 #endif  // MDS_BINDINGS_H

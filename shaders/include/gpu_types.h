@@ -24,7 +24,7 @@ MDS_CONST(uint, kBindColorImage, 7);  // rgba32f storage image: the pass's colou
 MDS_CONST(uint, kBindAccumImage, 8);  // rgba32f storage image: the accumulation image
 MDS_CONST(uint, kBindSprites, 9);     // GpuSprite[]: per-particle glyph records of the list being drawn
 MDS_CONST(uint, kBindSpriteDraw, 10); // SpriteDrawHeader + uint quad_ids[] (sprites drawn as quads)
-MDS_CONST(uint, kBindVisibility, 11); // uint[2 * W * H]: nearest small-sprite depth bits, then its sprite index
+MDS_CONST(uint, kBindVisibility, 11); // uint64[W * H]: nearest depth bits << 32 | sprite index (visibility route)
 
 // GpuSprite.flags
 MDS_CONST(uint, kSpriteHidden, 0x100u);  // nothing to draw (behind the near plane, radius 0)
@@ -39,6 +39,7 @@ MDS_CONST(uint, kMeshChunksMax, 8u);      // mesh workgroups per meshlet: ceil(2
 // FrameUniforms.flags
 MDS_CONST(uint, kFrameOrtho, 1u);
 MDS_CONST(uint, kFramePerParticleRadius, 2u);
+MDS_CONST(uint, kFrameTimingOnly, 4u);  // accumulate adds 0 x colour: full cost, the image keeps its spp samples
 
 // Per-frame constants (std140 uniform block).
 MDS_STRUCT(FrameUniforms) {
@@ -48,6 +49,7 @@ MDS_STRUCT(FrameUniforms) {
   vec4 viewport;      // width, height, 1/width, 1/height
   vec4 radius_range;  // radius_min, radius_max - radius_min (per-particle radii), near, far
   uvec4 counts;       // meshlet_count, max_meshlet_particles, flags, sample index
+  vec4 background;    // linear rgb of the background, a = 0 (coverage): the resolve's empty pixels
 };
 
 // One store node: quantization frame relative to the scene origin (float is enough there).
@@ -118,7 +120,7 @@ MDS_STRUCT(GpuSprite) {
 // filled by the pre-pass: two VkDrawIndirectCommand (points: one vertex per sprite; quads: six
 // vertices per sprite) and the pre-pass's VkDispatchIndirectCommand (one thread per list entry).
 // capacity (sprites the buffers hold) is written once by the host. After the header: quad_ids
-// [capacity], then the first sprite of each list entry [list length] (sprite_raster_id.comp).
+// [capacity].
 MDS_STRUCT(SpriteDrawHeader) {
   uint point_vertex_count;  // sprites written (atomic counter)
   uint point_instance_count;
@@ -139,9 +141,10 @@ static_assert(sizeof(GpuSprite) == 48);
 static_assert(sizeof(SpriteDrawHeader) == 48);
 static_assert(offsetof(SpriteDrawHeader, quad_vertex_count) == 16);
 static_assert(offsetof(SpriteDrawHeader, dispatch_x) == 32);
-static_assert(sizeof(FrameUniforms) == 240);
+static_assert(sizeof(FrameUniforms) == 256);
 static_assert(offsetof(FrameUniforms, viewport) == 192);
 static_assert(offsetof(FrameUniforms, counts) == 224);
+static_assert(offsetof(FrameUniforms, background) == 240);
 static_assert(sizeof(GpuNode) == 64);
 static_assert(offsetof(GpuNode, first_particle) == 12);
 static_assert(offsetof(GpuNode, step) == 16);

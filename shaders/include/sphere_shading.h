@@ -1,5 +1,5 @@
 // GLSL-only: exact sphere ray casting for one pixel, shared by the raster path (sphere.frag)
-// and the compute path for small sprites (sphere_prepass.comp, sprite_raster_id.comp,
+// and the compute path for small sprites (sphere_prepass.comp via sprite_raster.h,
 // sphere_resolve.frag), so both give the same coverage, depth and colour.
 // The ray of a pixel is the line through the unprojected near (z_ndc = 0) and far (z_ndc = 1)
 // points of the sample position, which is right for perspective and orthographic projections

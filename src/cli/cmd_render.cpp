@@ -146,6 +146,7 @@ Status run_render(const RenderOptions& o) {
     j["device_type"] = vk::device_type_name(ctx->info().type);
     j["mesh_shader_available"] = ctx->info().mesh_shader;
     j["sprite_path"] = stats.mesh_sprites ? "mesh" : "compute";
+    j["pixel_route"] = stats.visibility_route ? "visibility" : "attachments";
     j["particles"] = stats.particles;
     j["meshlets"] = stats.meshlets;
     j["nodes"] = reader->nodes().size();
@@ -169,6 +170,7 @@ Status run_render(const RenderOptions& o) {
       j["converged"] = c.converged;
       j["frame_ms_during_culling"] = c.frame_ms_during_culling;
       j["frame_ms_after_convergence"] = c.frame_ms_after_convergence;
+      j["pass_ms_after_convergence"] = c.pass_ms_after_convergence;
       j["time_to_converge_ms"] = c.time_to_converge_ms;
       j["class_counts"] = {{"P", c.class_counts.size() == 4 ? c.class_counts[0] : 0},
                            {"L", c.class_counts.size() == 4 ? c.class_counts[1] : 0},

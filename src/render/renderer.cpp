@@ -89,7 +89,7 @@ Status Renderer::Impl::create_draw_buffers(uint64_t meshlet_slots, uint64_t part
   MDS_ASSIGN_OR_RETURN(sprites, vk::Buffer::create(alloc, record_capacity * sizeof(gpu::GpuSprite), ssbo,
                                                    vk::MemoryIntent::device_local, "sprite records"));
   MDS_ASSIGN_OR_RETURN(sprite_draw,
-                       vk::Buffer::create(alloc, sizeof(gpu::SpriteDrawHeader) + 4 * (sprite_capacity + meshlet_slots),
+                       vk::Buffer::create(alloc, sizeof(gpu::SpriteDrawHeader) + 4 * sprite_capacity,
                                           ssbo | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, vk::MemoryIntent::device_local,
                                           "sprite draw commands"));
   MDS_ASSIGN_OR_RETURN(frame_ubo, vk::Buffer::create(alloc, sizeof(gpu::FrameUniforms),
@@ -112,26 +112,42 @@ Status Renderer::Impl::create_cull(const culling::CullScene& cs, const culling::
   return {};
 }
 
+// The route is decided once, at creation (renderer_impl.h); resize() keeps it.
 Status Renderer::Impl::create_targets() {
   auto& alloc = ctx->allocator();
   const uint32_t w = settings.width, h = settings.height;
-  MDS_ASSIGN_OR_RETURN(color, vk::Image::create_2d(alloc, w, h, kColorFormat,
-                                                   VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_STORAGE_BIT,
-                                                   VK_IMAGE_ASPECT_COLOR_BIT, "colour target"));
-  MDS_ASSIGN_OR_RETURN(depth, vk::Image::create_2d(alloc, w, h, kDepthFormat,
-                                                   VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT |
-                                                       VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
-                                                   VK_IMAGE_ASPECT_DEPTH_BIT, "depth target"));
+  const uint64_t vis_bytes = 8ull * w * h;  // one uint64 per pixel: depth bits << 32 | sprite index
+  const bool vis_fits = vis_bytes <= ctx->limits().maxStorageBufferRange;
+  if (!targets_created) {
+    vis_route = settings.visibility_route && !mesh_path && ctx->int64_atomics() && vis_fits;
+    targets_created = true;
+  } else if (vis_route && !vis_fits) {
+    return make_error(Errc::budget, "{}x{}: the visibility buffer ({} bytes) exceeds maxStorageBufferRange ({})", w,
+                      h, vis_bytes, ctx->limits().maxStorageBufferRange);
+  }
+  if (vis_route) {
+    color = {};
+    depth = {};
+    MDS_ASSIGN_OR_RETURN(visibility, vk::Buffer::create(alloc, vis_bytes,
+                                                        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
+                                                            VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                                            VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                                        vk::MemoryIntent::device_local, "visibility buffer"));
+  } else {
+    MDS_ASSIGN_OR_RETURN(color, vk::Image::create_2d(alloc, w, h, kColorFormat,
+                                                     VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_STORAGE_BIT,
+                                                     VK_IMAGE_ASPECT_COLOR_BIT, "colour target"));
+    MDS_ASSIGN_OR_RETURN(depth, vk::Image::create_2d(alloc, w, h, kDepthFormat,
+                                                     VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT |
+                                                         VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                                                     VK_IMAGE_ASPECT_DEPTH_BIT, "depth target"));
+    MDS_ASSIGN_OR_RETURN(visibility, vk::Buffer::create(alloc, 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                                        vk::MemoryIntent::device_local, "visibility buffer (unused)"));
+  }
   MDS_ASSIGN_OR_RETURN(accum, vk::Image::create_2d(alloc, w, h, kColorFormat,
                                                    VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT |
                                                        VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
                                                    VK_IMAGE_ASPECT_COLOR_BIT, "accumulation image"));
-  const uint64_t vis_bytes = 8ull * w * h;  // depth bits + sprite index per pixel
-  vis_bytes_ok = vis_bytes <= ctx->limits().maxStorageBufferRange;
-  MDS_ASSIGN_OR_RETURN(visibility,
-                       vk::Buffer::create(alloc, vis_bytes_ok ? vis_bytes : 8,
-                                          VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                                          vk::MemoryIntent::device_local, "small-sprite visibility buffer"));
   return {};
 }
 
@@ -156,24 +172,26 @@ Status Renderer::Impl::create_pipelines() {
   set.write_buffer(gpu::kBindTypes, SSBO, types.get());
   set.write_buffer(gpu::kBindDrawList, SSBO, draw_list.get());
   set.write_buffer(gpu::kBindRadii, SSBO, radii_h);
-  set.write_storage_image(gpu::kBindColorImage, color.view());
+  if (!vis_route) set.write_storage_image(gpu::kBindColorImage, color.view());
   set.write_storage_image(gpu::kBindAccumImage, accum.view());
   set.write_buffer(gpu::kBindSprites, SSBO, sprites.get());
   set.write_buffer(gpu::kBindSpriteDraw, SSBO, sprite_draw.get());
   set.write_buffer(gpu::kBindVisibility, SSBO, visibility.get());
   MDS_ASSIGN_OR_RETURN(layout, vk::create_pipeline_layout(dev, set.layout()));
   MDS_ASSIGN_OR_RETURN(draw_list_pipe, vk::create_compute_pipeline(dev, layout, "draw_list_all.comp"));
-  MDS_ASSIGN_OR_RETURN(accum_pipe, vk::create_compute_pipeline(dev, layout, "accumulate.comp"));
   // Sprites: a compute pre-pass computes every glyph once, the vertex stages only load (on
   // lavapipe vertex processing and primitive setup run mostly on one thread, compute on all).
-  // Sprites up to kSmallSpritePx pixels are rasterized by compute (all threads) into a
-  // visibility buffer and resolved by one full-screen pass: on lavapipe primitive setup costs
-  // about 1 us per glyph on one thread, more than ray casting a few pixels. The others are
-  // drawn as point sprites (one vertex and primitive each instead of 4 and 2) where the device
-  // supports largePoints (vk/context.cpp enables it whenever supported) and points of at least
-  // 8 pixels, else as quads; sprites larger than the point size range are always quads.
+  // Visibility route (vis_route, see renderer_impl.h): sprites up to kSmallSpritePx pixels are
+  // rasterized by compute (all threads) into the visibility buffer -- on lavapipe primitive
+  // setup costs about 1 us per glyph on one thread, more than ray casting a few pixels -- and
+  // the others are rasterized into the same buffer; visibility_resolve.comp then shades each
+  // pixel once and accumulates. The rasterized ones are drawn as point sprites (one vertex and
+  // primitive each instead of 4 and 2) where the device supports largePoints (vk/context.cpp
+  // enables it whenever supported) and points of at least 8 pixels, else as quads; sprites
+  // larger than the point size range are always quads. Attachment route: every sprite is
+  // rasterized into colour + depth attachments and accumulate.comp adds the colour.
   // MDSTREAM_SPRITES=quads|points overrides the default, MDSTREAM_SMALL_PX=<pixels> the compute
-  // threshold (0: off).
+  // threshold (0: every sprite rasterized).
   constexpr float kSmallSpritePx = 16.0f;
   const float max_point = ctx->limits().pointSizeRange[1];
   VkPhysicalDeviceFeatures features{};
@@ -181,29 +199,42 @@ Status Renderer::Impl::create_pipelines() {
   const bool points_ok = features.largePoints == VK_TRUE && max_point >= 8.0f;
   point_sprites = points_ok;
   if (const char* e = std::getenv("MDSTREAM_SPRITES")) point_sprites = points_ok && std::string(e) == "points";
-  small_px = vis_bytes_ok ? kSmallSpritePx : 0.0f;
-  if (const char* e = std::getenv("MDSTREAM_SMALL_PX")) small_px = vis_bytes_ok ? float(std::atof(e)) : 0.0f;
+  small_px = vis_route ? kSmallSpritePx : 0.0f;
+  if (const char* e = std::getenv("MDSTREAM_SMALL_PX")) small_px = vis_route ? float(std::atof(e)) : 0.0f;
   MDS_ASSIGN_OR_RETURN(sprite_args_pipe, vk::create_compute_pipeline(dev, layout, "sprite_args.comp"));
   // Task/mesh sprites where the device has them (--mesh-shaders): no pre-pass records, no
-  // compute rasterization, no points; sprite_args.comp still sizes the task launch.
+  // compute rasterization, no points (the attachment route); sprite_args.comp still sizes the
+  // task launch.
   if (mesh_path) {  // decided at creation (use_mesh_sprites), before the draw buffers
     MDS_ASSIGN_OR_RETURN(mesh, MeshSprites::create(*ctx, layout, kColorFormat, kDepthFormat));
     point_sprites = false;
-    small_px = 0.0f;
     sprite_read_stages = MeshSprites::kReadStages;
   }
-  MDS_ASSIGN_OR_RETURN(raster_id_pipe, vk::create_compute_pipeline(dev, layout, "sprite_raster_id.comp"));
+  if (vis_route) {
+    MDS_ASSIGN_OR_RETURN(resolve_pipe, vk::create_compute_pipeline(dev, layout, "visibility_resolve.comp"));
+  } else {
+    MDS_ASSIGN_OR_RETURN(accum_pipe, vk::create_compute_pipeline(dev, layout, "accumulate.comp"));
+  }
   vk::SpecConstants prepass_spec;
   prepass_spec.add(0u, VkBool32(point_sprites)).add(1u, max_point).add(2u, small_px);
-  MDS_ASSIGN_OR_RETURN(prepass_pipe, vk::create_compute_pipeline(dev, layout, "sphere_prepass.comp", &prepass_spec));
+  MDS_ASSIGN_OR_RETURN(prepass_pipe,
+                       vk::create_compute_pipeline(dev, layout, small_px > 0.0f ? "sphere_prepass_raster.comp"
+                                                                                 : "sphere_prepass.comp",
+                                                   &prepass_spec));
   vk::SpecConstants quad_spec;
   quad_spec.add(0u, VkBool32(point_sprites));  // quads come from the quad list
   vk::GraphicsPipelineDesc g;
   g.vertex_shader = "sphere.vert";
-  g.fragment_shader = "sphere.frag";
   g.vertex_spec = &quad_spec;
-  g.color_formats = {kColorFormat};
-  g.depth_format = kDepthFormat;
+  if (vis_route) {  // no attachments: the fragments write the visibility buffer
+    g.fragment_shader = "sphere_vis.frag";
+    g.depth_test = false;
+    g.depth_write = false;
+  } else {
+    g.fragment_shader = "sphere.frag";
+    g.color_formats = {kColorFormat};
+    g.depth_format = kDepthFormat;
+  }
   MDS_ASSIGN_OR_RETURN(sphere_pipe, vk::create_graphics_pipeline(dev, layout, g));
   if (point_sprites) {
     vk::GraphicsPipelineDesc gp = g;
@@ -212,11 +243,6 @@ Status Renderer::Impl::create_pipelines() {
     gp.topology = VK_PRIMITIVE_TOPOLOGY_POINT_LIST;
     MDS_ASSIGN_OR_RETURN(point_pipe, vk::create_graphics_pipeline(dev, layout, gp));
   }
-  vk::GraphicsPipelineDesc gr = g;
-  gr.vertex_shader = "fullscreen.vert";
-  gr.fragment_shader = "sphere_resolve.frag";
-  gr.vertex_spec = nullptr;
-  MDS_ASSIGN_OR_RETURN(resolve_pipe, vk::create_graphics_pipeline(dev, layout, gr));
   return {};
 }
 
@@ -235,12 +261,14 @@ void Renderer::Impl::record_sprite_prepass(VkCommandBuffer cmd) {
                        VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
     return;
   }
-  // The previous draw's reads of the sprites and commands are done before they are rewritten.
-  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT,
+  // The previous frame's reads of the sprites and commands (draw, resolve) are done before they
+  // are rewritten.
+  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
+                              VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                      VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT,
                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
-  if (small_px > 0.0f) {  // empty visibility buffer (after the previous resolve read it)
+  if (vis_route) {  // empty visibility buffer (after the previous resolve read it)
     vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                        VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                        VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
@@ -258,31 +286,21 @@ void Renderer::Impl::record_sprite_prepass(VkCommandBuffer cmd) {
                          VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, prepass_pipe);
   vkCmdDispatchIndirect(cmd, sprite_draw.get(), offsetof(gpu::SpriteDrawHeader, dispatch_x));
-  if (small_px > 0.0f) {  // second raster pass: the index of the nearest small sprite per pixel
-    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, raster_id_pipe);
-    vkCmdDispatchIndirect(cmd, sprite_draw.get(), offsetof(gpu::SpriteDrawHeader, dispatch_x));
-  }
+  // Sprites and commands to the draw; the visibility buffer to the fragment atomics.
   vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
                          VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
-                     VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+                     VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
+                         VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
 }
 
-// Inside a rendering scope: the resolve of the compute-rasterized small sprites, then the other
-// sprites as points (when enabled) and quads.
+// Inside a rendering scope: the sprites the pre-pass did not rasterize, as points (when
+// enabled) and quads (or the task/mesh path).
 void Renderer::Impl::record_sprite_draws(VkCommandBuffer cmd) {
   VkDescriptorSet ds = set.set();
   if (mesh_path) {
     mesh.record_draw(cmd, ds, sprite_draw.get(), offsetof(gpu::SpriteDrawHeader, dispatch_x));
     return;
-  }
-  if (small_px > 0.0f) {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, resolve_pipe);
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &ds, 0, nullptr);
-    vkCmdDraw(cmd, 3, 1, 0, 0);
   }
   if (point_sprites) {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, point_pipe);
@@ -349,38 +367,40 @@ void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first, bool accumulat
   record_sprite_prepass(cmd);
   timestamps.end(cmd);
 
-  // 3. Draw the sprites into colour + depth.
+  // 3. Draw the sprites the pre-pass did not rasterize: into the visibility buffer (visibility
+  //    route, no attachments) or into colour + depth (attachment route).
   timestamps.begin(cmd, "draw");
-  vk::image_barrier(cmd, color.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                    VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                    VK_ACCESS_2_SHADER_STORAGE_READ_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-                    VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
-  vk::image_barrier(cmd, depth.get(), VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                    VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
-                    VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
-                    VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-                    VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-                    VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
-  const glm::vec3 bg(srgb_to_linear(settings.background_srgb.r), srgb_to_linear(settings.background_srgb.g),
-                     srgb_to_linear(settings.background_srgb.b));
-  VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  ca.imageView = color.view();
-  ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-  ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  ca.clearValue.color = {{bg.r, bg.g, bg.b, 0.0f}};
-  VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  da.imageView = depth.view();
-  da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  da.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  da.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  da.clearValue.depthStencil = {1.0f, 0};
   VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
   ri.renderArea = {{0, 0}, {w, h}};
   ri.layerCount = 1;
-  ri.colorAttachmentCount = 1;
-  ri.pColorAttachments = &ca;
-  ri.pDepthAttachment = &da;
+  VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  if (!vis_route) {
+    vk::image_barrier(cmd, color.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                      VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                      VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
+    vk::image_barrier(cmd, depth.get(), VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                      VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
+                      VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+                      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+                      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+                      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
+    const glm::vec3 bg = background_linear();
+    ca.imageView = color.view();
+    ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    ca.clearValue.color = {{bg.r, bg.g, bg.b, 0.0f}};
+    da.imageView = depth.view();
+    da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    da.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    da.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    da.clearValue.depthStencil = {1.0f, 0};
+    ri.colorAttachmentCount = 1;
+    ri.pColorAttachments = &ca;
+    ri.pDepthAttachment = &da;
+  }
   vkCmdBeginRendering(cmd, &ri);
   VkViewport vp{0.0f, 0.0f, float(w), float(h), 0.0f, 1.0f};
   VkRect2D sc{{0, 0}, {w, h}};
@@ -390,20 +410,28 @@ void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first, bool accumulat
   vkCmdEndRendering(cmd);
   timestamps.end(cmd);
 
-  if (!accumulate) return;  // timing frame (see render())
+  if (!accumulate) return;  // progressive API: the image already holds spp samples
 
-  // 4. Accumulate.
-  timestamps.begin(cmd, "accumulate");
-  vk::image_barrier(cmd, color.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
-                    VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-                    VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                    VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
-  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                     VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                     VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, accum_pipe);
+  // 4. Visibility route: "resolve" shades each pixel's nearest sprite once and accumulates.
+  //    Attachment route: "accumulate" adds the colour attachment.
+  timestamps.begin(cmd, vis_route ? "resolve" : "accumulate");
+  if (vis_route) {
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+  } else {
+    vk::image_barrier(cmd, color.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                      VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                      VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+  }
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, vis_route ? resolve_pipe : accum_pipe);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &ds, 0, nullptr);
-  vkCmdDispatch(cmd, (w + 7) / 8, (h + 7) / 8, 1);
+  const uint32_t tile = vis_route ? 16 : 8;  // the shaders' local size
+  vkCmdDispatch(cmd, (w + tile - 1) / tile, (h + tile - 1) / tile, 1);
   timestamps.end(cmd);
 }
 
@@ -462,6 +490,7 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
   // GPU time per submitted frame (sum of its passes) and what the frame did.
   enum class FrameKind { during_culling, after_convergence, cull_only, timing };
   std::vector<double> frame_ms;
+  std::vector<std::map<std::string, double>> frame_passes;  // per timed frame: pass -> ms
   std::vector<FrameKind> frame_kind;
   uint32_t quiet = 0;
   const uint32_t max_iterations = m.cull ? std::max(1u, m.cull->settings().max_iterations) : 0u;
@@ -471,10 +500,15 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     MDS_TRY(m.timestamps.collect());
     double sum = 0.0;
     bool any = false;
+    std::map<std::string, double> passes;
     for (const auto& [name, v] : m.timestamps.samples()) {
-      for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i) sum += v[i], any = true;
+      for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i)
+        sum += v[i], passes[name] += v[i], any = true;
     }
-    if (any) frame_ms.push_back(sum);
+    if (any) {
+      frame_ms.push_back(sum);
+      frame_passes.push_back(std::move(passes));
+    }
     return {};
   };
   auto after_iteration = [&]() {  // the previous submission (with a culling iteration) has completed
@@ -502,7 +536,7 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     m.cull_iteration = 0;
   }
   bool pending_iteration = false;
-  auto write_frame_uniforms = [&](uint32_t s) {
+  auto write_frame_uniforms = [&](uint32_t s, uint32_t extra_flags) {
     const glm::dvec2 jitter_px = halton_jitter(s);
     const glm::dmat4 proj = projection_matrix(camera, aspect, {2.0 * jitter_px.x / w, 2.0 * jitter_px.y / h});
     gpu::FrameUniforms fu{};
@@ -511,7 +545,9 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     fu.inv_proj = glm::mat4(glm::inverse(proj));
     fu.viewport = glm::vec4(float(w), float(h), 1.0f / float(w), 1.0f / float(h));
     fu.radius_range = glm::vec4(m.radius_min, m.radius_max - m.radius_min, float(camera.near), float(camera.far));
-    fu.counts = glm::uvec4(m.meshlet_count, m.max_meshlet, m.flags | (camera.ortho ? gpu::kFrameOrtho : 0u), s);
+    fu.counts = glm::uvec4(m.meshlet_count, m.max_meshlet,
+                           m.flags | extra_flags | (camera.ortho ? gpu::kFrameOrtho : 0u), s);
+    fu.background = glm::vec4(m.background_linear(), 0.0f);
     std::memcpy(m.frame_ubo.mapped(), &fu, sizeof(fu));
     m.frame_ubo.flush();
   };
@@ -531,15 +567,17 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
   // 1. spp super-sampling frames; while culling is active each also runs one culling iteration.
   for (uint32_t s = 0; s < m.settings.spp; ++s) {
     MDS_ASSIGN_OR_RETURN(VkCommandBuffer cmd, begin_submission());
-    write_frame_uniforms(s);
+    write_frame_uniforms(s, 0u);
     pending_iteration = m.cull && m.cull_active;
     frame_kind.push_back(pending_iteration ? FrameKind::during_culling : FrameKind::after_convergence);
     m.record_pass(cmd, s == 0);
     MDS_TRY(end_submission());
   }
   // 2. Not converged within spp: culling iterations alone until convergence or max_iterations,
-  //    then (if it converged) a few draw-only timing frames of the final potentially visible set
-  //    for frame_ms_after_convergence (not accumulated: the image keeps exactly spp samples).
+  //    then (if it converged) a few timing frames of the final potentially visible set for
+  //    frame_ms_after_convergence: every pass of a sampling frame, accumulating with weight 0
+  //    (kFrameTimingOnly), so they cost what a sampling frame costs and the image keeps exactly
+  //    spp samples.
   bool late = false;
   while (m.cull) {
     MDS_ASSIGN_OR_RETURN(VkCommandBuffer cmd, begin_submission());
@@ -557,9 +595,9 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
   if (late && cs.converged) {
     for (uint32_t s = 0; s < kTimingFrames; ++s) {
       MDS_ASSIGN_OR_RETURN(VkCommandBuffer cmd, begin_submission());
-      write_frame_uniforms(m.settings.spp + s);
+      write_frame_uniforms(m.settings.spp + s, gpu::kFrameTimingOnly);
       frame_kind.push_back(FrameKind::timing);
-      m.record_pass(cmd, false, false);
+      m.record_pass(cmd, false, true);
       MDS_TRY(end_submission());
     }
   }
@@ -576,16 +614,22 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     cs.budget = m.cull->budget();
     if (!cs.class_counts.empty()) cs.meshlets_culled = cs.class_counts[MDS_CULL_CLASS_O];
     std::vector<double> during, after, cull_only;
+    std::map<std::string, std::vector<double>> after_passes;
     for (size_t f = 0; f < frame_ms.size() && f < frame_kind.size(); ++f) {
       switch (frame_kind[f]) {
         case FrameKind::during_culling: during.push_back(frame_ms[f]); break;
         case FrameKind::after_convergence:
-        case FrameKind::timing: after.push_back(frame_ms[f]); break;
+        case FrameKind::timing:
+          after.push_back(frame_ms[f]);
+          for (const auto& [name, ms] : frame_passes[f]) after_passes[name].push_back(ms);
+          break;
         case FrameKind::cull_only: cull_only.push_back(frame_ms[f]); break;
       }
     }
     cs.frame_ms_during_culling = vk::median(during);
     cs.frame_ms_after_convergence = vk::median(after);
+    cs.pass_ms_after_convergence.clear();
+    for (const auto& [name, v] : after_passes) cs.pass_ms_after_convergence[name] = vk::median(v);
     cs.iteration_ms_without_draw = vk::median(cull_only);
     cs.iterations_after_spp = uint32_t(cull_only.size());
   }
@@ -601,6 +645,8 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
 
   if (stats) {
     stats->device = m.ctx->info().name;
+    stats->mesh_sprites = m.mesh_path;
+    stats->visibility_route = m.vis_route;
     stats->particles = m.particle_count;
     stats->meshlets = m.meshlet_count;
     stats->spp = m.settings.spp;
@@ -631,9 +677,21 @@ Result<std::vector<float>> Renderer::read_last_depth() {
   Impl& m = *impl_;
   if (!m.rendered) return make_error(Errc::internal, "read_last_depth() before render() or step()");
   MDS_TRY(m.slot.wait());  // the frame in flight writes it
+  std::vector<float> d(size_t(m.settings.width) * m.settings.height);
+  if (m.vis_route) {  // the high word of each pixel's uint64: the nearest depth's bits, all ones = empty
+    MDS_ASSIGN_OR_RETURN(std::vector<std::byte> raw, vk::read_buffer(*m.ctx, m.visibility, 0, 8 * d.size()));
+    for (size_t i = 0; i < d.size(); ++i) {
+      uint64_t v;
+      std::memcpy(&v, raw.data() + 8 * i, 8);
+      const uint32_t bits = uint32_t(v >> 32);
+      float depth = 1.0f;
+      if (bits != 0xffffffffu) std::memcpy(&depth, &bits, 4);
+      d[i] = depth;
+    }
+    return d;
+  }
   MDS_ASSIGN_OR_RETURN(std::vector<std::byte> raw,
                        vk::read_image(*m.ctx, m.depth, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, 4));
-  std::vector<float> d(size_t(m.settings.width) * m.settings.height);
   std::memcpy(d.data(), raw.data(), d.size() * sizeof(float));
   return d;
 }

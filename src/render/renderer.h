@@ -8,7 +8,8 @@
 //      in class O, CullLoop::record_draw_list);
 //   2. "prepass": compute sprite pre-pass over the listed meshlets' particles (one GpuSprite
 //      each, tangent-plane bounds); small sprites are rasterized by compute into a visibility
-//      buffer (sprite_raster_id.comp), the others get indirect draw commands;
+//      buffer (one 64-bit atomicMin per pixel, sprite_raster.h), the others get indirect draw
+//      commands;
 //   3. "draw": resolve of the compute-rasterized sprites, then the other sprites as point sprites
 //      (largePoints, default where the point size range allows) or quads: ray-cast spheres with
 //      exact depth, with a Halton(2,3) sub-pixel jitter in the projection;
@@ -64,6 +65,10 @@ struct RenderSettings {
   culling::CullSettings cull_settings;               // used when cull is set
   std::shared_ptr<const culling::DensityVolume> density;  // from the store; null: built from the scene
   MeshShaderMode mesh_shaders = MeshShaderMode::automatic;  // sprite path (render/mesh_sprites.h)
+  // Visibility route (one uint64 of depth and sprite index per pixel, each pixel shaded once)
+  // where the device has 64-bit buffer atomics and the mesh path is off; false: colour + depth
+  // attachments (the route of the mesh path and of devices without those atomics).
+  bool visibility_route = true;
 };
 
 // Culling loop statistics of one render() (RenderStats::cull).
@@ -84,10 +89,12 @@ struct CullStats {
   std::vector<uint32_t> culled_per_iteration;
   double time_to_converge_ms = 0.0;     // wall time from render() start
   // GPU ms per frame (sum of its timestamped passes), medians: frames with a culling iteration;
-  // frames after convergence (including the draw-only timing frames after a convergence past
-  // spp, which skip "accumulate"); culling iterations without drawing.
+  // frames after convergence (including the timing frames after a convergence past spp, which
+  // run every pass of a sampling frame but accumulate with weight 0); culling iterations
+  // without drawing.
   double frame_ms_during_culling = 0.0;
   double frame_ms_after_convergence = 0.0;
+  std::map<std::string, double> pass_ms_after_convergence;  // per pass, median over those frames
   double iteration_ms_without_draw = 0.0;
 };
 
@@ -161,6 +168,7 @@ struct RenderStats {
   uint64_t device_bytes = 0;
   double near = 0.0, far = 0.0;
   bool mesh_sprites = false;  // sprites drawn by the task/mesh path (else compute + indirect draws)
+  bool visibility_route = false;  // pixels by the visibility buffer (else colour + depth attachments)
   CullStats cull;
   CacheStats cache;                 // streaming only
   double frame_wall_ms_p50 = 0.0;   // CPU wall time per frame (step), all frames of the render

@@ -36,8 +36,14 @@ struct Renderer::Impl {
   VkBuffer meshlets_h = VK_NULL_HANDLE, particles_h = VK_NULL_HANDLE, radii_h = VK_NULL_HANDLE;
   VkBuffer meshlet_class_h = VK_NULL_HANDLE;  // streaming: the pool's class buffer for the cull loop
   vk::Buffer sprites, sprite_draw;  // pre-pass output: GpuSprite per listed particle, draw commands
-  vk::Buffer visibility;            // compute rasterization of small sprites (depth bits, index)
-  bool vis_bytes_ok = true;         // the visibility buffer fits maxStorageBufferRange
+  // The visibility route (RenderSettings::visibility_route, where the device has 64-bit buffer
+  // atomics, the buffer fits maxStorageBufferRange and the mesh path is off): every sprite --
+  // small ones rasterized by the pre-pass, the others by points/quads -- writes depth bits and
+  // its index into one uint64 per pixel, and visibility_resolve.comp shades each pixel once and
+  // accumulates. Otherwise the attachment route: colour + depth attachments, accumulate.comp.
+  vk::Buffer visibility;
+  bool vis_route = false;
+  bool targets_created = false;     // the route is decided by the first create_targets()
   bool point_sprites = false;       // small on-screen sprites drawn as points (see create_pipelines)
   float small_px = 0.0f;            // sprites up to this size rasterized in compute (0: none)
   bool mesh_path = false;           // task/mesh sprites instead of the pre-pass (render/mesh_sprites.h)
@@ -45,10 +51,10 @@ struct Renderer::Impl {
   // Stages that read the draw list and the sprite commands: the barriers before they are
   // rewritten and after they are written name these.
   VkPipelineStageFlags2 sprite_read_stages = VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT;
-  vk::Image color, depth, accum;
+  vk::Image color, depth, accum;  // colour and depth: the attachment route only
   vk::DescriptorSet set;
   vk::UniquePipelineLayout layout;
-  vk::UniquePipeline draw_list_pipe, sprite_args_pipe, prepass_pipe, raster_id_pipe, sphere_pipe, point_pipe,
+  vk::UniquePipeline draw_list_pipe, sprite_args_pipe, prepass_pipe, sphere_pipe, point_pipe,
       resolve_pipe, accum_pipe;
   vk::FrameSlot slot;
   vk::TimestampPool timestamps;
@@ -91,6 +97,10 @@ struct Renderer::Impl {
   Result<double> collect_frame_ms();
   void after_iteration();
   Status create_targets();
+  glm::vec3 background_linear() const {
+    return {srgb_to_linear(settings.background_srgb.r), srgb_to_linear(settings.background_srgb.g),
+            srgb_to_linear(settings.background_srgb.b)};
+  }
   Status resize(uint32_t w, uint32_t h);
   Status create_pipelines();
   // After the scene or the pool is on the device: targets, pipelines, frame slot, timestamps.

@@ -116,6 +116,7 @@ void Renderer::Impl::write_frame_uniforms(uint32_t sample) {
   fu.viewport = glm::vec4(float(w), float(h), 1.0f / float(w), 1.0f / float(h));
   fu.radius_range = glm::vec4(radius_min, radius_max - radius_min, float(view_camera.near), float(view_camera.far));
   fu.counts = glm::uvec4(meshlet_count, max_meshlet, flags | (view_camera.ortho ? gpu::kFrameOrtho : 0u), sample);
+  fu.background = glm::vec4(background_linear(), 0.0f);
   std::memcpy(frame_ubo.mapped(), &fu, sizeof(fu));
   frame_ubo.flush();
 }
@@ -256,15 +257,12 @@ Status Renderer::Impl::resize(uint32_t w, uint32_t h) {
   // Its culling iteration still tells the cache what is occluded (as set_view does).
   if (pending_iteration && cache && cull) cache->set_classes(cull->node_classes(), false);
   pending_iteration = false;
-  const bool small_sprites = small_px > 0.0f;
   settings.width = w;
   settings.height = h;
-  MDS_TRY(create_targets());  // replaces (and releases) the old colour/depth/accumulation/visibility
-  if (small_sprites && !vis_bytes_ok)
-    return make_error(Errc::budget,
-                      "resize to {}x{}: the small-sprite visibility buffer ({} bytes) exceeds maxStorageBufferRange ({})",
-                      w, h, 8ull * w * h, ctx->limits().maxStorageBufferRange);
-  set.write_storage_image(gpu::kBindColorImage, color.view());
+  // Replaces (and releases) the old targets; the visibility route's buffer must fit the range.
+  if (Status st = create_targets(); !st.ok())
+    return make_error(st.error().code, "resize to {}", st.error().message);
+  if (!vis_route) set.write_storage_image(gpu::kBindColorImage, color.view());
   set.write_storage_image(gpu::kBindAccumImage, accum.view());
   set.write_buffer(gpu::kBindVisibility, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, visibility.get());
   if (cull) MDS_TRY(cull->resize(w, h));
@@ -327,6 +325,7 @@ RenderStats Renderer::stats() const {
   RenderStats s;
   s.device = m.ctx->info().name;
   s.mesh_sprites = m.mesh_path;
+  s.visibility_route = m.vis_route;
   s.particles = m.particle_count;
   s.meshlets = m.cache ? m.cache->live_meshlets() : m.meshlet_count;
   s.spp = m.settings.spp;

@@ -236,6 +236,10 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
   e12.pNext = &e13;
   e12.drawIndirectCount = f12.drawIndirectCount;
   e12.hostQueryReset = f12.hostQueryReset;
+  // 64-bit atomicMin on storage buffers: the renderer's compute rasterization of small sprites
+  // (one atomic of depth bits and sprite index per pixel); enabled whenever supported.
+  e12.shaderBufferInt64Atomics = f12.shaderBufferInt64Atomics && f2.features.shaderInt64;
+  c->int64_atomics_ = e12.shaderBufferInt64Atomics == VK_TRUE;
   VkPhysicalDeviceFeatures2 e2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
   e2.pNext = &e12;
   e2.features.multiDrawIndirect = f2.features.multiDrawIndirect;
@@ -246,6 +250,7 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
   // Point sprites larger than one pixel (the renderer's point path); enabled whenever supported,
   // so "supported" (vkGetPhysicalDeviceFeatures) means "enabled" for this context.
   e2.features.largePoints = f2.features.largePoints;
+  e2.features.shaderInt64 = e12.shaderBufferInt64Atomics;
 
   float priority = 1.0f;
   VkDeviceQueueCreateInfo qinfo{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};

@@ -73,6 +73,8 @@ class Context {
   bool validation_enabled() const { return validation_; }
   // VK_EXT_mesh_shader enabled with its task and mesh stages (only where the device has them).
   bool mesh_shaders() const { return mesh_shaders_; }
+  // shaderInt64 and shaderBufferInt64Atomics enabled (only where the device has both).
+  bool int64_atomics() const { return int64_atomics_; }
   // Number of validation warnings/errors reported so far (0 without validation).
   uint64_t validation_messages() const;
   Allocator& allocator() { return *allocator_; }
@@ -97,6 +99,7 @@ class Context {
   uint32_t timestamp_valid_bits_ = 0;
   bool validation_ = false;
   bool mesh_shaders_ = false;
+  bool int64_atomics_ = false;
   DeviceInfo info_;
   VkPhysicalDeviceProperties props_{};
   std::unique_ptr<Allocator> allocator_;
