@@ -23,6 +23,7 @@
 #include "convert/quantize.h"
 #include "convert/radix_sort.h"
 #include "convert/spill.h"
+#include "convert/xyz_sort.h"
 #include "scoped_temp_dir.h"
 
 using namespace mds;
@@ -264,6 +265,43 @@ TEST(RadixSort, MatchesStableSortOnUniformClusteredAndEqualKeys) {
   check({}, 2);
   check({7}, 2);
   check({9, 3, 3, 1, 9, 0}, 2);
+}
+
+// The raw-input sort moves the positions with the keys; it must equal a stable sort by key
+// (ties in input order), for uniform, clustered (one MSD bucket holds most) and duplicated data.
+TEST(XyzSort, MatchesStableSortByKeyAndMovesPositions) {
+  std::mt19937_64 rng(11);
+  auto check = [&](const std::vector<float>& xyz, unsigned threads) {
+    const size_t n = xyz.size() / 3;
+    double lo[3] = {1e30, 1e30, 1e30}, hi[3] = {-1e30, -1e30, -1e30};
+    for (size_t i = 0; i < n; ++i)
+      for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], double(xyz[3 * i + a])), hi[a] = std::max(hi[a], double(xyz[3 * i + a]));
+    const MortonGrid grid(lo, hi);
+    std::vector<std::pair<uint64_t, size_t>> ref(n);
+    for (size_t i = 0; i < n; ++i) ref[i] = {grid.key(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]), i};
+    std::stable_sort(ref.begin(), ref.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+    std::vector<uint64_t> keys(n);
+    std::vector<float> sorted(3 * n);
+    sort_xyz_by_key(xyz.data(), n, grid, threads, keys.data(), sorted.data());
+    for (size_t i = 0; i < n; ++i) {
+      ASSERT_EQ(keys[i], ref[i].first) << "at " << i << ", " << threads << " threads";
+      for (int a = 0; a < 3; ++a)
+        ASSERT_EQ(sorted[3 * i + a], xyz[3 * ref[i].second + a]) << "particle " << i << " axis " << a << " (stability)";
+    }
+  };
+  std::uniform_real_distribution<float> u(-50.0f, 150.0f);
+  std::vector<float> uniform(3 * 200000), clustered(3 * 150000), duplicated(3 * 100000);
+  for (auto& v : uniform) v = u(rng);
+  for (size_t i = 0; i < clustered.size(); ++i)  // 95 % in a tiny cube, a few far away
+    clustered[i] = (i / 3) % 20 == 0 ? u(rng) : 7.0f + 1e-3f * float(rng() % 1000);
+  for (size_t i = 0; i < duplicated.size(); ++i) duplicated[i] = float(rng() % 4);  // 64 distinct positions
+  for (unsigned threads : {1u, 2u, 3u}) {
+    check(uniform, threads);
+    check(clustered, threads);
+    check(duplicated, threads);
+  }
+  check({1.0f, 2.0f, 3.0f}, 2);
+  check({5, 5, 5, 1, 1, 1, 5, 5, 5, 0, 9, 0}, 2);
 }
 
 // ---------------------------------------------------------------- meshlets

@@ -24,6 +24,7 @@
 #include "convert/radix_sort.h"
 #include "convert/record_view.h"
 #include "convert/spill.h"
+#include "convert/xyz_sort.h"
 #include "readers/raw_reader.h"
 #include "store/store_writer.h"
 
@@ -256,12 +257,24 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   TempDir tmp(tmp_parent);
 
   rep.seconds_setup = meter.lap("setup");
-  // When everything will fit in memory, the sort arrays (keys, permutation and their scratch)
-  // are allocated now and their pages mapped on a background thread during pass A, which
-  // leaves part of a core idle; the keys step then runs on mapped memory.
+  // One raw float32 input that fits in memory is validated and built in place from its
+  // mapping (record_view.h, xyz_sort.h); everything else is read into records (or spilled).
+  RawReader* raw_reader = o.inputs.size() == 1 ? dynamic_cast<RawReader*>(readers[0].get()) : nullptr;
+  const bool raw_mapped = raw_reader && declared <= plan.max_memory_records;
+  // When everything will fit in memory, the sort arrays (keys, permutation and their scratch;
+  // for the raw input keys and sorted positions) are allocated now and their pages mapped on a
+  // background thread during pass A, which leaves part of a core idle; the sort then runs on
+  // mapped memory.
   SortBuffers sb;
+  BigVector<float> xyz_sorted;
   std::unique_ptr<BackgroundPrefault> sort_prefault;
-  if (declared <= plan.max_memory_records && declared >= (uint64_t(1) << 16)) {
+  if (raw_mapped) {
+    const size_t n = size_t(declared);
+    sb.keys.resize(n);
+    xyz_sorted.resize(3 * n);
+    sort_prefault = std::make_unique<BackgroundPrefault>(std::vector<std::pair<void*, size_t>>{
+        {sb.keys.data(), n * sizeof(uint64_t)}, {xyz_sorted.data(), 3 * n * sizeof(float)}});
+  } else if (declared <= plan.max_memory_records && declared >= (uint64_t(1) << 16)) {
     const size_t n = size_t(declared);
     sb.keys.resize(n);
     sb.perm.resize(n);
@@ -274,12 +287,8 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
         {sb.perm_tmp.data(), n * sizeof(uint32_t)}});
   }
   // ---- pass A
-  // One raw float32 input that fits in memory is validated and built in place from its
-  // mapping (record_view.h); everything else is read into records (or spilled).
   InputScan scan;
   RawXyzRecords raw_view;
-  RawReader* raw_reader = o.inputs.size() == 1 ? dynamic_cast<RawReader*>(readers[0].get()) : nullptr;
-  const bool raw_mapped = raw_reader && declared <= plan.max_memory_records;
   ScanOptions so;
   so.inputs = o.inputs;
   so.radius = o.radius;
@@ -325,18 +334,41 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   for (unsigned i = 0; i < o.threads; ++i) workers.push_back(std::make_unique<NodeWorker>(o.meshlet_builder));
   rep.seconds_setup += meter.lap("setup");
 
+  std::thread release_thread;
+  struct ReleaseJoin {
+    std::thread& t;
+    ~ReleaseJoin() {
+      if (t.joinable()) t.join();
+    }
+  } release_join{release_thread};
   if (scan.in_memory) {
     // ---- everything fits: one bin, the root cell (sb possibly allocated before pass A)
     progress.stage("build", scan.count);
-    const SortTimes st = raw_mapped ? key_and_sort(raw_view, grid, o.threads, sb)
-                                    : key_and_sort(SpillRecords{scan.memory}, grid, o.threads, sb);
-    sb.keys_tmp = {};
-    sb.perm_tmp = {};
-    rep.seconds_keys = st.keys;
-    rep.seconds_radix = st.radix;
-    rep.seconds_sort = meter.lap("sort");
-    if (raw_mapped) MDS_TRY(build_bin(ctx, workers, sb.keys, sb.perm, raw_view, 0, *writer, tot, progress));
-    else MDS_TRY(build_bin(ctx, workers, sb.keys, sb.perm, scan.memory, 0, *writer, tot, progress));
+    if (raw_mapped) {
+      // Keys and positions sorted together (xyz_sort.h): the build reads them sequentially.
+      const auto t = Clock::now();
+      sb.keys.resize(raw_view.size());
+      xyz_sorted.resize(3 * raw_view.size());
+      sort_xyz_by_key(raw_view.xyz, raw_view.size(), grid, o.threads, sb.keys.data(), xyz_sorted.data());
+      rep.seconds_radix = seconds_since(t);
+      rep.seconds_sort = meter.lap("sort");
+      MDS_TRY(build_bin(ctx, workers, sb.keys, SortedXyzRecords{xyz_sorted.data(), raw_view.size(), raw_view.type,
+                                                                raw_view.radius},
+                        0, *writer, tot, progress));
+      // Unmapping the two arrays (about 0.03 s per 10M particles) overlaps with the finish.
+      release_thread = std::thread([k = std::move(sb.keys), x = std::move(xyz_sorted)]() mutable {
+        k = {};
+        x = {};
+      });
+    } else {
+      const SortTimes st = key_and_sort(SpillRecords{scan.memory}, grid, o.threads, sb);
+      sb.keys_tmp = {};
+      sb.perm_tmp = {};
+      rep.seconds_keys = st.keys;
+      rep.seconds_radix = st.radix;
+      rep.seconds_sort = meter.lap("sort");
+      MDS_TRY(build_bin(ctx, workers, sb.keys, sb.perm, scan.memory, 0, *writer, tot, progress));
+    }
     scan.memory = {};
     sb.release();
     rep.seconds_nodes = meter.lap("nodes");
@@ -429,6 +461,7 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   }
   sum.density_counts = std::move(tot.density);
   MDS_TRY(writer->finish(sum));
+  if (release_thread.joinable()) release_thread.join();
   rep.seconds_finish = meter.lap("finish");
 
   std::error_code ec;

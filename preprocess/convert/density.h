@@ -52,6 +52,7 @@ class DensityGrid {
   const std::array<uint32_t, 3>& dims() const { return dims_; }
   const double* lo() const { return lo_; }
   const double* hi() const { return hi_; }
+  const double* scale() const { return scale_; }  // voxels per length unit, per axis
 
  private:
   std::array<uint32_t, 3> dims_ = {1, 1, 1};

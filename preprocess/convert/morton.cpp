@@ -33,6 +33,7 @@ MortonGrid::MortonGrid(const double lo[3], const double hi[3]) {
   double extent = 0;
   for (int a = 0; a < 3; ++a) {
     lo_[a] = lo[a];
+    hi_[a] = hi[a];
     extent = std::max(extent, hi[a] - lo[a]);
   }
   for (int a = 0; a < 3; ++a) scale_[a] = extent > 0 ? double(1u << kMortonBitsPerAxis) / extent : 0.0;

@@ -45,9 +45,12 @@ class MortonGrid {
   uint64_t key(double x, double y, double z) const {
     return morton_encode(cell(0, x), cell(1, y), cell(2, z));
   }
+  double lo(int axis) const { return lo_[axis]; }
+  double hi(int axis) const { return hi_[axis]; }
 
  private:
   double lo_[3] = {0, 0, 0};
+  double hi_[3] = {0, 0, 0};
   double scale_[3] = {0, 0, 0};
 };
 

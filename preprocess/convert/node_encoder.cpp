@@ -1,6 +1,7 @@
 // Per-bin node building and encoding on worker threads (see node_encoder.h).
 #include "convert/node_encoder.h"
 
+#include <emmintrin.h>
 #include <time.h>
 
 #include <algorithm>
@@ -53,26 +54,37 @@ struct NodeResult {
   double t_gather = 0, t_meshlets = 0, t_encode = 0;
 };
 
+// The records of one node through the sort permutation (random access, prefetched).
 template <class Recs>
-Result<NodeResult> build_node(const BuildContext& ctx, NodeWorker& w, std::span<const uint64_t> keys,
-                              std::span<const uint32_t> perm, const Recs& recs) {
-  NodeResult res;
-  const size_t n = keys.size();
-  const double t0 = thread_cpu_seconds();
-  // Gather the node's records (sort permutation) into node-local arrays, in Morton order.
-  w.xyz.resize(3 * n);
-  w.type_index.resize(n);
-  w.radius_q.resize(ctx.per_particle_radius ? n : 0);
-  w.vcoords.resize(3 * n);
-  uint32_t vlo[3] = {UINT32_MAX, UINT32_MAX, UINT32_MAX}, vhi[3] = {0, 0, 0};
-  double lo[3], hi[3];
+struct PermSource {
+  std::span<const uint32_t> perm;
+  const Recs* recs;
+  size_t size() const { return perm.size(); }
+  PermSource slice(size_t b, size_t n) const { return {perm.subspan(b, n), recs}; }
+};
+
+// The positions of one node of the sorted raw input (sequential, one type, one radius).
+struct SortedSource {
+  const float* xyz;
+  size_t n;
+  int32_t type;
+  float radius;
+  size_t size() const { return n; }
+  SortedSource slice(size_t b, size_t m) const { return {xyz + 3 * b, m, type, radius}; }
+};
+
+template <class Recs>
+void gather(const BuildContext& ctx, NodeWorker& w, const PermSource<Recs>& src, double lo[3], double hi[3],
+            uint32_t vlo[3], uint32_t vhi[3], float& max_radius) {
+  const size_t n = src.size();
+  const Recs& recs = *src.recs;
+  const std::span<const uint32_t> perm = src.perm;
   {
     const SpillRecord& r0 = recs[perm[0]];
     lo[0] = hi[0] = r0.x;
     lo[1] = hi[1] = r0.y;
     lo[2] = hi[2] = r0.z;
   }
-  float max_radius = 0;
   for (size_t i = 0; i < n; ++i) {
     // The records are in input order: the gather is a random access, prefetched a few ahead.
     if (i + kGatherPrefetch < n) __builtin_prefetch(recs.address(perm[i + kGatherPrefetch]));
@@ -99,6 +111,103 @@ Result<NodeResult> build_node(const BuildContext& ctx, NodeWorker& w, std::span<
       vhi[a] = std::max(vhi[a], c);
     }
   }
+}
+
+// The same for the sorted raw positions: a sequential read, the one type and radius hoisted,
+// x and y in one SSE2 vector. The same values as the scalar loop: min_pd(v, lo) keeps lo unless
+// v < lo, as std::min(lo, v) does; the voxel cell clamps (c, 0, dims - 1) before truncating,
+// which equals DensityGrid::cell for the finite c here; truncation is monotone, so the box of
+// the cells is the truncated box of the clamped values.
+void gather(const BuildContext& ctx, NodeWorker& w, const SortedSource& src, double lo[3], double hi[3],
+            uint32_t vlo[3], uint32_t vhi[3], float& max_radius) {
+  const size_t n = src.size();
+  const float* xyz = src.xyz;
+  const uint8_t t = (*ctx.lut)(src.type);
+  std::fill(w.type_index.begin(), w.type_index.begin() + ptrdiff_t(n), t);
+  max_radius = ctx.type_radius[t];  // the type's radius (per-particle radii do not occur here)
+  double* out = w.xyz.data();
+  uint32_t* vc = w.vcoords.data();
+  const double* dlo = ctx.density.lo();
+  const double* dsc = ctx.density.scale();
+  const auto& dims = ctx.density.dims();
+  const __m128d dlo_xy = _mm_setr_pd(dlo[0], dlo[1]), dlo_z = _mm_set_sd(dlo[2]);
+  const __m128d dsc_xy = _mm_setr_pd(dsc[0], dsc[1]), dsc_z = _mm_set_sd(dsc[2]);
+  const __m128d dmax_xy = _mm_setr_pd(double(dims[0] - 1), double(dims[1] - 1)), dmax_z = _mm_set_sd(double(dims[2] - 1));
+  const __m128d zero = _mm_setzero_pd();
+  __m128d lo_xy = _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(xyz))));
+  __m128d lo_z = _mm_cvtss_sd(_mm_setzero_pd(), _mm_load_ss(xyz + 2));
+  __m128d hi_xy = lo_xy, hi_z = lo_z;
+  __m128d clo_xy = _mm_set1_pd(1e300), clo_z = clo_xy, chi_xy = _mm_set1_pd(-1.0), chi_z = chi_xy;
+  for (size_t i = 0; i < 3 * n; i += 3) {
+    const __m128d xy = _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(xyz + i))));
+    const __m128d z = _mm_cvtss_sd(_mm_setzero_pd(), _mm_load_ss(xyz + i + 2));
+    _mm_storeu_pd(out + i, xy);
+    _mm_store_sd(out + i + 2, z);
+    lo_xy = _mm_min_pd(xy, lo_xy), hi_xy = _mm_max_pd(xy, hi_xy);
+    lo_z = _mm_min_sd(z, lo_z), hi_z = _mm_max_sd(z, hi_z);
+    const __m128d c_xy = _mm_min_pd(_mm_max_pd(_mm_mul_pd(_mm_sub_pd(xy, dlo_xy), dsc_xy), zero), dmax_xy);
+    const __m128d c_z = _mm_min_sd(_mm_max_sd(_mm_mul_sd(_mm_sub_sd(z, dlo_z), dsc_z), zero), dmax_z);
+    clo_xy = _mm_min_pd(c_xy, clo_xy), chi_xy = _mm_max_pd(c_xy, chi_xy);
+    clo_z = _mm_min_sd(c_z, clo_z), chi_z = _mm_max_sd(c_z, chi_z);
+    _mm_storel_epi64(reinterpret_cast<__m128i*>(vc + i), _mm_cvttpd_epi32(c_xy));
+    vc[i + 2] = uint32_t(_mm_cvttsd_si32(c_z));
+  }
+  alignas(16) double b[2];
+  _mm_store_pd(b, lo_xy), lo[0] = b[0], lo[1] = b[1], lo[2] = _mm_cvtsd_f64(lo_z);
+  _mm_store_pd(b, hi_xy), hi[0] = b[0], hi[1] = b[1], hi[2] = _mm_cvtsd_f64(hi_z);
+  _mm_store_pd(b, clo_xy), vlo[0] = uint32_t(b[0]), vlo[1] = uint32_t(b[1]), vlo[2] = uint32_t(_mm_cvtsd_f64(clo_z));
+  _mm_store_pd(b, chi_xy), vhi[0] = uint32_t(b[0]), vhi[1] = uint32_t(b[1]), vhi[2] = uint32_t(_mm_cvtsd_f64(chi_z));
+}
+
+// Quantizes the node's positions in meshlet order (quantize.h) and measures the error, x and y
+// in one SSE2 vector: the same operations as quantize() and QuantError::add (clamping
+// (t, 0, 65535) before truncating equals quantize()'s tests), the same maxima.
+void quantize_node(const QuantFrame& f, const double* xyz, const uint32_t* order, size_t n, uint16_t* qpos,
+                   QuantError& err) {
+  const __m128d min_xy = _mm_setr_pd(f.min[0], f.min[1]), min_z = _mm_set_sd(f.min[2]);
+  const __m128d inv_xy = _mm_setr_pd(f.inv_step[0], f.inv_step[1]), inv_z = _mm_set_sd(f.inv_step[2]);
+  const __m128d step_xy = _mm_setr_pd(f.step[0], f.step[1]), step_z = _mm_set_sd(f.step[2]);
+  const __m128d ihs_xy = _mm_setr_pd(f.inv_half_step[0], f.inv_half_step[1]), ihs_z = _mm_set_sd(f.inv_half_step[2]);
+  const __m128d half = _mm_set1_pd(0.5), zero = _mm_setzero_pd(), qmax = _mm_set1_pd(double(store::kQuantMax));
+  const __m128d sign = _mm_set1_pd(-0.0);
+  __m128d abs_xy = zero, abs_z = zero, rel_xy = zero, rel_z = zero;
+  for (size_t k = 0; k < n; ++k) {
+    const double* p = xyz + 3 * size_t(order[k]);
+    const __m128d xy = _mm_loadu_pd(p), z = _mm_load_sd(p + 2);
+    const __m128d t_xy = _mm_min_pd(_mm_max_pd(_mm_add_pd(_mm_mul_pd(_mm_sub_pd(xy, min_xy), inv_xy), half), zero), qmax);
+    const __m128d t_z = _mm_min_sd(_mm_max_sd(_mm_add_sd(_mm_mul_sd(_mm_sub_sd(z, min_z), inv_z), half), zero), qmax);
+    const __m128i q_xy = _mm_cvttpd_epi32(t_xy);
+    const int q_z = _mm_cvttsd_si32(t_z);
+    qpos[3 * k] = uint16_t(_mm_cvtsi128_si32(q_xy));
+    qpos[3 * k + 1] = uint16_t(_mm_cvtsi128_si32(_mm_srli_si128(q_xy, 4)));
+    qpos[3 * k + 2] = uint16_t(q_z);
+    const __m128d d_xy = _mm_andnot_pd(sign, _mm_sub_pd(_mm_add_pd(min_xy, _mm_mul_pd(_mm_cvtepi32_pd(q_xy), step_xy)), xy));
+    const __m128d d_z =
+        _mm_andnot_pd(sign, _mm_sub_sd(_mm_add_sd(min_z, _mm_mul_sd(_mm_cvtsi32_sd(zero, q_z), step_z)), z));
+    abs_xy = _mm_max_pd(abs_xy, d_xy), abs_z = _mm_max_sd(abs_z, d_z);
+    rel_xy = _mm_max_pd(rel_xy, _mm_mul_pd(d_xy, ihs_xy)), rel_z = _mm_max_sd(rel_z, _mm_mul_sd(d_z, ihs_z));
+  }
+  alignas(16) double a[2], r[2];
+  _mm_store_pd(a, abs_xy), _mm_store_pd(r, rel_xy);
+  err.max_abs = std::max({err.max_abs, a[0], a[1], _mm_cvtsd_f64(abs_z)});
+  err.max_over_half_step = std::max({err.max_over_half_step, r[0], r[1], _mm_cvtsd_f64(rel_z)});
+}
+
+template <class Source>
+Result<NodeResult> build_node(const BuildContext& ctx, NodeWorker& w, std::span<const uint64_t> keys,
+                              const Source& src) {
+  NodeResult res;
+  const size_t n = keys.size();
+  const double t0 = thread_cpu_seconds();
+  // Gather the node's records (sort permutation) into node-local arrays, in Morton order.
+  w.xyz.resize(3 * n);
+  w.type_index.resize(n);
+  w.radius_q.resize(ctx.per_particle_radius ? n : 0);
+  w.vcoords.resize(3 * n);
+  uint32_t vlo[3] = {UINT32_MAX, UINT32_MAX, UINT32_MAX}, vhi[3] = {0, 0, 0};
+  double lo[3], hi[3];
+  float max_radius = 0;
+  gather(ctx, w, src, lo, hi, vlo, vhi, max_radius);
   const double t1 = thread_cpu_seconds();
   res.t_gather = t1 - t0;
 
@@ -110,18 +219,8 @@ Result<NodeResult> build_node(const BuildContext& ctx, NodeWorker& w, std::span<
   // Quantize in meshlet order; permute types and radii alike (in place through scratch).
   const QuantFrame frame = make_frame(lo, hi);
   w.qpos.resize(3 * n);
-  QuantError err;  // a local: stays in registers in the loop
-  uint16_t* qpos = w.qpos.data();
-  const double* xyz = w.xyz.data();
-  const uint32_t* order = w.order.data();
-  for (size_t k = 0; k < n; ++k) {
-    const double* p = &xyz[3 * size_t(order[k])];
-    for (int a = 0; a < 3; ++a) {
-      const uint16_t q = quantize(frame, a, p[a]);
-      qpos[3 * k + a] = q;
-      err.add(frame, a, p[a], q);
-    }
-  }
+  QuantError err;
+  quantize_node(frame, w.xyz.data(), w.order.data(), n, w.qpos.data(), err);
   res.error = err;
   bool identity = true;
   for (size_t k = 0; k < n && identity; ++k) identity = w.order[k] == k;
@@ -154,10 +253,9 @@ Result<NodeResult> build_node(const BuildContext& ctx, NodeWorker& w, std::span<
   return res;
 }
 
-template <class Recs>
+template <class Source>
 Status build_bin_impl(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
-                      std::span<const uint64_t> keys, std::span<const uint32_t> perm, const Recs& recs,
-                      int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress) {
+                      std::span<const uint64_t> keys, const Source& src, int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress) {
   if (keys.empty()) return {};
   const std::vector<NodeRange> nodes = build_nodes(keys, start_level, ctx.node_size);
   const size_t window = workers.size() * kWindowPerThread;
@@ -178,7 +276,7 @@ Status build_bin_impl(const BuildContext& ctx, std::vector<std::unique_ptr<NodeW
         if (abort) return;
       }
       const NodeRange nr = nodes[i];
-      auto r = build_node(ctx, w, keys.subspan(nr.begin, nr.size()), perm.subspan(nr.begin, nr.size()), recs);
+      auto r = build_node(ctx, w, keys.subspan(nr.begin, nr.size()), src.slice(nr.begin, nr.size()));
       {
         std::lock_guard lock(mu);
         slots[i % window].emplace(std::move(r));
@@ -243,13 +341,23 @@ Status build_bin_impl(const BuildContext& ctx, std::vector<std::unique_ptr<NodeW
 Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
                  std::span<const uint64_t> keys, std::span<const uint32_t> perm, std::span<const SpillRecord> recs,
                  int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress) {
-  return build_bin_impl(ctx, workers, keys, perm, SpillRecords{recs}, start_level, writer, tot, progress);
+  const SpillRecords r{recs};
+  return build_bin_impl(ctx, workers, keys, PermSource<SpillRecords>{perm, &r}, start_level, writer, tot, progress);
 }
 
 Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
                  std::span<const uint64_t> keys, std::span<const uint32_t> perm, const RawXyzRecords& recs,
                  int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress) {
-  return build_bin_impl(ctx, workers, keys, perm, recs, start_level, writer, tot, progress);
+  return build_bin_impl(ctx, workers, keys, PermSource<RawXyzRecords>{perm, &recs}, start_level, writer, tot, progress);
+}
+
+Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
+                 std::span<const uint64_t> keys, const SortedXyzRecords& recs, int start_level,
+                 store::StoreWriter& writer, BuildTotals& tot, Progress& progress) {
+  if (keys.size() != recs.size()) return make_error(Errc::internal, "build_bin: {} keys for {} positions", keys.size(), recs.size());
+  if (ctx.per_particle_radius) return make_error(Errc::internal, "build_bin: sorted raw positions carry no radii");
+  return build_bin_impl(ctx, workers, keys, SortedSource{recs.xyz, recs.n, recs.type, recs.radius}, start_level, writer,
+                        tot, progress);
 }
 
 }  // namespace mds::convert

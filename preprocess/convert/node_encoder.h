@@ -84,6 +84,11 @@ Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker
                  std::span<const uint64_t> keys, std::span<const uint32_t> perm, const RawXyzRecords& recs,
                  int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress);
 
+// The same over the sorted raw positions (xyz_sort.h; identity permutation).
+Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
+                 std::span<const uint64_t> keys, const SortedXyzRecords& recs, int start_level,
+                 store::StoreWriter& writer, BuildTotals& tot, Progress& progress);
+
 // CPU time of the calling thread.
 double thread_cpu_seconds();
 

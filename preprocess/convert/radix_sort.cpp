@@ -130,6 +130,11 @@ void sort_range(Span a, Span b, size_t n) {
 
 }  // namespace
 
+void radix_sort_pairs_serial(uint64_t* keys, uint32_t* idx, uint64_t* keys_tmp, uint32_t* idx_tmp, size_t n) {
+  if (n < 2) return;
+  sort_range(Span{keys, idx}, Span{keys_tmp, idx_tmp}, n);
+}
+
 void radix_sort_pairs(std::span<uint64_t> keys, std::span<uint32_t> idx, std::span<uint64_t> keys_tmp,
                       std::span<uint32_t> idx_tmp, unsigned threads) {
   const size_t n = keys.size();

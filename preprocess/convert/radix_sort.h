@@ -20,4 +20,7 @@ namespace mds::convert {
 void radix_sort_pairs(std::span<uint64_t> keys, std::span<uint32_t> idx, std::span<uint64_t> keys_tmp,
                       std::span<uint32_t> idx_tmp, unsigned threads);
 
+// The same on one thread over raw arrays of n pairs (scratch kt/it of n each).
+void radix_sort_pairs_serial(uint64_t* keys, uint32_t* idx, uint64_t* keys_tmp, uint32_t* idx_tmp, size_t n);
+
 }  // namespace mds::convert

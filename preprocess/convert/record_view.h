@@ -2,7 +2,8 @@
 // records of pass A (spill.h) or, for one raw float32 input that fits the budget, the mapped
 // input file itself (3 floats per particle, one type, one radius): the build then reads the
 // 12-byte input directly instead of a 32-byte copy of it (no record array to write, map and
-// read back). Both give a SpillRecord per index.
+// read back). Both give a SpillRecord per index. SortedXyzRecords: that input after the Morton
+// sort moved its positions (xyz_sort.h).
 #pragma once
 
 #include <cstddef>
@@ -30,6 +31,16 @@ struct RawXyzRecords {
     return SpillRecord{double(xyz[3 * i]), double(xyz[3 * i + 1]), double(xyz[3 * i + 2]), type, radius};
   }
   const void* address(size_t i) const { return xyz + 3 * i; }
+};
+
+// The raw input's positions after sort_xyz_by_key (xyz_sort.h): already in Morton order, so the
+// build reads them sequentially (identity permutation).
+struct SortedXyzRecords {
+  const float* xyz = nullptr;  // 3 per particle, sorted by key
+  size_t n = 0;
+  int32_t type = 1;
+  float radius = 0;
+  size_t size() const { return n; }
 };
 
 }  // namespace mds::convert

@@ -22,31 +22,34 @@ inline uint16_t load16(const uint8_t* p) {
 inline void store16(uint8_t* p, uint16_t v) { std::memcpy(p, &v, 2); }
 
 // Writes little-endian, LSB-first bit fields of <= 16 bits into a buffer sized in advance
-// (the caller computed the stream's length from the widths): 64 bits are collected in a
-// register and stored 8 bytes at a time.
+// (the caller computed the stream's length from the widths) plus 8 bytes of slack: after each
+// field the accumulator is stored as 8 bytes and the pointer advances by its whole bytes, so
+// no branch depends on the data (the bytes past the end are rewritten by the next store, or
+// trimmed).
 class BitWriter {
  public:
   explicit BitWriter(uint8_t* out) : p_(out) {}
-  // value < 2^width, width <= 16
+  // value < 2^width, width <= 16 (the accumulator holds at most 7 + 16 bits before the store)
   void put(uint32_t value, unsigned width) {
     acc_ |= uint64_t(value) << bits_;
     bits_ += width;
-    if (bits_ >= 64) {
-      std::memcpy(p_, &acc_, 8);
-      p_ += 8;
-      bits_ -= 64;
-      acc_ = uint64_t(value) >> (width - bits_);  // the bits that did not fit (0 when none)
-    }
+    std::memcpy(p_, &acc_, 8);
+    p_ += bits_ >> 3;
+    acc_ >>= bits_ & ~7u;
+    bits_ &= 7u;
   }
-  // Stores the last partial word (its unused high bits are zero); returns the end.
-  uint8_t* flush() {
-    const unsigned bytes = (bits_ + 7) / 8;
-    std::memcpy(p_, &acc_, bytes);
-    p_ += bytes;
-    acc_ = 0;
-    bits_ = 0;
-    return p_;
+  // Three values of one width (3 x 16 + 7 bits fit the accumulator): one store.
+  void put3(uint32_t v0, uint32_t v1, uint32_t v2, unsigned width) {
+    const uint64_t chunk = uint64_t(v0) | (uint64_t(v1) << width) | (uint64_t(v2) << (2 * width));
+    acc_ |= chunk << bits_;
+    bits_ += 3 * width;
+    std::memcpy(p_, &acc_, 8);
+    p_ += bits_ >> 3;
+    acc_ >>= bits_ & ~7u;
+    bits_ &= 7u;
   }
+  // The last partial byte is already stored (its unused high bits are zero); returns the end.
+  uint8_t* flush() { return p_ + (bits_ + 7) / 8; }
 
  private:
   uint8_t* p_;
@@ -96,8 +99,8 @@ void encode_payload(const NodeInput& node, std::vector<uint8_t>& raw) {
   const size_t n = node.type_index.size(), m = node.meshlet_size.size();
   const bool radius = !node.radius_q.empty();
   const size_t fixed = node_payload_fixed_bytes(n, m, radius);
-  // Large enough for the widest stream; trimmed to the exact size at the end.
-  raw.resize(node_payload_max_bytes(n, m, radius));
+  // Large enough for the widest stream and the bit writer's slack; trimmed to the exact size at the end.
+  raw.resize(node_payload_max_bytes(n, m, radius) + 8);
   uint8_t* sizes = raw.data();
   uint8_t* base = sizes + m;
   uint8_t* widths = base + 6 * m;
@@ -134,8 +137,15 @@ void encode_payload(const NodeInput& node, std::vector<uint8_t>& raw) {
     type_base[j] = tlo;
     type_bits[j] = uint8_t(tw);
     // The meshlet's bit fields: x offsets, y offsets, z offsets, type offsets.
-    for (int a = 0; a < 3; ++a)
-      for (size_t k = k0; k < end; ++k) bw.put(uint32_t(q[3 * k + a] - lo[a]), wa[a]);
+    for (int a = 0; a < 3; ++a) {
+      const uint16_t* qa = q + a;
+      const uint32_t la = lo[a];
+      const unsigned wd = wa[a];
+      if (wd == 0) continue;
+      size_t k = k0;
+      for (; k + 3 <= end; k += 3) bw.put3(qa[3 * k] - la, qa[3 * k + 3] - la, qa[3 * k + 6] - la, wd);
+      for (; k < end; ++k) bw.put(qa[3 * k] - la, wd);
+    }
     if (tw != 0)
       for (size_t k = k0; k < end; ++k) bw.put(uint32_t(t[k] - tlo), tw);
     k0 = end;

@@ -1,0 +1,150 @@
+// Morton sort of float xyz positions with the positions moved along (see xyz_sort.h).
+#include "convert/xyz_sort.h"
+
+#include <immintrin.h>
+
+#include <algorithm>
+#include <atomic>
+#include <barrier>
+#include <bit>
+#include <cstring>
+#include <thread>
+#include <vector>
+
+#include "convert/radix_sort.h"
+
+namespace mds::convert {
+
+namespace {
+
+constexpr int kDigitBits = 11;
+constexpr size_t kBuckets = size_t(1) << kDigitBits;
+constexpr size_t kMinParallel = size_t(1) << 16;
+
+struct MagicKey {
+  const MortonGrid* g;
+  uint64_t operator()(const float* p) const { return g->key(p[0], p[1], p[2]); }
+};
+
+// morton_encode with BMI2: bit i of x -> 3i, y -> 3i+1, z -> 3i+2 (cells are < 2^21).
+struct PdepKey {
+  const MortonGrid* g;
+  __attribute__((target("bmi2"))) uint64_t operator()(const float* p) const {
+    return _pdep_u64(g->cell(0, p[0]), 0x1249249249249249ull) | _pdep_u64(g->cell(1, p[1]), 0x2492492492492492ull) |
+           _pdep_u64(g->cell(2, p[2]), 0x4924924924924924ull);
+  }
+};
+
+template <class KeyFn>
+inline void histogram_impl(const float* xyz, size_t b, size_t e, int shift, KeyFn key, uint32_t* h) {
+  for (size_t i = b; i < e; ++i) ++h[(key(xyz + 3 * i) >> shift) & (kBuckets - 1)];
+}
+
+template <class KeyFn>
+inline void scatter_impl(const float* xyz, size_t b, size_t e, int shift, KeyFn key, uint32_t* pos, uint64_t* keys,
+                         float* xs) {
+  for (size_t i = b; i < e; ++i) {
+    const float* p = xyz + 3 * i;
+    const uint64_t k = key(p);
+    const uint32_t to = pos[(k >> shift) & (kBuckets - 1)]++;
+    keys[to] = k;
+    std::memcpy(xs + 3 * size_t(to), p, 12);
+  }
+}
+
+void histogram_magic(const float* xyz, size_t b, size_t e, int shift, const MortonGrid* g, uint32_t* h) {
+  histogram_impl(xyz, b, e, shift, MagicKey{g}, h);
+}
+void scatter_magic(const float* xyz, size_t b, size_t e, int shift, const MortonGrid* g, uint32_t* pos, uint64_t* keys,
+                   float* xs) {
+  scatter_impl(xyz, b, e, shift, MagicKey{g}, pos, keys, xs);
+}
+__attribute__((target("bmi2"), flatten)) void histogram_pdep(const float* xyz, size_t b, size_t e, int shift,
+                                                             const MortonGrid* g, uint32_t* h) {
+  histogram_impl(xyz, b, e, shift, PdepKey{g}, h);
+}
+__attribute__((target("bmi2"), flatten)) void scatter_pdep(const float* xyz, size_t b, size_t e, int shift,
+                                                           const MortonGrid* g, uint32_t* pos, uint64_t* keys,
+                                                           float* xs) {
+  scatter_impl(xyz, b, e, shift, PdepKey{g}, pos, keys, xs);
+}
+
+// Per-thread scratch of the bucket sorts.
+struct BucketScratch {
+  std::vector<uint64_t> kt;
+  std::vector<uint32_t> idx, it;
+  std::vector<float> xs;
+};
+
+// Sorts one bucket of m keys (and their positions) in place.
+void sort_bucket(uint64_t* keys, float* xyz, size_t m, BucketScratch& s) {
+  if (m < 2) return;
+  if (s.idx.size() < m) {
+    s.kt.resize(m);
+    s.idx.resize(m);
+    s.it.resize(m);
+    s.xs.resize(3 * m);
+  }
+  bool sorted = true;
+  for (size_t j = 1; j < m && sorted; ++j) sorted = keys[j - 1] <= keys[j];
+  if (sorted) return;
+  for (size_t j = 0; j < m; ++j) s.idx[j] = uint32_t(j);
+  radix_sort_pairs_serial(keys, s.idx.data(), s.kt.data(), s.it.data(), m);
+  float* xs = s.xs.data();
+  for (size_t j = 0; j < m; ++j) std::memcpy(xs + 3 * j, xyz + 3 * size_t(s.idx[j]), 12);
+  std::memcpy(xyz, xs, 12 * m);
+}
+
+}  // namespace
+
+void sort_xyz_by_key(const float* xyz, size_t n, const MortonGrid& grid, unsigned threads, uint64_t* keys,
+                     float* xyz_sorted) {
+  if (n == 0) return;
+  // The top digit ends at the highest bit any key can have (that of the bounds' far corner).
+  const uint64_t top = grid.key(grid.hi(0), grid.hi(1), grid.hi(2));
+  const int shift = std::max(0, int(std::bit_width(top)) - kDigitBits);
+  const bool pdep = __builtin_cpu_supports("bmi2");
+  threads = std::max(1u, n < kMinParallel ? 1u : threads);
+
+  std::vector<std::vector<uint32_t>> hist(threads, std::vector<uint32_t>(kBuckets, 0));
+  std::vector<uint32_t> bucket_begin(kBuckets + 1, 0);
+  auto plan_offsets = [&]() noexcept {
+    uint32_t at = 0;
+    for (size_t d = 0; d < kBuckets; ++d) {
+      bucket_begin[d] = at;
+      for (unsigned t = 0; t < threads; ++t) {
+        const uint32_t c = hist[t][d];
+        hist[t][d] = at;
+        at += c;
+      }
+    }
+    bucket_begin[kBuckets] = at;
+  };
+  std::barrier sync_offsets(std::ptrdiff_t(threads), plan_offsets);
+  std::barrier sync_scatter{std::ptrdiff_t(threads)};
+  std::atomic<size_t> next_bucket{0};
+
+  auto worker = [&](unsigned t) {
+    const size_t b = n * t / threads, e = n * (t + 1) / threads;
+    uint32_t* h = hist[t].data();
+    if (pdep) histogram_pdep(xyz, b, e, shift, &grid, h);
+    else histogram_magic(xyz, b, e, shift, &grid, h);
+    sync_offsets.arrive_and_wait();
+    if (pdep) scatter_pdep(xyz, b, e, shift, &grid, h, keys, xyz_sorted);
+    else scatter_magic(xyz, b, e, shift, &grid, h, keys, xyz_sorted);
+    sync_scatter.arrive_and_wait();
+    BucketScratch scratch;
+    for (;;) {
+      const size_t d = next_bucket.fetch_add(1);
+      if (d >= kBuckets) break;
+      const size_t lo = bucket_begin[d], m = bucket_begin[d + 1] - lo;
+      sort_bucket(keys + lo, xyz_sorted + 3 * lo, m, scratch);
+    }
+  };
+  std::vector<std::thread> pool;
+  for (unsigned t = 1; t < threads; ++t) pool.emplace_back(worker, t);
+  worker(0);
+  for (auto& th : pool) th.join();
+}
+
+}  // namespace mds::convert
