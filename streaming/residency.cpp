@@ -110,6 +110,11 @@ bool ResidencyTable::wanted(uint32_t i) const {
   return true;
 }
 
+bool ResidencyTable::fetchable(uint32_t i) const {
+  const NodeState& n = nodes_[i];
+  return wanted(i) || (n.ahead > 0 && !n.in_frustum && !n.failed);
+}
+
 namespace {
 // Eviction group under the occlusion policy: O first, then M, then L and P together.
 int evict_group(uint8_t cls) { return cls == kClassO ? 0 : cls == kClassM ? 1 : 2; }
@@ -123,10 +128,10 @@ bool ResidencyTable::evict_before(uint32_t a, uint32_t b) const {
   switch (policy_) {
     case Policy::occlusion:
       // farthest first: compare -distance
-      return std::make_tuple(evict_group(x.cls), x.last_use, -x.distance, a) <
-             std::make_tuple(evict_group(y.cls), y.last_use, -y.distance, b);
+      return std::make_tuple(evict_group(x.cls), x.last_use, x.ahead, -x.distance, a) <
+             std::make_tuple(evict_group(y.cls), y.last_use, y.ahead, -y.distance, b);
     case Policy::lru:
-      return std::make_tuple(x.last_use, -x.distance, a) < std::make_tuple(y.last_use, -y.distance, b);
+      return std::make_tuple(x.last_use, x.ahead, -x.distance, a) < std::make_tuple(y.last_use, y.ahead, -y.distance, b);
     case Policy::fifo:
       return std::make_tuple(x.load_seq, a) < std::make_tuple(y.load_seq, b);
   }
@@ -136,15 +141,17 @@ bool ResidencyTable::evict_before(uint32_t a, uint32_t b) const {
 bool ResidencyTable::fetch_before(uint32_t a, uint32_t b) const {
   const NodeState& x = nodes_[a];
   const NodeState& y = nodes_[b];
-  const int gx = policy_ == Policy::occlusion ? fetch_group(x.cls) : 0;
-  const int gy = policy_ == Policy::occlusion ? fetch_group(y.cls) : 0;
-  return std::make_tuple(gx, x.distance, -x.projected_size, a) < std::make_tuple(gy, y.distance, -y.projected_size, b);
+  // Look-ahead nodes (not wanted now) after every wanted node.
+  const int gx = !wanted(a) ? 3 : policy_ == Policy::occlusion ? fetch_group(x.cls) : 0;
+  const int gy = !wanted(b) ? 3 : policy_ == Policy::occlusion ? fetch_group(y.cls) : 0;
+  return std::make_tuple(gx, -int(x.ahead), x.distance, -x.projected_size, a) <
+         std::make_tuple(gy, -int(y.ahead), y.distance, -y.projected_size, b);
 }
 
 std::vector<uint32_t> ResidencyTable::prefetch_order(size_t limit) const {
   std::vector<uint32_t> out;
   for (uint32_t i = 0; i < nodes_.size(); ++i)
-    if (nodes_[i].residency == Residency::absent && wanted(i)) out.push_back(i);
+    if (nodes_[i].residency == Residency::absent && fetchable(i)) out.push_back(i);
   auto cmp = [&](uint32_t a, uint32_t b) { return fetch_before(a, b); };
   if (limit < out.size()) {
     std::partial_sort(out.begin(), out.begin() + std::ptrdiff_t(limit), out.end(), cmp);

@@ -12,7 +12,14 @@
 //            O nodes are never requested, so a node classified O before it was ever loaded is
 //            never read;
 //   policies lru / fifo (for the stress comparison): class-blind; every node in the frustum is
-//            fetched front to back; eviction by least recent use / by load order.
+//            fetched front to back; eviction by least recent use / by load order;
+//   look-ahead (every policy, while the camera moves): `ahead` = how many of the next views,
+//            extrapolated from the camera's motion, contain the node (set_ahead). Within a fetch
+//            group the nodes that stay in view longer come first, and among nodes drawn now the
+//            ones that leave soonest are evicted first (Belady's rule -- keep what is used again
+//            soonest -- with the future guessed from the motion). A node outside the frustum
+//            with ahead > 0 is fetched after every wanted node, only into room no wanted node
+//            needs; it is not demand (no hit or miss).
 // Pure logic, deterministic (ties broken by node index), no threads.
 #pragma once
 
@@ -47,6 +54,7 @@ struct NodeState {
   uint8_t cls = kClassP;
   bool in_frustum = true;
   bool ever_loaded = false;
+  uint8_t ahead = 0;            // next extrapolated views containing it (0 at rest; look-ahead)
   bool failed = false;          // unreadable: never requested again
   uint64_t bytes = 0;           // device bytes when resident
   uint64_t last_use = 0;        // last frame the node was drawn/sampled (touch)
@@ -66,6 +74,7 @@ class ResidencyTable {
   // Per-iteration inputs from the culling loop / camera.
   void set_class(uint32_t i, uint8_t cls) { nodes_[i].cls = cls; }
   void set_view(uint32_t i, float distance, float projected_size, bool in_frustum = true);
+  void set_ahead(uint32_t i, uint8_t ahead) { nodes_[i].ahead = ahead; }
   void touch(uint32_t i, uint64_t frame) { nodes_[i].last_use = frame; }
   // All classes back to P (new view, paper §5.1); residency and use history stay.
   void reset_classes();
@@ -79,7 +88,9 @@ class ResidencyTable {
 
   // Whether the policy wants node i resident now (ignores residency).
   bool wanted(uint32_t i) const;
-  // Absent, wanted, not failed nodes in request order (at most `limit`).
+  // wanted(i), or a look-ahead node (outside the frustum, not failed): worth reading.
+  bool fetchable(uint32_t i) const;
+  // Absent, fetchable nodes in request order (at most `limit`): wanted ones first.
   std::vector<uint32_t> prefetch_order(size_t limit = SIZE_MAX) const;
   // All resident nodes, first = evicted first.
   std::vector<uint32_t> eviction_order() const;

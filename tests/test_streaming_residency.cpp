@@ -152,3 +152,39 @@ TEST(StreamingResidency, NearerNodeDisplacesFartherDrawnNodeNeverTheReverse) {
   EXPECT_FALSE(t.choose_victims(100, 0, 4, 4).ok());
   EXPECT_FALSE(t.choose_victims(100, 0, 4).ok());  // without an incoming node drawn nodes stay
 }
+
+// Look-ahead (the camera's extrapolated motion, StreamCache::set_view): nodes that stay in view
+// longer are fetched first and evicted last; a node outside the frustum that the motion brings in
+// is read after every wanted node, and is never demand.
+TEST(StreamingResidency, LookAheadFetchesPersistentNodesFirstAndIncomingNodesLast) {
+  ResidencyTable t(std::vector<uint64_t>(5, 100), Policy::occlusion);
+  // node: distance, in frustum, views ahead containing it
+  struct S { float dist; bool in; uint8_t ahead; };
+  const S s[5] = {{1, true, 0}, {2, true, 3}, {3, true, 3}, {0.5f, false, 2}, {0.2f, false, 0}};
+  for (uint32_t i = 0; i < 5; ++i) {
+    t.set_view(i, s[i].dist, 1.0f, s[i].in);
+    t.set_ahead(i, s[i].ahead);
+    t.set_class(i, s[i].in || s[i].ahead > 0 ? kClassP : kClassO);
+  }
+  EXPECT_TRUE(t.wanted(0));
+  EXPECT_FALSE(t.wanted(3));  // look-ahead: worth reading, not demand
+  EXPECT_TRUE(t.fetchable(3));
+  EXPECT_FALSE(t.fetchable(4));  // outside, and no extrapolated view brings it in
+  // Wanted first, the ones staying in view (1, 2) before the one leaving (0) although it is
+  // nearer; the look-ahead node 3 last although it is the nearest.
+  EXPECT_EQ(t.prefetch_order(), (std::vector<uint32_t>{1, 2, 0, 3}));
+
+  // All resident and drawn in frame 7: room for wanted node 0 may come only from drawn nodes
+  // fetched after it, which leaves the look-ahead node 3 (1 and 2 are fetched before 0).
+  for (uint32_t i : {0u, 1u, 2u, 3u}) {
+    load(t, i);
+    t.touch(i, 7);
+  }
+  auto v = t.choose_victims(100, 0, 7, 0);
+  ASSERT_TRUE(v.ok()) << v.error().message;
+  EXPECT_EQ(v.value(), (std::vector<uint32_t>{3}));
+  // Among nodes drawn in the same frame, the one leaving view soonest is evicted first.
+  const auto order = t.eviction_order();
+  EXPECT_EQ(order.front(), 0u);
+  EXPECT_EQ(order.back(), 1u);  // stays 3 views, nearer than 2
+}

@@ -89,6 +89,23 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
 
 StreamCache::~StreamCache() = default;
 
+namespace {
+// Conservative frustum test of a box: out when all 8 corners are outside one clip plane.
+bool box_in_frustum(const glm::dmat4& clip_from_world, const glm::dvec3& lo, const glm::dvec3& hi) {
+  int out[6] = {0, 0, 0, 0, 0, 0};
+  for (int k = 0; k < 8; ++k) {
+    const glm::dvec4 p = clip_from_world * glm::dvec4(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z, 1.0);
+    out[0] += p.x < -p.w;
+    out[1] += p.x > p.w;
+    out[2] += p.y < -p.w;
+    out[3] += p.y > p.w;
+    out[4] += p.z < 0.0;
+    out[5] += p.z > p.w;
+  }
+  return std::none_of(out, out + 6, [](int n) { return n == 8; });
+}
+}  // namespace
+
 void StreamCache::set_view(const Camera& camera, double aspect) {
   // Node boxes are relative to the scene origin: build the matrices relative to it too.
   const glm::dvec3 origin = glm::dvec3(reader_->header().bounds_min[0], reader_->header().bounds_min[1],
@@ -97,30 +114,41 @@ void StreamCache::set_view(const Camera& camera, double aspect) {
   const glm::dmat4 clip_from_world = projection_matrix(camera, aspect) * view;
   const glm::dvec3 eye = camera.eye - origin;
   const double tan_half = std::tan(glm::radians(camera.fov_y_deg) * 0.5);
+  window_.new_view();  // restarts at rest, keeps its state while the camera moves (read_window.h)
+  // Look-ahead while the camera moves: the views of the next frames if the motion of the last
+  // one goes on (eye and target linearly; the near/far planes of this view).
+  std::vector<glm::dmat4> ahead;
+  if (has_view_ && window_.moving()) {
+    const glm::dvec3 d_eye = camera.eye - last_camera_.eye, d_target = camera.target - last_camera_.target;
+    if (glm::length(d_eye) + glm::length(d_target) > 0.0) {
+      for (int k = 1; k <= kLookaheadFrames; ++k) {
+        Camera c = camera;
+        c.eye += double(k) * d_eye;
+        c.target += double(k) * d_target;
+        if (glm::length(c.target - c.eye) <= 0.0) continue;
+        ahead.push_back(projection_matrix(c, aspect) * view_matrix(c, origin));
+      }
+    }
+  }
   for (uint32_t i = 0; i < directory_.size(); ++i) {
     const glm::dvec3 lo(directory_[i].aabb_min), hi(directory_[i].aabb_max);
-    // Conservative frustum test: out when all 8 corners are outside one clip plane.
-    int out[6] = {0, 0, 0, 0, 0, 0};
-    for (int k = 0; k < 8; ++k) {
-      const glm::dvec4 p = clip_from_world * glm::dvec4(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z, 1.0);
-      out[0] += p.x < -p.w;
-      out[1] += p.x > p.w;
-      out[2] += p.y < -p.w;
-      out[3] += p.y > p.w;
-      out[4] += p.z < 0.0;
-      out[5] += p.z > p.w;
-    }
-    const bool in = std::none_of(out, out + 6, [](int n) { return n == 8; });
+    const bool in = box_in_frustum(clip_from_world, lo, hi);
+    uint8_t frames_ahead = 0;
+    for (const glm::dmat4& a : ahead) frames_ahead += box_in_frustum(a, lo, hi) ? 1 : 0;
+    const bool is_ahead = !in && frames_ahead > 0;
     const glm::dvec3 nearest = glm::clamp(eye, lo, hi);
     const double dist = glm::length(nearest - eye);
     const double size = 0.5 * glm::length(hi - lo);
     const double projected = camera.ortho ? size : size / std::max(dist * tan_half, 1e-12);
     const bool was_in = table_->node(i).in_frustum && has_view_;
     table_->set_view(i, float(dist), float(projected), in);
-    if (!in) table_->set_class(i, MDS_CULL_CLASS_O);
+    table_->set_ahead(i, frames_ahead);
+    // Outside: O, except a look-ahead node (P, so that the occlusion policy evicts it after the
+    // nodes no view wants; it is not wanted until it enters the frustum).
+    if (!in) table_->set_class(i, is_ahead ? MDS_CULL_CLASS_P : MDS_CULL_CLASS_O);
     else if (!was_in) table_->set_class(i, MDS_CULL_CLASS_P);  // entering the frustum: wanted
   }
-  window_.new_view();  // restarts at rest, keeps its state while the camera moves (read_window.h)
+  last_camera_ = camera;
   has_view_ = true;
   exhausted_ = false;
 }
@@ -177,9 +205,12 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
     ready_.emplace(i, std::move(*done));
   }
 
-  // Use: the resident nodes this frame draws are kept by the placement below (touch = drawn now).
+  // Use: the resident nodes this frame draws are kept by the placement below (touch = drawn now),
+  // and so are resident look-ahead nodes, except against nodes fetched before them (wanted ones:
+  // ResidencyTable::displaces).
   for (uint32_t i = 0; i < n_nodes; ++i)
-    if (demanded(i) && table_->node(i).residency == Residency::resident) table_->touch(i, frame);
+    if ((demanded(i) || table_->fetchable(i)) && table_->node(i).residency == Residency::resident)
+      table_->touch(i, frame);
   // Class-blind policies keep every resident node in the frustum in use.
   if (table_->policy() != mds::streaming::Policy::occlusion)
     for (uint32_t i = 0; i < n_nodes; ++i)
@@ -195,7 +226,7 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
   uint32_t occluded = 0, arrived = uint32_t(order.size());
   for (uint32_t i : order) {
     auto it = ready_.find(i);
-    if (!table_->wanted(i)) {  // became O (or left the frustum) while it was read: drop
+    if (!table_->fetchable(i)) {  // became O (or left the frustum) while it was read: drop
       if (table_->node(i).in_frustum) ++occluded;  // found O meanwhile (not: left the frustum)
       MDS_TRY(table_->mark_cancelled(i));
       std::erase(requested_, i);
@@ -252,7 +283,7 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
   // Cancel queued reads of nodes no longer wanted.
   for (size_t k = 0; k < requested_.size();) {
     const uint32_t i = requested_[k];
-    if (!table_->wanted(i) && !ready_.count(i) && io_->cancel(i)) {
+    if (!table_->fetchable(i) && !ready_.count(i) && io_->cancel(i)) {
       MDS_TRY(table_->mark_cancelled(i));
       requested_.erase(requested_.begin() + std::ptrdiff_t(k));
     } else {

@@ -80,7 +80,12 @@ class StreamCache {
   // its classes (paper 000 Sect. 5.1), the cache keeps its own (Grottel et al.'s O_{t-1}: what
   // was visible in the previous view is wanted first, what was occluded stays unread): a node
   // leaving the frustum becomes O, a node entering it P, the others keep their class.
+  // While the camera moves, every node learns in how many of the next kLookaheadFrames views,
+  // extrapolated linearly from the last two (eye and target), it lies (ResidencyTable::set_ahead):
+  // nodes that stay in view are fetched first and evicted last, and nodes outside the frustum
+  // that the motion brings in are read after every wanted node, into spare room (residency.h).
   void set_view(const Camera& camera, double aspect);
+  static constexpr int kLookaheadFrames = 3;
   // Node classes of a culling iteration (MDS_CULL_CLASS_*, one per node). `mature`: the view
   // has run enough iterations for its classes to replace the cache's; before that only new O
   // (confident occlusion) and upward moves are taken, so a camera in motion, whose views never
@@ -113,6 +118,7 @@ class StreamCache {
   CacheStats stats_;
   bool exhausted_ = false;
   bool has_view_ = false;
+  Camera last_camera_;  // of the previous set_view (look-ahead extrapolation)
   mds::streaming::ReadWindow window_;  // reads queued or in flight at a time (step 4)
 };
 
