@@ -20,10 +20,15 @@ layout(location = 2) flat in uint v_sprite;
 
 #ifdef MDS_VISIBILITY_ROUTE
 void main() {
+  uint pix = uint(gl_FragCoord.y) * uint(frame.viewport.x) + uint(gl_FragCoord.x);
+  // Early depth test (as raster_small_sprite's): the billboard lies at the sphere's nearest depth,
+  // which bounds every hit's depth from below; a pixel already holding a nearer hit cannot take
+  // this sphere, so the ray test is skipped (with a little slack for rounding).
+  if (floatBitsToUint(gl_FragCoord.z * (1.0 - 1e-5)) > uint(visibility[pix] >> 32)) return;
   vec3 p, n, d;
   float depth;
   if (!ray_sphere(gl_FragCoord.xy, v_center_radius, p, n, d, depth)) return;
-  visibility_write(uint(gl_FragCoord.y) * uint(frame.viewport.x) + uint(gl_FragCoord.x), depth, v_sprite);
+  visibility_write(pix, depth, v_sprite);
 }
 #else
 layout(location = 0) out vec4 o_color;
