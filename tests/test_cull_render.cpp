@@ -12,6 +12,7 @@
 #include "render/camera.h"
 #include "render/renderer.h"
 #include "render/scene.h"
+#include "render_test_helpers.h"
 #include "vk/context.h"
 
 using namespace mds;
@@ -24,17 +25,7 @@ constexpr uint32_t kW = 120, kH = 90;
 // A dense block: 60000 spheres of radius 0.5 uniformly in a 20^3 cube (packing fraction ~0.4),
 // ordered in compact blocks, so front meshlets occlude back ones. Seeded: same scene every run.
 SceneData dense_block() {
-  std::mt19937_64 rng(7);
-  std::uniform_real_distribution<double> u(0.0, 20.0);
-  std::vector<glm::dvec3> pos(60000);
-  for (auto& p : pos) p = {u(rng), u(rng), u(rng)};
-  // Spatially compact meshlets and nodes (as the converter's Morton order + PCL meshlets give):
-  // order by 2.5-unit blocks, front (large z, towards the view 0 camera) first.
-  auto key = [](const glm::dvec3& p) {
-    int bx = int(p.x / 2.5), by = int(p.y / 2.5), bz = 7 - int(p.z / 2.5);
-    return (bz * 8 + by) * 8 + bx;
-  };
-  std::sort(pos.begin(), pos.end(), [&](const glm::dvec3& a, const glm::dvec3& b) { return key(a) < key(b); });
+  const std::vector<glm::dvec3> pos = mds::testing::dense_block_positions(60000, 7);
   std::vector<uint8_t> types(pos.size());
   for (size_t i = 0; i < types.size(); ++i) types[i] = uint8_t(i % 2);
   const float radius[2] = {0.5f, 0.5f};

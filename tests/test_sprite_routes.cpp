@@ -30,15 +30,7 @@ class SpriteRoutesTest : public mds::testing::VulkanSuite {
   // test_cull_render.cpp's, front blocks first): sprites of a few pixels at 96x72, many overlaps,
   // and a view 0 that culls.
   static SceneData block() {
-    std::mt19937 rng(11);
-    std::uniform_real_distribution<double> u(0.0, 20.0);
-    std::vector<glm::dvec3> pos(60000);
-    for (auto& p : pos) p = {u(rng), u(rng), u(rng)};
-    auto key = [](const glm::dvec3& p) {
-      int bx = int(p.x / 2.5), by = int(p.y / 2.5), bz = 7 - int(p.z / 2.5);
-      return (bz * 8 + by) * 8 + bx;
-    };
-    std::sort(pos.begin(), pos.end(), [&](const glm::dvec3& a, const glm::dvec3& b) { return key(a) < key(b); });
+    const std::vector<glm::dvec3> pos = mds::testing::dense_block_positions(60000, 11);
     std::vector<uint8_t> types(pos.size());
     for (size_t i = 0; i < pos.size(); ++i) types[i] = uint8_t(i % 3);
     const float radii[3] = {0.5f, 0.35f, 0.8f};

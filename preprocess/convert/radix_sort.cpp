@@ -160,18 +160,7 @@ void radix_sort_pairs(std::span<uint64_t> keys, std::span<uint32_t> idx, std::sp
     shift = msd_shift(v);
   };
   std::barrier sync_shift(std::ptrdiff_t(threads), plan_shift);
-  auto plan_offsets = [&]() noexcept {
-    size_t at = 0;
-    for (size_t d = 0; d < kMsdBuckets; ++d) {
-      bucket_begin[d] = at;
-      for (unsigned t = 0; t < threads; ++t) {
-        const size_t c = hist[t][d];
-        hist[t][d] = at;
-        at += c;
-      }
-    }
-    bucket_begin[kMsdBuckets] = at;
-  };
+  auto plan_offsets = [&]() noexcept { histograms_to_offsets(hist, bucket_begin, kMsdBuckets); };
   std::barrier sync_offsets(std::ptrdiff_t(threads), plan_offsets);
   std::barrier sync_scatter{std::ptrdiff_t(threads)};
   std::atomic<size_t> next_bucket{0};

@@ -12,8 +12,27 @@
 
 #include <cstdint>
 #include <span>
+#include <type_traits>
 
 namespace mds::convert {
+
+// Per-thread digit histograms (hist[t][d]) -> per-thread scatter offsets, in place, and bucket
+// starts (bucket_begin[0..buckets]): bucket d of thread t starts after every key of a smaller
+// digit and after the keys of digit d of threads < t (a stable parallel scatter).
+template <class Hist, class Begin>
+void histograms_to_offsets(Hist& hist, Begin& bucket_begin, size_t buckets) {
+  using T = std::remove_cvref_t<decltype(bucket_begin[0])>;
+  T at = 0;
+  for (size_t d = 0; d < buckets; ++d) {
+    bucket_begin[d] = at;
+    for (auto& h : hist) {
+      const T c = T(h[d]);
+      h[d] = static_cast<std::remove_cvref_t<decltype(h[d])>>(at);
+      at += c;
+    }
+  }
+  bucket_begin[buckets] = at;
+}
 
 // Sorts `keys` ascending and permutes `idx` alongside (stable); the result is in keys/idx.
 // `keys_tmp`/`idx_tmp` are scratch of the same size. All four spans have the same length.

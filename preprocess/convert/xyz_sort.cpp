@@ -108,18 +108,7 @@ void sort_xyz_by_key(const float* xyz, size_t n, const MortonGrid& grid, unsigne
 
   std::vector<std::vector<uint32_t>> hist(threads, std::vector<uint32_t>(kBuckets, 0));
   std::vector<uint32_t> bucket_begin(kBuckets + 1, 0);
-  auto plan_offsets = [&]() noexcept {
-    uint32_t at = 0;
-    for (size_t d = 0; d < kBuckets; ++d) {
-      bucket_begin[d] = at;
-      for (unsigned t = 0; t < threads; ++t) {
-        const uint32_t c = hist[t][d];
-        hist[t][d] = at;
-        at += c;
-      }
-    }
-    bucket_begin[kBuckets] = at;
-  };
+  auto plan_offsets = [&]() noexcept { histograms_to_offsets(hist, bucket_begin, kBuckets); };
   std::barrier sync_offsets(std::ptrdiff_t(threads), plan_offsets);
   std::barrier sync_scatter{std::ptrdiff_t(threads)};
   std::atomic<size_t> next_bucket{0};
