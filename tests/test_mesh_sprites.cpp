@@ -77,7 +77,9 @@ TEST_F(MeshSpritesTest, SelectionFollowsTheDevice) {
     EXPECT_NE(on.error().message.find(ctx_->info().name), std::string::npos) << on.error().message;
   }
   // The context enables the extension exactly when the device lists it with both stages.
-  if (!ctx_->info().mesh_shader) EXPECT_FALSE(ctx_->mesh_shaders());
+  if (!ctx_->info().mesh_shader) {
+    EXPECT_FALSE(ctx_->mesh_shaders());
+  }
 }
 
 TEST_F(MeshSpritesTest, RendererReportsThePathItTook) {

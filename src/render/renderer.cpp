@@ -480,8 +480,6 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
   Camera camera = camera_in;
   fit_clip_planes(camera, m.bounds);
   const uint32_t w = m.settings.width, h = m.settings.height;
-  const double aspect = double(w) / double(h);
-  const glm::dmat4 view = view_matrix(camera, m.origin);
   vk::TimestampPool fresh;
   MDS_ASSIGN_OR_RETURN(fresh, vk::TimestampPool::create(*m.ctx, m.timestamp_capacity()));
   m.timestamps = std::move(fresh);
@@ -536,21 +534,6 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     m.cull_iteration = 0;
   }
   bool pending_iteration = false;
-  auto write_frame_uniforms = [&](uint32_t s, uint32_t extra_flags) {
-    const glm::dvec2 jitter_px = halton_jitter(s);
-    const glm::dmat4 proj = projection_matrix(camera, aspect, {2.0 * jitter_px.x / w, 2.0 * jitter_px.y / h});
-    gpu::FrameUniforms fu{};
-    fu.view = glm::mat4(view);
-    fu.proj = glm::mat4(proj);
-    fu.inv_proj = glm::mat4(glm::inverse(proj));
-    fu.viewport = glm::vec4(float(w), float(h), 1.0f / float(w), 1.0f / float(h));
-    fu.radius_range = glm::vec4(m.radius_min, m.radius_max - m.radius_min, float(camera.near), float(camera.far));
-    fu.counts = glm::uvec4(m.meshlet_count, m.max_meshlet,
-                           m.flags | extra_flags | (camera.ortho ? gpu::kFrameOrtho : 0u), s);
-    fu.background = glm::vec4(m.background_linear(), 0.0f);
-    std::memcpy(m.frame_ubo.mapped(), &fu, sizeof(fu));
-    m.frame_ubo.flush();
-  };
   // Begins the next submission after the previous one completed (its timestamps and counters).
   auto begin_submission = [&]() -> Result<VkCommandBuffer> {
     MDS_ASSIGN_OR_RETURN(VkCommandBuffer cmd, m.slot.begin());
@@ -567,7 +550,7 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
   // 1. spp super-sampling frames; while culling is active each also runs one culling iteration.
   for (uint32_t s = 0; s < m.settings.spp; ++s) {
     MDS_ASSIGN_OR_RETURN(VkCommandBuffer cmd, begin_submission());
-    write_frame_uniforms(s, 0u);
+    m.write_frame_uniforms(camera, s);
     pending_iteration = m.cull && m.cull_active;
     frame_kind.push_back(pending_iteration ? FrameKind::during_culling : FrameKind::after_convergence);
     m.record_pass(cmd, s == 0);
@@ -595,7 +578,7 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
   if (late && cs.converged) {
     for (uint32_t s = 0; s < kTimingFrames; ++s) {
       MDS_ASSIGN_OR_RETURN(VkCommandBuffer cmd, begin_submission());
-      write_frame_uniforms(m.settings.spp + s, gpu::kFrameTimingOnly);
+      m.write_frame_uniforms(camera, m.settings.spp + s, gpu::kFrameTimingOnly);
       frame_kind.push_back(FrameKind::timing);
       m.record_pass(cmd, false, true);
       MDS_TRY(end_submission());

@@ -10,10 +10,12 @@
 //      each, tangent-plane bounds); small sprites are rasterized by compute into a visibility
 //      buffer (one 64-bit atomicMin per pixel, sprite_raster.h), the others get indirect draw
 //      commands;
-//   3. "draw": resolve of the compute-rasterized sprites, then the other sprites as point sprites
-//      (largePoints, default where the point size range allows) or quads: ray-cast spheres with
-//      exact depth, with a Halton(2,3) sub-pixel jitter in the projection;
-//   4. "accumulate": a compute pass adds the frame's colour (a = coverage) into a float32 image.
+//   3. "draw": the other sprites as point sprites (largePoints, default where the point size
+//      range allows) or quads: ray-cast spheres with exact depth, with a Halton(2,3) sub-pixel
+//      jitter in the projection, into the visibility buffer (visibility route) or into colour +
+//      depth attachments (attachment route; renderer_impl.h);
+//   4. "resolve" (visibility route: each pixel's nearest sphere shaded once) or "accumulate"
+//      (attachment route): the frame's colour (a = coverage) added into a float32 image.
 // The written image is accumulation / spp. When culling has not converged after spp frames,
 // culling iterations continue alone (no drawing) until convergence or max_iterations.
 // GPU timestamps are recorded per pass.

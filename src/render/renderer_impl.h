@@ -93,7 +93,8 @@ struct Renderer::Impl {
   Status create_draw_buffers(uint64_t meshlet_slots, uint64_t particle_slots);
   Status upload_streaming(const SceneData& directory);
   Status create_cull(const culling::CullScene& cs, const culling::DensityVolume& vol);
-  void write_frame_uniforms(uint32_t sample);
+  // The frame uniforms of one jittered sample of `camera` (render() and the progressive step()).
+  void write_frame_uniforms(const Camera& camera, uint32_t sample, uint32_t extra_flags = 0);
   Result<double> collect_frame_ms();
   void after_iteration();
   Status create_targets();

@@ -104,18 +104,19 @@ Result<std::unique_ptr<Renderer>> Renderer::create_streaming(vk::Context& ctx, c
   return r;
 }
 
-void Renderer::Impl::write_frame_uniforms(uint32_t sample) {
+void Renderer::Impl::write_frame_uniforms(const Camera& camera, uint32_t sample, uint32_t extra_flags) {
   const uint32_t w = settings.width, h = settings.height;
   const double aspect = double(w) / double(h);
   const glm::dvec2 jitter_px = halton_jitter(sample);
-  const glm::dmat4 proj = projection_matrix(view_camera, aspect, {2.0 * jitter_px.x / w, 2.0 * jitter_px.y / h});
+  const glm::dmat4 proj = projection_matrix(camera, aspect, {2.0 * jitter_px.x / w, 2.0 * jitter_px.y / h});
   gpu::FrameUniforms fu{};
-  fu.view = glm::mat4(view_matrix(view_camera, origin));
+  fu.view = glm::mat4(view_matrix(camera, origin));
   fu.proj = glm::mat4(proj);
   fu.inv_proj = glm::mat4(glm::inverse(proj));
   fu.viewport = glm::vec4(float(w), float(h), 1.0f / float(w), 1.0f / float(h));
-  fu.radius_range = glm::vec4(radius_min, radius_max - radius_min, float(view_camera.near), float(view_camera.far));
-  fu.counts = glm::uvec4(meshlet_count, max_meshlet, flags | (view_camera.ortho ? gpu::kFrameOrtho : 0u), sample);
+  fu.radius_range = glm::vec4(radius_min, radius_max - radius_min, float(camera.near), float(camera.far));
+  fu.counts = glm::uvec4(meshlet_count, max_meshlet, flags | extra_flags | (camera.ortho ? gpu::kFrameOrtho : 0u),
+                         sample);
   fu.background = glm::vec4(background_linear(), 0.0f);
   std::memcpy(frame_ubo.mapped(), &fu, sizeof(fu));
   frame_ubo.flush();
@@ -224,7 +225,7 @@ Result<FrameReport> Renderer::step() {
   }
   m.pending_iteration = m.cull && m.cull_active;
   const bool accumulate = m.samples < m.settings.spp;
-  m.write_frame_uniforms(m.samples);
+  m.write_frame_uniforms(m.view_camera, m.samples);
   m.record_pass(cmd, m.samples == 0, accumulate);
   MDS_TRY(m.slot.submit(m.ctx->queue()));
   m.rendered = true;  // read_last_depth(): this frame's depth
