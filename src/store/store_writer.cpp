@@ -19,7 +19,6 @@
 #include <deque>
 #include <memory>
 #include <mutex>
-#include <new>
 #include <optional>
 #include <string>
 #include <thread>
@@ -139,7 +138,10 @@ class BlockStream {
     plain_fd_ = ::open(temp_path.c_str(), O_WRONLY | O_CLOEXEC);
     for (size_t i = 0; i < kBuffers; ++i) {
       void* p = std::aligned_alloc(kAlign, kBlock);
-      if (!p) throw std::bad_alloc();
+      if (!p) {
+        buffers_ok_ = false;  // ok() is false; create() reports it
+        return;
+      }
       buffers_.emplace_back(static_cast<uint8_t*>(p));
       free_.push_back(buffers_.back().get());
     }
@@ -159,7 +161,9 @@ class BlockStream {
   BlockStream(const BlockStream&) = delete;
   BlockStream& operator=(const BlockStream&) = delete;
 
-  bool ok() const { return plain_fd_ >= 0; }
+  // The temporary file opened and the write buffers allocated (else the stream is unusable).
+  bool ok() const { return plain_fd_ >= 0 && buffers_ok_; }
+  bool buffers_ok() const { return buffers_ok_; }
   uint64_t offset() const { return offset_; }
 
   Status write(const void* src, size_t n) {
@@ -281,6 +285,7 @@ class BlockStream {
   size_t used_ = 0;
   uint64_t offset_ = 0;
   uint64_t direct_bytes_ = 0;  // written with O_DIRECT (writer thread only)
+  bool buffers_ok_ = true;
   std::mutex mu_;
   std::condition_variable cv_;
   std::deque<uint8_t*> free_;
@@ -315,6 +320,9 @@ Result<std::unique_ptr<StoreWriter>> StoreWriter::create(const std::filesystem::
   w->impl_ = std::make_unique<Impl>();
   MDS_ASSIGN_OR_RETURN(w->impl_->out, AtomicOutput::create(path));
   w->impl_->writer = std::make_unique<BlockStream>(w->impl_->out.temp_path());
+  if (!w->impl_->writer->buffers_ok())
+    return make_error(Errc::io, "{}: cannot allocate {} write buffers of {} bytes", w->impl_->out.temp_path().string(),
+                      BlockStream::kBuffers, BlockStream::kBlock);
   if (!w->impl_->writer->ok())
     return make_error(Errc::io, "{}: cannot open for writing: {}", w->impl_->out.temp_path().string(),
                       std::strerror(errno));
