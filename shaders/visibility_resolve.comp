@@ -3,16 +3,16 @@
 // visibility buffer (sprite_raster.h; written by the compute rasterization of small sprites and
 // by the rasterized ones) is shaded once -- the same ray and shading as sphere.frag
 // (sphere_shading.h) -- or the pixel takes the background (coverage 0), and the result is added
-// to the float accumulation image (the final image is accum / spp). Timing frames
+// to the accumulation (accumulation.h; the final image is accum / spp). Timing frames
 // (kFrameTimingOnly) add it with weight 0: the same work, the image unchanged.
 // Shading once per pixel replaces the colour attachment, the resolve draw and accumulate.comp.
 #extension GL_GOOGLE_include_directive : require
 #define MDS_VISIBILITY
 #include "bindings.h"
 #include "sphere_shading.h"
+#include "accumulation.h"
 
 layout(local_size_x = 16, local_size_y = 16) in;
-layout(set = 0, binding = kBindAccumImage, rgba32f) uniform image2D accum_image;
 
 void main() {
   ivec2 p = ivec2(gl_GlobalInvocationID.xy);
@@ -27,5 +27,5 @@ void main() {
       c = shade_sphere(n, d, types[s.flags & 0xffu].color.rgb);
   }
   float weight = (frame.counts.z & kFrameTimingOnly) != 0u ? 0.0 : 1.0;
-  imageStore(accum_image, p, imageLoad(accum_image, p) + weight * c);
+  accumulate_pixel(p, weight * c);
 }

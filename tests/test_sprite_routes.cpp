@@ -4,7 +4,9 @@
 // visibility_resolve.comp) and the attachment route (colour + depth attachments, the route of
 // the mesh path and of devices without 64-bit buffer atomics). Within the visibility route the
 // small-sprite threshold (MDSTREAM_SMALL_PX) only moves sprites between compute and the
-// rasterizer, so every threshold must give the same image too.
+// rasterizer, so every threshold must give the same image too. Where the samples are summed
+// (a storage buffer, or the storage image used where the buffer exceeds maxStorageBufferRange)
+// must not change a bit of the image on either route.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -46,7 +48,8 @@ class SpriteRoutesTest : public mds::testing::VulkanSuite {
   };
 
   // small_px: MDSTREAM_SMALL_PX for this renderer (nullptr: the default threshold).
-  static Result<Out> render(const SceneData& scene, bool visibility_route, const char* small_px, bool cull) {
+  static Result<Out> render(const SceneData& scene, bool visibility_route, const char* small_px, bool cull,
+                            bool accumulation_buffer = true) {
     if (small_px) {
       setenv("MDSTREAM_SMALL_PX", small_px, 1);
     } else {
@@ -59,6 +62,7 @@ class SpriteRoutesTest : public mds::testing::VulkanSuite {
     rs.cull = cull;
     rs.mesh_shaders = MeshShaderMode::off;
     rs.visibility_route = visibility_route;
+    rs.accumulation_buffer = accumulation_buffer;
     auto r = Renderer::create(*ctx_, scene, rs);
     unsetenv("MDSTREAM_SMALL_PX");  // read once, by create()
     if (!r.ok()) return r.error();
@@ -118,4 +122,25 @@ TEST_F(SpriteRoutesTest, CulledRendersAgreeAcrossRoutes) {
   EXPECT_EQ(att->stats.cull.meshlets_culled, vis->stats.cull.meshlets_culled);
   EXPECT_GT(vis->stats.cull.meshlets_culled, 0u);
   EXPECT_LE(mds::testing::differing_pixels(att->image, vis->image, 0.02f), 35u);
+}
+
+TEST_F(SpriteRoutesTest, AccumulationBufferAndImageGiveTheSameImage) {
+  const SceneData scene = block();
+  for (bool vis_route : {false, true}) {
+    if (vis_route && !ctx_->int64_atomics()) continue;
+    SCOPED_TRACE(vis_route ? "visibility route" : "attachment route");
+    auto buf = render(scene, vis_route, nullptr, false, true);
+    auto img = render(scene, vis_route, nullptr, false, false);
+    ASSERT_TRUE(buf.ok()) << buf.error().message;
+    ASSERT_TRUE(img.ok()) << img.error().message;
+    EXPECT_TRUE(buf->stats.accumulation_buffer);  // 96x72x16 B is far below any storage buffer range
+    EXPECT_FALSE(img->stats.accumulation_buffer);
+    EXPECT_EQ(buf->stats.visibility_route, vis_route);
+    // The same sums in the same order: identical floats.
+    ASSERT_EQ(buf->image.rgba.size(), img->image.rgba.size());
+    EXPECT_EQ(buf->image.rgba, img->image.rgba);
+    size_t covered = 0;
+    for (size_t i = 3; i < buf->image.rgba.size(); i += 4) covered += buf->image.rgba[i] > 0.0f;
+    EXPECT_GT(covered, buf->image.rgba.size() / 8) << "most pixels must hold spheres";
+  }
 }

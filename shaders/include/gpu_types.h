@@ -21,10 +21,11 @@ MDS_CONST(uint, kBindTypes, 4);       // GpuType[]
 MDS_CONST(uint, kBindDrawList, 5);    // DrawListHeader + uint meshlet_ids[]
 MDS_CONST(uint, kBindRadii, 6);       // uint[] = two uint16 radius_q per uint (optional)
 MDS_CONST(uint, kBindColorImage, 7);  // rgba32f storage image: the pass's colour target
-MDS_CONST(uint, kBindAccumImage, 8);  // rgba32f storage image: the accumulation image
+MDS_CONST(uint, kBindAccumImage, 8);  // rgba32f storage image: the accumulation where kBindAccumBuffer does not fit
 MDS_CONST(uint, kBindSprites, 9);     // GpuSprite[]: per-particle glyph records of the list being drawn
 MDS_CONST(uint, kBindSpriteDraw, 10); // SpriteDrawHeader + uint quad_ids[] (sprites drawn as quads)
 MDS_CONST(uint, kBindVisibility, 11); // uint64[W * H]: nearest depth bits << 32 | sprite index (visibility route)
+MDS_CONST(uint, kBindAccumBuffer, 12);  // vec4[W * H]: the accumulation, 16 B/pixel (accumulation.h)
 
 // GpuSprite.flags
 MDS_CONST(uint, kSpriteHidden, 0x100u);  // nothing to draw (behind the near plane, radius 0)

@@ -147,6 +147,7 @@ Status run_render(const RenderOptions& o) {
     j["mesh_shader_available"] = ctx->info().mesh_shader;
     j["sprite_path"] = stats.mesh_sprites ? "mesh" : "compute";
     j["pixel_route"] = stats.visibility_route ? "visibility" : "attachments";
+    j["accumulation"] = stats.accumulation_buffer ? "buffer" : "image";
     j["particles"] = stats.particles;
     j["meshlets"] = stats.meshlets;
     j["nodes"] = reader->nodes().size();

@@ -120,6 +120,8 @@ Status Renderer::Impl::create_targets() {
   const bool vis_fits = vis_bytes <= ctx->limits().maxStorageBufferRange;
   if (!targets_created) {
     vis_route = settings.visibility_route && !mesh_path && ctx->int64_atomics() && vis_fits;
+    // MDSTREAM_ACCUM=image forces the image accumulation (A/B measurements).
+    if (const char* e = std::getenv("MDSTREAM_ACCUM")) settings.accumulation_buffer = std::string(e) != "image";
     targets_created = true;
   } else if (vis_route && !vis_fits) {
     return make_error(Errc::budget, "{}x{}: the visibility buffer ({} bytes) exceeds maxStorageBufferRange ({})", w,
@@ -144,11 +146,51 @@ Status Renderer::Impl::create_targets() {
     MDS_ASSIGN_OR_RETURN(visibility, vk::Buffer::create(alloc, 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                                                         vk::MemoryIntent::device_local, "visibility buffer (unused)"));
   }
-  MDS_ASSIGN_OR_RETURN(accum, vk::Image::create_2d(alloc, w, h, kColorFormat,
+  // The accumulation: 16 B/pixel (1920x1080: 33 MB) in a buffer where that fits the range.
+  const uint64_t accum_bytes = 16ull * w * h;
+  accum_in_buffer = settings.accumulation_buffer && accum_bytes <= ctx->limits().maxStorageBufferRange;
+  MDS_ASSIGN_OR_RETURN(accum_buf, vk::Buffer::create(alloc, accum_in_buffer ? accum_bytes : 16,
+                                                     VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
+                                                         VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                                         VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                                     vk::MemoryIntent::device_local,
+                                                     accum_in_buffer ? "accumulation buffer" : "accumulation buffer (unused)"));
+  MDS_ASSIGN_OR_RETURN(accum, vk::Image::create_2d(alloc, accum_in_buffer ? 1 : w, accum_in_buffer ? 1 : h,
+                                                   kColorFormat,
                                                    VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT |
                                                        VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
-                                                   VK_IMAGE_ASPECT_COLOR_BIT, "accumulation image"));
+                                                   VK_IMAGE_ASPECT_COLOR_BIT,
+                                                   accum_in_buffer ? "accumulation image (unused)" : "accumulation image"));
   return {};
+}
+
+void Renderer::Impl::write_accumulation_descriptors() {
+  set.write_storage_image(gpu::kBindAccumImage, accum.view());
+  set.write_buffer(gpu::kBindAccumBuffer, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, accum_buf.get());
+}
+
+Status Renderer::Impl::create_accumulate_pipeline() {
+  vk::SpecConstants spec;
+  spec.add(0u, VkBool32(accum_in_buffer));  // accumulation.h: kAccumBuffer
+  MDS_ASSIGN_OR_RETURN(vk::UniquePipeline pipe,
+                       vk::create_compute_pipeline(ctx->device(), layout.get(),
+                                                   vis_route ? "visibility_resolve.comp" : "accumulate.comp", &spec));
+  (vis_route ? resolve_pipe : accum_pipe) = std::move(pipe);
+  accum_pipe_in_buffer = accum_in_buffer;
+  return {};
+}
+
+Result<std::vector<float>> Renderer::Impl::read_accumulation() {
+  const size_t n = size_t(settings.width) * settings.height * 4;
+  std::vector<float> sums(n);
+  std::vector<std::byte> raw;
+  if (accum_in_buffer) {
+    MDS_ASSIGN_OR_RETURN(raw, vk::read_buffer(*ctx, accum_buf, 0, n * sizeof(float)));
+  } else {
+    MDS_ASSIGN_OR_RETURN(raw, vk::read_image(*ctx, accum, VK_IMAGE_LAYOUT_GENERAL, 16));
+  }
+  std::memcpy(sums.data(), raw.data(), n * sizeof(float));
+  return sums;
 }
 
 Status Renderer::Impl::create_pipelines() {
@@ -164,7 +206,7 @@ Status Renderer::Impl::create_pipelines() {
                                       b(gpu::kBindColorImage, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE),
                                       b(gpu::kBindAccumImage, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE),
                                       b(gpu::kBindSprites, SSBO), b(gpu::kBindSpriteDraw, SSBO),
-                                      b(gpu::kBindVisibility, SSBO)}));
+                                      b(gpu::kBindVisibility, SSBO), b(gpu::kBindAccumBuffer, SSBO)}));
   set.write_buffer(gpu::kBindFrame, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, frame_ubo.get());
   set.write_buffer(gpu::kBindNodes, SSBO, nodes.get());
   set.write_buffer(gpu::kBindMeshlets, SSBO, meshlets_h);
@@ -173,7 +215,7 @@ Status Renderer::Impl::create_pipelines() {
   set.write_buffer(gpu::kBindDrawList, SSBO, draw_list.get());
   set.write_buffer(gpu::kBindRadii, SSBO, radii_h);
   if (!vis_route) set.write_storage_image(gpu::kBindColorImage, color.view());
-  set.write_storage_image(gpu::kBindAccumImage, accum.view());
+  write_accumulation_descriptors();
   set.write_buffer(gpu::kBindSprites, SSBO, sprites.get());
   set.write_buffer(gpu::kBindSpriteDraw, SSBO, sprite_draw.get());
   set.write_buffer(gpu::kBindVisibility, SSBO, visibility.get());
@@ -210,11 +252,7 @@ Status Renderer::Impl::create_pipelines() {
     point_sprites = false;
     sprite_read_stages = MeshSprites::kReadStages;
   }
-  if (vis_route) {
-    MDS_ASSIGN_OR_RETURN(resolve_pipe, vk::create_compute_pipeline(dev, layout, "visibility_resolve.comp"));
-  } else {
-    MDS_ASSIGN_OR_RETURN(accum_pipe, vk::create_compute_pipeline(dev, layout, "accumulate.comp"));
-  }
+  MDS_TRY(create_accumulate_pipeline());
   vk::SpecConstants prepass_spec;
   prepass_spec.add(0u, VkBool32(point_sprites)).add(1u, max_point).add(2u, small_px);
   MDS_ASSIGN_OR_RETURN(prepass_pipe,
@@ -324,16 +362,24 @@ void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first, bool accumulat
   const uint32_t w = settings.width, h = settings.height;
   VkDescriptorSet ds = set.set();
   timestamps.reset(cmd);
-  if (first) {
+  if (first) {  // both accumulation targets to zero (the unused one is 16 bytes or 1 pixel)
     vk::image_barrier(cmd, accum.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL,
                       VK_PIPELINE_STAGE_2_NONE, 0, VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT |
+                           VK_ACCESS_2_TRANSFER_READ_BIT,
+                       VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
     VkClearColorValue zero{};
     VkImageSubresourceRange range{VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
     vkCmdClearColorImage(cmd, accum.get(), VK_IMAGE_LAYOUT_GENERAL, &zero, 1, &range);
+    vkCmdFillBuffer(cmd, accum_buf.get(), 0, VK_WHOLE_SIZE, 0u);
     vk::image_barrier(cmd, accum.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_GENERAL, VK_IMAGE_LAYOUT_GENERAL,
                       VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
   }
 
   // 0. One culling iteration (select, sample, update, pyramid, classify, histogram) until converged.
@@ -617,12 +663,10 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     cs.iterations_after_spp = uint32_t(cull_only.size());
   }
 
-  MDS_ASSIGN_OR_RETURN(std::vector<std::byte> raw, vk::read_image(*m.ctx, m.accum, VK_IMAGE_LAYOUT_GENERAL, 16));
   FrameImage img;
   img.width = w;
   img.height = h;
-  img.rgba.resize(size_t(w) * h * 4);
-  std::memcpy(img.rgba.data(), raw.data(), img.rgba.size() * sizeof(float));
+  MDS_ASSIGN_OR_RETURN(img.rgba, m.read_accumulation());
   const float inv = 1.0f / float(m.settings.spp);
   for (float& v : img.rgba) v *= inv;
 
@@ -630,6 +674,7 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     stats->device = m.ctx->info().name;
     stats->mesh_sprites = m.mesh_path;
     stats->visibility_route = m.vis_route;
+    stats->accumulation_buffer = m.accum_in_buffer;
     stats->particles = m.particle_count;
     stats->meshlets = m.meshlet_count;
     stats->spp = m.settings.spp;

@@ -71,6 +71,9 @@ struct RenderSettings {
   // where the device has 64-bit buffer atomics and the mesh path is off; false: colour + depth
   // attachments (the route of the mesh path and of devices without those atomics).
   bool visibility_route = true;
+  // Accumulate into a storage buffer where 16 bytes per pixel fit maxStorageBufferRange; false:
+  // always into an rgba32f storage image (the fallback for larger images). Same image either way.
+  bool accumulation_buffer = true;
 };
 
 // Culling loop statistics of one render() (RenderStats::cull).
@@ -171,6 +174,7 @@ struct RenderStats {
   double near = 0.0, far = 0.0;
   bool mesh_sprites = false;  // sprites drawn by the task/mesh path (else compute + indirect draws)
   bool visibility_route = false;  // pixels by the visibility buffer (else colour + depth attachments)
+  bool accumulation_buffer = false;  // accumulation in a storage buffer (else a storage image)
   CullStats cull;
   CacheStats cache;                 // streaming only
   double frame_wall_ms_p50 = 0.0;   // CPU wall time per frame (step), all frames of the render

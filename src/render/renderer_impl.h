@@ -51,7 +51,14 @@ struct Renderer::Impl {
   // Stages that read the draw list and the sprite commands: the barriers before they are
   // rewritten and after they are written name these.
   VkPipelineStageFlags2 sprite_read_stages = VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT;
-  vk::Image color, depth, accum;  // colour and depth: the attachment route only
+  vk::Image color, depth;  // the attachment route only
+  // The accumulation (shaders/include/accumulation.h): a vec4 buffer where 16 B/pixel fits
+  // maxStorageBufferRange (and RenderSettings::accumulation_buffer), else an rgba32f image; the
+  // unused one is a 16-byte buffer or a 1x1 image, so both bindings stay valid.
+  vk::Buffer accum_buf;
+  vk::Image accum;
+  bool accum_in_buffer = false;
+  bool accum_pipe_in_buffer = false;  // the accumulation the resolve/accumulate pipeline was built for
   vk::DescriptorSet set;
   vk::UniquePipelineLayout layout;
   vk::UniquePipeline draw_list_pipe, sprite_args_pipe, prepass_pipe, sphere_pipe, point_pipe,
@@ -104,6 +111,12 @@ struct Renderer::Impl {
   }
   Status resize(uint32_t w, uint32_t h);
   Status create_pipelines();
+  // The resolve or accumulate pipeline for the current accumulation (accum_in_buffer).
+  Status create_accumulate_pipeline();
+  // Writes the accumulation bindings (after create_targets).
+  void write_accumulation_descriptors();
+  // The accumulated sums (rgba float per pixel, row-major), after the frame slot is idle.
+  Result<std::vector<float>> read_accumulation();
   // After the scene or the pool is on the device: targets, pipelines, frame slot, timestamps.
   Status create_frame_resources();
   void record_pass(VkCommandBuffer cmd, bool first, bool accumulate = true);

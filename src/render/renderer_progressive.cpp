@@ -264,7 +264,9 @@ Status Renderer::Impl::resize(uint32_t w, uint32_t h) {
   if (Status st = create_targets(); !st.ok())
     return make_error(st.error().code, "resize to {}", st.error().message);
   if (!vis_route) set.write_storage_image(gpu::kBindColorImage, color.view());
-  set.write_storage_image(gpu::kBindAccumImage, accum.view());
+  write_accumulation_descriptors();
+  // The accumulation may have moved between buffer and image (maxStorageBufferRange).
+  if (accum_in_buffer != accum_pipe_in_buffer) MDS_TRY(create_accumulate_pipeline());
   set.write_buffer(gpu::kBindVisibility, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, visibility.get());
   if (cull) MDS_TRY(cull->resize(w, h));
   samples = 0;
@@ -314,8 +316,7 @@ Result<FrameImage> Renderer::read_image() {
   img.height = m.settings.height;
   img.rgba.assign(size_t(img.width) * img.height * 4, 0.0f);
   if (m.samples == 0) return img;
-  MDS_ASSIGN_OR_RETURN(std::vector<std::byte> raw, vk::read_image(*m.ctx, m.accum, VK_IMAGE_LAYOUT_GENERAL, 16));
-  std::memcpy(img.rgba.data(), raw.data(), img.rgba.size() * sizeof(float));
+  MDS_ASSIGN_OR_RETURN(img.rgba, m.read_accumulation());
   const float inv = 1.0f / float(m.samples);
   for (float& v : img.rgba) v *= inv;
   return img;
@@ -327,6 +328,7 @@ RenderStats Renderer::stats() const {
   s.device = m.ctx->info().name;
   s.mesh_sprites = m.mesh_path;
   s.visibility_route = m.vis_route;
+  s.accumulation_buffer = m.accum_in_buffer;
   s.particles = m.particle_count;
   s.meshlets = m.cache ? m.cache->live_meshlets() : m.meshlet_count;
   s.spp = m.settings.spp;
