@@ -9,6 +9,10 @@
 // the three density queries D(d_min, x) for x = d, d_cull, d_s is two loads (cull_hist_front),
 // and D(d_min, d_max) one; no per-pixel copy of the bins.
 #extension GL_GOOGLE_include_directive : require
+#include "cull_shared.h"
+// The normal CDF table from a buffer, not culling_math.glsl's constant array (see there).
+layout(std430, set = 1, binding = kCullNormalCdf) readonly buffer NormalCdfBlock { float normal_cdf[]; };
+#define MDS_NORMAL_CDF_AT(i) normal_cdf[i]
 #include "culling_math.glsl"
 #include "cull_bindings.h"
 

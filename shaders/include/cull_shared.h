@@ -30,6 +30,7 @@ MDS_CONST(uint, kCullMeshletClass, 8); // uint[meshlets]: MDS_CULL_CLASS_*
 MDS_CONST(uint, kCullNodeClass, 9);    // uint[nodes]
 MDS_CONST(uint, kCullCounters, 10);    // CullCounters
 MDS_CONST(uint, kCullSampleImage, 11); // rg32f storage image: (view depth, alpha_s) of the sample
+MDS_CONST(uint, kCullNormalCdf, 12);   // float[256]: the normal CDF table of supplement A (1 KiB)
 
 // CullUniforms.params.w flags
 MDS_CONST(uint, kCullOrtho, 1u);

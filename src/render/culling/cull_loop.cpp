@@ -5,6 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <iterator>
+
+#include "culling/normal_cdf_table.h"
 
 #include "gpu_types.h"
 #include "vk/commands.h"
@@ -59,6 +62,7 @@ struct CullLoop::Impl {
   VkBuffer meshlet_class = VK_NULL_HANDLE;  // own_meshlet_class or the streaming pool's
   bool node_density = false;
   vk::Buffer occluder_list, indices;
+  vk::Buffer normal_cdf;  // supplement A's table for cull_update.comp (culling_math.glsl)
   vk::Image sample_image, depth;
   vk::DescriptorSet set0_sample, set0_draw, set1;
   vk::UniquePipelineLayout layout;
@@ -124,6 +128,9 @@ Status CullLoop::Impl::create_buffers(const CullScene& s, const DensityVolume& v
   }
   MDS_TRY(make(node_class, uint64_t(node_count) * 4, "node classes"));
   MDS_TRY(make(counters, sizeof(gpu::CullCounters), "cull counters"));
+  static constexpr float kNormalCdf[] = {MDS_CULL_NORMAL_CDF_TABLE_VALUES};
+  static_assert(std::size(kNormalCdf) == MDS_CULL_NORMAL_TABLE_SIZE);
+  MDS_TRY(make(normal_cdf, sizeof(kNormalCdf), "normal CDF table"));
   MDS_TRY(make(occluder_list, sizeof(gpu::DrawListHeader) + 4ull * meshlet_count, "occluder list",
                VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT));
   MDS_ASSIGN_OR_RETURN(counters_host, vk::Buffer::create(alloc, sizeof(gpu::CullCounters),
@@ -151,6 +158,7 @@ Status CullLoop::Impl::create_buffers(const CullScene& s, const DensityVolume& v
   MDS_TRY(ring.upload_span(meshlet_voxel_first, 0, std::span<const uint32_t>(s.voxel_first)));
   MDS_TRY(ring.upload_span(voxel_refs, 0, std::span<const glm::uvec2>(s.voxel_refs)));
   MDS_TRY(ring.upload_span(indices, 0, std::span<const uint16_t>(idx)));
+  MDS_TRY(ring.upload_span(normal_cdf, 0, std::span<const float>(kNormalCdf)));
   MDS_TRY(ring.flush());
 
   gpu::CullUniforms& u = uniforms;
@@ -244,7 +252,8 @@ Status CullLoop::Impl::create_sets() {
                                        b(gpu::kCullMeshletVoxels, SSBO), b(gpu::kCullVoxelRefs, SSBO),
                                        b(gpu::kCullMeshletClass, SSBO), b(gpu::kCullNodeClass, SSBO),
                                        b(gpu::kCullCounters, SSBO),
-                                       b(gpu::kCullSampleImage, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE)}));
+                                       b(gpu::kCullSampleImage, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE),
+                                       b(gpu::kCullNormalCdf, SSBO)}));
   set1.write_buffer(gpu::kCullUniforms, UBO, cull_ubo.get());
   set1.write_buffer(gpu::kCullHistogram, SSBO, histogram.get());
   set1.write_buffer(gpu::kCullHistRange, SSBO, hist_range.get());
@@ -257,6 +266,7 @@ Status CullLoop::Impl::create_sets() {
   set1.write_buffer(gpu::kCullNodeClass, SSBO, node_class.get());
   set1.write_buffer(gpu::kCullCounters, SSBO, counters.get());
   set1.write_storage_image(gpu::kCullSampleImage, sample_image.view());
+  set1.write_buffer(gpu::kCullNormalCdf, SSBO, normal_cdf.get());
   return {};
 }
 
