@@ -45,6 +45,7 @@ struct RenderOptions {
   int device = -1;
   StreamOptions stream;  // --gpu-budget empty: in memory
   bool visible_reference = false;
+  uint32_t paired_frames = 0;
 };
 
 Result<glm::vec3> parse_rgb(const std::string& s) {
@@ -113,6 +114,7 @@ Status run_render(const RenderOptions& o) {
   rs.height = o.height;
   rs.spp = o.spp;
   rs.background_srgb = background;
+  rs.paired_frames = o.paired_frames;
   if (rs.cull) {
     MDS_ASSIGN_OR_RETURN(render::culling::DensityVolume vol, render::culling::density_from_store(*reader, scene));
     rs.density = std::make_shared<const render::culling::DensityVolume>(std::move(vol));
@@ -173,6 +175,12 @@ Status run_render(const RenderOptions& o) {
       j["frame_ms_after_convergence"] = c.frame_ms_after_convergence;
       j["pass_ms_after_convergence"] = c.pass_ms_after_convergence;
       j["time_to_converge_ms"] = c.time_to_converge_ms;
+      if (c.paired_frames > 0) {
+        j["paired_frames"] = c.paired_frames;
+        j["frame_ms_paired_after_convergence"] = c.frame_ms_paired_culled;
+        j["frame_ms_paired_no_cull"] = c.frame_ms_paired_all;
+        j["speedup_paired"] = c.frame_ms_paired_culled > 0.0 ? c.frame_ms_paired_all / c.frame_ms_paired_culled : 0.0;
+      }
       j["class_counts"] = {{"P", c.class_counts.size() == 4 ? c.class_counts[0] : 0},
                            {"L", c.class_counts.size() == 4 ? c.class_counts[1] : 0},
                            {"M", c.class_counts.size() == 4 ? c.class_counts[2] : 0},
@@ -277,6 +285,12 @@ void setup_render(CLI::App& sub, int& exit_code) {
   sub.add_flag("--visible-reference", opt->visible_reference,
                "Also compute, on the CPU, which meshlets hold a visible particle of the last frame "
                "(stats: visible_meshlets, visible_meshlet_fraction, kept_over_visible_meshlets)");
+  sub.add_option("--paired-frames", opt->paired_frames,
+                 "After convergence, this many frames of every meshlet and of the potentially visible set, "
+                 "alternately, without changing the image (stats: frame_ms_paired_*, speedup_paired: the "
+                 "speed-up measured in one process, under the same load)")
+      ->check(CLI::Range(0u, 1000u))
+      ->capture_default_str();
   sub.callback([opt, &exit_code] {
     Status st = run_render(*opt);
     exit_code = st.ok() ? 0 : report("render", st.error());

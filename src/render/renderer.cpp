@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <numeric>
+#include <optional>
 
 #include "gpu_types.h"
 #include "render/renderer_impl.h"
@@ -358,7 +359,7 @@ void Renderer::Impl::record_cull_only(VkCommandBuffer cmd) {
   cull->record_iteration(cmd, &timestamps, cull_iteration);
 }
 
-void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first, bool accumulate) {
+void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first, bool accumulate, bool all_meshlets) {
   const uint32_t w = settings.width, h = settings.height;
   VkDescriptorSet ds = set.set();
   timestamps.reset(cmd);
@@ -396,7 +397,7 @@ void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first, bool accumulat
   vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
-  if (cull) {
+  if (cull && !all_meshlets) {
     cull->record_draw_list(cmd);  // the potentially visible set: every meshlet not in O
   } else {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, draw_list_pipe);
@@ -532,7 +533,7 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
 
   CullStats cs;
   // GPU time per submitted frame (sum of its passes) and what the frame did.
-  enum class FrameKind { during_culling, after_convergence, cull_only, timing };
+  enum class FrameKind { during_culling, after_convergence, cull_only, timing, paired_culled, paired_all };
   std::vector<double> frame_ms;
   std::vector<std::map<std::string, double>> frame_passes;  // per timed frame: pass -> ms
   std::vector<FrameKind> frame_kind;
@@ -630,6 +631,21 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
       MDS_TRY(end_submission());
     }
   }
+  // 3. Paired frames (RenderSettings::paired_frames, after convergence): every meshlet and the
+  //    potentially visible set, alternately, in this process and the same minutes, weight 0. Their
+  //    pass times stay out of pass_ms_median.
+  std::optional<std::map<std::string, std::vector<double>>> samples_before_paired;
+  if (m.cull && cs.converged) {
+    for (uint32_t s = 0; s < 2 * m.settings.paired_frames; ++s) {
+      MDS_ASSIGN_OR_RETURN(VkCommandBuffer cmd, begin_submission());
+      if (!samples_before_paired) samples_before_paired = m.timestamps.samples();
+      const bool all = s % 2 == 0;  // ends with a culled frame: read_last_depth() sees the culled image
+      m.write_frame_uniforms(camera, m.settings.spp + kTimingFrames + s / 2, gpu::kFrameTimingOnly);
+      frame_kind.push_back(all ? FrameKind::paired_all : FrameKind::paired_culled);
+      m.record_pass(cmd, false, true, all);
+      MDS_TRY(end_submission());
+    }
+  }
   MDS_TRY(m.slot.wait());
   MDS_TRY(collect_frame());
   if (pending_iteration) after_iteration();
@@ -642,7 +658,7 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     cs.bins = m.cull->bins();
     cs.budget = m.cull->budget();
     if (!cs.class_counts.empty()) cs.meshlets_culled = cs.class_counts[MDS_CULL_CLASS_O];
-    std::vector<double> during, after, cull_only;
+    std::vector<double> during, after, cull_only, paired_culled, paired_all;
     std::map<std::string, std::vector<double>> after_passes;
     for (size_t f = 0; f < frame_ms.size() && f < frame_kind.size(); ++f) {
       switch (frame_kind[f]) {
@@ -653,6 +669,8 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
           for (const auto& [name, ms] : frame_passes[f]) after_passes[name].push_back(ms);
           break;
         case FrameKind::cull_only: cull_only.push_back(frame_ms[f]); break;
+        case FrameKind::paired_culled: paired_culled.push_back(frame_ms[f]); break;
+        case FrameKind::paired_all: paired_all.push_back(frame_ms[f]); break;
       }
     }
     cs.frame_ms_during_culling = vk::median(during);
@@ -661,6 +679,9 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     for (const auto& [name, v] : after_passes) cs.pass_ms_after_convergence[name] = vk::median(v);
     cs.iteration_ms_without_draw = vk::median(cull_only);
     cs.iterations_after_spp = uint32_t(cull_only.size());
+    cs.paired_frames = uint32_t(std::min(paired_culled.size(), paired_all.size()));
+    cs.frame_ms_paired_culled = vk::median(paired_culled);
+    cs.frame_ms_paired_all = vk::median(paired_all);
   }
 
   FrameImage img;
@@ -682,7 +703,7 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     stats->height = h;
     stats->pass_ms_median.clear();
     stats->frame_ms_median = 0.0;
-    for (const auto& [name, v] : m.timestamps.samples()) {
+    for (const auto& [name, v] : samples_before_paired ? *samples_before_paired : m.timestamps.samples()) {
       double med = vk::median(v);
       stats->pass_ms_median[name] = med;
       stats->frame_ms_median += med;

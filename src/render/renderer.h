@@ -74,6 +74,11 @@ struct RenderSettings {
   // Accumulate into a storage buffer where 16 bytes per pixel fit maxStorageBufferRange; false:
   // always into an rgba32f storage image (the fallback for larger images). Same image either way.
   bool accumulation_buffer = true;
+  // After a converged culled render(): this many frames of the potentially visible set and as
+  // many of every meshlet, alternately, with weight 0 (the image is unchanged); CullStats
+  // frame_ms_paired_*. 0: none. On a shared machine a ratio of two separate renders' medians
+  // carries both renders' noise; the paired frames see the same load.
+  uint32_t paired_frames = 0;
 };
 
 // Culling loop statistics of one render() (RenderStats::cull).
@@ -101,6 +106,12 @@ struct CullStats {
   double frame_ms_after_convergence = 0.0;
   std::map<std::string, double> pass_ms_after_convergence;  // per pass, median over those frames
   double iteration_ms_without_draw = 0.0;
+  // Paired frames (RenderSettings::paired_frames): medians of the potentially-visible-set frames
+  // and of the every-meshlet frames run alternately after convergence; their ratio is the
+  // speed-up measured in one process and the same minutes.
+  uint32_t paired_frames = 0;
+  double frame_ms_paired_culled = 0.0;
+  double frame_ms_paired_all = 0.0;
 };
 
 // Linear RGBA, row-major from the top-left; rgb already averaged over spp and composited over

@@ -119,7 +119,8 @@ struct Renderer::Impl {
   Result<std::vector<float>> read_accumulation();
   // After the scene or the pool is on the device: targets, pipelines, frame slot, timestamps.
   Status create_frame_resources();
-  void record_pass(VkCommandBuffer cmd, bool first, bool accumulate = true);
+  // all_meshlets: draw every meshlet even when culling (the paired no-cull frames of render()).
+  void record_pass(VkCommandBuffer cmd, bool first, bool accumulate = true, bool all_meshlets = false);
   void record_cull_only(VkCommandBuffer cmd);
   void record_sprite_prepass(VkCommandBuffer cmd);
   void record_sprite_draws(VkCommandBuffer cmd);
