@@ -286,7 +286,8 @@ void setup_render(CLI::App& sub, int& exit_code) {
                "Also compute, on the CPU, which meshlets hold a visible particle of the last frame "
                "(stats: visible_meshlets, visible_meshlet_fraction, kept_over_visible_meshlets)");
   sub.add_option("--paired-frames", opt->paired_frames,
-                 "After convergence, this many frames of every meshlet and of the potentially visible set, "
+                 "In-memory culled renders: after convergence, this many frames of every meshlet and of the "
+                 "potentially visible set, "
                  "alternately, without changing the image (stats: frame_ms_paired_*, speedup_paired: the "
                  "speed-up measured in one process, under the same load)")
       ->check(CLI::Range(0u, 1000u))

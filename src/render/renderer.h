@@ -74,7 +74,7 @@ struct RenderSettings {
   // Accumulate into a storage buffer where 16 bytes per pixel fit maxStorageBufferRange; false:
   // always into an rgba32f storage image (the fallback for larger images). Same image either way.
   bool accumulation_buffer = true;
-  // After a converged culled render(): this many frames of the potentially visible set and as
+  // After a converged culled in-memory render() (not with a GPU budget): this many frames of the potentially visible set and as
   // many of every meshlet, alternately, with weight 0 (the image is unchanged); CullStats
   // frame_ms_paired_*. 0: none. On a shared machine a ratio of two separate renders' medians
   // carries both renders' noise; the paired frames see the same load.
