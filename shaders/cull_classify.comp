@@ -25,6 +25,9 @@
 layout(local_size_x = 64) in;
 const int kNodeExtent = 32;     // texels per side at most: <= 1024 ray tests per node
 const int kMeshletExtent = 32;  // <= 1024 ray tests per meshlet
+// Measured at 1920x1080 (1M, ablation v1 / porous v0): 16 makes the meshlet classification 3x
+// cheaper (119 -> 41, 79 -> 28 ms) but keeps 5 % more meshlets (kept / visible 1.08 -> 1.13,
+// 1.22 -> 1.28), which every frame after convergence pays; 32 stays.
 
 // Returns MDS_CULL_CLASS_* for the box without the "upward" rule (-1: outside the image).
 int classify_box(vec3 bmin, vec3 bmax, int max_extent) {
