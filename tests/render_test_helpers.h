@@ -19,6 +19,14 @@
 
 namespace mds::testing {
 
+// What a test keeps of one render(): the averaged image, the last frame's depth
+// (Renderer::read_last_depth) and the statistics.
+struct RenderedFrame {
+  render::FrameImage image;
+  std::vector<float> depth;
+  render::RenderStats stats;
+};
+
 // A suite sharing one Vulkan context with the Khronos validation layer (where installed); every
 // test must end without a validation message.
 class VulkanSuite : public ::testing::Test {

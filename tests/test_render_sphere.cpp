@@ -87,11 +87,7 @@ class RenderSphere : public mds::testing::VulkanSuite {
     return std::move(s).value();
   }
 
-  struct Output {
-    FrameImage image;
-    std::vector<float> depth;
-    RenderStats stats;
-  };
+  using Output = mds::testing::RenderedFrame;
   static Output render(const SceneData& scene, const Camera& cam, uint32_t w, uint32_t h, uint32_t spp) {
     RenderSettings rs;
     rs.width = w;

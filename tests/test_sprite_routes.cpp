@@ -41,11 +41,7 @@ class SpriteRoutesTest : public mds::testing::VulkanSuite {
     return std::move(s).value();
   }
 
-  struct Out {
-    FrameImage image;
-    std::vector<float> depth;
-    RenderStats stats;
-  };
+  using Out = mds::testing::RenderedFrame;
 
   // small_px: MDSTREAM_SMALL_PX for this renderer (nullptr: the default threshold).
   static Result<Out> render(const SceneData& scene, bool visibility_route, const char* small_px, bool cull,
