@@ -18,13 +18,24 @@ layout(std430, set = 1, binding = kCullNormalCdf) readonly buffer NormalCdfBlock
 
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 1, binding = kCullSampleImage, rg32f) uniform readonly image2D sample_image;
+// The compute sampling route (cull_sample.comp) leaves its samples in a uint64 per pixel, read
+// here as two words (no shaderInt64 needed): .x = alpha_s bits, .y = view depth bits (all ones,
+// a NaN depth, where no sample landed). Specialization constant 0 selects it.
+layout(constant_id = 0) const bool kSampleBuffer = false;
+layout(std430, set = 1, binding = kCullSampleBuffer) readonly buffer SampleBlock { uvec2 sample_words[]; };
 
 void main() {
   uvec2 p = gl_GlobalInvocationID.xy;
   uint W = cull_width(), H = cull_height();
   if (p.x >= W || p.y >= H) return;
   uint pix = p.y * W + p.x;
-  vec2 s = imageLoad(sample_image, ivec2(p)).xy;
+  vec2 s;
+  if (kSampleBuffer) {
+    uvec2 w = sample_words[pix];
+    s = vec2(uintBitsToFloat(w.y), uintBitsToFloat(w.x));
+  } else {
+    s = imageLoad(sample_image, ivec2(p)).xy;
+  }
   if (!(s.x < float(MDS_CULL_DEPTH_EMPTY))) return;  // no sample: state and level 0 unchanged
   vec4 acc = pixel_state[2u * pix], cb = pixel_state[2u * pix + 1u];
   int bins = int(cull.grid_dims.w);

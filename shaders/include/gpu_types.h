@@ -101,9 +101,11 @@ MDS_STRUCT(DrawListHeader) {
   uint first_index;
   int vertex_offset;
   uint first_instance;
-  uint pad0;
-  uint pad1;
-  uint pad2;
+  // The compute occlusion sampling pass (cull_sample.comp) dispatches itself indirectly from
+  // here: a VkDispatchIndirectCommand (workgroups x, y, z) written after the selection.
+  uint dispatch_x;
+  uint dispatch_y;
+  uint dispatch_z;
 };
 
 // One particle's glyph, computed once per pass by the sprite pre-pass (sphere_prepass.comp) so
@@ -159,6 +161,7 @@ static_assert(offsetof(GpuMeshlet, split) == 36);
 static_assert(offsetof(GpuMeshlet, second_particle) == 40);
 static_assert(sizeof(GpuType) == 32);
 static_assert(sizeof(DrawListHeader) == 32);
+static_assert(offsetof(DrawListHeader, dispatch_x) == 20);  // VkDispatchIndirectCommand: 4-byte aligned
 }  // namespace mds::gpu
 #undef MDS_STRUCT
 #undef MDS_CONST

@@ -1,10 +1,12 @@
 // The probabilistic occlusion culling loop on the GPU (paper 000, Sect. 3-5, Algorithm 1).
-// See cull_loop.h; shaders: shaders/cull_*.comp, cull_sample.vert/.frag.
+// See cull_loop.h; shaders: shaders/cull_*.comp, cull_sample.vert/.frag (rasterized sampling route).
 #include "render/culling/cull_loop.h"
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <string>
 #include <iterator>
 
 #include "culling/normal_cdf_table.h"
@@ -63,11 +65,16 @@ struct CullLoop::Impl {
   bool node_density = false;
   vk::Buffer occluder_list, indices;
   vk::Buffer normal_cdf;  // supplement A's table for cull_update.comp (culling_math.glsl)
+  // Occlusion samples: the rasterized route renders into sample_image (+ depth); the compute
+  // route (cull_sample.comp) writes sample_buf, 8 B per pixel, and the unused one is 1x1 / 16 B.
+  bool sample_compute = false;      // the route of the current pixel buffers
+  bool update_for_buffer = false;   // the route update_pipe was specialized for
   vk::Image sample_image, depth;
+  vk::Buffer sample_buf;
   vk::DescriptorSet set0_sample, set0_draw, set1;
   vk::UniquePipelineLayout layout;
   vk::UniquePipeline reset_pipe, histogram_pipe, select_pipe, update_pipe, pyramid_pipe, classify_pipe,
-      draw_list_pipe, sample_pipe;
+      draw_list_pipe, sample_pipe, sample_comp_pipe;
 
   Status create_buffers(const CullScene& scene_data, const DensityVolume& vol);
   Status create_pixel_buffers();
@@ -75,6 +82,8 @@ struct CullLoop::Impl {
   void write_pixel_descriptors();
   Status create_sets();
   Status create_pipelines();
+  Status create_update_pipeline();
+  bool want_compute_sampling(uint64_t pixels) const;
   void bind(VkCommandBuffer cmd, VkPipelineBindPoint bp, VkPipeline pipe, const vk::DescriptorSet& s0) const;
   void push(VkCommandBuffer cmd, uint32_t mode, uint32_t pass = 0, glm::vec2 jitter = glm::vec2(0.0f)) const;
   void write_uniforms(uint32_t iteration);
@@ -197,14 +206,25 @@ Status CullLoop::Impl::create_pixel_buffers() {
   MDS_TRY(make(hist_range, px * 8, "histogram ranges"));
   MDS_TRY(make(pixel_state, px * 32, "cull/accumulation buffers"));
   MDS_TRY(make(pyramid, pyramid_texels * 8, "confidence pyramid"));
-  MDS_ASSIGN_OR_RETURN(sample_image, vk::Image::create_2d(alloc, width, height, kSampleFormat,
+  sample_compute = want_compute_sampling(px);
+  MDS_TRY(make(sample_buf, sample_compute ? px * 8 : 16, "occlusion samples (compute route)"));
+  const uint32_t iw = sample_compute ? 1 : width, ih = sample_compute ? 1 : height;
+  MDS_ASSIGN_OR_RETURN(sample_image, vk::Image::create_2d(alloc, iw, ih, kSampleFormat,
                                                           VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT |
                                                               VK_IMAGE_USAGE_STORAGE_BIT |
                                                               VK_IMAGE_USAGE_TRANSFER_DST_BIT,
                                                           VK_IMAGE_ASPECT_COLOR_BIT, "occlusion sample image"));
-  MDS_ASSIGN_OR_RETURN(depth, vk::Image::create_2d(alloc, width, height, kDepthFormat,
+  MDS_ASSIGN_OR_RETURN(depth, vk::Image::create_2d(alloc, iw, ih, kDepthFormat,
                                                    VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
                                                    VK_IMAGE_ASPECT_DEPTH_BIT, "occlusion sample depth"));
+  if (sample_compute) {
+    // The unused 1x1 sample image stays bound (cull_update.comp declares it): in GENERAL layout.
+    MDS_TRY(ctx->submit_and_wait([&](VkCommandBuffer cmd) {
+      vk::image_barrier(cmd, sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                        VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_NONE, 0, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                        VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+    }));
+  }
   return {};
 }
 
@@ -221,6 +241,16 @@ void CullLoop::Impl::write_pixel_descriptors() {
   set1.write_buffer(gpu::kCullPixelState, SSBO, pixel_state.get());
   set1.write_buffer(gpu::kCullPyramid, SSBO, pyramid.get());
   set1.write_storage_image(gpu::kCullSampleImage, sample_image.view());
+  set1.write_buffer(gpu::kCullSampleBuffer, SSBO, sample_buf.get());
+}
+
+// The compute sampling route where the device has 64-bit buffer atomics and 8 bytes per pixel
+// fit one storage buffer; MDSTREAM_CULL_SAMPLE=raster (A/B measurements) or
+// CullSettings::compute_sampling = false keep the rasterized route.
+bool CullLoop::Impl::want_compute_sampling(uint64_t pixels) const {
+  if (!settings.compute_sampling || !ctx->int64_atomics()) return false;
+  if (const char* e = std::getenv("MDSTREAM_CULL_SAMPLE"); e && std::string(e) == "raster") return false;
+  return pixels * 8 <= ctx->limits().maxStorageBufferRange;
 }
 
 Status CullLoop::Impl::create_sets() {
@@ -253,7 +283,7 @@ Status CullLoop::Impl::create_sets() {
                                        b(gpu::kCullMeshletClass, SSBO), b(gpu::kCullNodeClass, SSBO),
                                        b(gpu::kCullCounters, SSBO),
                                        b(gpu::kCullSampleImage, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE),
-                                       b(gpu::kCullNormalCdf, SSBO)}));
+                                       b(gpu::kCullNormalCdf, SSBO), b(gpu::kCullSampleBuffer, SSBO)}));
   set1.write_buffer(gpu::kCullUniforms, UBO, cull_ubo.get());
   set1.write_buffer(gpu::kCullHistogram, SSBO, histogram.get());
   set1.write_buffer(gpu::kCullHistRange, SSBO, hist_range.get());
@@ -267,6 +297,7 @@ Status CullLoop::Impl::create_sets() {
   set1.write_buffer(gpu::kCullCounters, SSBO, counters.get());
   set1.write_storage_image(gpu::kCullSampleImage, sample_image.view());
   set1.write_buffer(gpu::kCullNormalCdf, SSBO, normal_cdf.get());
+  set1.write_buffer(gpu::kCullSampleBuffer, SSBO, sample_buf.get());
   return {};
 }
 
@@ -285,7 +316,10 @@ Status CullLoop::Impl::create_pipelines() {
   MDS_ASSIGN_OR_RETURN(reset_pipe, vk::create_compute_pipeline(dev, layout, "cull_reset.comp"));
   MDS_ASSIGN_OR_RETURN(histogram_pipe, vk::create_compute_pipeline(dev, layout, "cull_histogram.comp"));
   MDS_ASSIGN_OR_RETURN(select_pipe, vk::create_compute_pipeline(dev, layout, "cull_select.comp"));
-  MDS_ASSIGN_OR_RETURN(update_pipe, vk::create_compute_pipeline(dev, layout, "cull_update.comp"));
+  MDS_TRY(create_update_pipeline());
+  if (ctx->int64_atomics()) {
+    MDS_ASSIGN_OR_RETURN(sample_comp_pipe, vk::create_compute_pipeline(dev, layout, "cull_sample.comp"));
+  }
   MDS_ASSIGN_OR_RETURN(pyramid_pipe, vk::create_compute_pipeline(dev, layout, "cull_pyramid.comp"));
   MDS_ASSIGN_OR_RETURN(classify_pipe, vk::create_compute_pipeline(dev, layout, "cull_classify.comp"));
   MDS_ASSIGN_OR_RETURN(draw_list_pipe, vk::create_compute_pipeline(dev, layout, "cull_draw_list.comp"));
@@ -295,6 +329,14 @@ Status CullLoop::Impl::create_pipelines() {
   g.color_formats = {kSampleFormat};
   g.depth_format = kDepthFormat;
   MDS_ASSIGN_OR_RETURN(sample_pipe, vk::create_graphics_pipeline(dev, layout, g));
+  return {};
+}
+
+Status CullLoop::Impl::create_update_pipeline() {
+  vk::SpecConstants spec;
+  spec.add(0u, VkBool32(sample_compute));  // cull_update.comp: kSampleBuffer
+  MDS_ASSIGN_OR_RETURN(update_pipe, vk::create_compute_pipeline(ctx->device(), layout.get(), "cull_update.comp", &spec));
+  update_for_buffer = sample_compute;
   return {};
 }
 
@@ -411,6 +453,7 @@ CullLoop::~CullLoop() = default;
 
 uint32_t CullLoop::bins() const { return impl_->bins; }
 uint32_t CullLoop::budget() const { return impl_->budget; }
+bool CullLoop::compute_sampling() const { return impl_->sample_compute; }
 uint32_t CullLoop::samples_per_iteration() const { return impl_->passes; }
 void CullLoop::set_samples_per_iteration(uint32_t passes) {
   impl_->passes = std::clamp(passes, 1u, std::max(1u, impl_->settings.samples_per_iteration));
@@ -438,6 +481,7 @@ Status CullLoop::resize(uint32_t width, uint32_t height) {
   MDS_TRY(m.create_pixel_buffers());  // the old ones are released here (the caller waited for the GPU)
   m.set_pixel_uniforms();
   m.write_pixel_descriptors();
+  if (m.sample_compute != m.update_for_buffer) MDS_TRY(m.create_update_pipeline());
   return {};
 }
 
@@ -507,47 +551,63 @@ void CullLoop::Impl::record_sampling_pass(VkCommandBuffer cmd, vk::TimestampPool
 
   // sample (Sect. 3.2): one jittered depth sample per pixel of the occluders.
   begin("sample");
-  vk::image_barrier(cmd, sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                    VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                    VK_ACCESS_2_SHADER_STORAGE_READ_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-                    VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
-  vk::image_barrier(cmd, depth.get(), VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                    VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-                    VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-                    VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-                    VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
-  VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  ca.imageView = sample_image.view();
-  ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-  ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  ca.clearValue.color = {{float(MDS_CULL_DEPTH_EMPTY), 0.0f, 0.0f, 0.0f}};
-  VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  da.imageView = depth.view();
-  da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  da.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  da.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-  da.clearValue.depthStencil = {1.0f, 0};
-  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-  ri.renderArea = {{0, 0}, {width, height}};
-  ri.layerCount = 1;
-  ri.colorAttachmentCount = 1;
-  ri.pColorAttachments = &ca;
-  ri.pDepthAttachment = &da;
-  vkCmdBeginRendering(cmd, &ri);
-  VkViewport vp{0.0f, 0.0f, float(width), float(height), 0.0f, 1.0f};
-  VkRect2D sc{{0, 0}, {width, height}};
-  vkCmdSetViewport(cmd, 0, 1, &vp);
-  vkCmdSetScissor(cmd, 0, 1, &sc);
-  bind(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, sample_pipe, set0_sample);
-  push(cmd, 0, pass, jitter_ndc);
-  vkCmdBindIndexBuffer(cmd, indices.get(), 0, VK_INDEX_TYPE_UINT16);
-  vkCmdDrawIndexedIndirect(cmd, occluder_list.get(), 0, 1, sizeof(VkDrawIndexedIndirectCommand));
-  vkCmdEndRendering(cmd);
-  vk::image_barrier(cmd, sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
-                    VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-                    VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                    VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+  if (sample_compute) {
+    // Clear to all ones (no sample), write the indirect dispatch from the selection's count
+    // (mode 1), rasterize (mode 0).
+    vkCmdFillBuffer(cmd, sample_buf.get(), 0, VK_WHOLE_SIZE, 0xFFFFFFFFu);
+    compute_barrier(cmd);
+    bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, sample_comp_pipe, set0_sample);
+    push(cmd, 1, pass, jitter_ndc);
+    vkCmdDispatch(cmd, 1, 1, 1);
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+    push(cmd, 0, pass, jitter_ndc);
+    vkCmdDispatchIndirect(cmd, occluder_list.get(), offsetof(gpu::DrawListHeader, dispatch_x));
+    compute_barrier(cmd);
+  } else {
+    vk::image_barrier(cmd, sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                      VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                      VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
+    vk::image_barrier(cmd, depth.get(), VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                      VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+                      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+                      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+                      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
+    VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+    ca.imageView = sample_image.view();
+    ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    ca.clearValue.color = {{float(MDS_CULL_DEPTH_EMPTY), 0.0f, 0.0f, 0.0f}};
+    VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+    da.imageView = depth.view();
+    da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    da.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    da.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    da.clearValue.depthStencil = {1.0f, 0};
+    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+    ri.renderArea = {{0, 0}, {width, height}};
+    ri.layerCount = 1;
+    ri.colorAttachmentCount = 1;
+    ri.pColorAttachments = &ca;
+    ri.pDepthAttachment = &da;
+    vkCmdBeginRendering(cmd, &ri);
+    VkViewport vp{0.0f, 0.0f, float(width), float(height), 0.0f, 1.0f};
+    VkRect2D sc{{0, 0}, {width, height}};
+    vkCmdSetViewport(cmd, 0, 1, &vp);
+    vkCmdSetScissor(cmd, 0, 1, &sc);
+    bind(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, sample_pipe, set0_sample);
+    push(cmd, 0, pass, jitter_ndc);
+    vkCmdBindIndexBuffer(cmd, indices.get(), 0, VK_INDEX_TYPE_UINT16);
+    vkCmdDrawIndexedIndirect(cmd, occluder_list.get(), 0, 1, sizeof(VkDrawIndexedIndirectCommand));
+    vkCmdEndRendering(cmd);
+    vk::image_barrier(cmd, sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                      VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                      VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+  }
   end();
 
   begin("update");  // Algorithm 1
@@ -670,24 +730,39 @@ Status CullLoop::write_pyramid_level0(const std::vector<glm::vec2>& dc) {
 
 Status CullLoop::run_update_only(const std::vector<glm::vec2>& samples, uint32_t iteration) {
   Impl& m = *impl_;
-  MDS_ASSIGN_OR_RETURN(vk::Buffer staging,
-                       vk::Buffer::create(m.ctx->allocator(), samples.size() * sizeof(glm::vec2),
-                                          VK_BUFFER_USAGE_TRANSFER_SRC_BIT, vk::MemoryIntent::upload, "test samples"));
-  std::memcpy(staging.mapped(), samples.data(), samples.size() * sizeof(glm::vec2));
+  // The compute route's layout: per pixel (alpha_s bits, view depth bits) as two words.
+  std::vector<glm::uvec2> words;
+  if (m.sample_compute) {
+    words.resize(samples.size());
+    for (size_t i = 0; i < samples.size(); ++i) {
+      std::memcpy(&words[i].x, &samples[i].y, 4);
+      std::memcpy(&words[i].y, &samples[i].x, 4);
+    }
+  }
+  const uint64_t bytes = samples.size() * sizeof(glm::vec2);
+  MDS_ASSIGN_OR_RETURN(vk::Buffer staging, vk::Buffer::create(m.ctx->allocator(), bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                                              vk::MemoryIntent::upload, "test samples"));
+  std::memcpy(staging.mapped(), m.sample_compute ? static_cast<const void*>(words.data()) : samples.data(), bytes);
   staging.flush();
   m.write_uniforms(iteration);
   return m.ctx->submit_and_wait([&](VkCommandBuffer cmd) {
-    vk::image_barrier(cmd, m.sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                      VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT, VK_PIPELINE_STAGE_2_TRANSFER_BIT,
-                      VK_ACCESS_2_TRANSFER_WRITE_BIT);
-    VkBufferImageCopy r{};
-    r.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-    r.imageExtent = {m.width, m.height, 1};
-    vkCmdCopyBufferToImage(cmd, staging.get(), m.sample_image.get(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &r);
-    vk::image_barrier(cmd, m.sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                      VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+    if (m.sample_compute) {
+      VkBufferCopy c{0, 0, bytes};
+      vkCmdCopyBuffer(cmd, staging.get(), m.sample_buf.get(), 1, &c);
+      compute_barrier(cmd);
+    } else {
+      vk::image_barrier(cmd, m.sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                        VK_ACCESS_2_SHADER_STORAGE_READ_BIT, VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+                        VK_ACCESS_2_TRANSFER_WRITE_BIT);
+      VkBufferImageCopy r{};
+      r.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+      r.imageExtent = {m.width, m.height, 1};
+      vkCmdCopyBufferToImage(cmd, staging.get(), m.sample_image.get(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &r);
+      vk::image_barrier(cmd, m.sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                        VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                        VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+    }
     m.record_update(cmd, iteration);
   });
 }

@@ -70,6 +70,11 @@ struct CullSettings {
   uint32_t max_iterations = kDefaultMaxIterations;  // cap when not converged (the renderer keeps iterating past spp)
   uint32_t bins = 0;                 // histogram bins; 0: as many as fit (<= 64), see bins_for()
   uint32_t seed = 1;
+  // Occlusion sampling pass rasterized in compute (cull_sample.comp) where the device has 64-bit
+  // buffer atomics and W*H*8 bytes fit a storage buffer; false: always the rasterized billboards
+  // (cull_sample.vert/.frag). Both give the same samples (tested); MDSTREAM_CULL_SAMPLE=raster
+  // forces the rasterized route too.
+  bool compute_sampling = true;
 };
 
 // The renderer's scene buffers the culling passes read (and the draw list they write).
@@ -132,6 +137,7 @@ class CullLoop {
 
   uint32_t bins() const;
   uint32_t budget() const;
+  bool compute_sampling() const;  // the route of the occlusion sampling pass in use
   uint32_t samples_per_iteration() const;
   uint32_t pyramid_levels() const;
   const CullSettings& settings() const;

@@ -1,0 +1,71 @@
+#version 460
+// Occlusion sampling pass, compute route (paper 000, Sect. 3.2): the same samples as the
+// rasterized route (cull_sample.vert/.frag), rasterized in compute. Lavapipe sets up every
+// primitive on one thread (about 1 us each), and the sampling pass draws an occluder budget of
+// meshlets (~125k sphere billboards at 1M particles) four times per culling iteration; here every
+// particle is one invocation on all threads.
+// push.mode 1: one invocation writes the indirect dispatch of mode 0 into the occluder list's
+//   header (dispatch_x/y/z: one invocation per particle slot of the selected meshlets).
+// push.mode 0: invocation t rasterizes local particle t % max_meshlet of occluder t / max_meshlet:
+//   the glyph of include/sprite_make.h shifted by the pass's jitter, every pixel whose centre
+//   lies in it (the rasterizer's coverage of the same quad) tested with the exact ray of
+//   include/cull_sample.h at the jittered sample position; the nearest hit wins per pixel by a
+//   64-bit atomicMin of (view depth bits << 32 | alpha_s bits): positive floats order like their
+//   bits, so the nearest depth wins (ties: the smaller alpha_s), independent of thread order.
+//   The buffer is cleared to all ones (= no sample: NaN depth, which cull_update skips).
+// Needs shaderInt64 and 64-bit buffer atomics (the renderer falls back to the rasterized route).
+#extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+#extension GL_EXT_shader_atomic_int64 : require
+#define MDS_DRAW_LIST_WRITABLE
+#include "bindings.h"
+#include "culling_math.glsl"
+#include "cull_shared.h"
+#include "sprite_make.h"
+#include "cull_sample.h"
+
+layout(local_size_x = 64) in;
+layout(push_constant) uniform PushBlock { CullPush push; };
+layout(std430, set = 1, binding = kCullSampleBuffer) coherent buffer SampleBlock { uint64_t samples[]; };
+
+void main() {
+  uint per = max(frame.counts.y, 1u);  // max particles per meshlet
+  if (push.mode == 1u) {
+    if (gl_GlobalInvocationID.x == 0u) {
+      draw_header.dispatch_x = (draw_header.instance_count * per + 63u) / 64u;
+      draw_header.dispatch_y = 1u;
+      draw_header.dispatch_z = 1u;
+    }
+    return;
+  }
+  uint t = gl_GlobalInvocationID.x;
+  uint e = t / per, local = t % per;
+  if (e >= draw_header.instance_count) return;
+  GpuMeshlet m = meshlets[draw_ids[e]];
+  if (local >= m.particle_count) return;
+  GpuSprite s = mds_make_sprite(m, nodes[m.node], local);
+  if ((s.flags & kSpriteHidden) != 0u || !(s.zndc >= 0.0)) return;  // culled or clipped
+  vec2 size = frame.viewport.xy;
+  vec2 jitter = vec2(push.jitter_x, push.jitter_y);
+  // The quad as the rasterizer places it (rect + jitter, framebuffer coordinates); pixel
+  // centres x + 0.5 inside [lo, hi).
+  vec2 lo = (s.rect.xy + jitter + 1.0) * 0.5 * size;
+  vec2 hi = (s.rect.zw + jitter + 1.0) * 0.5 * size;
+  ivec2 p0 = max(ivec2(ceil(lo - 0.5)), ivec2(0));
+  ivec2 p1 = min(ivec2(ceil(hi - 0.5)) - 1, ivec2(size) - 1);
+  // Early test: the sphere's nearest view depth bounds every hit from below (slack for
+  // rounding); a pixel whose nearest sample so far is nearer cannot take this one.
+  uint zmin_bits = floatBitsToUint(max((-s.center_radius.z - s.center_radius.w) * (1.0 - 1e-5), 0.0));
+  for (int y = p0.y; y <= p1.y; ++y) {
+    for (int x = p0.x; x <= p1.x; ++x) {
+      uint pix = uint(y) * uint(size.x) + uint(x);
+      if (zmin_bits > uint(samples[pix] >> 32)) continue;
+      vec2 ndc = (vec2(x, y) + 0.5) * frame.viewport.zw * 2.0 - 1.0 - jitter;
+      float depth;
+      vec2 v;
+      if (!mds_cull_sample(ndc, s.center_radius, depth, v) || !(depth < 1.0)) continue;
+      uint64_t key = (uint64_t(floatBitsToUint(max(v.x, 0.0))) << 32) | uint64_t(floatBitsToUint(v.y));
+      atomicMin(samples[pix], key);
+    }
+  }
+}
