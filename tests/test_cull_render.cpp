@@ -43,9 +43,9 @@ struct RenderRun {
 
 RenderRun render_scene(vk::Context& ctx, const SceneData& scene, bool cull, int acceptance, uint32_t spp,
                  bool record_classes = false, uint32_t samples_per_iteration = 0, uint32_t paired_frames = 0,
-                 bool compute_sampling = true) {
+                 culling::SampleRoute sample_route = culling::SampleRoute::automatic, double closer = 1.0) {
   RenderSettings rs;
-  rs.cull_settings.compute_sampling = compute_sampling;
+  rs.cull_settings.sample_route = sample_route;
   rs.paired_frames = paired_frames;
   rs.width = kW;
   rs.height = kH;
@@ -64,6 +64,8 @@ RenderRun render_scene(vk::Context& ctx, const SceneData& scene, bool cull, int 
     });
   auto cam = default_view(0, scene.bounds, 40.0, double(kW) / kH);
   EXPECT_TRUE(cam.ok());
+  // closer < 1: the eye moved toward the target (a close-up: glyphs of hundreds of pixels).
+  cam.value().eye = cam.value().target + (cam.value().eye - cam.value().target) * closer;
   auto img = r.value()->render(cam.value(), &run.stats);
   EXPECT_TRUE(img.ok()) << (img.ok() ? "" : img.error().message);
   run.image = std::move(img.value());
@@ -152,33 +154,53 @@ TEST_F(CullRender, ClassesOnlyMoveUpward) {
 
 TEST_F(CullRender, ComputeAndRasterizedSamplingAgree) {
   // The occlusion sampling pass rasterized in compute (cull_sample.comp, where the device has
-  // 64-bit atomics) and by the rasterizer (cull_sample.vert/.frag) take the same samples: the
-  // same pixels (centre in the jittered quad), the same ray test (include/cull_sample.h), the
-  // nearest hit per pixel. So every iteration classifies the same meshlets the same way. A
-  // pixel centre exactly on a quad edge is the only place the two may differ (the rasterizer's
-  // tie rule), hence a small tolerance rather than equality.
+  // 64-bit atomics; its large glyphs drawn with cull_sample_atomic.frag) and by the rasterizer
+  // (cull_sample.vert/.frag) take the same samples: the same pixels (centre in the jittered
+  // quad), the same ray test (include/cull_sample.h), the nearest hit per pixel. So every
+  // iteration classifies the same meshlets the same way. A pixel centre exactly on a quad edge
+  // is the only place the two may differ (the rasterizer's tie rule), hence a small tolerance
+  // rather than equality. Two views: the default one (glyphs of a few pixels, sampled by the
+  // compute threads) and a close-up (glyphs of hundreds of pixels, the large-glyph list).
   if (!ctx_->int64_atomics()) GTEST_SKIP() << "no 64-bit buffer atomics: only the rasterized route exists";
   const uint32_t spp = 10;
-  RenderRun comp = render_scene(*ctx_, *scene_, true, MDS_CULL_ACCEPT_NORMAL, spp, true);
-  RenderRun rast = render_scene(*ctx_, *scene_, true, MDS_CULL_ACCEPT_NORMAL, spp, true, 0, 0, false);
-  ASSERT_FALSE(comp.classes.empty());
-  ASSERT_EQ(comp.classes.size(), rast.classes.size());
-  size_t differ = 0, total = 0;
-  for (size_t it = 0; it < comp.classes.size(); ++it)
-    for (size_t m = 0; m < comp.classes[it].size(); ++m) {
-      differ += comp.classes[it][m] != rast.classes[it][m];
-      ++total;
-    }
-  EXPECT_LE(differ, total / 200) << differ << " of " << total << " (meshlet, iteration) classes differ";
-  EXPECT_GT(culled_fraction(comp), 0.4);
-  size_t px = 0;
-  for (uint32_t y = 0; y < kH; ++y)
-    for (uint32_t x = 0; x < kW; ++x) {
-      glm::vec4 a = comp.image.at(x, y), b = rast.image.at(x, y);
-      if (std::max({std::abs(a.r - b.r), std::abs(a.g - b.g), std::abs(a.b - b.b)}) > 0.1f) ++px;
-    }
-  EXPECT_LE(px, size_t(kW * kH / 1000));
-  std::printf("compute vs rasterized sampling: %zu of %zu classes differ, %zu pixels\n", differ, total, px);
+  for (double closer : {1.0, 0.3}) {
+    SCOPED_TRACE(closer == 1.0 ? "default view" : "close-up");
+    RenderRun comp = render_scene(*ctx_, *scene_, true, MDS_CULL_ACCEPT_NORMAL, spp, true, 0, 0,
+                                  culling::SampleRoute::compute, closer);
+    RenderRun rast = render_scene(*ctx_, *scene_, true, MDS_CULL_ACCEPT_NORMAL, spp, true, 0, 0,
+                                  culling::SampleRoute::raster, closer);
+    EXPECT_EQ(comp.stats.cull.sample_iterations_compute, comp.stats.cull.iterations);
+    EXPECT_EQ(rast.stats.cull.sample_iterations_raster, rast.stats.cull.iterations);
+    ASSERT_FALSE(comp.classes.empty());
+    ASSERT_EQ(comp.classes.size(), rast.classes.size());
+    size_t differ = 0, total = 0;
+    for (size_t it = 0; it < comp.classes.size(); ++it)
+      for (size_t m = 0; m < comp.classes[it].size(); ++m) {
+        differ += comp.classes[it][m] != rast.classes[it][m];
+        ++total;
+      }
+    EXPECT_LE(differ, total / 200) << differ << " of " << total << " (meshlet, iteration) classes differ";
+    EXPECT_GT(culled_fraction(comp), 0.2);
+    size_t px = 0;
+    for (uint32_t y = 0; y < kH; ++y)
+      for (uint32_t x = 0; x < kW; ++x) {
+        glm::vec4 a = comp.image.at(x, y), b = rast.image.at(x, y);
+        if (std::max({std::abs(a.r - b.r), std::abs(a.g - b.g), std::abs(a.b - b.b)}) > 0.1f) ++px;
+      }
+    EXPECT_LE(px, size_t(kW * kH / 1000));
+    std::printf("compute vs rasterized sampling (closer %.1f): %zu of %zu classes differ, %zu pixels, culled %.3f\n",
+                closer, differ, total, px, culled_fraction(comp));
+  }
+}
+
+TEST_F(CullRender, AutomaticSamplingRouteTriesBothRoutes) {
+  if (!ctx_->int64_atomics()) GTEST_SKIP() << "no 64-bit buffer atomics: only the rasterized route exists";
+  RenderRun r = render_scene(*ctx_, *scene_, true, MDS_CULL_ACCEPT_NORMAL, 10);
+  ASSERT_GE(r.stats.cull.iterations, 2u);
+  // Each route is measured once at the start, then the faster one runs.
+  EXPECT_GE(r.stats.cull.sample_iterations_compute, 1u);
+  EXPECT_GE(r.stats.cull.sample_iterations_raster, 1u);
+  EXPECT_EQ(r.stats.cull.sample_iterations_compute + r.stats.cull.sample_iterations_raster, r.stats.cull.iterations);
 }
 
 }  // namespace

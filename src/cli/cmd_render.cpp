@@ -194,6 +194,8 @@ Status run_render(const RenderOptions& o) {
                          {"samples_per_iteration", c.samples_per_iteration},
                          {"max_iterations", o.cull.max_iterations},
                          {"histogram_bins", c.bins},
+                         {"sample_iterations", {{"compute", c.sample_iterations_compute},
+                                                {"raster", c.sample_iterations_raster}}},
                          {"n_budget", o.cull.n_budget},
                          {"seed", o.cull.seed},
                          {"mesh_shaders", o.cull.mesh_shaders},

@@ -550,6 +550,7 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
       for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i)
         sum += v[i], passes[name] += v[i], any = true;
     }
+    if (m.cull && passes.count("sample")) m.cull->observe_sample_ms(passes["sample"]);
     if (any) {
       frame_ms.push_back(sum);
       frame_passes.push_back(std::move(passes));
@@ -656,6 +657,8 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     cs.samples = m.cull_iteration * m.cull->samples_per_iteration();
     cs.samples_per_iteration = m.cull->samples_per_iteration();
     cs.bins = m.cull->bins();
+    cs.sample_iterations_compute = m.cull->sample_route_iterations(culling::SampleRoute::compute);
+    cs.sample_iterations_raster = m.cull->sample_route_iterations(culling::SampleRoute::raster);
     cs.budget = m.cull->budget();
     if (!cs.class_counts.empty()) cs.meshlets_culled = cs.class_counts[MDS_CULL_CLASS_O];
     std::vector<double> during, after, cull_only, paired_culled, paired_all;

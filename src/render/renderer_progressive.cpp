@@ -127,9 +127,13 @@ Result<double> Renderer::Impl::collect_frame_ms() {
   std::map<std::string, size_t> before;
   for (const auto& [name, v] : timestamps.samples()) before[name] = v.size();
   MDS_TRY(timestamps.collect());
-  double sum = 0.0;
+  double sum = 0.0, sample = 0.0;
   for (const auto& [name, v] : timestamps.samples())
-    for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i) sum += v[i];
+    for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i) {
+      sum += v[i];
+      if (name == "sample") sample += v[i];
+    }
+  if (cull && sample > 0.0) cull->observe_sample_ms(sample);
   return sum;
 }
 
@@ -350,6 +354,8 @@ RenderStats Renderer::stats() const {
     s.cull.samples = m.cull_iteration * m.cull->samples_per_iteration();
     s.cull.samples_per_iteration = m.cull->samples_per_iteration();
     s.cull.bins = m.cull->bins();
+    s.cull.sample_iterations_compute = m.cull->sample_route_iterations(culling::SampleRoute::compute);
+    s.cull.sample_iterations_raster = m.cull->sample_route_iterations(culling::SampleRoute::raster);
     s.cull.budget = m.cull->budget();
     if (s.cull.class_counts.size() == 4) s.cull.meshlets_culled = s.cull.class_counts[MDS_CULL_CLASS_O];
   }

@@ -66,15 +66,20 @@ struct CullLoop::Impl {
   vk::Buffer occluder_list, indices;
   vk::Buffer normal_cdf;  // supplement A's table for cull_update.comp (culling_math.glsl)
   // Occlusion samples: the rasterized route renders into sample_image (+ depth); the compute
-  // route (cull_sample.comp) writes sample_buf, 8 B per pixel, and the unused one is 1x1 / 16 B.
-  bool sample_compute = false;      // the route of the current pixel buffers
-  bool update_for_buffer = false;   // the route update_pipe was specialized for
+  // route (cull_sample.comp) writes sample_buf, 8 B per pixel (16 B when unavailable).
+  bool compute_available = false;  // 64-bit atomics, W*H*8 fits, not forced to raster
+  bool sample_compute = false;     // the route of the iteration recorded last
+  double route_ms[2] = {-1.0, -1.0};  // measured GPU ms per sampling pass: raster, compute (EMA)
+  uint32_t route_iterations[2] = {0, 0};
+  uint32_t since_explore = 0;
+  uint32_t recorded_passes = 1;
   vk::Image sample_image, depth;
   vk::Buffer sample_buf;
+  vk::Buffer sample_large;  // SampleLargeHeader + (meshlet, local) per large sprite (compute route)
   vk::DescriptorSet set0_sample, set0_draw, set1;
   vk::UniquePipelineLayout layout;
   vk::UniquePipeline reset_pipe, histogram_pipe, select_pipe, update_pipe, pyramid_pipe, classify_pipe,
-      draw_list_pipe, sample_pipe, sample_comp_pipe;
+      draw_list_pipe, sample_pipe, sample_comp_pipe, sample_large_pipe, update_buffer_pipe;
 
   Status create_buffers(const CullScene& scene_data, const DensityVolume& vol);
   Status create_pixel_buffers();
@@ -82,8 +87,8 @@ struct CullLoop::Impl {
   void write_pixel_descriptors();
   Status create_sets();
   Status create_pipelines();
-  Status create_update_pipeline();
-  bool want_compute_sampling(uint64_t pixels) const;
+  SampleRoute forced_route() const;
+  bool choose_compute_route();
   void bind(VkCommandBuffer cmd, VkPipelineBindPoint bp, VkPipeline pipe, const vk::DescriptorSet& s0) const;
   void push(VkCommandBuffer cmd, uint32_t mode, uint32_t pass = 0, glm::vec2 jitter = glm::vec2(0.0f)) const;
   void write_uniforms(uint32_t iteration);
@@ -142,6 +147,16 @@ Status CullLoop::Impl::create_buffers(const CullScene& s, const DensityVolume& v
   MDS_TRY(make(normal_cdf, sizeof(kNormalCdf), "normal CDF table"));
   MDS_TRY(make(occluder_list, sizeof(gpu::DrawListHeader) + 4ull * meshlet_count, "occluder list",
                VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT));
+  // Room for every particle slot of the meshlets (8 B each: 62565 meshlets x 16 = 7.6 MiB at
+  // 1M particles), capped by the storage buffer range; overflow is sampled in place.
+  {
+    const uint64_t range = ctx->limits().maxStorageBufferRange;
+    const uint64_t header = sizeof(gpu::SampleLargeHeader);
+    const uint64_t entries = ctx->int64_atomics()
+                                 ? std::min<uint64_t>(uint64_t(meshlet_count) * std::max(max_meshlet, 1u), (range - header) / 8)
+                                 : 1;
+    MDS_TRY(make(sample_large, header + 8 * entries, "large occluder sprites", VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT));
+  }
   MDS_ASSIGN_OR_RETURN(counters_host, vk::Buffer::create(alloc, sizeof(gpu::CullCounters),
                                                          VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                                          vk::MemoryIntent::readback, "cull counters (host)"));
@@ -206,19 +221,24 @@ Status CullLoop::Impl::create_pixel_buffers() {
   MDS_TRY(make(hist_range, px * 8, "histogram ranges"));
   MDS_TRY(make(pixel_state, px * 32, "cull/accumulation buffers"));
   MDS_TRY(make(pyramid, pyramid_texels * 8, "confidence pyramid"));
-  sample_compute = want_compute_sampling(px);
-  MDS_TRY(make(sample_buf, sample_compute ? px * 8 : 16, "occlusion samples (compute route)"));
-  const uint32_t iw = sample_compute ? 1 : width, ih = sample_compute ? 1 : height;
+  const SampleRoute forced = forced_route();
+  compute_available = ctx->int64_atomics() && forced != SampleRoute::raster &&
+                      px * 8 <= ctx->limits().maxStorageBufferRange;
+  MDS_TRY(make(sample_buf, compute_available ? px * 8 : 16, "occlusion samples (compute route)"));
+  const bool image_used = !(compute_available && forced == SampleRoute::compute);
+  const uint32_t iw = image_used ? width : 1, ih = image_used ? height : 1;
   MDS_ASSIGN_OR_RETURN(sample_image, vk::Image::create_2d(alloc, iw, ih, kSampleFormat,
                                                           VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT |
                                                               VK_IMAGE_USAGE_STORAGE_BIT |
                                                               VK_IMAGE_USAGE_TRANSFER_DST_BIT,
                                                           VK_IMAGE_ASPECT_COLOR_BIT, "occlusion sample image"));
-  MDS_ASSIGN_OR_RETURN(depth, vk::Image::create_2d(alloc, iw, ih, kDepthFormat,
+  // The depth attachment serves both routes (the compute route rasterizes its large sprites).
+  MDS_ASSIGN_OR_RETURN(depth, vk::Image::create_2d(alloc, width, height, kDepthFormat,
                                                    VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
                                                    VK_IMAGE_ASPECT_DEPTH_BIT, "occlusion sample depth"));
-  if (sample_compute) {
-    // The unused 1x1 sample image stays bound (cull_update.comp declares it): in GENERAL layout.
+  {
+    // The sample image stays bound (cull_update.comp declares it) while the compute route runs:
+    // in GENERAL layout from the start (the rasterized route transitions it per pass).
     MDS_TRY(ctx->submit_and_wait([&](VkCommandBuffer cmd) {
       vk::image_barrier(cmd, sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                         VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_NONE, 0, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
@@ -244,13 +264,31 @@ void CullLoop::Impl::write_pixel_descriptors() {
   set1.write_buffer(gpu::kCullSampleBuffer, SSBO, sample_buf.get());
 }
 
-// The compute sampling route where the device has 64-bit buffer atomics and 8 bytes per pixel
-// fit one storage buffer; MDSTREAM_CULL_SAMPLE=raster (A/B measurements) or
-// CullSettings::compute_sampling = false keep the rasterized route.
-bool CullLoop::Impl::want_compute_sampling(uint64_t pixels) const {
-  if (!settings.compute_sampling || !ctx->int64_atomics()) return false;
-  if (const char* e = std::getenv("MDSTREAM_CULL_SAMPLE"); e && std::string(e) == "raster") return false;
-  return pixels * 8 <= ctx->limits().maxStorageBufferRange;
+SampleRoute CullLoop::Impl::forced_route() const {
+  if (const char* e = std::getenv("MDSTREAM_CULL_SAMPLE")) {
+    const std::string v(e);
+    if (v == "raster") return SampleRoute::raster;
+    if (v == "compute") return SampleRoute::compute;
+  }
+  return settings.sample_route;
+}
+
+// The route of the next iteration: forced, or the faster one measured (each is tried once at
+// the start, and the slower one again every kSampleRouteExplore iterations: which one wins
+// depends on the view -- far views with small glyphs favour compute, close-ups with glyphs of
+// hundreds of pixels the rasterizer's depth test).
+bool CullLoop::Impl::choose_compute_route() {
+  if (!compute_available) return false;
+  const SampleRoute forced = forced_route();
+  if (forced != SampleRoute::automatic) return forced == SampleRoute::compute;
+  if (route_ms[1] < 0.0) return true;
+  if (route_ms[0] < 0.0) return false;
+  const bool faster = route_ms[1] <= route_ms[0];
+  if (++since_explore >= kSampleRouteExplore) {
+    since_explore = 0;
+    return !faster;
+  }
+  return faster;
 }
 
 Status CullLoop::Impl::create_sets() {
@@ -283,7 +321,8 @@ Status CullLoop::Impl::create_sets() {
                                        b(gpu::kCullMeshletClass, SSBO), b(gpu::kCullNodeClass, SSBO),
                                        b(gpu::kCullCounters, SSBO),
                                        b(gpu::kCullSampleImage, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE),
-                                       b(gpu::kCullNormalCdf, SSBO), b(gpu::kCullSampleBuffer, SSBO)}));
+                                       b(gpu::kCullNormalCdf, SSBO), b(gpu::kCullSampleBuffer, SSBO),
+                                       b(gpu::kCullSampleLarge, SSBO)}));
   set1.write_buffer(gpu::kCullUniforms, UBO, cull_ubo.get());
   set1.write_buffer(gpu::kCullHistogram, SSBO, histogram.get());
   set1.write_buffer(gpu::kCullHistRange, SSBO, hist_range.get());
@@ -298,6 +337,7 @@ Status CullLoop::Impl::create_sets() {
   set1.write_storage_image(gpu::kCullSampleImage, sample_image.view());
   set1.write_buffer(gpu::kCullNormalCdf, SSBO, normal_cdf.get());
   set1.write_buffer(gpu::kCullSampleBuffer, SSBO, sample_buf.get());
+  set1.write_buffer(gpu::kCullSampleLarge, SSBO, sample_large.get());
   return {};
 }
 
@@ -316,9 +356,26 @@ Status CullLoop::Impl::create_pipelines() {
   MDS_ASSIGN_OR_RETURN(reset_pipe, vk::create_compute_pipeline(dev, layout, "cull_reset.comp"));
   MDS_ASSIGN_OR_RETURN(histogram_pipe, vk::create_compute_pipeline(dev, layout, "cull_histogram.comp"));
   MDS_ASSIGN_OR_RETURN(select_pipe, vk::create_compute_pipeline(dev, layout, "cull_select.comp"));
-  MDS_TRY(create_update_pipeline());
+  {
+    vk::SpecConstants image_spec, buffer_spec;
+    image_spec.add(0u, VkBool32(false));  // cull_update.comp: kSampleBuffer
+    buffer_spec.add(0u, VkBool32(true));
+    MDS_ASSIGN_OR_RETURN(update_pipe, vk::create_compute_pipeline(dev, layout, "cull_update.comp", &image_spec));
+    if (ctx->int64_atomics()) {
+      MDS_ASSIGN_OR_RETURN(update_buffer_pipe,
+                           vk::create_compute_pipeline(dev, layout, "cull_update.comp", &buffer_spec));
+    }
+  }
   if (ctx->int64_atomics()) {
     MDS_ASSIGN_OR_RETURN(sample_comp_pipe, vk::create_compute_pipeline(dev, layout, "cull_sample.comp"));
+    vk::SpecConstants large_list;
+    large_list.add(0u, VkBool32(true));  // cull_sample.vert: kLargeList
+    vk::GraphicsPipelineDesc lg;
+    lg.vertex_shader = "cull_sample.vert";
+    lg.fragment_shader = "cull_sample_atomic.frag";
+    lg.vertex_spec = &large_list;
+    lg.depth_format = kDepthFormat;
+    MDS_ASSIGN_OR_RETURN(sample_large_pipe, vk::create_graphics_pipeline(dev, layout, lg));
   }
   MDS_ASSIGN_OR_RETURN(pyramid_pipe, vk::create_compute_pipeline(dev, layout, "cull_pyramid.comp"));
   MDS_ASSIGN_OR_RETURN(classify_pipe, vk::create_compute_pipeline(dev, layout, "cull_classify.comp"));
@@ -329,14 +386,6 @@ Status CullLoop::Impl::create_pipelines() {
   g.color_formats = {kSampleFormat};
   g.depth_format = kDepthFormat;
   MDS_ASSIGN_OR_RETURN(sample_pipe, vk::create_graphics_pipeline(dev, layout, g));
-  return {};
-}
-
-Status CullLoop::Impl::create_update_pipeline() {
-  vk::SpecConstants spec;
-  spec.add(0u, VkBool32(sample_compute));  // cull_update.comp: kSampleBuffer
-  MDS_ASSIGN_OR_RETURN(update_pipe, vk::create_compute_pipeline(ctx->device(), layout.get(), "cull_update.comp", &spec));
-  update_for_buffer = sample_compute;
   return {};
 }
 
@@ -374,7 +423,7 @@ void CullLoop::Impl::write_frame_uniforms(uint32_t iteration) {
 }
 
 void CullLoop::Impl::record_update(VkCommandBuffer cmd, uint32_t pass) {
-  bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, update_pipe, set0_sample);
+  bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, sample_compute ? update_buffer_pipe : update_pipe, set0_sample);
   push(cmd, 0, pass);
   vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1);
   compute_barrier(cmd);
@@ -453,7 +502,17 @@ CullLoop::~CullLoop() = default;
 
 uint32_t CullLoop::bins() const { return impl_->bins; }
 uint32_t CullLoop::budget() const { return impl_->budget; }
-bool CullLoop::compute_sampling() const { return impl_->sample_compute; }
+uint32_t CullLoop::sample_route_iterations(SampleRoute route) const {
+  return route == SampleRoute::compute ? impl_->route_iterations[1]
+                                       : route == SampleRoute::raster ? impl_->route_iterations[0] : 0u;
+}
+void CullLoop::observe_sample_ms(double ms) {
+  Impl& m = *impl_;
+  if (!(ms > 0.0)) return;
+  const double per_pass = ms / double(std::max(1u, m.recorded_passes));
+  double& r = m.route_ms[m.sample_compute ? 1 : 0];
+  r = r < 0.0 ? per_pass : 0.5 * (r + per_pass);
+}
 uint32_t CullLoop::samples_per_iteration() const { return impl_->passes; }
 void CullLoop::set_samples_per_iteration(uint32_t passes) {
   impl_->passes = std::clamp(passes, 1u, std::max(1u, impl_->settings.samples_per_iteration));
@@ -481,7 +540,6 @@ Status CullLoop::resize(uint32_t width, uint32_t height) {
   MDS_TRY(m.create_pixel_buffers());  // the old ones are released here (the caller waited for the GPU)
   m.set_pixel_uniforms();
   m.write_pixel_descriptors();
-  if (m.sample_compute != m.update_for_buffer) MDS_TRY(m.create_update_pipeline());
   return {};
 }
 
@@ -553,7 +611,7 @@ void CullLoop::Impl::record_sampling_pass(VkCommandBuffer cmd, vk::TimestampPool
   begin("sample");
   if (sample_compute) {
     // Clear to all ones (no sample), write the indirect dispatch from the selection's count
-    // (mode 1), rasterize (mode 0).
+    // (mode 1), sample per particle (mode 0), then the large sprites' indirect draw (mode 2).
     vkCmdFillBuffer(cmd, sample_buf.get(), 0, VK_WHOLE_SIZE, 0xFFFFFFFFu);
     compute_barrier(cmd);
     bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, sample_comp_pipe, set0_sample);
@@ -565,6 +623,42 @@ void CullLoop::Impl::record_sampling_pass(VkCommandBuffer cmd, vk::TimestampPool
     push(cmd, 0, pass, jitter_ndc);
     vkCmdDispatchIndirect(cmd, occluder_list.get(), offsetof(gpu::DrawListHeader, dispatch_x));
     compute_barrier(cmd);
+    push(cmd, 2, pass, jitter_ndc);
+    vkCmdDispatch(cmd, 1, 1, 1);
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
+                           VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+                       VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
+                           VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+    // The large sprites: rasterized, the fragments' atomicMin into the same buffer.
+    vk::image_barrier(cmd, depth.get(), VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                      VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+                      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+                      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+                      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
+    VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+    da.imageView = depth.view();
+    da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    da.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    da.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    da.clearValue.depthStencil = {1.0f, 0};
+    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+    ri.renderArea = {{0, 0}, {width, height}};
+    ri.layerCount = 1;
+    ri.pDepthAttachment = &da;
+    vkCmdBeginRendering(cmd, &ri);
+    VkViewport vp{0.0f, 0.0f, float(width), float(height), 0.0f, 1.0f};
+    VkRect2D sc{{0, 0}, {width, height}};
+    vkCmdSetViewport(cmd, 0, 1, &vp);
+    vkCmdSetScissor(cmd, 0, 1, &sc);
+    bind(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, sample_large_pipe, set0_sample);
+    push(cmd, 0, pass, jitter_ndc);
+    vkCmdBindIndexBuffer(cmd, indices.get(), 0, VK_INDEX_TYPE_UINT16);
+    vkCmdDrawIndexedIndirect(cmd, sample_large.get(), 0, 1, sizeof(VkDrawIndexedIndirectCommand));
+    vkCmdEndRendering(cmd);
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT);
   } else {
     vk::image_barrier(cmd, sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                       VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
@@ -627,6 +721,9 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
   };
   // Sect. 3.2: several occlusion sampling passes per iteration, each with its own occluder subset.
   const uint32_t passes = m.passes;
+  m.sample_compute = m.choose_compute_route();
+  ++m.route_iterations[m.sample_compute ? 1 : 0];
+  m.recorded_passes = passes;
   for (uint32_t p = 0; p < passes; ++p) m.record_sampling_pass(cmd, ts, iteration * passes + p);
 
   begin("pyramid");  // Eq. 23
@@ -730,6 +827,8 @@ Status CullLoop::write_pyramid_level0(const std::vector<glm::vec2>& dc) {
 
 Status CullLoop::run_update_only(const std::vector<glm::vec2>& samples, uint32_t iteration) {
   Impl& m = *impl_;
+  // The rasterized route's image unless the compute route is forced (the image is then 1x1).
+  m.sample_compute = m.compute_available && m.forced_route() == SampleRoute::compute;
   // The compute route's layout: per pixel (alpha_s bits, view depth bits) as two words.
   std::vector<glm::uvec2> words;
   if (m.sample_compute) {

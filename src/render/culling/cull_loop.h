@@ -59,6 +59,10 @@ inline constexpr uint32_t kDefaultMaxIterations = 256;
 // share of the candidates to hit every pixel's front layer within a few dozen passes.
 uint32_t default_budget(uint32_t nodes, uint32_t meshlets);
 
+enum class SampleRoute : uint8_t { automatic, compute, raster };
+// Iterations between two tries of the route that measured slower (automatic route choice).
+inline constexpr uint32_t kSampleRouteExplore = 16;
+
 struct CullSettings {
   double c_occ = MDS_CULL_C_OCC_DEFAULT;        // --cocc
   double c_medium = MDS_CULL_C_MEDIUM_DEFAULT;  // L/M boundary (docs/culling-math.md)
@@ -70,11 +74,13 @@ struct CullSettings {
   uint32_t max_iterations = kDefaultMaxIterations;  // cap when not converged (the renderer keeps iterating past spp)
   uint32_t bins = 0;                 // histogram bins; 0: as many as fit (<= 64), see bins_for()
   uint32_t seed = 1;
-  // Occlusion sampling pass rasterized in compute (cull_sample.comp) where the device has 64-bit
-  // buffer atomics and W*H*8 bytes fit a storage buffer; false: always the rasterized billboards
-  // (cull_sample.vert/.frag). Both give the same samples (tested); MDSTREAM_CULL_SAMPLE=raster
-  // forces the rasterized route too.
-  bool compute_sampling = true;
+  // Route of the occlusion sampling pass (docs/rendering.md): rasterized billboards
+  // (cull_sample.vert/.frag) or compute (cull_sample.comp, needs 64-bit buffer atomics and W*H*8
+  // bytes in one storage buffer). Both give the same samples (tested). automatic: measured --
+  // each route's GPU time per sampling pass (observe_sample_ms), the faster one used, the other
+  // tried again every kSampleRouteExplore iterations. MDSTREAM_CULL_SAMPLE=raster|compute
+  // overrides automatic (A/B measurements).
+  SampleRoute sample_route = SampleRoute::automatic;
 };
 
 // The renderer's scene buffers the culling passes read (and the draw list they write).
@@ -137,7 +143,11 @@ class CullLoop {
 
   uint32_t bins() const;
   uint32_t budget() const;
-  bool compute_sampling() const;  // the route of the occlusion sampling pass in use
+  // Iterations recorded with the compute / rasterized sampling route (this loop's lifetime).
+  uint32_t sample_route_iterations(SampleRoute route) const;
+  // The renderer's GPU time of the sampling passes of the last completed iteration (ms, its
+  // "sample" timestamps): feeds the automatic route choice.
+  void observe_sample_ms(double ms);
   uint32_t samples_per_iteration() const;
   uint32_t pyramid_levels() const;
   const CullSettings& settings() const;
