@@ -16,28 +16,12 @@ layout(push_constant) uniform PushBlock { CullPush push; };
 
 layout(location = 0) flat out vec4 v_center_radius;  // view space
 
-// kLargeList (the compute route's large sprites, cull_sample.comp): instance i draws the quad of
-// entry i of the large-sprite list (one particle per instance) instead of meshlet i of the draw
-// list (max_meshlet particles per instance).
-layout(constant_id = 0) const bool kLargeList = false;
-layout(std430, set = 1, binding = kCullSampleLarge) readonly buffer LargeBlock {
-  SampleLargeHeader large_header;
-  uvec2 large[];
-};
-
 void emit_outside() { gl_Position = vec4(2.0, 2.0, 2.0, 1.0); }
 
 void main() {
-  uint meshlet_id, local;
-  if (kLargeList) {
-    uvec2 e = large[gl_InstanceIndex];
-    meshlet_id = e.x;
-    local = e.y;
-  } else {
-    meshlet_id = draw_ids[gl_InstanceIndex];
-    local = uint(gl_VertexIndex) >> 2;
-  }
+  uint meshlet_id = draw_ids[gl_InstanceIndex];
   GpuMeshlet m = meshlets[meshlet_id];
+  uint local = uint(gl_VertexIndex) >> 2;
   uint corner = uint(gl_VertexIndex) & 3u;
   v_center_radius = vec4(0.0);
   if (local >= m.particle_count) { emit_outside(); return; }

@@ -32,7 +32,6 @@ MDS_CONST(uint, kCullCounters, 10);    // CullCounters
 MDS_CONST(uint, kCullSampleImage, 11); // rg32f storage image: (view depth, alpha_s) of the sample
 MDS_CONST(uint, kCullNormalCdf, 12);   // float[256]: the normal CDF table of supplement A (1 KiB)
 MDS_CONST(uint, kCullSampleBuffer, 13); // uint64[W * H] (read as uvec2): the compute route's samples, depth bits << 32 | alpha bits
-MDS_CONST(uint, kCullSampleLarge, 14);  // SampleLargeHeader + uvec2[]: (meshlet, local particle) of the large sprites of a compute sampling pass (7.6 MiB at 1M particles)
 
 // CullUniforms.params.w flags
 MDS_CONST(uint, kCullOrtho, 1u);
@@ -51,26 +50,6 @@ MDS_STRUCT(CullPush) {
   float jitter_x;
   float jitter_y;
 };
-
-// The compute sampling pass (cull_sample.comp) leaves sprites covering more than
-// kCullSampleLargePixels pixels to the rasterizer (cull_sample.vert with kLargeList,
-// cull_sample_atomic.frag): a list of (meshlet, local particle) after this header, which is the
-// VkDrawIndexedIndirectCommand of those quads (one instance of one quad per entry).
-MDS_STRUCT(SampleLargeHeader) {
-  uint index_count;     // 6: one particle's quad
-  uint instance_count;  // entries to draw: min(appended, capacity)
-  uint first_index;
-  int vertex_offset;
-  uint first_instance;
-  uint appended;        // entries appended (atomic; beyond the capacity they are sampled in place)
-  uint pad0;
-  uint pad1;
-};
-// 16x16 pixels. Measured at 1920x1080 (ablation v1 / porous v2 close-up, sampling pass ms):
-// 16 -> 263 / 335 (the rasterizer's per-primitive setup returns), 64 -> - / 322, 256 -> 69 /
-// 353; all in compute 74 / 400-480; rasterized 196-211 / 239-275. Where the glyphs are this large
-// the automatic route choice (CullSettings::sample_route) takes the rasterized route anyway.
-MDS_CONST(uint, kCullSampleLargePixels, 256u);
 
 // Per-view constants (std140).
 MDS_STRUCT(CullUniforms) {
@@ -108,8 +87,6 @@ static_assert(sizeof(CullUniforms) == 3 * 64 + 9 * 16);
 static_assert(offsetof(CullUniforms, viewport) == 192);
 static_assert(offsetof(CullUniforms, pyramid) == 320);
 static_assert(sizeof(CullCounters) == 64);
-static_assert(sizeof(SampleLargeHeader) == 32);
-static_assert(offsetof(SampleLargeHeader, appended) == 20);  // first 20 B: VkDrawIndexedIndirectCommand
 static_assert(offsetof(CullCounters, changed) == 16);
 static_assert(offsetof(CullCounters, node_class_count) == 32);
 static_assert(offsetof(CullCounters, node_changed) == 48);

@@ -550,7 +550,6 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
       for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i)
         sum += v[i], passes[name] += v[i], any = true;
     }
-    if (m.cull && passes.count("sample")) m.cull->observe_sample_ms(passes["sample"]);
     if (any) {
       frame_ms.push_back(sum);
       frame_passes.push_back(std::move(passes));
@@ -558,6 +557,7 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     return {};
   };
   auto after_iteration = [&]() {  // the previous submission (with a culling iteration) has completed
+    (void)m.cull->collect_route_timings();  // a failed read only keeps the sampling route as it was
     const gpu::CullCounters c = m.cull->counters();
     cs.changed_per_iteration.push_back(c.changed);
     cs.culled_per_iteration.push_back(c.class_count[MDS_CULL_CLASS_O]);
@@ -657,8 +657,8 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     cs.samples = m.cull_iteration * m.cull->samples_per_iteration();
     cs.samples_per_iteration = m.cull->samples_per_iteration();
     cs.bins = m.cull->bins();
-    cs.sample_iterations_compute = m.cull->sample_route_iterations(culling::SampleRoute::compute);
-    cs.sample_iterations_raster = m.cull->sample_route_iterations(culling::SampleRoute::raster);
+    cs.sample_passes_compute = m.cull->sample_route_passes(culling::SampleRoute::compute);
+    cs.sample_passes_raster = m.cull->sample_route_passes(culling::SampleRoute::raster);
     cs.budget = m.cull->budget();
     if (!cs.class_counts.empty()) cs.meshlets_culled = cs.class_counts[MDS_CULL_CLASS_O];
     std::vector<double> during, after, cull_only, paired_culled, paired_all;

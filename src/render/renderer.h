@@ -92,9 +92,9 @@ struct CullStats {
   uint32_t iterations_to_converge = 0;  // 0 when not converged
   uint32_t samples_to_converge = 0;     // sampling passes until convergence (paper Table 4 "smp")
   uint32_t bins = 0;                    // density histogram bins per pixel
-  // Iterations whose occlusion sampling ran in compute / rasterized (the loop's lifetime;
+  // Occlusion sampling passes run in compute / rasterized (the loop's lifetime;
   // CullSettings::sample_route, docs/rendering.md).
-  uint32_t sample_iterations_compute = 0, sample_iterations_raster = 0;
+  uint32_t sample_passes_compute = 0, sample_passes_raster = 0;
   uint32_t budget = 0;                  // occluder meshlets per sampling pass
   uint64_t meshlets_culled = 0;         // meshlets in O after the last classification
   std::vector<uint32_t> class_counts;   // P, L, M, O after the last classification

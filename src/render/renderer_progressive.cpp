@@ -127,18 +127,16 @@ Result<double> Renderer::Impl::collect_frame_ms() {
   std::map<std::string, size_t> before;
   for (const auto& [name, v] : timestamps.samples()) before[name] = v.size();
   MDS_TRY(timestamps.collect());
-  double sum = 0.0, sample = 0.0;
+  double sum = 0.0;
   for (const auto& [name, v] : timestamps.samples())
-    for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i) {
-      sum += v[i];
-      if (name == "sample") sample += v[i];
-    }
-  if (cull && sample > 0.0) cull->observe_sample_ms(sample);
+    for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i) sum += v[i];
   return sum;
 }
 
 // The culling iteration of the previous frame completed: counters, convergence (Sect. 5.3).
 void Renderer::Impl::after_iteration() {
+  // A failed timestamp read only leaves the sampling route as it was (cull_loop.h).
+  (void)cull->collect_route_timings();
   const gpu::CullCounters c = cull->counters();
   view_cull.changed_per_iteration.push_back(c.changed);
   view_cull.culled_per_iteration.push_back(c.class_count[MDS_CULL_CLASS_O]);
@@ -354,8 +352,8 @@ RenderStats Renderer::stats() const {
     s.cull.samples = m.cull_iteration * m.cull->samples_per_iteration();
     s.cull.samples_per_iteration = m.cull->samples_per_iteration();
     s.cull.bins = m.cull->bins();
-    s.cull.sample_iterations_compute = m.cull->sample_route_iterations(culling::SampleRoute::compute);
-    s.cull.sample_iterations_raster = m.cull->sample_route_iterations(culling::SampleRoute::raster);
+    s.cull.sample_passes_compute = m.cull->sample_route_passes(culling::SampleRoute::compute);
+    s.cull.sample_passes_raster = m.cull->sample_route_passes(culling::SampleRoute::raster);
     s.cull.budget = m.cull->budget();
     if (s.cull.class_counts.size() == 4) s.cull.meshlets_culled = s.cull.class_counts[MDS_CULL_CLASS_O];
   }

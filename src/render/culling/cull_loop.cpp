@@ -1,28 +1,17 @@
 // The probabilistic occlusion culling loop on the GPU (paper 000, Sect. 3-5, Algorithm 1).
-// See cull_loop.h; shaders: shaders/cull_*.comp, cull_sample.vert/.frag (rasterized sampling route).
+// See cull_loop.h; shaders: shaders/cull_*.comp. The occlusion sampling pass and its two routes
+// live in cull_sampling.cpp, the loop's state in cull_loop_impl.h.
 #include "render/culling/cull_loop.h"
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <cstring>
-#include <string>
 #include <iterator>
 
 #include "culling/normal_cdf_table.h"
-
-#include "gpu_types.h"
-#include "vk/commands.h"
-#include "vk/pipeline.h"
-#include "vk/staging.h"
+#include "render/culling/cull_loop_impl.h"
 
 namespace mds::render::culling {
-
-namespace {
-constexpr VkFormat kSampleFormat = VK_FORMAT_R32G32_SFLOAT;
-constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
-constexpr VkBufferUsageFlags kSsbo =
-    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
 
 void compute_barrier(VkCommandBuffer cmd) {
   vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
@@ -31,7 +20,6 @@ void compute_barrier(VkCommandBuffer cmd) {
                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT |
                          VK_ACCESS_2_TRANSFER_READ_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT);
 }
-}  // namespace
 
 uint32_t default_budget(uint32_t nodes, uint32_t meshlets) {
   return std::max<uint32_t>({1u, 2 * nodes, meshlets / kDefaultBudgetDivisor});
@@ -45,66 +33,6 @@ uint32_t bins_for(uint32_t width, uint32_t height, uint64_t max_storage_range, u
   return uint32_t(bins);
 }
 
-struct CullLoop::Impl {
-  vk::Context* ctx = nullptr;
-  CullSettings settings;
-  uint32_t width = 0, height = 0, bins = 0, budget = 0, levels = 0, passes = 1;
-  uint32_t meshlet_count = 0, node_count = 0, max_meshlet = 0, frame_flags = 0;
-  float radius_min = 0, radius_max = 0;
-  uint64_t pyramid_texels = 0;
-  uint32_t node_flags = 0;  // kCullNodeDensity (CullUniforms.params.w, with kCullOrtho per view)
-  SceneBuffers scene;
-  Camera camera;
-  glm::dvec3 origin{0.0};
-  gpu::CullUniforms uniforms{};
-  glm::dmat4 view{1.0}, proj{1.0};
-
-  vk::Buffer cull_ubo, frame_ubo, histogram, hist_range, pixel_state, pyramid, volume, volume_init;
-  vk::Buffer meshlet_voxel_first, voxel_refs, own_meshlet_class, node_class, counters, counters_host, node_class_host;
-  VkBuffer meshlet_class = VK_NULL_HANDLE;  // own_meshlet_class or the streaming pool's
-  bool node_density = false;
-  vk::Buffer occluder_list, indices;
-  vk::Buffer normal_cdf;  // supplement A's table for cull_update.comp (culling_math.glsl)
-  // Occlusion samples: the rasterized route renders into sample_image (+ depth); the compute
-  // route (cull_sample.comp) writes sample_buf, 8 B per pixel (16 B when unavailable).
-  bool compute_available = false;  // 64-bit atomics, W*H*8 fits, not forced to raster
-  bool sample_compute = false;     // the route of the iteration recorded last
-  double route_ms[2] = {-1.0, -1.0};  // measured GPU ms per sampling pass: raster, compute (EMA)
-  uint32_t route_iterations[2] = {0, 0};
-  uint32_t since_explore = 0;
-  uint32_t recorded_passes = 1;
-  vk::Image sample_image, depth;
-  vk::Buffer sample_buf;
-  vk::Buffer sample_large;  // SampleLargeHeader + (meshlet, local) per large sprite (compute route)
-  vk::DescriptorSet set0_sample, set0_draw, set1;
-  vk::UniquePipelineLayout layout;
-  vk::UniquePipeline reset_pipe, histogram_pipe, select_pipe, update_pipe, pyramid_pipe, classify_pipe,
-      draw_list_pipe, sample_pipe, sample_comp_pipe, sample_large_pipe, update_buffer_pipe;
-
-  Status create_buffers(const CullScene& scene_data, const DensityVolume& vol);
-  Status create_pixel_buffers();
-  void set_pixel_uniforms();
-  void write_pixel_descriptors();
-  Status create_sets();
-  Status create_pipelines();
-  SampleRoute forced_route() const;
-  bool choose_compute_route();
-  void bind(VkCommandBuffer cmd, VkPipelineBindPoint bp, VkPipeline pipe, const vk::DescriptorSet& s0) const;
-  void push(VkCommandBuffer cmd, uint32_t mode, uint32_t pass = 0, glm::vec2 jitter = glm::vec2(0.0f)) const;
-  void write_uniforms(uint32_t iteration);
-  void write_frame_uniforms(uint32_t iteration);
-  void record_sampling_pass(VkCommandBuffer cmd, vk::TimestampPool* ts, uint32_t pass);
-  void record_update(VkCommandBuffer cmd, uint32_t pass);
-  void record_pyramid(VkCommandBuffer cmd);
-  void record_histogram(VkCommandBuffer cmd, uint32_t mode);
-  template <class T>
-  Result<std::vector<T>> read(const vk::Buffer& b, size_t count) {
-    MDS_ASSIGN_OR_RETURN(auto raw, vk::read_buffer(*ctx, b, 0, count * sizeof(T)));
-    std::vector<T> v(count);
-    std::memcpy(v.data(), raw.data(), count * sizeof(T));
-    return v;
-  }
-};
 
 CullScene cull_scene(const SceneData& s, const DensityVolume& vol) {
   CullScene c;
@@ -147,16 +75,6 @@ Status CullLoop::Impl::create_buffers(const CullScene& s, const DensityVolume& v
   MDS_TRY(make(normal_cdf, sizeof(kNormalCdf), "normal CDF table"));
   MDS_TRY(make(occluder_list, sizeof(gpu::DrawListHeader) + 4ull * meshlet_count, "occluder list",
                VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT));
-  // Room for every particle slot of the meshlets (8 B each: 62565 meshlets x 16 = 7.6 MiB at
-  // 1M particles), capped by the storage buffer range; overflow is sampled in place.
-  {
-    const uint64_t range = ctx->limits().maxStorageBufferRange;
-    const uint64_t header = sizeof(gpu::SampleLargeHeader);
-    const uint64_t entries = ctx->int64_atomics()
-                                 ? std::min<uint64_t>(uint64_t(meshlet_count) * std::max(max_meshlet, 1u), (range - header) / 8)
-                                 : 1;
-    MDS_TRY(make(sample_large, header + 8 * entries, "large occluder sprites", VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT));
-  }
   MDS_ASSIGN_OR_RETURN(counters_host, vk::Buffer::create(alloc, sizeof(gpu::CullCounters),
                                                          VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                                          vk::MemoryIntent::readback, "cull counters (host)"));
@@ -232,8 +150,7 @@ Status CullLoop::Impl::create_pixel_buffers() {
                                                               VK_IMAGE_USAGE_STORAGE_BIT |
                                                               VK_IMAGE_USAGE_TRANSFER_DST_BIT,
                                                           VK_IMAGE_ASPECT_COLOR_BIT, "occlusion sample image"));
-  // The depth attachment serves both routes (the compute route rasterizes its large sprites).
-  MDS_ASSIGN_OR_RETURN(depth, vk::Image::create_2d(alloc, width, height, kDepthFormat,
+  MDS_ASSIGN_OR_RETURN(depth, vk::Image::create_2d(alloc, iw, ih, kDepthFormat,
                                                    VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
                                                    VK_IMAGE_ASPECT_DEPTH_BIT, "occlusion sample depth"));
   {
@@ -262,33 +179,6 @@ void CullLoop::Impl::write_pixel_descriptors() {
   set1.write_buffer(gpu::kCullPyramid, SSBO, pyramid.get());
   set1.write_storage_image(gpu::kCullSampleImage, sample_image.view());
   set1.write_buffer(gpu::kCullSampleBuffer, SSBO, sample_buf.get());
-}
-
-SampleRoute CullLoop::Impl::forced_route() const {
-  if (const char* e = std::getenv("MDSTREAM_CULL_SAMPLE")) {
-    const std::string v(e);
-    if (v == "raster") return SampleRoute::raster;
-    if (v == "compute") return SampleRoute::compute;
-  }
-  return settings.sample_route;
-}
-
-// The route of the next iteration: forced, or the faster one measured (each is tried once at
-// the start, and the slower one again every kSampleRouteExplore iterations: which one wins
-// depends on the view -- far views with small glyphs favour compute, close-ups with glyphs of
-// hundreds of pixels the rasterizer's depth test).
-bool CullLoop::Impl::choose_compute_route() {
-  if (!compute_available) return false;
-  const SampleRoute forced = forced_route();
-  if (forced != SampleRoute::automatic) return forced == SampleRoute::compute;
-  if (route_ms[1] < 0.0) return true;
-  if (route_ms[0] < 0.0) return false;
-  const bool faster = route_ms[1] <= route_ms[0];
-  if (++since_explore >= kSampleRouteExplore) {
-    since_explore = 0;
-    return !faster;
-  }
-  return faster;
 }
 
 Status CullLoop::Impl::create_sets() {
@@ -321,8 +211,7 @@ Status CullLoop::Impl::create_sets() {
                                        b(gpu::kCullMeshletClass, SSBO), b(gpu::kCullNodeClass, SSBO),
                                        b(gpu::kCullCounters, SSBO),
                                        b(gpu::kCullSampleImage, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE),
-                                       b(gpu::kCullNormalCdf, SSBO), b(gpu::kCullSampleBuffer, SSBO),
-                                       b(gpu::kCullSampleLarge, SSBO)}));
+                                       b(gpu::kCullNormalCdf, SSBO), b(gpu::kCullSampleBuffer, SSBO)}));
   set1.write_buffer(gpu::kCullUniforms, UBO, cull_ubo.get());
   set1.write_buffer(gpu::kCullHistogram, SSBO, histogram.get());
   set1.write_buffer(gpu::kCullHistRange, SSBO, hist_range.get());
@@ -337,7 +226,6 @@ Status CullLoop::Impl::create_sets() {
   set1.write_storage_image(gpu::kCullSampleImage, sample_image.view());
   set1.write_buffer(gpu::kCullNormalCdf, SSBO, normal_cdf.get());
   set1.write_buffer(gpu::kCullSampleBuffer, SSBO, sample_buf.get());
-  set1.write_buffer(gpu::kCullSampleLarge, SSBO, sample_large.get());
   return {};
 }
 
@@ -368,14 +256,6 @@ Status CullLoop::Impl::create_pipelines() {
   }
   if (ctx->int64_atomics()) {
     MDS_ASSIGN_OR_RETURN(sample_comp_pipe, vk::create_compute_pipeline(dev, layout, "cull_sample.comp"));
-    vk::SpecConstants large_list;
-    large_list.add(0u, VkBool32(true));  // cull_sample.vert: kLargeList
-    vk::GraphicsPipelineDesc lg;
-    lg.vertex_shader = "cull_sample.vert";
-    lg.fragment_shader = "cull_sample_atomic.frag";
-    lg.vertex_spec = &large_list;
-    lg.depth_format = kDepthFormat;
-    MDS_ASSIGN_OR_RETURN(sample_large_pipe, vk::create_graphics_pipeline(dev, layout, lg));
   }
   MDS_ASSIGN_OR_RETURN(pyramid_pipe, vk::create_compute_pipeline(dev, layout, "cull_pyramid.comp"));
   MDS_ASSIGN_OR_RETURN(classify_pipe, vk::create_compute_pipeline(dev, layout, "cull_classify.comp"));
@@ -495,6 +375,8 @@ Result<std::unique_ptr<CullLoop>> CullLoop::create(vk::Context& ctx, const CullS
   MDS_TRY(m.create_buffers(scene, volume));
   MDS_TRY(m.create_sets());
   MDS_TRY(m.create_pipelines());
+  // Two timestamps per sampling pass of one iteration (the automatic route choice).
+  MDS_ASSIGN_OR_RETURN(m.route_ts, vk::TimestampPool::create(ctx, std::max(1u, settings.samples_per_iteration)));
   return loop;
 }
 
@@ -502,17 +384,6 @@ CullLoop::~CullLoop() = default;
 
 uint32_t CullLoop::bins() const { return impl_->bins; }
 uint32_t CullLoop::budget() const { return impl_->budget; }
-uint32_t CullLoop::sample_route_iterations(SampleRoute route) const {
-  return route == SampleRoute::compute ? impl_->route_iterations[1]
-                                       : route == SampleRoute::raster ? impl_->route_iterations[0] : 0u;
-}
-void CullLoop::observe_sample_ms(double ms) {
-  Impl& m = *impl_;
-  if (!(ms > 0.0)) return;
-  const double per_pass = ms / double(std::max(1u, m.recorded_passes));
-  double& r = m.route_ms[m.sample_compute ? 1 : 0];
-  r = r < 0.0 ? per_pass : 0.5 * (r + per_pass);
-}
 uint32_t CullLoop::samples_per_iteration() const { return impl_->passes; }
 void CullLoop::set_samples_per_iteration(uint32_t passes) {
   impl_->passes = std::clamp(passes, 1u, std::max(1u, impl_->settings.samples_per_iteration));
@@ -577,138 +448,6 @@ Status CullLoop::begin_view(const Camera& camera, uint32_t live_meshlets) {
   });
 }
 
-void CullLoop::Impl::record_sampling_pass(VkCommandBuffer cmd, vk::TimestampPool* ts, uint32_t pass) {
-  auto begin = [&](const char* name) {
-    if (ts) ts->begin(cmd, name);
-  };
-  auto end = [&]() {
-    if (ts) ts->end(cmd);
-  };
-  // The pass's jitter: Halton(2,3) from index 1 (index 0 = pixel centre), in NDC.
-  const glm::dvec2 j = halton_jitter(pass + 1);
-  const glm::vec2 jitter_ndc(float(2.0 * j.x / width), float(2.0 * j.y / height));
-
-  // select (Sect. 5.2)
-  begin("select");
-  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
-                              VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                     VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT,
-                     VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
-  gpu::DrawListHeader head{};
-  head.index_count = 6 * max_meshlet;
-  vkCmdUpdateBuffer(cmd, occluder_list.get(), 0, sizeof(head), &head);
-  vkCmdFillBuffer(cmd, counters.get(), offsetof(gpu::CullCounters, selected), 4, 0);
-  compute_barrier(cmd);
-  bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, select_pipe, set0_sample);
-  push(cmd, 0, pass);
-  vkCmdDispatch(cmd, (meshlet_count + 63) / 64, 1, 1);
-  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                     VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT,
-                     VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
-  end();
-
-  // sample (Sect. 3.2): one jittered depth sample per pixel of the occluders.
-  begin("sample");
-  if (sample_compute) {
-    // Clear to all ones (no sample), write the indirect dispatch from the selection's count
-    // (mode 1), sample per particle (mode 0), then the large sprites' indirect draw (mode 2).
-    vkCmdFillBuffer(cmd, sample_buf.get(), 0, VK_WHOLE_SIZE, 0xFFFFFFFFu);
-    compute_barrier(cmd);
-    bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, sample_comp_pipe, set0_sample);
-    push(cmd, 1, pass, jitter_ndc);
-    vkCmdDispatch(cmd, 1, 1, 1);
-    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                       VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                       VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
-    push(cmd, 0, pass, jitter_ndc);
-    vkCmdDispatchIndirect(cmd, occluder_list.get(), offsetof(gpu::DrawListHeader, dispatch_x));
-    compute_barrier(cmd);
-    push(cmd, 2, pass, jitter_ndc);
-    vkCmdDispatch(cmd, 1, 1, 1);
-    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                       VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
-                           VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
-                       VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
-                           VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
-    // The large sprites: rasterized, the fragments' atomicMin into the same buffer.
-    vk::image_barrier(cmd, depth.get(), VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                      VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-                      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-                      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-                      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
-    VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-    da.imageView = depth.view();
-    da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-    da.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    da.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-    da.clearValue.depthStencil = {1.0f, 0};
-    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-    ri.renderArea = {{0, 0}, {width, height}};
-    ri.layerCount = 1;
-    ri.pDepthAttachment = &da;
-    vkCmdBeginRendering(cmd, &ri);
-    VkViewport vp{0.0f, 0.0f, float(width), float(height), 0.0f, 1.0f};
-    VkRect2D sc{{0, 0}, {width, height}};
-    vkCmdSetViewport(cmd, 0, 1, &vp);
-    vkCmdSetScissor(cmd, 0, 1, &sc);
-    bind(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, sample_large_pipe, set0_sample);
-    push(cmd, 0, pass, jitter_ndc);
-    vkCmdBindIndexBuffer(cmd, indices.get(), 0, VK_INDEX_TYPE_UINT16);
-    vkCmdDrawIndexedIndirect(cmd, sample_large.get(), 0, 1, sizeof(VkDrawIndexedIndirectCommand));
-    vkCmdEndRendering(cmd);
-    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
-                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT);
-  } else {
-    vk::image_barrier(cmd, sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                      VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-                      VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
-    vk::image_barrier(cmd, depth.get(), VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                      VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-                      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-                      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-                      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
-    VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-    ca.imageView = sample_image.view();
-    ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-    ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    ca.clearValue.color = {{float(MDS_CULL_DEPTH_EMPTY), 0.0f, 0.0f, 0.0f}};
-    VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-    da.imageView = depth.view();
-    da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-    da.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    da.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-    da.clearValue.depthStencil = {1.0f, 0};
-    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-    ri.renderArea = {{0, 0}, {width, height}};
-    ri.layerCount = 1;
-    ri.colorAttachmentCount = 1;
-    ri.pColorAttachments = &ca;
-    ri.pDepthAttachment = &da;
-    vkCmdBeginRendering(cmd, &ri);
-    VkViewport vp{0.0f, 0.0f, float(width), float(height), 0.0f, 1.0f};
-    VkRect2D sc{{0, 0}, {width, height}};
-    vkCmdSetViewport(cmd, 0, 1, &vp);
-    vkCmdSetScissor(cmd, 0, 1, &sc);
-    bind(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, sample_pipe, set0_sample);
-    push(cmd, 0, pass, jitter_ndc);
-    vkCmdBindIndexBuffer(cmd, indices.get(), 0, VK_INDEX_TYPE_UINT16);
-    vkCmdDrawIndexedIndirect(cmd, occluder_list.get(), 0, 1, sizeof(VkDrawIndexedIndirectCommand));
-    vkCmdEndRendering(cmd);
-    vk::image_barrier(cmd, sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
-                      VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-                      VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
-  }
-  end();
-
-  begin("update");  // Algorithm 1
-  record_update(cmd, pass);
-  end();
-}
-
 void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint32_t iteration) {
   Impl& m = *impl_;
   m.write_uniforms(iteration);
@@ -721,10 +460,15 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
   };
   // Sect. 3.2: several occlusion sampling passes per iteration, each with its own occluder subset.
   const uint32_t passes = m.passes;
-  m.sample_compute = m.choose_compute_route();
-  ++m.route_iterations[m.sample_compute ? 1 : 0];
-  m.recorded_passes = passes;
-  for (uint32_t p = 0; p < passes; ++p) m.record_sampling_pass(cmd, ts, iteration * passes + p);
+  m.begin_route_choice(cmd);
+  for (uint32_t p = 0; p < passes; ++p) {
+    m.sample_compute = m.choose_compute_route(p, passes);
+    ++m.route_passes[m.sample_compute ? 1 : 0];
+    const bool timed = m.comparing && m.route_ts.enabled();
+    if (timed) m.route_ts.begin(cmd, m.sample_compute ? "compute" : "raster");
+    m.record_sampling_pass(cmd, ts, iteration * passes + p);
+    if (timed) m.route_ts.end(cmd);
+  }
 
   begin("pyramid");  // Eq. 23
   m.record_pyramid(cmd);
@@ -823,47 +567,6 @@ Status CullLoop::write_pyramid_level0(const std::vector<glm::vec2>& dc) {
   MDS_ASSIGN_OR_RETURN(vk::StagingRing ring, vk::StagingRing::create(*m.ctx));
   MDS_TRY(ring.upload_span(m.pyramid, 0, std::span<const glm::vec2>(dc)));
   return ring.flush();
-}
-
-Status CullLoop::run_update_only(const std::vector<glm::vec2>& samples, uint32_t iteration) {
-  Impl& m = *impl_;
-  // The rasterized route's image unless the compute route is forced (the image is then 1x1).
-  m.sample_compute = m.compute_available && m.forced_route() == SampleRoute::compute;
-  // The compute route's layout: per pixel (alpha_s bits, view depth bits) as two words.
-  std::vector<glm::uvec2> words;
-  if (m.sample_compute) {
-    words.resize(samples.size());
-    for (size_t i = 0; i < samples.size(); ++i) {
-      std::memcpy(&words[i].x, &samples[i].y, 4);
-      std::memcpy(&words[i].y, &samples[i].x, 4);
-    }
-  }
-  const uint64_t bytes = samples.size() * sizeof(glm::vec2);
-  MDS_ASSIGN_OR_RETURN(vk::Buffer staging, vk::Buffer::create(m.ctx->allocator(), bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
-                                                              vk::MemoryIntent::upload, "test samples"));
-  std::memcpy(staging.mapped(), m.sample_compute ? static_cast<const void*>(words.data()) : samples.data(), bytes);
-  staging.flush();
-  m.write_uniforms(iteration);
-  return m.ctx->submit_and_wait([&](VkCommandBuffer cmd) {
-    if (m.sample_compute) {
-      VkBufferCopy c{0, 0, bytes};
-      vkCmdCopyBuffer(cmd, staging.get(), m.sample_buf.get(), 1, &c);
-      compute_barrier(cmd);
-    } else {
-      vk::image_barrier(cmd, m.sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                        VK_ACCESS_2_SHADER_STORAGE_READ_BIT, VK_PIPELINE_STAGE_2_TRANSFER_BIT,
-                        VK_ACCESS_2_TRANSFER_WRITE_BIT);
-      VkBufferImageCopy r{};
-      r.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-      r.imageExtent = {m.width, m.height, 1};
-      vkCmdCopyBufferToImage(cmd, staging.get(), m.sample_image.get(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &r);
-      vk::image_barrier(cmd, m.sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                        VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                        VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
-    }
-    m.record_update(cmd, iteration);
-  });
 }
 
 Status CullLoop::run_pyramid_only() {

@@ -60,7 +60,7 @@ inline constexpr uint32_t kDefaultMaxIterations = 256;
 uint32_t default_budget(uint32_t nodes, uint32_t meshlets);
 
 enum class SampleRoute : uint8_t { automatic, compute, raster };
-// Iterations between two tries of the route that measured slower (automatic route choice).
+// Iterations from one route comparison to the next (automatic route choice).
 inline constexpr uint32_t kSampleRouteExplore = 16;
 
 struct CullSettings {
@@ -77,9 +77,9 @@ struct CullSettings {
   // Route of the occlusion sampling pass (docs/rendering.md): rasterized billboards
   // (cull_sample.vert/.frag) or compute (cull_sample.comp, needs 64-bit buffer atomics and W*H*8
   // bytes in one storage buffer). Both give the same samples (tested). automatic: measured --
-  // each route's GPU time per sampling pass (observe_sample_ms), the faster one used, the other
-  // tried again every kSampleRouteExplore iterations. MDSTREAM_CULL_SAMPLE=raster|compute
-  // overrides automatic (A/B measurements).
+  // the passes of one iteration alternate between the routes, timed on the GPU, and the faster
+  // one runs until the next comparison kSampleRouteExplore iterations later.
+  // MDSTREAM_CULL_SAMPLE=raster|compute overrides automatic (A/B measurements).
   SampleRoute sample_route = SampleRoute::automatic;
 };
 
@@ -143,11 +143,11 @@ class CullLoop {
 
   uint32_t bins() const;
   uint32_t budget() const;
-  // Iterations recorded with the compute / rasterized sampling route (this loop's lifetime).
-  uint32_t sample_route_iterations(SampleRoute route) const;
-  // The renderer's GPU time of the sampling passes of the last completed iteration (ms, its
-  // "sample" timestamps): feeds the automatic route choice.
-  void observe_sample_ms(double ms);
+  // Sampling passes recorded with the compute / rasterized route (this loop's lifetime).
+  uint32_t sample_route_passes(SampleRoute route) const;
+  // After an iteration completed on the GPU (before the next is recorded): reads the timestamps
+  // of a route comparison (automatic route choice). A no-op otherwise.
+  Status collect_route_timings();
   uint32_t samples_per_iteration() const;
   uint32_t pyramid_levels() const;
   const CullSettings& settings() const;

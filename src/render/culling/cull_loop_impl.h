@@ -1,0 +1,90 @@
+// Internal to the culling loop (cull_loop.cpp, cull_sampling.cpp): its GPU state, CullLoop::Impl.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "gpu_types.h"
+#include "render/culling/cull_loop.h"
+#include "vk/commands.h"
+#include "vk/pipeline.h"
+#include "vk/staging.h"
+#include "vk/timestamps.h"
+
+namespace mds::render::culling {
+
+inline constexpr VkFormat kSampleFormat = VK_FORMAT_R32G32_SFLOAT;  // (view depth, alpha_s): 8 B/px
+inline constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;      // 4 B/px
+inline constexpr VkBufferUsageFlags kSsbo =
+    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+
+// Compute/transfer writes before compute/transfer reads and writes.
+void compute_barrier(VkCommandBuffer cmd);
+
+struct CullLoop::Impl {
+  vk::Context* ctx = nullptr;
+  CullSettings settings;
+  uint32_t width = 0, height = 0, bins = 0, budget = 0, levels = 0, passes = 1;
+  uint32_t meshlet_count = 0, node_count = 0, max_meshlet = 0, frame_flags = 0;
+  float radius_min = 0, radius_max = 0;
+  uint64_t pyramid_texels = 0;
+  uint32_t node_flags = 0;  // kCullNodeDensity (CullUniforms.params.w, with kCullOrtho per view)
+  SceneBuffers scene;
+  Camera camera;
+  glm::dvec3 origin{0.0};
+  gpu::CullUniforms uniforms{};
+  glm::dmat4 view{1.0}, proj{1.0};
+
+  vk::Buffer cull_ubo, frame_ubo, histogram, hist_range, pixel_state, pyramid, volume, volume_init;
+  vk::Buffer meshlet_voxel_first, voxel_refs, own_meshlet_class, node_class, counters, counters_host, node_class_host;
+  VkBuffer meshlet_class = VK_NULL_HANDLE;  // own_meshlet_class or the streaming pool's
+  bool node_density = false;
+  vk::Buffer occluder_list, indices;
+  vk::Buffer normal_cdf;  // supplement A's table for cull_update.comp (culling_math.glsl)
+  // Occlusion samples: the rasterized route renders into sample_image (+ depth); the compute
+  // route (cull_sample.comp) writes sample_buf, 8 B per pixel (16 B when unavailable).
+  bool compute_available = false;  // 64-bit atomics, W*H*8 fits, not forced to raster
+  bool sample_compute = false;     // the route of the sampling pass recorded last
+  // Automatic route choice (cull_sampling.cpp): index 0 rasterized, 1 compute.
+  int best_route = -1;              // winner of the last comparison (-1: none yet)
+  bool comparing = false;           // the iterations being recorded time both routes
+  double compare_ms[2] = {0.0, 0.0};
+  uint32_t compare_n[2] = {0, 0};
+  uint32_t since_compare = 0;       // iterations since the last comparison started
+  uint32_t route_passes[2] = {0, 0};
+  vk::TimestampPool route_ts;       // "raster" / "compute" around the passes of a comparison
+  vk::Image sample_image, depth;
+  vk::Buffer sample_buf;
+  vk::DescriptorSet set0_sample, set0_draw, set1;
+  vk::UniquePipelineLayout layout;
+  vk::UniquePipeline reset_pipe, histogram_pipe, select_pipe, update_pipe, pyramid_pipe, classify_pipe,
+      draw_list_pipe, sample_pipe, sample_comp_pipe, update_buffer_pipe;
+
+  Status create_buffers(const CullScene& scene_data, const DensityVolume& vol);
+  Status create_pixel_buffers();
+  void set_pixel_uniforms();
+  void write_pixel_descriptors();
+  Status create_sets();
+  Status create_pipelines();
+  SampleRoute forced_route() const;
+  // The route of sampling pass p (of pass_count) of the iteration being recorded.
+  bool choose_compute_route(uint32_t p, uint32_t pass_count);
+  void begin_route_choice(VkCommandBuffer cmd);
+  void bind(VkCommandBuffer cmd, VkPipelineBindPoint bp, VkPipeline pipe, const vk::DescriptorSet& s0) const;
+  void push(VkCommandBuffer cmd, uint32_t mode, uint32_t pass = 0, glm::vec2 jitter = glm::vec2(0.0f)) const;
+  void write_uniforms(uint32_t iteration);
+  void write_frame_uniforms(uint32_t iteration);
+  void record_sampling_pass(VkCommandBuffer cmd, vk::TimestampPool* ts, uint32_t pass);
+  void record_update(VkCommandBuffer cmd, uint32_t pass);
+  void record_pyramid(VkCommandBuffer cmd);
+  void record_histogram(VkCommandBuffer cmd, uint32_t mode);
+  template <class T>
+  Result<std::vector<T>> read(const vk::Buffer& b, size_t count) {
+    MDS_ASSIGN_OR_RETURN(auto raw, vk::read_buffer(*ctx, b, 0, count * sizeof(T)));
+    std::vector<T> v(count);
+    std::memcpy(v.data(), raw.data(), count * sizeof(T));
+    return v;
+  }
+};
+
+}  // namespace mds::render::culling
