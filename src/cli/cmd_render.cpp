@@ -196,6 +196,8 @@ Status run_render(const RenderOptions& o) {
                          {"histogram_bins", c.bins},
                          {"sample_passes", {{"compute", c.sample_passes_compute},
                                             {"raster", c.sample_passes_raster}}},
+                         {"sample_pass_ms_compared", {{"compute", c.sample_ms_compute},
+                                                      {"raster", c.sample_ms_raster}}},
                          {"n_budget", o.cull.n_budget},
                          {"seed", o.cull.seed},
                          {"mesh_shaders", o.cull.mesh_shaders},

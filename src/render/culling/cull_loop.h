@@ -62,6 +62,9 @@ uint32_t default_budget(uint32_t nodes, uint32_t meshlets);
 enum class SampleRoute : uint8_t { automatic, compute, raster };
 // Iterations from one route comparison to the next (automatic route choice).
 inline constexpr uint32_t kSampleRouteExplore = 16;
+// Timed sampling passes per route in one comparison (their median decides: robust against a
+// pass that pays a one-time cost; with 4 passes per iteration, the first two iterations).
+inline constexpr uint32_t kSampleRouteCompare = 4;
 
 struct CullSettings {
   double c_occ = MDS_CULL_C_OCC_DEFAULT;        // --cocc
@@ -145,6 +148,8 @@ class CullLoop {
   uint32_t budget() const;
   // Sampling passes recorded with the compute / rasterized route (this loop's lifetime).
   uint32_t sample_route_passes(SampleRoute route) const;
+  // GPU ms per sampling pass of the route in the last finished comparison (-1: none).
+  double sample_route_ms(SampleRoute route) const;
   // After an iteration completed on the GPU (before the next is recorded): reads the timestamps
   // of a route comparison (automatic route choice). A no-op otherwise.
   Status collect_route_timings();

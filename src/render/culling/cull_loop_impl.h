@@ -48,8 +48,8 @@ struct CullLoop::Impl {
   // Automatic route choice (cull_sampling.cpp): index 0 rasterized, 1 compute.
   int best_route = -1;              // winner of the last comparison (-1: none yet)
   bool comparing = false;           // the iterations being recorded time both routes
-  double compare_ms[2] = {0.0, 0.0};
-  uint32_t compare_n[2] = {0, 0};
+  std::vector<double> compare_ms[2];     // GPU ms per pass of the comparison so far
+  double compared_ms[2] = {-1.0, -1.0};  // the last finished comparison: median ms per pass
   uint32_t since_compare = 0;       // iterations since the last comparison started
   uint32_t route_passes[2] = {0, 0};
   vk::TimestampPool route_ts;       // "raster" / "compute" around the passes of a comparison

@@ -23,10 +23,11 @@ SampleRoute CullLoop::Impl::forced_route() const {
 // Automatic route choice: which route samples faster depends on the view -- far views with
 // glyphs of a few pixels favour compute, close-ups with glyphs of hundreds of pixels the
 // rasterizer's depth test (docs/rendering.md). So the two are compared side by side: the
-// sampling passes of a comparison iteration alternate between the routes (with one pass per
-// iteration, consecutive iterations alternate), each pass timed on the GPU (route_ts), and the
-// route with the smaller mean time per pass runs until the next comparison, kSampleRouteExplore
-// iterations later (the view's occluders change as it converges).
+// sampling passes of the comparison iterations alternate between the routes (with one pass per
+// iteration, consecutive iterations alternate), each pass timed on the GPU (route_ts), until
+// each route has kSampleRouteCompare passes; the route with the smaller median time per pass
+// runs until the next comparison, kSampleRouteExplore iterations later (the view's occluders
+// change as it converges).
 void CullLoop::Impl::begin_route_choice(VkCommandBuffer cmd) {
   if (!compute_available || forced_route() != SampleRoute::automatic) {
     comparing = false;
@@ -35,8 +36,8 @@ void CullLoop::Impl::begin_route_choice(VkCommandBuffer cmd) {
   if (!comparing && (best_route < 0 || since_compare >= kSampleRouteExplore)) {
     comparing = true;
     since_compare = 0;
-    compare_ms[0] = compare_ms[1] = 0.0;
-    compare_n[0] = compare_n[1] = 0;
+    compare_ms[0].clear();
+    compare_ms[1].clear();
   }
   ++since_compare;
   if (comparing && route_ts.enabled()) route_ts.reset(cmd);
@@ -49,7 +50,7 @@ bool CullLoop::Impl::choose_compute_route(uint32_t p, uint32_t pass_count) {
   if (!route_ts.enabled()) return true;  // no timestamps on this queue: compute, unmeasured
   if (comparing) {
     if (pass_count >= 2) return p % 2 == 0;
-    return compare_n[1] == 0;  // one pass per iteration: compute first, then rasterized
+    return compare_ms[1].size() <= compare_ms[0].size();  // one pass per iteration: alternate
   }
   return best_route != 0;
 }
@@ -57,6 +58,11 @@ bool CullLoop::Impl::choose_compute_route(uint32_t p, uint32_t pass_count) {
 uint32_t CullLoop::sample_route_passes(SampleRoute route) const {
   return route == SampleRoute::compute ? impl_->route_passes[1]
                                        : route == SampleRoute::raster ? impl_->route_passes[0] : 0u;
+}
+
+double CullLoop::sample_route_ms(SampleRoute route) const {
+  return route == SampleRoute::compute ? impl_->compared_ms[1]
+                                       : route == SampleRoute::raster ? impl_->compared_ms[0] : -1.0;
 }
 
 Status CullLoop::collect_route_timings() {
@@ -67,13 +73,11 @@ Status CullLoop::collect_route_timings() {
   MDS_TRY(m.route_ts.collect());
   for (const auto& [name, v] : m.route_ts.samples()) {
     const int r = name == "compute" ? 1 : 0;
-    for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i) {
-      m.compare_ms[r] += v[i];
-      ++m.compare_n[r];
-    }
+    for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i) m.compare_ms[r].push_back(v[i]);
   }
-  if (m.compare_n[0] > 0 && m.compare_n[1] > 0) {
-    m.best_route = m.compare_ms[1] / m.compare_n[1] <= m.compare_ms[0] / m.compare_n[0] ? 1 : 0;
+  if (m.compare_ms[0].size() >= kSampleRouteCompare && m.compare_ms[1].size() >= kSampleRouteCompare) {
+    for (int r = 0; r < 2; ++r) m.compared_ms[r] = vk::median(m.compare_ms[r]);
+    m.best_route = m.compared_ms[1] <= m.compared_ms[0] ? 1 : 0;
     m.comparing = false;
   }
   return {};
