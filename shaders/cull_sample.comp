@@ -22,6 +22,7 @@
 #include "culling_math.glsl"
 #include "cull_shared.h"
 #include "sprite_make.h"
+#include "sphere_shading.h"
 #include "cull_sample.h"
 
 layout(local_size_x = 64) in;

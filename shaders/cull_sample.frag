@@ -6,6 +6,7 @@
 #include "bindings.h"
 #include "culling_math.glsl"
 #include "cull_shared.h"
+#include "sphere_shading.h"
 #include "cull_sample.h"
 
 layout(push_constant) uniform PushBlock { CullPush push; };  // jitter (NDC), see cull_sample.vert

@@ -1,7 +1,8 @@
 // GLSL-only: one occlusion sample of a sphere (paper 000, Sect. 3.2 and 4.1), shared by the two
 // routes of the occlusion sampling pass: the rasterized billboards (cull_sample.vert/.frag) and
-// the compute rasterization (cull_sample.comp). Needs bindings.h (frame uniforms) and
-// culling_math.glsl (mds_effective_particle_area) included first.
+// the compute rasterization (cull_sample.comp). Needs bindings.h (frame uniforms), culling_math.glsl
+// (mds_effective_particle_area) and sphere_shading.h (ray_sphere_ndc, the renderer's ray test)
+// included first.
 #ifndef MDS_CULL_SAMPLE_H
 #define MDS_CULL_SAMPLE_H
 #ifndef __cplusplus
@@ -13,24 +14,11 @@
 // mds_effective_particle_area of the projected radius in pixels; perspective: r f / z_centre with
 // f the focal length in pixels, orthographic: r / pixel size).
 bool mds_cull_sample(vec2 ndc, vec4 center_radius, out float ndc_depth, out vec2 sample_value) {
-  vec4 pn = frame.inv_proj * vec4(ndc, 0.0, 1.0);
-  vec4 pf = frame.inv_proj * vec4(ndc, 1.0, 1.0);
-  vec3 o = pn.xyz / pn.w;
-  vec3 d = normalize(pf.xyz / pf.w - o);
+  vec3 p, n, d;
+  sample_value = vec2(0.0);
+  if (!ray_sphere_ndc(ndc, center_radius, p, n, d, ndc_depth)) return false;
   vec3 c = center_radius.xyz;
   float r = center_radius.w;
-  vec3 oc = o - c;
-  float b = dot(oc, d);
-  vec3 f = oc - b * d;
-  float disc = r * r - dot(f, f);
-  ndc_depth = 1.0;
-  sample_value = vec2(0.0);
-  if (disc < 0.0) return false;
-  float t = -b - sqrt(disc);
-  if (t < 0.0) return false;
-  vec3 p = o + t * d;
-  vec4 clip = frame.proj * vec4(p, 1.0);
-  ndc_depth = clip.z / clip.w;
   bool ortho = (frame.counts.z & kFrameOrtho) != 0u;
   // proj[1][1] = -g (perspective, g = 1/tan(fov/2)) or -1/half height (ortho).
   float px_per_unit = 0.5 * frame.viewport.y * abs(frame.proj[1][1]);

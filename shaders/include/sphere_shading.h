@@ -1,6 +1,7 @@
 // GLSL-only: exact sphere ray casting for one pixel, shared by the raster path (sphere.frag)
 // and the compute path for small sprites (sphere_prepass.comp via sprite_raster.h,
-// sphere_resolve.frag), so both give the same coverage, depth and colour.
+// sphere_resolve.frag), so both give the same coverage, depth and colour; the occlusion
+// samples (cull_sample.h) use the same ray test.
 // The ray of a pixel is the line through the unprojected near (z_ndc = 0) and far (z_ndc = 1)
 // points of the sample position, which is right for perspective and orthographic projections
 // alike (and includes the sub-pixel jitter, which lives in the projection matrix). Intersection
@@ -11,10 +12,9 @@
 #ifndef __cplusplus
 #define MDS_SPHERE_SHADING_H
 
-// frag_xy: framebuffer coordinates of the sample (pixel centre = integer + 0.5).
+// ndc: the sample position in normalized device coordinates (x, y).
 // Returns false when the ray misses the sphere or hits it behind the near plane.
-bool ray_sphere(vec2 frag_xy, vec4 center_radius, out vec3 p, out vec3 n, out vec3 d, out float depth) {
-  vec2 ndc = frag_xy * frame.viewport.zw * 2.0 - 1.0;
+bool ray_sphere_ndc(vec2 ndc, vec4 center_radius, out vec3 p, out vec3 n, out vec3 d, out float depth) {
   vec4 pn = frame.inv_proj * vec4(ndc, 0.0, 1.0);
   vec4 pf = frame.inv_proj * vec4(ndc, 1.0, 1.0);
   vec3 o = pn.xyz / pn.w;
@@ -36,6 +36,11 @@ bool ray_sphere(vec2 frag_xy, vec4 center_radius, out vec3 p, out vec3 n, out ve
   vec4 clip = frame.proj * vec4(p, 1.0);
   depth = clip.z / clip.w;
   return true;
+}
+
+// frag_xy: framebuffer coordinates of the sample (pixel centre = integer + 0.5).
+bool ray_sphere(vec2 frag_xy, vec4 center_radius, out vec3 p, out vec3 n, out vec3 d, out float depth) {
+  return ray_sphere_ndc(frag_xy * frame.viewport.zw * 2.0 - 1.0, center_radius, p, n, d, depth);
 }
 
 vec4 shade_sphere(vec3 n, vec3 d, vec3 color) {
