@@ -3,24 +3,21 @@
 // vertex stage needs (compute runs on all of lavapipe's threads; its vertex stage mostly on one):
 // the glyph of include/sprite_make.h (conservative screen rectangle, depth, view-space sphere).
 // One thread per list entry: one atomicAdd reserves the meshlet's run of sprites.
-// kPoints: sprites whose rectangle centre lies on screen and whose square fits the point size
-// are drawn as points (one vertex each); the others are appended to the quad list.
-// kSmallPx > 0 (only in the variant built with MDS_COMPUTE_RASTER, sphere_prepass_raster.comp,
-// which needs shaderInt64 and 64-bit buffer atomics): sprites whose rectangle is at most kSmallPx
-// pixels wide and high are rasterized here, in compute (sprite_raster.h: nearest depth and sprite
-// index), instead of by the rasterizer: lavapipe sets up primitives on one thread at ~1 us each,
-// which dominates small glyphs.
+// After convergence each sprite first takes the particle occlusion test (particle_occlusion.h):
+// a particle of a potentially visible meshlet that is class O on its own is hidden, and counted.
+// kSmallPx > 0 (visibility route): sprites whose rectangle is at most kSmallPx pixels wide and
+// high are listed (one atomicAdd per meshlet) for the compute rasterization (sprite_raster.comp)
+// instead of the rasterizer: lavapipe sets up primitives on one thread at ~1 us each, which
+// dominates small glyphs.
+// kPoints: of the others, sprites whose rectangle centre lies on screen and whose square fits
+// the point size are drawn as points (one vertex each); the rest are appended to the quad list.
 #extension GL_GOOGLE_include_directive : require
 #define MDS_SPRITES_WRITABLE
-#ifdef MDS_COMPUTE_RASTER
-#define MDS_VISIBILITY
-#endif
 #include "bindings.h"
 #include "sphere_shading.h"
-#ifdef MDS_COMPUTE_RASTER
-#include "sprite_raster.h"
-#endif
 #include "sprite_make.h"
+#include "culling_math.glsl"
+#include "particle_occlusion.h"
 
 layout(local_size_x = 64) in;
 layout(constant_id = 0) const bool kPoints = false;
@@ -36,16 +33,19 @@ void main() {
   uint base = kPoints ? atomicAdd(sprite_draw.point_vertex_count, count)
                       : atomicAdd(sprite_draw.quad_vertex_count, 6u * count) / 6u;
   if (base + count > sprite_draw.capacity) return;  // a list with repeated meshlets (never expected)
+  uint occluded = 0u, small = 0u;
   for (uint local = 0u; local < count; ++local) {
     GpuSprite s = mds_make_sprite(m, node, local);
+    if ((s.flags & kSpriteHidden) == 0u && mds_particle_occluded(s)) {
+      s.flags |= kSpriteHidden;
+      ++occluded;
+    }
     if ((s.flags & kSpriteHidden) == 0u) {
       vec2 ndc_lo = s.rect.xy, ndc_hi = s.rect.zw;
       vec2 side_px = (ndc_hi - ndc_lo) * 0.5 * frame.viewport.xy;
       if (kSmallPx > 0.0 && max(side_px.x, side_px.y) <= kSmallPx) {
         s.flags |= kSpriteSmall;
-#ifdef MDS_COMPUTE_RASTER
-        raster_small_sprite(s, base + local);
-#endif
+        ++small;
       } else if (kPoints) {
         vec2 mid = 0.5 * (ndc_lo + ndc_hi);
         bool on_screen = all(lessThan(abs(mid), vec2(1.0)));
@@ -57,5 +57,15 @@ void main() {
       }
     }
     sprites[base + local] = s;
+  }
+  if (occluded > 0u) atomicAdd(sprite_draw.occluded, occluded);
+  if (small > 0u) {
+    // One run of the small list for this meshlet, and the rasterization's workgroups: one per 64
+    // entries, counted by the run that reaches each multiple of 64.
+    uint first = atomicAdd(sprite_draw.small_count, small);
+    uint groups = (first + small + 63u) / 64u - (first + 63u) / 64u;
+    if (groups > 0u) atomicAdd(sprite_draw.raster_x, groups);
+    for (uint local = 0u; local < count; ++local)
+      if ((sprites[base + local].flags & kSpriteSmall) != 0u) quad_ids[mds_small_sprite_slot(first++)] = base + local;
   }
 }

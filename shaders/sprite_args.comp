@@ -17,6 +17,11 @@ void main() {
   sprite_draw.quad_instance_count = 1u;
   sprite_draw.quad_first_vertex = 0u;
   sprite_draw.quad_first_instance = 0u;
+  sprite_draw.occluded = 0u;
+  sprite_draw.small_count = 0u;
+  sprite_draw.raster_x = 0u;
+  sprite_draw.raster_y = 1u;
+  sprite_draw.raster_z = 1u;
   sprite_draw.dispatch_x = (n + 63u) / 64u;
   sprite_draw.dispatch_y = 1u;
   sprite_draw.dispatch_z = 1u;

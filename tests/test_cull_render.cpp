@@ -43,8 +43,10 @@ struct RenderRun {
 
 RenderRun render_scene(vk::Context& ctx, const SceneData& scene, bool cull, int acceptance, uint32_t spp,
                  bool record_classes = false, uint32_t samples_per_iteration = 0, uint32_t paired_frames = 0,
-                 culling::SampleRoute sample_route = culling::SampleRoute::automatic, double closer = 1.0) {
+                 culling::SampleRoute sample_route = culling::SampleRoute::automatic, double closer = 1.0,
+                 bool particle_occlusion = true) {
   RenderSettings rs;
+  rs.particle_occlusion = particle_occlusion;
   rs.cull_settings.sample_route = sample_route;
   rs.paired_frames = paired_frames;
   rs.width = kW;
@@ -203,6 +205,36 @@ TEST_F(CullRender, AutomaticSamplingRouteComparesBothRoutes) {
   EXPECT_GE(r.stats.cull.sample_passes_compute, r.stats.cull.samples_per_iteration / 2);
   EXPECT_GE(r.stats.cull.sample_passes_raster, r.stats.cull.samples_per_iteration / 2);
   EXPECT_EQ(r.stats.cull.sample_passes_compute + r.stats.cull.sample_passes_raster, r.stats.cull.samples);
+}
+
+// RenderSettings::particle_occlusion: after convergence each particle of the potentially visible
+// set takes the meshlet rule on its own (particle_occlusion.h). On the dense block most particles
+// of the kept meshlets lie behind the front layer: they are hidden, and the image stays that of
+// whole meshlets (a hidden particle is behind d_cull with confidence C_occ, as a culled meshlet).
+TEST_F(CullRender, ParticleOcclusionHidesParticlesNotPixels) {
+  const uint32_t spp = 24;
+  for (double closer : {1.0, 0.3}) {
+    SCOPED_TRACE(closer == 1.0 ? "default view" : "close-up");
+    RenderRun on = render_scene(*ctx_, *scene_, true, MDS_CULL_ACCEPT_NORMAL, spp, false, 0, 0,
+                                culling::SampleRoute::automatic, closer, true);
+    RenderRun off = render_scene(*ctx_, *scene_, true, MDS_CULL_ACCEPT_NORMAL, spp, false, 0, 0,
+                                 culling::SampleRoute::automatic, closer, false);
+    ASSERT_TRUE(on.stats.cull.converged);
+    ASSERT_TRUE(off.stats.cull.converged);
+    // The particle test runs after convergence only: the meshlet classes are the same.
+    EXPECT_EQ(on.stats.cull.meshlets_culled, off.stats.cull.meshlets_culled);
+    EXPECT_EQ(on.stats.cull.particles_listed, off.stats.cull.particles_listed);
+    EXPECT_GT(on.stats.cull.particles_listed, 0u);
+    EXPECT_EQ(off.stats.cull.particles_occluded, 0u);
+    EXPECT_GT(on.stats.cull.particles_occluded, on.stats.cull.particles_listed / 5)
+        << on.stats.cull.particles_occluded << " of " << on.stats.cull.particles_listed;
+    EXPECT_LT(on.stats.cull.particles_occluded, on.stats.cull.particles_listed);
+    const size_t differ = mds::testing::differing_pixels(on.image, off.image, 0.1f);
+    EXPECT_LE(differ, size_t(kW * kH / 400)) << "hidden " << on.stats.cull.particles_occluded;
+    std::printf("closer %.1f: %llu of %llu listed particles hidden, %zu pixels differ by > 0.1\n", closer,
+                (unsigned long long)on.stats.cull.particles_occluded,
+                (unsigned long long)on.stats.cull.particles_listed, differ);
+  }
 }
 
 }  // namespace

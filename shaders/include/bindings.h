@@ -39,11 +39,16 @@ uint mds_meshlet_particle(GpuMeshlet m, uint l) {
 layout(std430, set = 0, binding = kBindSprites) MDS_SPRITES_ACCESS buffer SpriteBlock { GpuSprite sprites[]; };
 layout(std430, set = 0, binding = kBindSpriteDraw) MDS_SPRITES_ACCESS buffer SpriteDrawBlock {
   SpriteDrawHeader sprite_draw;
-  uint quad_ids[];
+  uint quad_ids[];  // [0, capacity): sprites drawn as quads; [capacity, 2 capacity): small sprites
 };
+uint mds_small_sprite_slot(uint i) { return sprite_draw.capacity + i; }  // quad_ids index of small sprite i
 // Compute rasterization of small sprites (sprite_raster.h): per pixel one uint64, the nearest
 // depth's float bits << 32 | that sprite's index, by 64-bit atomicMin; all ones = empty. Only the
 // shaders that define MDS_VISIBILITY before including this file see it (they need shaderInt64).
+// The culling loop's confidence pyramid (cull_bindings.h kCullPyramid: level 0 = per pixel (d_cull,
+// C_cull), then max depth / mean confidence levels), read by the particle occlusion test of the
+// sprite pre-pass after convergence (particle_occlusion.h). Without culling a placeholder is bound.
+layout(std430, set = 0, binding = kBindOcclusionPyramid) readonly buffer OcclusionPyramidBlock { vec2 occ_pyramid[]; };
 #ifdef MDS_VISIBILITY
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 #extension GL_EXT_shader_atomic_int64 : require

@@ -26,6 +26,7 @@ MDS_CONST(uint, kBindSprites, 9);     // GpuSprite[]: per-particle glyph records
 MDS_CONST(uint, kBindSpriteDraw, 10); // SpriteDrawHeader + uint quad_ids[] (sprites drawn as quads)
 MDS_CONST(uint, kBindVisibility, 11); // uint64[W * H]: nearest depth bits << 32 | sprite index (visibility route)
 MDS_CONST(uint, kBindAccumBuffer, 12);  // vec4[W * H]: the accumulation, 16 B/pixel (accumulation.h)
+MDS_CONST(uint, kBindOcclusionPyramid, 13);  // vec2[]: the culling loop's confidence pyramid (particle_occlusion.h)
 
 // GpuSprite.flags
 MDS_CONST(uint, kSpriteHidden, 0x100u);  // nothing to draw (behind the near plane, radius 0)
@@ -51,6 +52,7 @@ MDS_STRUCT(FrameUniforms) {
   vec4 radius_range;  // radius_min, radius_max - radius_min (per-particle radii), near, far
   uvec4 counts;       // meshlet_count, max_meshlet_particles, flags, sample index
   vec4 background;    // linear rgb of the background, a = 0 (coverage): the resolve's empty pixels
+  vec4 occlusion;     // particle occlusion test (particle_occlusion.h): C_occ, C_medium, pyramid levels (0: off), 0
 };
 
 // One store node: quantization frame relative to the scene origin (float is enough there).
@@ -123,7 +125,8 @@ MDS_STRUCT(GpuSprite) {
 // filled by the pre-pass: two VkDrawIndirectCommand (points: one vertex per sprite; quads: six
 // vertices per sprite) and the pre-pass's VkDispatchIndirectCommand (one thread per list entry).
 // capacity (sprites the buffers hold) is written once by the host. After the header: quad_ids
-// [capacity].
+// [capacity], then (visibility route) the small sprites' ids [capacity] and the compute
+// rasterization's VkDispatchIndirectCommand (raster_*: one thread per small sprite).
 MDS_STRUCT(SpriteDrawHeader) {
   uint point_vertex_count;  // sprites written (atomic counter)
   uint point_instance_count;
@@ -137,17 +140,28 @@ MDS_STRUCT(SpriteDrawHeader) {
   uint dispatch_y;
   uint dispatch_z;
   uint capacity;
+  uint occluded;            // sprites of the list hidden by the particle occlusion test (atomic counter)
+  uint small_count;         // small sprites listed for the compute rasterization (atomic counter)
+  uint raster_x;            // ceil(small_count / 64), counted up by the pre-pass
+  uint raster_y;
+  uint raster_z;
+  uint pad0;
+  uint pad1;
+  uint pad2;
 };
 
 #ifdef __cplusplus
 static_assert(sizeof(GpuSprite) == 48);
-static_assert(sizeof(SpriteDrawHeader) == 48);
+static_assert(sizeof(SpriteDrawHeader) == 80);
+static_assert(offsetof(SpriteDrawHeader, raster_x) == 56);
+static_assert(offsetof(SpriteDrawHeader, occluded) == 48);
 static_assert(offsetof(SpriteDrawHeader, quad_vertex_count) == 16);
 static_assert(offsetof(SpriteDrawHeader, dispatch_x) == 32);
-static_assert(sizeof(FrameUniforms) == 256);
+static_assert(sizeof(FrameUniforms) == 272);
 static_assert(offsetof(FrameUniforms, viewport) == 192);
 static_assert(offsetof(FrameUniforms, counts) == 224);
 static_assert(offsetof(FrameUniforms, background) == 240);
+static_assert(offsetof(FrameUniforms, occlusion) == 256);
 static_assert(sizeof(GpuNode) == 64);
 static_assert(offsetof(GpuNode, first_particle) == 12);
 static_assert(offsetof(GpuNode, step) == 16);

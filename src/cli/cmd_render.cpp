@@ -175,6 +175,7 @@ Status run_render(const RenderOptions& o) {
       j["frame_ms_after_convergence"] = c.frame_ms_after_convergence;
       j["pass_ms_after_convergence"] = c.pass_ms_after_convergence;
       j["time_to_converge_ms"] = c.time_to_converge_ms;
+      j["particles_after_convergence"] = {{"listed", c.particles_listed}, {"occluded", c.particles_occluded}};
       if (c.paired_frames > 0) {
         j["paired_frames"] = c.paired_frames;
         j["frame_ms_paired_after_convergence"] = c.frame_ms_paired_culled;
@@ -201,6 +202,7 @@ Status run_render(const RenderOptions& o) {
                          {"n_budget", o.cull.n_budget},
                          {"seed", o.cull.seed},
                          {"mesh_shaders", o.cull.mesh_shaders},
+                         {"particle_occlusion", o.cull.particle_occlusion},
                          {"spp", stats.spp},
                          {"width", stats.width},
                          {"height", stats.height},

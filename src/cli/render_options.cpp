@@ -37,6 +37,11 @@ void add_culling_options(CLI::App& sub, CullingOptions& o, const std::string& no
                  "Sprite path: auto (task/mesh shaders where the device has VK_EXT_mesh_shader, else compute + "
                  "indirect draws), on (require them), off (compute + indirect draws); docs/rendering.md")
       ->capture_default_str();
+  sub.add_option("--particle-occlusion", o.particle_occlusion,
+                 "After convergence also test each particle of the potentially visible set against the confidence "
+                 "pyramid with the meshlet rule and skip those in class O: on, or off (draw whole meshlets, as the "
+                 "paper); docs/rendering.md")
+      ->capture_default_str();
 }
 
 Status apply_culling_options(const CullingOptions& o, render::RenderSettings& rs) {
@@ -44,6 +49,9 @@ Status apply_culling_options(const CullingOptions& o, render::RenderSettings& rs
     return make_error(Errc::invalid_argument, "--acceptance '{}': expected normal or random", o.acceptance);
   if (!(o.cocc > 0.0 && o.cocc < 1.0)) return make_error(Errc::invalid_argument, "--cocc {}: expected (0, 1)", o.cocc);
   MDS_ASSIGN_OR_RETURN(rs.mesh_shaders, render::parse_mesh_shader_mode(o.mesh_shaders));
+  if (o.particle_occlusion != "on" && o.particle_occlusion != "off")
+    return make_error(Errc::invalid_argument, "--particle-occlusion '{}': expected on or off", o.particle_occlusion);
+  rs.particle_occlusion = o.particle_occlusion == "on";
   rs.cull = !o.no_cull;
   auto& c = rs.cull_settings;
   c.c_occ = o.cocc;

@@ -25,6 +25,7 @@ struct CullingOptions {
   uint32_t n_budget = MDS_CULL_N_BUDGET_DEFAULT;
   uint32_t seed = 1;
   std::string mesh_shaders = "auto";
+  std::string particle_occlusion = "on";  // on | off (RenderSettings::particle_occlusion)
 };
 
 // Adds --no-cull (with this command's help text) and the culling and sprite-path options.

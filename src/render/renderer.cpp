@@ -89,9 +89,12 @@ Status Renderer::Impl::create_draw_buffers(uint64_t meshlet_slots, uint64_t part
                                           vk::MemoryIntent::device_local, "draw list"));
   MDS_ASSIGN_OR_RETURN(sprites, vk::Buffer::create(alloc, record_capacity * sizeof(gpu::GpuSprite), ssbo,
                                                    vk::MemoryIntent::device_local, "sprite records"));
+  // Header, then two id lists of `capacity` uints (quads; small sprites for the compute
+  // rasterization): 8 bytes per particle slot, next to 48 for its sprite record.
   MDS_ASSIGN_OR_RETURN(sprite_draw,
-                       vk::Buffer::create(alloc, sizeof(gpu::SpriteDrawHeader) + 4 * sprite_capacity,
-                                          ssbo | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, vk::MemoryIntent::device_local,
+                       vk::Buffer::create(alloc, sizeof(gpu::SpriteDrawHeader) + 8 * sprite_capacity,
+                                          ssbo | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                          vk::MemoryIntent::device_local,
                                           "sprite draw commands"));
   MDS_ASSIGN_OR_RETURN(frame_ubo, vk::Buffer::create(alloc, sizeof(gpu::FrameUniforms),
                                                      VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, vk::MemoryIntent::upload,
@@ -110,7 +113,14 @@ Status Renderer::Impl::create_cull(const culling::CullScene& cs, const culling::
                            meshlet_class_h};
   MDS_ASSIGN_OR_RETURN(cull, culling::CullLoop::create(*ctx, cs, vol, sb, settings.width, settings.height,
                                                        settings.cull_settings));
+  write_occlusion_descriptor();
   return {};
+}
+
+void Renderer::Impl::write_occlusion_descriptor() {
+  // Without culling the test is off (frame.occlusion.z = 0) and reads nothing: any buffer will do.
+  set.write_buffer(gpu::kBindOcclusionPyramid, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+                   cull ? cull->pyramid_buffer() : nodes.get());
 }
 
 // The route is decided once, at creation (renderer_impl.h); resize() keeps it.
@@ -207,7 +217,8 @@ Status Renderer::Impl::create_pipelines() {
                                       b(gpu::kBindColorImage, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE),
                                       b(gpu::kBindAccumImage, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE),
                                       b(gpu::kBindSprites, SSBO), b(gpu::kBindSpriteDraw, SSBO),
-                                      b(gpu::kBindVisibility, SSBO), b(gpu::kBindAccumBuffer, SSBO)}));
+                                      b(gpu::kBindVisibility, SSBO), b(gpu::kBindAccumBuffer, SSBO),
+                                      b(gpu::kBindOcclusionPyramid, SSBO)}));
   set.write_buffer(gpu::kBindFrame, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, frame_ubo.get());
   set.write_buffer(gpu::kBindNodes, SSBO, nodes.get());
   set.write_buffer(gpu::kBindMeshlets, SSBO, meshlets_h);
@@ -220,6 +231,7 @@ Status Renderer::Impl::create_pipelines() {
   set.write_buffer(gpu::kBindSprites, SSBO, sprites.get());
   set.write_buffer(gpu::kBindSpriteDraw, SSBO, sprite_draw.get());
   set.write_buffer(gpu::kBindVisibility, SSBO, visibility.get());
+  write_occlusion_descriptor();
   MDS_ASSIGN_OR_RETURN(layout, vk::create_pipeline_layout(dev, set.layout()));
   MDS_ASSIGN_OR_RETURN(draw_list_pipe, vk::create_compute_pipeline(dev, layout, "draw_list_all.comp"));
   // Sprites: a compute pre-pass computes every glyph once, the vertex stages only load (on
@@ -256,10 +268,10 @@ Status Renderer::Impl::create_pipelines() {
   MDS_TRY(create_accumulate_pipeline());
   vk::SpecConstants prepass_spec;
   prepass_spec.add(0u, VkBool32(point_sprites)).add(1u, max_point).add(2u, small_px);
-  MDS_ASSIGN_OR_RETURN(prepass_pipe,
-                       vk::create_compute_pipeline(dev, layout, small_px > 0.0f ? "sphere_prepass_raster.comp"
-                                                                                 : "sphere_prepass.comp",
-                                                   &prepass_spec));
+  MDS_ASSIGN_OR_RETURN(prepass_pipe, vk::create_compute_pipeline(dev, layout, "sphere_prepass.comp", &prepass_spec));
+  if (small_px > 0.0f) {  // shaderInt64 + 64-bit atomics: only on the visibility route
+    MDS_ASSIGN_OR_RETURN(raster_pipe, vk::create_compute_pipeline(dev, layout, "sprite_raster.comp"));
+  }
   vk::SpecConstants quad_spec;
   quad_spec.add(0u, VkBool32(point_sprites));  // quads come from the quad list
   vk::GraphicsPipelineDesc g;
@@ -325,12 +337,26 @@ void Renderer::Impl::record_sprite_prepass(VkCommandBuffer cmd) {
                          VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, prepass_pipe);
   vkCmdDispatchIndirect(cmd, sprite_draw.get(), offsetof(gpu::SpriteDrawHeader, dispatch_x));
-  // Sprites and commands to the draw; the visibility buffer to the fragment atomics.
+  // Sprites and commands to the draw and to the compute rasterization.
   vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
-                         VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+                         VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                      VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
                          VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+}
+
+// Visibility route: the small sprites the pre-pass listed, rasterized in compute into the
+// visibility buffer (one thread per sprite, sprite_raster.comp).
+void Renderer::Impl::record_small_raster(VkCommandBuffer cmd) {
+  if (raster_pipe == VK_NULL_HANDLE) return;
+  VkDescriptorSet ds = set.set();
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, raster_pipe);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &ds, 0, nullptr);
+  vkCmdDispatchIndirect(cmd, sprite_draw.get(), offsetof(gpu::SpriteDrawHeader, raster_x));
+  // Its atomics before the rasterized sprites' atomics on the same pixels.
+  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+                     VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
 }
 
 // Inside a rendering scope: the sprites the pre-pass did not rasterize, as points (when
@@ -413,6 +439,11 @@ void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first, bool accumulat
   timestamps.begin(cmd, "prepass");
   record_sprite_prepass(cmd);
   timestamps.end(cmd);
+  if (raster_pipe != VK_NULL_HANDLE) {
+    timestamps.begin(cmd, "raster");
+    record_small_raster(cmd);
+    timestamps.end(cmd);
+  }
 
   // 3. Draw the sprites the pre-pass did not rasterize: into the visibility buffer (visibility
   //    route, no attachments) or into colour + depth (attachment route).
@@ -641,7 +672,7 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
       MDS_ASSIGN_OR_RETURN(VkCommandBuffer cmd, begin_submission());
       if (!samples_before_paired) samples_before_paired = m.timestamps.samples();
       const bool all = s % 2 == 0;  // ends with a culled frame: read_last_depth() sees the culled image
-      m.write_frame_uniforms(camera, m.settings.spp + kTimingFrames + s / 2, gpu::kFrameTimingOnly);
+      m.write_frame_uniforms(camera, m.settings.spp + kTimingFrames + s / 2, gpu::kFrameTimingOnly, all);
       frame_kind.push_back(all ? FrameKind::paired_all : FrameKind::paired_culled);
       m.record_pass(cmd, false, true, all);
       MDS_TRY(end_submission());
@@ -687,6 +718,18 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     cs.paired_frames = uint32_t(std::min(paired_culled.size(), paired_all.size()));
     cs.frame_ms_paired_culled = vk::median(paired_culled);
     cs.frame_ms_paired_all = vk::median(paired_all);
+    // The particle occlusion test of the last drawn frame, when that frame drew the potentially
+    // visible set (after convergence): the pre-pass's counters in the sprite draw header.
+    auto last_drawn = std::find_if(frame_kind.rbegin(), frame_kind.rend(),
+                                   [](FrameKind k) { return k != FrameKind::cull_only; });
+    if (last_drawn != frame_kind.rend() && *last_drawn != FrameKind::during_culling &&
+        *last_drawn != FrameKind::paired_all && !m.mesh_path) {
+      MDS_ASSIGN_OR_RETURN(auto raw, vk::read_buffer(*m.ctx, m.sprite_draw, 0, sizeof(gpu::SpriteDrawHeader)));
+      gpu::SpriteDrawHeader head;
+      std::memcpy(&head, raw.data(), sizeof(head));
+      cs.particles_listed = m.point_sprites ? head.point_vertex_count : head.quad_vertex_count / 6;
+      cs.particles_occluded = head.occluded;
+    }
   }
 
   FrameImage img;

@@ -79,6 +79,11 @@ struct RenderSettings {
   // frame_ms_paired_*. 0: none. On a shared machine a ratio of two separate renders' medians
   // carries both renders' noise; the paired frames see the same load.
   uint32_t paired_frames = 0;
+  // After convergence, each particle of the potentially visible set is tested against the final
+  // confidence pyramid with the meshlet rule (Sect. 5) and not drawn when it is class O on its
+  // own (shaders/include/particle_occlusion.h; --particle-occlusion off: every particle of the
+  // set is drawn, the paper's behaviour).
+  bool particle_occlusion = true;
 };
 
 // Culling loop statistics of one render() (RenderStats::cull).
@@ -116,6 +121,10 @@ struct CullStats {
   uint32_t paired_frames = 0;
   double frame_ms_paired_culled = 0.0;
   double frame_ms_paired_all = 0.0;
+  // The last frame after convergence (RenderSettings::particle_occlusion): particles of the
+  // potentially visible set, and of those the ones the particle occlusion test hid.
+  uint64_t particles_listed = 0;
+  uint64_t particles_occluded = 0;
 };
 
 // Linear RGBA, row-major from the top-left; rgb already averaged over spp and composited over

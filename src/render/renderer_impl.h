@@ -61,7 +61,7 @@ struct Renderer::Impl {
   bool accum_pipe_in_buffer = false;  // the accumulation the resolve/accumulate pipeline was built for
   vk::DescriptorSet set;
   vk::UniquePipelineLayout layout;
-  vk::UniquePipeline draw_list_pipe, sprite_args_pipe, prepass_pipe, sphere_pipe, point_pipe,
+  vk::UniquePipeline draw_list_pipe, sprite_args_pipe, prepass_pipe, raster_pipe, sphere_pipe, point_pipe,
       resolve_pipe, accum_pipe;
   vk::FrameSlot slot;
   vk::TimestampPool timestamps;
@@ -75,7 +75,7 @@ struct Renderer::Impl {
 
   // Named passes per frame: 3 per occlusion sampling pass, pyramid/classify/histogram, 4 drawing.
   uint32_t timestamp_capacity() const {
-    return 16 + 3 * std::max(1u, settings.cull_settings.samples_per_iteration);
+    return 20 + 3 * std::max(1u, settings.cull_settings.samples_per_iteration);
   }
 
   // Out-of-core (create_streaming): the cache; null in memory.
@@ -101,7 +101,9 @@ struct Renderer::Impl {
   Status upload_streaming(const SceneData& directory);
   Status create_cull(const culling::CullScene& cs, const culling::DensityVolume& vol);
   // The frame uniforms of one jittered sample of `camera` (render() and the progressive step()).
-  void write_frame_uniforms(const Camera& camera, uint32_t sample, uint32_t extra_flags = 0);
+  // all_meshlets: a frame of every meshlet (no particle occlusion test).
+  void write_frame_uniforms(const Camera& camera, uint32_t sample, uint32_t extra_flags = 0,
+                            bool all_meshlets = false);
   Result<double> collect_frame_ms();
   void after_iteration();
   Status create_targets();
@@ -115,6 +117,9 @@ struct Renderer::Impl {
   Status create_accumulate_pipeline();
   // Writes the accumulation bindings (after create_targets).
   void write_accumulation_descriptors();
+  // Binds the culling loop's confidence pyramid for the particle occlusion test (a placeholder
+  // without culling); after create_cull() and every resize.
+  void write_occlusion_descriptor();
   // The accumulated sums (rgba float per pixel, row-major), after the frame slot is idle.
   Result<std::vector<float>> read_accumulation();
   // After the scene or the pool is on the device: targets, pipelines, frame slot, timestamps.
@@ -123,6 +128,7 @@ struct Renderer::Impl {
   void record_pass(VkCommandBuffer cmd, bool first, bool accumulate = true, bool all_meshlets = false);
   void record_cull_only(VkCommandBuffer cmd);
   void record_sprite_prepass(VkCommandBuffer cmd);
+  void record_small_raster(VkCommandBuffer cmd);
   void record_sprite_draws(VkCommandBuffer cmd);
 };
 

@@ -104,7 +104,8 @@ Result<std::unique_ptr<Renderer>> Renderer::create_streaming(vk::Context& ctx, c
   return r;
 }
 
-void Renderer::Impl::write_frame_uniforms(const Camera& camera, uint32_t sample, uint32_t extra_flags) {
+void Renderer::Impl::write_frame_uniforms(const Camera& camera, uint32_t sample, uint32_t extra_flags,
+                                          bool all_meshlets) {
   const uint32_t w = settings.width, h = settings.height;
   const double aspect = double(w) / double(h);
   const glm::dvec2 jitter_px = halton_jitter(sample);
@@ -118,6 +119,13 @@ void Renderer::Impl::write_frame_uniforms(const Camera& camera, uint32_t sample,
   fu.counts = glm::uvec4(meshlet_count, max_meshlet, flags | extra_flags | (camera.ortho ? gpu::kFrameOrtho : 0u),
                          sample);
   fu.background = glm::vec4(background_linear(), 0.0f);
+  // The particle occlusion test (particle_occlusion.h) once the view's culling has stopped: the
+  // pyramid is then final and the frame draws the potentially visible set.
+  const bool occlusion_test = settings.particle_occlusion && cull && !cull_active && cull_iteration > 0 &&
+                              !all_meshlets && cull->width() == w && cull->height() == h;
+  if (cull)
+    fu.occlusion = glm::vec4(float(cull->settings().c_occ), float(cull->settings().c_medium),
+                             occlusion_test ? float(cull->pyramid_levels()) : 0.0f, 0.0f);
   std::memcpy(frame_ubo.mapped(), &fu, sizeof(fu));
   frame_ubo.flush();
 }
@@ -271,6 +279,7 @@ Status Renderer::Impl::resize(uint32_t w, uint32_t h) {
   if (accum_in_buffer != accum_pipe_in_buffer) MDS_TRY(create_accumulate_pipeline());
   set.write_buffer(gpu::kBindVisibility, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, visibility.get());
   if (cull) MDS_TRY(cull->resize(w, h));
+  write_occlusion_descriptor();
   samples = 0;
   rendered = false;  // read_last_depth(): no frame at this size yet
   if (has_view) view_stale = true;

@@ -389,6 +389,7 @@ void CullLoop::set_samples_per_iteration(uint32_t passes) {
   impl_->passes = std::clamp(passes, 1u, std::max(1u, impl_->settings.samples_per_iteration));
 }
 uint32_t CullLoop::pyramid_levels() const { return impl_->levels; }
+VkBuffer CullLoop::pyramid_buffer() const { return impl_->pyramid.get(); }
 void CullLoop::set_c_occ(double c_occ) {
   impl_->settings.c_occ = c_occ;
   impl_->uniforms.thresholds.x = float(c_occ);

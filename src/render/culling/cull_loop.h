@@ -155,6 +155,9 @@ class CullLoop {
   Status collect_route_timings();
   uint32_t samples_per_iteration() const;
   uint32_t pyramid_levels() const;
+  // The confidence pyramid (all levels, vec2 (d, C) per texel; cull_bindings.h): the renderer's
+  // particle occlusion test reads it after convergence. Replaced by resize().
+  VkBuffer pyramid_buffer() const;
   const CullSettings& settings() const;
   uint32_t width() const;
   uint32_t height() const;
