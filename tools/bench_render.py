@@ -292,6 +292,9 @@ def summarize(scene, view, n, runs, args):
         "visible_pct": med(nc, lambda s: None if num(get(s, "visible_meshlet_fraction")) is None
                            else 100.0 * num(get(s, "visible_meshlet_fraction"))),
         "kept_over_visible": None,
+        # particle occlusion test after convergence (render --particle-occlusion, default on)
+        "particles_listed": med(cu, lambda s: num(get(s, "particles_after_convergence", "listed"))),
+        "particles_occluded": med(cu, lambda s: num(get(s, "particles_after_convergence", "occluded"))),
         "diff_normal_gt2_pct": None, "diff_normal_gt32_pct": None, "diff_normal_max": None,
         "diff_random_gt2_pct": None, "diff_random_gt32_pct": None, "diff_random_max": None,
         "cocc": num(get(params, "cocc")),
@@ -570,15 +573,22 @@ def write_results(args, rows, all_stats, info, load_before, load_after, total_s)
     L.append("## Table 4: culling efficiency\n")
     L.append("visible = meshlets holding a visible particle of the `--no-cull` render (`--visible-reference`, "
              "computed on the CPU from its depth buffer): 100 - visible is the most any culling can cull at this view; "
-             "kept / visible = meshlets the probabilistic culling kept (not O) / visible meshlets (1 = perfect).\n")
-    L.append("| data set | view | probabilistic c [%] | probabilistic smp | random c [%] | random smp | visible [%] | kept / visible |")
-    L.append("|---|---:|---:|---:|---:|---:|---:|---:|")
+             "kept / visible = meshlets the probabilistic culling kept (not O) / visible meshlets (1 = perfect); "
+             "particles hidden = of the kept meshlets' particles, those the particle occlusion test after "
+             "convergence did not draw (`particles_after_convergence`, docs/rendering.md).\n")
+    def hidden_str(occ, listed):
+        if occ is None or not listed:
+            return "n/a"
+        return f"{int(occ)} of {int(listed)} ({100.0 * occ / listed:.0f} %)"
+    L.append("| data set | view | probabilistic c [%] | probabilistic smp | random c [%] | random smp | visible [%] | kept / visible | particles hidden |")
+    L.append("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
         L.append(f"| {r['scene']} | {r['view']} | {fmt(r['culled_pct'])} | "
                  f"{conv_smp(r['samples_to_converge'], r['samples'], r['converged'])} | "
                  f"{fmt(r['random_culled_pct'])} | "
                  f"{conv_smp(r['random_samples_to_converge'], r['random_samples'], r['random_converged'])} | "
-                 f"{fmt(r['visible_pct'])} | {fmt(r['kept_over_visible'], '.2f')} |")
+                 f"{fmt(r['visible_pct'])} | {fmt(r['kept_over_visible'], '.2f')} | "
+                 f"{hidden_str(r.get('particles_occluded'), r.get('particles_listed'))} |")
     L.append("")
     L.append("## Image difference against `--no-cull` (same camera, same spp)\n")
     L.append("Per pixel the largest 8-bit sRGB channel difference of the PNGs: the share of pixels differing by more "
