@@ -10,6 +10,9 @@
 // differences (CullLoop::read_histograms converts).
 // Traversal: 3D-DDA (Amanatides & Woo) over the cell faces, merged with the bin edges; per step
 // only the crossed axis advances its next face, and bins are flushed in order (no per-pixel array).
+// Histogram blocks (cull.pyramid.y = stride s, CullSettings::histogram_stride): one invocation
+// per s x s block of pixels, cast along the ray through the centre of the block's pixels; the
+// update pass reads the block's histogram for each of its pixels (s = 1: per pixel, the paper).
 // Runs after the classification of every culling iteration that moved meshlets to O (the volume
 // was updated, Sect. 4.4) and unconditionally at the start of a view (push.mode = 1).
 #extension GL_GOOGLE_include_directive : require
@@ -19,17 +22,20 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 
 void main() {
-  uvec2 p = gl_GlobalInvocationID.xy;
+  uvec2 p = gl_GlobalInvocationID.xy;  // histogram block
   uint W = cull_width(), H = cull_height();
-  if (p.x >= W || p.y >= H) return;
+  uint s = cull.pyramid.y, bx = cull.pyramid.z, by = cull.pyramid.w;
+  if (p.x >= bx || p.y >= by) return;
   if (push.mode == 0u && counters.volume_dirty == 0u) return;
-  uint pix = p.y * W + p.x;
+  uint pix = p.y * bx + p.x;
   int bins = int(cull.grid_dims.w);
   uint base = pix * uint(bins);
   hist_range[pix] = vec2(0.0);
 
   bool ortho = (cull.params.w & kCullOrtho) != 0u;
-  vec2 ndc = (vec2(p) + 0.5) * cull.viewport.zw * 2.0 - 1.0;
+  // Centre of the block's pixels (a partial block at the right / bottom edge: of those that exist).
+  vec2 px_lo = vec2(p * s), px_hi = vec2(min((p + 1u) * s, uvec2(W, H)));
+  vec2 ndc = 0.5 * (px_lo + px_hi) * cull.viewport.zw * 2.0 - 1.0;
   vec3 o_view, s_view;
   if (ortho) {
     o_view = vec3(ndc.x / cull.proj[0][0], ndc.y / cull.proj[1][1], 0.0);

@@ -39,9 +39,10 @@ void main() {
   if (!(s.x < float(MDS_CULL_DEPTH_EMPTY))) return;  // no sample: state and level 0 unchanged
   vec4 acc = pixel_state[2u * pix], cb = pixel_state[2u * pix + 1u];
   int bins = int(cull.grid_dims.w);
-  vec2 range = hist_range[pix];
+  uint hist = (p.y / cull.pyramid.y) * cull.pyramid.z + p.x / cull.pyramid.y;  // the pixel's histogram block
+  vec2 range = hist_range[hist];
   if (!(range.y > range.x)) bins = 0;
-  uint base = pix * cull.grid_dims.w;
+  uint base = hist * cull.grid_dims.w;
   float total = bins > 0 ? hist_counts[base + uint(bins - 1)] : 0.0;
   float F_d = cull_hist_front(base, bins, range.x, range.y, acc.x);
   float F_dcull = cull_hist_front(base, bins, range.x, range.y, cb.x);

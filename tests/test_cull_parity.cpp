@@ -46,7 +46,7 @@ struct Fixture {
   Camera camera;
 };
 
-Fixture make_fixture(bool ortho, int acceptance = MDS_CULL_ACCEPT_NORMAL) {
+Fixture make_fixture(bool ortho, int acceptance = MDS_CULL_ACCEPT_NORMAL, uint32_t histogram_stride = 1) {
   Fixture f;
   auto c = vk::Context::create(vk::ContextOptions::from_env());
   EXPECT_TRUE(c.ok());
@@ -65,6 +65,7 @@ Fixture make_fixture(bool ortho, int acceptance = MDS_CULL_ACCEPT_NORMAL) {
   rs.spp = 1;
   rs.cull = true;
   rs.cull_settings.acceptance = acceptance;
+  rs.cull_settings.histogram_stride = histogram_stride;
   rs.density = f.volume;
   auto r = Renderer::create(*f.ctx, f.scene, rs);
   EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
@@ -87,25 +88,27 @@ cc::DensityGrid cpu_grid(const Fixture& f) {
   return g;
 }
 
-cc::PixelRay cpu_ray(const Fixture& f, int px, int py) {
+// The ray through the centre of pixel (px, py) of a w x h image (default: the rendered one; an
+// image of (kW / s) x (kH / s) gives the centre rays of s x s histogram blocks).
+cc::PixelRay cpu_ray(const Fixture& f, int px, int py, uint32_t w = kW, uint32_t h = kH) {
   const Camera& c = f.camera;
   glm::dvec3 eye = c.eye - f.scene.origin;
   glm::dvec3 fw = glm::normalize(c.target - c.eye);
   glm::dvec3 right = glm::normalize(glm::cross(fw, c.up));
   glm::dvec3 up = glm::cross(right, fw);
   std::array<double, 3> e{eye.x, eye.y, eye.z}, r{right.x, right.y, right.z}, u{up.x, up.y, up.z},
-      w{fw.x, fw.y, fw.z};
+      fwd{fw.x, fw.y, fw.z};
   cc::PixelRay ray;
   if (!c.ortho) {
-    ray = cc::perspective_pixel_ray(e, r, u, w, glm::radians(c.fov_y_deg), kW, kH, px, py);
+    ray = cc::perspective_pixel_ray(e, r, u, fwd, glm::radians(c.fov_y_deg), int(w), int(h), px, py);
   } else {
     double hh = c.ortho_half_height > 0.0 ? c.ortho_half_height
                                           : glm::length(c.target - c.eye) * std::tan(glm::radians(c.fov_y_deg) * 0.5);
-    double pix = 2.0 * hh / kH;
-    double sx = (px + 0.5 - 0.5 * kW) * pix, sy = -(py + 0.5 - 0.5 * kH) * pix;
+    double pix = 2.0 * hh / h;
+    double sx = (px + 0.5 - 0.5 * w) * pix, sy = -(py + 0.5 - 0.5 * h) * pix;
     for (int a = 0; a < 3; ++a) {
       ray.origin[a] = e[a] + sx * r[a] + sy * u[a];
-      ray.step[a] = w[a];
+      ray.step[a] = fwd[a];
     }
     ray.perspective = false;
     ray.ortho_pixel_area = pix * pix;
@@ -114,8 +117,13 @@ cc::PixelRay cpu_ray(const Fixture& f, int px, int py) {
   return ray;
 }
 
-void check_histograms(bool ortho) {
-  Fixture f = make_fixture(ortho);
+// stride s > 1 (CullSettings::histogram_stride): every pixel holds its s x s block's histogram,
+// cast along the block centre's ray -- the pixel centre ray of a (kW / s) x (kH / s) image -- with
+// the footprint of one full-resolution pixel.
+void check_histograms(bool ortho, uint32_t s = 1) {
+  ASSERT_EQ(kW % s, 0u);
+  ASSERT_EQ(kH % s, 0u);
+  Fixture f = make_fixture(ortho, MDS_CULL_ACCEPT_NORMAL, s);
   rc::CullLoop* loop = f.renderer->cull_loop();
   ASSERT_NE(loop, nullptr);
   ASSERT_TRUE(loop->begin_view(f.camera).ok());
@@ -128,7 +136,10 @@ void check_histograms(bool ortho) {
   for (uint32_t y = 0; y < kH; ++y)
     for (uint32_t x = 0; x < kW; ++x) {
       const size_t pix = size_t(y) * kW + x;
-      cc::DensityHistogram h = cc::cast_density_histogram(grid, cpu_ray(f, int(x), int(y)), bins);
+      cc::PixelRay ray = cpu_ray(f, int(x / s), int(y / s), kW / s, kH / s);
+      ray.focal_px *= double(s);
+      ray.ortho_pixel_area /= double(s * s);
+      cc::DensityHistogram h = cc::cast_density_histogram(grid, ray, bins);
       const glm::vec2 rg = ranges.value()[pix];
       if (h.bins == 0) {
         EXPECT_FALSE(rg.y > rg.x) << x << "," << y;
@@ -151,6 +162,8 @@ void check_histograms(bool ortho) {
 
 TEST(CullParity, HistogramPassMatchesCpuPerspective) { check_histograms(false); }
 TEST(CullParity, HistogramPassMatchesCpuOrtho) { check_histograms(true); }
+TEST(CullParity, HistogramBlocksMatchCpuPerspective) { check_histograms(false, 2); }
+TEST(CullParity, HistogramBlocksMatchCpuOrtho) { check_histograms(true, 2); }
 
 TEST(CullParity, PyramidPassMatchesCpu) {
   Fixture f = make_fixture(false);

@@ -64,7 +64,7 @@ MDS_STRUCT(CullUniforms) {
   vec4 thresholds;   // C_occ, C_medium, -, -
   uvec4 params;      // acceptance mode, N_budget, occluder budget (meshlets per sampling pass), flags
   uvec4 counts;      // meshlet count, node count, iteration (classification), random seed
-  uvec4 pyramid;     // number of levels, -, -, -
+  uvec4 pyramid;     // number of levels; histogram stride s (pixels per block side), blocks per row, per column
 };
 
 // Counters written by the passes; read back by the host after every iteration.

@@ -195,6 +195,7 @@ Status run_render(const RenderOptions& o) {
                          {"samples_per_iteration", c.samples_per_iteration},
                          {"max_iterations", o.cull.max_iterations},
                          {"histogram_bins", c.bins},
+                         {"histogram_stride", o.cull.histogram_stride},
                          {"sample_passes", {{"compute", c.sample_passes_compute},
                                             {"raster", c.sample_passes_raster}}},
                          {"sample_pass_ms_compared", {{"compute", c.sample_ms_compute},

@@ -29,6 +29,11 @@ void add_culling_options(CLI::App& sub, CullingOptions& o, const std::string& no
   sub.add_option("--histogram-bins", o.bins, "Density histogram bins per pixel (0: as many as fit, <= 64)")
       ->check(CLI::Range(0u, 64u))
       ->capture_default_str();
+  sub.add_option("--histogram-stride", o.histogram_stride,
+                 "Pixels per side of a density histogram block (one histogram cast along the block centre's ray "
+                 "serves s x s pixels; 1 = per pixel, as the paper); docs/culling-math.md")
+      ->check(CLI::Range(1u, 8u))
+      ->capture_default_str();
   sub.add_option("--n-budget", o.n_budget, "N_budget of Eq. 21 (samples we are willing to wait for)")
       ->check(CLI::Range(1u, 1000000u))
       ->capture_default_str();
@@ -61,6 +66,7 @@ Status apply_culling_options(const CullingOptions& o, render::RenderSettings& rs
   c.converge_iterations = o.converge_iterations;
   c.max_iterations = o.max_iterations;
   c.bins = o.bins;
+  c.histogram_stride = o.histogram_stride;
   c.n_budget = o.n_budget;
   c.seed = o.seed;
   return {};

@@ -21,7 +21,8 @@ struct CullingOptions {
   uint32_t samples_per_iteration = render::culling::kDefaultSamplesPerIteration;
   uint32_t converge_iterations = render::culling::kDefaultConvergeIterations;
   uint32_t max_iterations = render::culling::kDefaultMaxIterations;
-  uint32_t bins = 0;  // histogram bins per pixel (0: as many as fit)
+  uint32_t bins = 0;
+  uint32_t histogram_stride = render::culling::CullSettings{}.histogram_stride;  // histogram bins per pixel (0: as many as fit)
   uint32_t n_budget = MDS_CULL_N_BUDGET_DEFAULT;
   uint32_t seed = 1;
   std::string mesh_shaders = "auto";

@@ -135,8 +135,8 @@ Status CullLoop::Impl::create_pixel_buffers() {
     h = (h + 1) / 2;
     pyramid_texels += uint64_t(w) * h;
   }
-  MDS_TRY(make(histogram, px * bins * sizeof(float), "density histograms"));
-  MDS_TRY(make(hist_range, px * 8, "histogram ranges"));
+  MDS_TRY(make(histogram, hist_blocks() * bins * sizeof(float), "density histograms"));
+  MDS_TRY(make(hist_range, hist_blocks() * 8, "histogram ranges"));
   MDS_TRY(make(pixel_state, px * 32, "cull/accumulation buffers"));
   MDS_TRY(make(pyramid, pyramid_texels * 8, "confidence pyramid"));
   const SampleRoute forced = forced_route();
@@ -168,7 +168,7 @@ Status CullLoop::Impl::create_pixel_buffers() {
 void CullLoop::Impl::set_pixel_uniforms() {
   uniforms.viewport = glm::vec4(float(width), float(height), 1.0f / float(width), 1.0f / float(height));
   uniforms.grid_dims.w = bins;
-  uniforms.pyramid = glm::uvec4(levels, 0u, 0u, 0u);
+  uniforms.pyramid = glm::uvec4(levels, hist_stride(), hist_blocks_x(), hist_blocks_y());
 }
 
 void CullLoop::Impl::write_pixel_descriptors() {
@@ -324,7 +324,7 @@ void CullLoop::Impl::record_pyramid(VkCommandBuffer cmd) {
 void CullLoop::Impl::record_histogram(VkCommandBuffer cmd, uint32_t mode) {
   bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, histogram_pipe, set0_sample);
   push(cmd, mode);
-  vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1);
+  vkCmdDispatch(cmd, (hist_blocks_x() + 7) / 8, (hist_blocks_y() + 7) / 8, 1);
   compute_barrier(cmd);
 }
 
@@ -526,18 +526,30 @@ Result<std::vector<uint32_t>> CullLoop::read_meshlet_classes() {
   std::memcpy(v.data(), raw.data(), v.size() * 4);
   return v;
 }
+// Block index of pixel i of a width-wide image (histogram blocks of stride s, bx per row).
+static size_t hist_block_of(size_t i, uint32_t width, uint32_t s, uint32_t bx) {
+  return (i / width / s) * bx + (i % width) / s;
+}
 Result<std::vector<float>> CullLoop::read_histograms() {
-  // The buffer is cumulative (cull_histogram.comp); hand back per-bin counts.
-  const size_t bins = impl_->bins;
-  MDS_ASSIGN_OR_RETURN(std::vector<float> cum, impl_->read<float>(impl_->histogram,
-                                                                 size_t(impl_->width) * impl_->height * bins));
-  std::vector<float> counts(cum.size());
-  for (size_t p = 0; p < cum.size(); p += bins)
-    for (size_t b = 0; b < bins; ++b) counts[p + b] = b == 0 ? cum[p] : cum[p + b] - cum[p + b - 1];
+  // The buffer is cumulative (cull_histogram.comp) and per block; hand back per-bin counts per pixel.
+  const Impl& m = *impl_;
+  const size_t bins = m.bins;
+  MDS_ASSIGN_OR_RETURN(std::vector<float> cum, impl_->read<float>(impl_->histogram, m.hist_blocks() * bins));
+  const size_t px = size_t(m.width) * m.height;
+  std::vector<float> counts(px * bins);
+  for (size_t p = 0; p < px; ++p) {
+    const float* c = &cum[hist_block_of(p, m.width, m.hist_stride(), m.hist_blocks_x()) * bins];
+    for (size_t b = 0; b < bins; ++b) counts[p * bins + b] = b == 0 ? c[0] : c[b] - c[b - 1];
+  }
   return counts;
 }
 Result<std::vector<glm::vec2>> CullLoop::read_hist_ranges() {
-  return impl_->read<glm::vec2>(impl_->hist_range, size_t(impl_->width) * impl_->height);
+  const Impl& m = *impl_;
+  MDS_ASSIGN_OR_RETURN(std::vector<glm::vec2> blocks, impl_->read<glm::vec2>(impl_->hist_range, m.hist_blocks()));
+  const size_t px = size_t(m.width) * m.height;
+  std::vector<glm::vec2> ranges(px);
+  for (size_t p = 0; p < px; ++p) ranges[p] = blocks[hist_block_of(p, m.width, m.hist_stride(), m.hist_blocks_x())];
+  return ranges;
 }
 Result<std::vector<glm::vec4>> CullLoop::read_pixel_state() {
   return impl_->read<glm::vec4>(impl_->pixel_state, 2 * size_t(impl_->width) * impl_->height);
@@ -551,6 +563,9 @@ Result<std::vector<int32_t>> CullLoop::read_volume() {
 
 Status CullLoop::write_histograms(const std::vector<float>& counts, const std::vector<glm::vec2>& ranges) {
   Impl& m = *impl_;
+  if (m.hist_stride() != 1)
+    return make_error(Errc::invalid_argument, "write_histograms: per-pixel histograms need histogram_stride 1, not {}",
+                      m.hist_stride());
   // Per-bin counts in, cumulative sums (double, rounded once) into the buffer.
   std::vector<float> cum(counts.size());
   for (size_t p = 0; p + m.bins <= counts.size(); p += m.bins) {

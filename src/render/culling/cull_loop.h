@@ -76,6 +76,11 @@ struct CullSettings {
   uint32_t converge_iterations = kDefaultConvergeIterations;      // Sect. 5.3: iterations without class changes
   uint32_t max_iterations = kDefaultMaxIterations;  // cap when not converged (the renderer keeps iterating past spp)
   uint32_t bins = 0;                 // histogram bins; 0: as many as fit (<= 64), see bins_for()
+  // Pixels per side of a density histogram block: one histogram (Eq. 9-10, cast along the block
+  // centre's ray) serves s x s pixels. 1 = per pixel, as the paper. The density volume's cells
+  // cover many pixels (~1M voxels for a whole data set), so neighbouring pixel rays cross the same
+  // cells; 2 casts a quarter of the rays (docs/culling-math.md, "Histogram blocks").
+  uint32_t histogram_stride = 2;
   uint32_t seed = 1;
   // Route of the occlusion sampling pass (docs/rendering.md): rasterized billboards
   // (cull_sample.vert/.frag) or compute (cull_sample.comp, needs 64-bit buffer atomics and W*H*8

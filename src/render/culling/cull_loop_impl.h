@@ -28,6 +28,11 @@ struct CullLoop::Impl {
   uint32_t meshlet_count = 0, node_count = 0, max_meshlet = 0, frame_flags = 0;
   float radius_min = 0, radius_max = 0;
   uint64_t pyramid_texels = 0;
+  // Density histogram blocks (CullSettings::histogram_stride): s x s pixels share one histogram.
+  uint32_t hist_stride() const { return std::max(1u, settings.histogram_stride); }
+  uint32_t hist_blocks_x() const { return (width + hist_stride() - 1) / hist_stride(); }
+  uint32_t hist_blocks_y() const { return (height + hist_stride() - 1) / hist_stride(); }
+  uint64_t hist_blocks() const { return uint64_t(hist_blocks_x()) * hist_blocks_y(); }
   uint32_t node_flags = 0;  // kCullNodeDensity (CullUniforms.params.w, with kCullOrtho per view)
   SceneBuffers scene;
   Camera camera;
