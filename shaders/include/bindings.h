@@ -47,7 +47,8 @@ uint mds_small_sprite_slot(uint i) { return sprite_draw.capacity + i; }  // quad
 // shaders that define MDS_VISIBILITY before including this file see it (they need shaderInt64).
 // The culling loop's confidence pyramid (cull_bindings.h kCullPyramid: level 0 = per pixel (d_cull,
 // C_cull), then max depth / mean confidence levels), read by the particle occlusion test of the
-// sprite pre-pass after convergence (particle_occlusion.h). Without culling a placeholder is bound.
+// sprite pre-pass after convergence (particle_occlusion.h). Without culling the test is off
+// (frame.occlusion.z = 0, nothing is read) and the node buffer fills the binding.
 layout(std430, set = 0, binding = kBindOcclusionPyramid) readonly buffer OcclusionPyramidBlock { vec2 occ_pyramid[]; };
 #ifdef MDS_VISIBILITY
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require

@@ -480,10 +480,7 @@ void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first, bool accumulat
     ri.pDepthAttachment = &da;
   }
   vkCmdBeginRendering(cmd, &ri);
-  VkViewport vp{0.0f, 0.0f, float(w), float(h), 0.0f, 1.0f};
-  VkRect2D sc{{0, 0}, {w, h}};
-  vkCmdSetViewport(cmd, 0, 1, &vp);
-  vkCmdSetScissor(cmd, 0, 1, &sc);
+  vk::set_viewport_scissor(cmd, w, h);
   record_sprite_draws(cmd);
   vkCmdEndRendering(cmd);
   timestamps.end(cmd);

@@ -117,8 +117,8 @@ struct Renderer::Impl {
   Status create_accumulate_pipeline();
   // Writes the accumulation bindings (after create_targets).
   void write_accumulation_descriptors();
-  // Binds the culling loop's confidence pyramid for the particle occlusion test (a placeholder
-  // without culling); after create_cull() and every resize.
+  // Binds the culling loop's confidence pyramid for the particle occlusion test (without culling
+  // the test is off and the node buffer fills the binding); after create_cull() and every resize.
   void write_occlusion_descriptor();
   // The accumulated sums (rgba float per pixel, row-major), after the frame slot is idle.
   Result<std::vector<float>> read_accumulation();

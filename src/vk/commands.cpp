@@ -56,6 +56,13 @@ Status FrameSlot::wait() {
   return {};
 }
 
+void set_viewport_scissor(VkCommandBuffer cmd, uint32_t width, uint32_t height) {
+  const VkViewport vp{0.0f, 0.0f, float(width), float(height), 0.0f, 1.0f};
+  const VkRect2D sc{{0, 0}, {width, height}};
+  vkCmdSetViewport(cmd, 0, 1, &vp);
+  vkCmdSetScissor(cmd, 0, 1, &sc);
+}
+
 void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
                     VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access) {
   VkMemoryBarrier2 b{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};

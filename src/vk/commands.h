@@ -46,6 +46,8 @@ void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags2 src_stage, VkAcce
 void image_barrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkImageLayout old_layout,
                    VkImageLayout new_layout, VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
                    VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access);
+// Dynamic viewport and scissor covering a width x height target (depth range 0..1).
+void set_viewport_scissor(VkCommandBuffer cmd, uint32_t width, uint32_t height);
 
 // Destroys resources once the frame that last used them has completed on the GPU.
 // retire(frame, fn): run fn when collect(completed) is called with completed >= frame.

@@ -158,10 +158,7 @@ void CullLoop::Impl::record_sampling_pass(VkCommandBuffer cmd, vk::TimestampPool
     ri.pColorAttachments = &ca;
     ri.pDepthAttachment = &da;
     vkCmdBeginRendering(cmd, &ri);
-    VkViewport vp{0.0f, 0.0f, float(width), float(height), 0.0f, 1.0f};
-    VkRect2D sc{{0, 0}, {width, height}};
-    vkCmdSetViewport(cmd, 0, 1, &vp);
-    vkCmdSetScissor(cmd, 0, 1, &sc);
+    vk::set_viewport_scissor(cmd, width, height);
     bind(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, sample_pipe, set0_sample);
     push(cmd, 0, pass, jitter_ndc);
     vkCmdBindIndexBuffer(cmd, indices.get(), 0, VK_INDEX_TYPE_UINT16);
