@@ -1,31 +1,41 @@
 #version 460
-// Visibility route, last pass of a sampling frame: per pixel the nearest sprite of the
+// Visibility route, last pass of a sampling frame: per covered pixel the nearest sprite of the
 // visibility buffer (sprite_raster.h; written by the compute rasterization of small sprites and
 // by the rasterized ones) is shaded once -- the same ray and shading as sphere.frag
-// (sphere_shading.h) -- or the pixel takes the background (coverage 0), and the result is added
-// to the accumulation (accumulation.h; the final image is accum / spp). Timing frames
-// (kFrameTimingOnly) add it with weight 0: the same work, the image unchanged.
-// Shading once per pixel replaces the colour attachment, the resolve draw and accumulate.comp.
+// (sphere_shading.h) -- and added to the accumulation (accumulation.h). Background pixels add
+// nothing: the accumulation holds the covered samples only (rgb sum, a = their count) and the
+// host composes the background over it (Renderer::Impl::read_average). Timing frames
+// (kFrameTimingOnly) add with weight 0: the same work, the image unchanged.
+// Specialization constant 1 (kCoveredList): one thread per pixel of the covered-pixel list
+// (visibility_compact.comp; dispatch (kCoveredGroupsX, y, 1) of 64 threads) -- or, where the
+// device lacks subgroup ballots in compute, one thread per pixel of the viewport (16x16 tiles).
 #extension GL_GOOGLE_include_directive : require
 #define MDS_VISIBILITY
 #include "bindings.h"
 #include "sphere_shading.h"
 #include "accumulation.h"
 
-layout(local_size_x = 16, local_size_y = 16) in;
+layout(constant_id = 1) const bool kCoveredList = true;
+layout(local_size_x_id = 2, local_size_y_id = 3) in;  // (64, 1) with the list, else (16, 16)
 
 void main() {
-  ivec2 p = ivec2(gl_GlobalInvocationID.xy);
-  if (p.x >= int(frame.viewport.x) || p.y >= int(frame.viewport.y)) return;
-  uint id = uint(visibility[uint(p.y) * uint(frame.viewport.x) + uint(p.x)] & 0xffffffffu);
-  vec4 c = vec4(frame.background.rgb, 0.0);
-  if (id != 0xffffffffu) {
-    GpuSprite s = sprites[id];
-    vec3 hit, n, d;
-    float depth;
-    if (ray_sphere(vec2(p) + 0.5, s.center_radius, hit, n, d, depth))
-      c = shade_sphere(n, d, types[s.flags & 0xffu].color.rgb);
+  ivec2 p;
+  if (kCoveredList) {
+    uint i = (gl_WorkGroupID.y * kCoveredGroupsX + gl_WorkGroupID.x) * 64u + gl_LocalInvocationIndex;
+    if (i >= covered_head.count) return;
+    uint pix = covered_pixels[i];
+    uint w = uint(frame.viewport.x);
+    p = ivec2(pix % w, pix / w);
+  } else {
+    p = ivec2(gl_GlobalInvocationID.xy);
+    if (p.x >= int(frame.viewport.x) || p.y >= int(frame.viewport.y)) return;
   }
+  uint id = uint(visibility[uint(p.y) * uint(frame.viewport.x) + uint(p.x)] & 0xffffffffu);
+  if (id == 0xffffffffu) return;  // background: nothing to add
+  GpuSprite s = sprites[id];
+  vec3 hit, n, d;
+  float depth;
+  if (!ray_sphere(vec2(p) + 0.5, s.center_radius, hit, n, d, depth)) return;
   float weight = (frame.counts.z & kFrameTimingOnly) != 0u ? 0.0 : 1.0;
-  accumulate_pixel(p, weight * c);
+  accumulate_pixel(p, weight * shade_sphere(n, d, types[s.flags & 0xffu].color.rgb));
 }

@@ -45,7 +45,7 @@ class SpriteRoutesTest : public mds::testing::VulkanSuite {
 
   // small_px: MDSTREAM_SMALL_PX for this renderer (nullptr: the default threshold).
   static Result<Out> render(const SceneData& scene, bool visibility_route, const char* small_px, bool cull,
-                            bool accumulation_buffer = true) {
+                            bool accumulation_buffer = true, bool covered_pixel_list = true) {
     if (small_px) {
       setenv("MDSTREAM_SMALL_PX", small_px, 1);
     } else {
@@ -59,6 +59,7 @@ class SpriteRoutesTest : public mds::testing::VulkanSuite {
     rs.mesh_shaders = MeshShaderMode::off;
     rs.visibility_route = visibility_route;
     rs.accumulation_buffer = accumulation_buffer;
+    rs.covered_pixel_list = covered_pixel_list;
     auto r = Renderer::create(*ctx_, scene, rs);
     unsetenv("MDSTREAM_SMALL_PX");  // read once, by create()
     if (!r.ok()) return r.error();
@@ -118,6 +119,33 @@ TEST_F(SpriteRoutesTest, CulledRendersAgreeAcrossRoutes) {
   EXPECT_EQ(att->stats.cull.meshlets_culled, vis->stats.cull.meshlets_culled);
   EXPECT_GT(vis->stats.cull.meshlets_culled, 0u);
   EXPECT_LE(mds::testing::differing_pixels(att->image, vis->image, 0.02f), 35u);
+}
+
+// The resolve over the compacted covered pixels and the full-screen resolve shade the same pixels
+// with the same sums; the background is composed on the host in both cases.
+TEST_F(SpriteRoutesTest, CoveredPixelListMatchesFullScreenResolve) {
+  if (!ctx_->int64_atomics()) GTEST_SKIP() << ctx_->info().name << " has no 64-bit buffer atomics";
+  if (!ctx_->compute_ballot()) GTEST_SKIP() << ctx_->info().name << " has no subgroup ballots in compute";
+  const SceneData scene = block();
+  for (bool cull : {false, true}) {
+    SCOPED_TRACE(cull ? "culled" : "no cull");
+    auto list = render(scene, true, nullptr, cull, true, true);
+    auto full = render(scene, true, nullptr, cull, true, false);
+    ASSERT_TRUE(list.ok()) << list.error().message;
+    ASSERT_TRUE(full.ok()) << full.error().message;
+    EXPECT_TRUE(list->stats.covered_pixel_list);
+    EXPECT_FALSE(full->stats.covered_pixel_list);
+    ASSERT_EQ(list->image.rgba.size(), full->image.rgba.size());
+    EXPECT_EQ(list->image.rgba, full->image.rgba);  // per pixel the same samples in the same order
+    // Both covered and background pixels, so a list that dropped or duplicated pixels would show.
+    size_t covered = 0, empty = 0;
+    for (size_t i = 3; i < list->image.rgba.size(); i += 4) {
+      covered += list->image.rgba[i] > 0.0f;
+      empty += list->image.rgba[i] == 0.0f;
+    }
+    EXPECT_GT(covered, 0u);
+    EXPECT_GT(empty, 0u);
+  }
 }
 
 TEST_F(SpriteRoutesTest, AccumulationBufferAndImageGiveTheSameImage) {

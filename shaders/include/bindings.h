@@ -55,6 +55,12 @@ layout(std430, set = 0, binding = kBindOcclusionPyramid) readonly buffer Occlusi
 #extension GL_EXT_shader_atomic_int64 : require
 layout(std430, set = 0, binding = kBindVisibility) coherent buffer VisibilityBlock { uint64_t visibility[]; };
 #endif
+// The covered pixels of the visibility buffer (gpu_types.h CoveredPixelsHeader), written by
+// visibility_compact.comp, read by visibility_resolve.comp.
+layout(std430, set = 0, binding = kBindCoveredPixels) buffer CoveredPixelsBlock {
+  CoveredPixelsHeader covered_head;
+  uint covered_pixels[];
+};
 
 #endif
 #endif  // MDS_BINDINGS_H

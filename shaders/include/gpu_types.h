@@ -27,6 +27,7 @@ MDS_CONST(uint, kBindSpriteDraw, 10); // SpriteDrawHeader + uint quad_ids[] (spr
 MDS_CONST(uint, kBindVisibility, 11); // uint64[W * H]: nearest depth bits << 32 | sprite index (visibility route)
 MDS_CONST(uint, kBindAccumBuffer, 12);  // vec4[W * H]: the accumulation, 16 B/pixel (accumulation.h)
 MDS_CONST(uint, kBindOcclusionPyramid, 13);  // vec2[]: the culling loop's confidence pyramid (particle_occlusion.h)
+MDS_CONST(uint, kBindCoveredPixels, 14);  // CoveredPixelsHeader + uint pixel[W * H]: the visibility buffer's covered pixels
 
 // GpuSprite.flags
 MDS_CONST(uint, kSpriteHidden, 0x100u);  // nothing to draw (behind the near plane, radius 0)
@@ -51,7 +52,7 @@ MDS_STRUCT(FrameUniforms) {
   vec4 viewport;      // width, height, 1/width, 1/height
   vec4 radius_range;  // radius_min, radius_max - radius_min (per-particle radii), near, far
   uvec4 counts;       // meshlet_count, max_meshlet_particles, flags, sample index
-  vec4 background;    // linear rgb of the background, a = 0 (coverage): the resolve's empty pixels
+  vec4 background;    // linear rgb of the background, a = 0 (the host composes it: Renderer::Impl::read_average)
   vec4 occlusion;     // particle occlusion test (particle_occlusion.h): C_occ, C_medium, pyramid levels (0: off), 0
 };
 
@@ -150,7 +151,24 @@ MDS_STRUCT(SpriteDrawHeader) {
   uint pad2;
 };
 
+// The covered pixels of one frame's visibility buffer, listed by visibility_compact.comp so that
+// visibility_resolve.comp runs one thread per covered pixel instead of one per pixel (lavapipe
+// executes both sides of every branch, so a background pixel of a full-screen pass costs as much
+// as a shaded one; docs/rendering.md). After the header: pixel indices y * W + x [W * H]
+// (1920x1080: 8.3 MB). The resolve's VkDispatchIndirectCommand is (kCoveredGroupsX, groups_y, 1)
+// of 64 threads: groups_y = ceil(count / (64 * kCoveredGroupsX)), counted up by the compaction,
+// so that even 16.7 M covered pixels (128 MiB of visibility buffer) stay below the 65535
+// workgroups per dimension that Vulkan guarantees.
+MDS_CONST(uint, kCoveredGroupsX, 16u);  // workgroups per row of the resolve dispatch (1024 threads)
+MDS_STRUCT(CoveredPixelsHeader) {
+  uint dispatch_x;  // kCoveredGroupsX (written by the host each frame)
+  uint dispatch_y;  // ceil(count / (64 * kCoveredGroupsX)) (atomicMax)
+  uint dispatch_z;  // 1
+  uint count;       // covered pixels listed (atomic counter)
+};
+
 #ifdef __cplusplus
+static_assert(sizeof(CoveredPixelsHeader) == 16);
 static_assert(sizeof(GpuSprite) == 48);
 static_assert(sizeof(SpriteDrawHeader) == 80);
 static_assert(offsetof(SpriteDrawHeader, raster_x) == 56);

@@ -150,6 +150,7 @@ Status run_render(const RenderOptions& o) {
     j["sprite_path"] = stats.mesh_sprites ? "mesh" : "compute";
     j["pixel_route"] = stats.visibility_route ? "visibility" : "attachments";
     j["accumulation"] = stats.accumulation_buffer ? "buffer" : "image";
+    j["resolve"] = stats.visibility_route ? (stats.covered_pixel_list ? "covered pixels" : "full screen") : "none";
     j["particles"] = stats.particles;
     j["meshlets"] = stats.meshlets;
     j["nodes"] = reader->nodes().size();

@@ -157,6 +157,14 @@ Status Renderer::Impl::create_targets() {
     MDS_ASSIGN_OR_RETURN(visibility, vk::Buffer::create(alloc, 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                                                         vk::MemoryIntent::device_local, "visibility buffer (unused)"));
   }
+  covered_list = vis_route && settings.covered_pixel_list && ctx->compute_ballot();
+  const uint64_t covered_bytes = covered_list ? sizeof(gpu::CoveredPixelsHeader) + 4ull * w * h : 16;
+  MDS_ASSIGN_OR_RETURN(covered, vk::Buffer::create(alloc, covered_bytes,
+                                                   VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
+                                                       VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                                       VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT,
+                                                   vk::MemoryIntent::device_local,
+                                                   covered_list ? "covered pixels" : "covered pixels (unused)"));
   // The accumulation: 16 B/pixel (1920x1080: 33 MB) in a buffer where that fits the range.
   const uint64_t accum_bytes = 16ull * w * h;
   accum_in_buffer = settings.accumulation_buffer && accum_bytes <= ctx->limits().maxStorageBufferRange;
@@ -178,11 +186,15 @@ Status Renderer::Impl::create_targets() {
 void Renderer::Impl::write_accumulation_descriptors() {
   set.write_storage_image(gpu::kBindAccumImage, accum.view());
   set.write_buffer(gpu::kBindAccumBuffer, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, accum_buf.get());
+  set.write_buffer(gpu::kBindCoveredPixels, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, covered.get());
 }
 
 Status Renderer::Impl::create_accumulate_pipeline() {
   vk::SpecConstants spec;
   spec.add(0u, VkBool32(accum_in_buffer));  // accumulation.h: kAccumBuffer
+  if (vis_route) {  // visibility_resolve.comp: kCoveredList and its local size
+    spec.add(1u, VkBool32(covered_list)).add(2u, covered_list ? 64u : 16u).add(3u, covered_list ? 1u : 16u);
+  }
   MDS_ASSIGN_OR_RETURN(vk::UniquePipeline pipe,
                        vk::create_compute_pipeline(ctx->device(), layout.get(),
                                                    vis_route ? "visibility_resolve.comp" : "accumulate.comp", &spec));
@@ -191,17 +203,26 @@ Status Renderer::Impl::create_accumulate_pipeline() {
   return {};
 }
 
-Result<std::vector<float>> Renderer::Impl::read_accumulation() {
+// The accumulation holds the covered samples only (background pixels add nothing, on both
+// routes), so the background is composed here, once per read instead of once per pixel and frame.
+Result<std::vector<float>> Renderer::Impl::read_average(uint32_t sample_count) {
   const size_t n = size_t(settings.width) * settings.height * 4;
-  std::vector<float> sums(n);
+  std::vector<float> px(n);
   std::vector<std::byte> raw;
   if (accum_in_buffer) {
     MDS_ASSIGN_OR_RETURN(raw, vk::read_buffer(*ctx, accum_buf, 0, n * sizeof(float)));
   } else {
     MDS_ASSIGN_OR_RETURN(raw, vk::read_image(*ctx, accum, VK_IMAGE_LAYOUT_GENERAL, 16));
   }
-  std::memcpy(sums.data(), raw.data(), n * sizeof(float));
-  return sums;
+  std::memcpy(px.data(), raw.data(), n * sizeof(float));
+  const glm::vec3 bg = background_linear();
+  const float spp = float(sample_count), inv = 1.0f / spp;
+  for (size_t i = 0; i < n; i += 4) {
+    const float uncovered = spp - px[i + 3];  // samples that saw the background
+    for (int c = 0; c < 3; ++c) px[i + c] = (px[i + c] + bg[c] * uncovered) * inv;
+    px[i + 3] *= inv;
+  }
+  return px;
 }
 
 Status Renderer::Impl::create_pipelines() {
@@ -218,7 +239,7 @@ Status Renderer::Impl::create_pipelines() {
                                       b(gpu::kBindAccumImage, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE),
                                       b(gpu::kBindSprites, SSBO), b(gpu::kBindSpriteDraw, SSBO),
                                       b(gpu::kBindVisibility, SSBO), b(gpu::kBindAccumBuffer, SSBO),
-                                      b(gpu::kBindOcclusionPyramid, SSBO)}));
+                                      b(gpu::kBindOcclusionPyramid, SSBO), b(gpu::kBindCoveredPixels, SSBO)}));
   set.write_buffer(gpu::kBindFrame, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, frame_ubo.get());
   set.write_buffer(gpu::kBindNodes, SSBO, nodes.get());
   set.write_buffer(gpu::kBindMeshlets, SSBO, meshlets_h);
@@ -266,6 +287,9 @@ Status Renderer::Impl::create_pipelines() {
     sprite_read_stages = MeshSprites::kReadStages;
   }
   MDS_TRY(create_accumulate_pipeline());
+  if (covered_list) {  // decided with the route (create_targets); a resize keeps it
+    MDS_ASSIGN_OR_RETURN(compact_pipe, vk::create_compute_pipeline(dev, layout, "visibility_compact.comp"));
+  }
   vk::SpecConstants prepass_spec;
   prepass_spec.add(0u, VkBool32(point_sprites)).add(1u, max_point).add(2u, small_px);
   MDS_ASSIGN_OR_RETURN(prepass_pipe, vk::create_compute_pipeline(dev, layout, "sphere_prepass.comp", &prepass_spec));
@@ -319,11 +343,17 @@ void Renderer::Impl::record_sprite_prepass(VkCommandBuffer cmd) {
                      VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT,
                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
-  if (vis_route) {  // empty visibility buffer (after the previous resolve read it)
-    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+  if (vis_route) {  // empty visibility buffer and covered-pixel list (after the previous resolve read them)
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT |
+                                VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT |
+                           VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT,
                        VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
     vkCmdFillBuffer(cmd, visibility.get(), 0, VK_WHOLE_SIZE, 0xffffffffu);
+    if (covered_list) {
+      const gpu::CoveredPixelsHeader head{gpu::kCoveredGroupsX, 0u, 1u, 0u};
+      vkCmdUpdateBuffer(cmd, covered.get(), 0, sizeof(head), &head);
+    }
     vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                        VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                        VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
@@ -464,12 +494,11 @@ void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first, bool accumulat
                       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
                       VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
                       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
-    const glm::vec3 bg = background_linear();
     ca.imageView = color.view();
     ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
     ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
     ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    ca.clearValue.color = {{bg.r, bg.g, bg.b, 0.0f}};
+    ca.clearValue.color = {{0.0f, 0.0f, 0.0f, 0.0f}};  // uncovered: nothing (read_average composes the background)
     da.imageView = depth.view();
     da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
     da.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
@@ -503,10 +532,20 @@ void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first, bool accumulat
                        VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                        VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
   }
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, vis_route ? resolve_pipe : accum_pipe);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &ds, 0, nullptr);
-  const uint32_t tile = vis_route ? 16 : 8;  // the shaders' local size
-  vkCmdDispatch(cmd, (w + tile - 1) / tile, (h + tile - 1) / tile, 1);
+  if (covered_list) {  // list the covered pixels, then shade those (one indirect thread each)
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, compact_pipe);
+    vkCmdDispatch(cmd, (w + 15) / 16, (h + 15) / 16, 1);
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolve_pipe);
+    vkCmdDispatchIndirect(cmd, covered.get(), offsetof(gpu::CoveredPixelsHeader, dispatch_x));
+  } else {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, vis_route ? resolve_pipe : accum_pipe);
+    const uint32_t tile = vis_route ? 16 : 8;  // the shaders' local size
+    vkCmdDispatch(cmd, (w + tile - 1) / tile, (h + tile - 1) / tile, 1);
+  }
   timestamps.end(cmd);
 }
 
@@ -732,15 +771,14 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
   FrameImage img;
   img.width = w;
   img.height = h;
-  MDS_ASSIGN_OR_RETURN(img.rgba, m.read_accumulation());
-  const float inv = 1.0f / float(m.settings.spp);
-  for (float& v : img.rgba) v *= inv;
+  MDS_ASSIGN_OR_RETURN(img.rgba, m.read_average(m.settings.spp));
 
   if (stats) {
     stats->device = m.ctx->info().name;
     stats->mesh_sprites = m.mesh_path;
     stats->visibility_route = m.vis_route;
     stats->accumulation_buffer = m.accum_in_buffer;
+    stats->covered_pixel_list = m.covered_list;
     stats->particles = m.particle_count;
     stats->meshlets = m.meshlet_count;
     stats->spp = m.settings.spp;

@@ -74,6 +74,10 @@ struct RenderSettings {
   // Accumulate into a storage buffer where 16 bytes per pixel fit maxStorageBufferRange; false:
   // always into an rgba32f storage image (the fallback for larger images). Same image either way.
   bool accumulation_buffer = true;
+  // Visibility route: the resolve shades the covered pixels listed by a compaction pass (where
+  // the device has subgroup ballots in compute); false: one resolve thread per pixel of the
+  // viewport. Same image either way; on lavapipe the list is cheaper (docs/rendering.md).
+  bool covered_pixel_list = true;
   // After a converged culled in-memory render() (not with a GPU budget): this many frames of the potentially visible set and as
   // many of every meshlet, alternately, with weight 0 (the image is unchanged); CullStats
   // frame_ms_paired_*. 0: none. On a shared machine a ratio of two separate renders' medians
@@ -199,6 +203,7 @@ struct RenderStats {
   bool mesh_sprites = false;  // sprites drawn by the task/mesh path (else compute + indirect draws)
   bool visibility_route = false;  // pixels by the visibility buffer (else colour + depth attachments)
   bool accumulation_buffer = false;  // accumulation in a storage buffer (else a storage image)
+  bool covered_pixel_list = false;   // the resolve ran over the listed covered pixels (else full screen)
   CullStats cull;
   CacheStats cache;                 // streaming only
   double frame_wall_ms_p50 = 0.0;   // CPU wall time per frame (step), all frames of the render

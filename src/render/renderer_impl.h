@@ -43,6 +43,12 @@ struct Renderer::Impl {
   // accumulates. Otherwise the attachment route: colour + depth attachments, accumulate.comp.
   vk::Buffer visibility;
   bool vis_route = false;
+  // Visibility route where the device has subgroup ballots in compute: the covered pixels of each
+  // frame (gpu_types.h CoveredPixelsHeader, 4 B/pixel + 16; 1920x1080: 8.3 MB), listed by
+  // visibility_compact.comp so that the resolve shades only those (otherwise a 16-byte stub and
+  // a full-screen resolve).
+  vk::Buffer covered;
+  bool covered_list = false;
   bool targets_created = false;     // the route is decided by the first create_targets()
   bool point_sprites = false;       // small on-screen sprites drawn as points (see create_pipelines)
   float small_px = 0.0f;            // sprites up to this size rasterized in compute (0: none)
@@ -62,7 +68,7 @@ struct Renderer::Impl {
   vk::DescriptorSet set;
   vk::UniquePipelineLayout layout;
   vk::UniquePipeline draw_list_pipe, sprite_args_pipe, prepass_pipe, raster_pipe, sphere_pipe, point_pipe,
-      resolve_pipe, accum_pipe;
+      resolve_pipe, accum_pipe, compact_pipe;
   vk::FrameSlot slot;
   vk::TimestampPool timestamps;
   vk::DeferredDestroyer destroyer;
@@ -120,8 +126,10 @@ struct Renderer::Impl {
   // Binds the culling loop's confidence pyramid for the particle occlusion test (without culling
   // the test is off and the node buffer fills the binding); after create_cull() and every resize.
   void write_occlusion_descriptor();
-  // The accumulated sums (rgba float per pixel, row-major), after the frame slot is idle.
-  Result<std::vector<float>> read_accumulation();
+  // The image of `sample_count` accumulated samples (>= 1; after the frame slot is idle), rgba
+  // float per pixel, row-major: (sum of the covered samples' colours + background *
+  // (sample_count - covered samples)) / sample_count, alpha = covered samples / sample_count.
+  Result<std::vector<float>> read_average(uint32_t sample_count);
   // After the scene or the pool is on the device: targets, pipelines, frame slot, timestamps.
   Status create_frame_resources();
   // all_meshlets: draw every meshlet even when culling (the paired no-cull frames of render()).

@@ -327,9 +327,7 @@ Result<FrameImage> Renderer::read_image() {
   img.height = m.settings.height;
   img.rgba.assign(size_t(img.width) * img.height * 4, 0.0f);
   if (m.samples == 0) return img;
-  MDS_ASSIGN_OR_RETURN(img.rgba, m.read_accumulation());
-  const float inv = 1.0f / float(m.samples);
-  for (float& v : img.rgba) v *= inv;
+  MDS_ASSIGN_OR_RETURN(img.rgba, m.read_average(m.samples));
   return img;
 }
 
@@ -340,6 +338,7 @@ RenderStats Renderer::stats() const {
   s.mesh_sprites = m.mesh_path;
   s.visibility_route = m.vis_route;
   s.accumulation_buffer = m.accum_in_buffer;
+  s.covered_pixel_list = m.covered_list;
   s.particles = m.particle_count;
   s.meshlets = m.cache ? m.cache->live_meshlets() : m.meshlet_count;
   s.spp = m.settings.spp;

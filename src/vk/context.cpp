@@ -209,6 +209,14 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
   c->physical_ = pds[chosen];
   c->info_ = describe(c->physical_, uint32_t(chosen), &c->queue_family_, surface);
   vkGetPhysicalDeviceProperties(c->physical_, &c->props_);
+  {  // subgroup ballots in compute (Vulkan 1.1 core properties): the renderer's pixel compaction
+    VkPhysicalDeviceSubgroupProperties sg{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES};
+    VkPhysicalDeviceProperties2 p2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
+    p2.pNext = &sg;
+    vkGetPhysicalDeviceProperties2(c->physical_, &p2);
+    c->compute_ballot_ = (sg.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) != 0 &&
+                         (sg.supportedOperations & VK_SUBGROUP_FEATURE_BALLOT_BIT) != 0;
+  }
   {
     uint32_t nq = 0;
     vkGetPhysicalDeviceQueueFamilyProperties(c->physical_, &nq, nullptr);

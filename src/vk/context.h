@@ -75,6 +75,8 @@ class Context {
   bool mesh_shaders() const { return mesh_shaders_; }
   // shaderInt64 and shaderBufferInt64Atomics enabled (only where the device has both).
   bool int64_atomics() const { return int64_atomics_; }
+  // Subgroup ballot operations in compute shaders (VkPhysicalDeviceSubgroupProperties).
+  bool compute_ballot() const { return compute_ballot_; }
   // Number of validation warnings/errors reported so far (0 without validation).
   uint64_t validation_messages() const;
   Allocator& allocator() { return *allocator_; }
@@ -100,6 +102,7 @@ class Context {
   bool validation_ = false;
   bool mesh_shaders_ = false;
   bool int64_atomics_ = false;
+  bool compute_ballot_ = false;
   DeviceInfo info_;
   VkPhysicalDeviceProperties props_{};
   std::unique_ptr<Allocator> allocator_;
