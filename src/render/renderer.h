@@ -55,6 +55,12 @@ struct StreamSettings {
   // culling loop had meanwhile found occluded (reading ahead of the classification wastes I/O;
   // too few reads slow convergence). This is its cap.
   uint32_t max_outstanding = 64;
+  // Reads in waves at rest (occlusion policy): the window's reads go out, then none until all of
+  // them are placed and have been resident for this many frames, so that the culling loop has
+  // sampled them as occluders and classified what lies behind before the next wave is chosen
+  // (a node found O meanwhile is never read; the window starts at 2 nodes, grows while no wave
+  // brings a node that turns O, halves when one does). 0: no waves (the window only).
+  uint32_t wave_settle_frames = 2;
   bool record_trace = false;  // FrameReport::wanted filled (stress: offline Belady bound)
 };
 
@@ -78,6 +84,9 @@ struct RenderSettings {
   // the device has subgroup ballots in compute); false: one resolve thread per pixel of the
   // viewport. Same image either way; on lavapipe the list is cheaper (docs/rendering.md).
   bool covered_pixel_list = true;
+  // ... but only while the view's first frame found fewer than this share of the pixels covered
+  // (break-even on lavapipe at 1920x1080: about half; 1: always the list).
+  double covered_list_max_coverage = 0.5;
   // After a converged culled in-memory render() (not with a GPU budget): this many frames of the potentially visible set and as
   // many of every meshlet, alternately, with weight 0 (the image is unchanged); CullStats
   // frame_ms_paired_*. 0: none. On a shared machine a ratio of two separate renders' medians

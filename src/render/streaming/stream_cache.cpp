@@ -76,7 +76,10 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
                       largest_node, format_bytes(largest));
   c->table_ = std::make_unique<mds::streaming::ResidencyTable>(c->node_bytes_, settings.policy);
   MDS_ASSIGN_OR_RETURN(c->io_, mds::streaming::IoPool::create(reader, settings.io));
-  c->window_ = mds::streaming::ReadWindow({.min = 4, .calm_frames = 3, .cap = settings.max_outstanding});
+  // With waves each wave is sampled before the next, so the window starts smaller.
+  c->window_ = mds::streaming::ReadWindow(
+      {.min = settings.wave_settle_frames > 0 ? 2u : 4u, .calm_frames = 3, .cap = settings.max_outstanding});
+  c->placed_frame_.assign(nodes.size(), 0);
 
   CacheStats& s = c->stats_;
   s.enabled = true;
@@ -255,6 +258,7 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
     } else {
       MDS_TRY(table_->mark_loaded(i));
       table_->touch(i, frame);
+      placed_frame_[i] = frame;
       live_meshlets_ += node_meshlets_[i];
       ++out.nodes_uploaded;
       out.bytes_uploaded += staged;
@@ -294,9 +298,25 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
   bool pending = false;
   // Waste = a read that arrived for a node found occluded meanwhile (a read of a node that left the
   // frustum is the camera's motion, not a window too wide).
+  // Waves at rest: a wave is over when nothing is in flight and its nodes have been resident for
+  // wave_settle_frames frames (sampled as occluders); a node of it that turned O by then is waste.
+  const uint64_t settle = settings_.wave_settle_frames;
+  const bool waves = settle > 0 && table_->policy() == mds::streaming::Policy::occlusion && !window_.moving();
+  bool wave_open = false;
+  if (waves) {
+    wave_open = !requested_.empty();
+    for (uint32_t i = 0; i < n_nodes; ++i) {
+      const auto& n = table_->node(i);
+      if (n.residency != Residency::resident || frame > placed_frame_[i] + settle) continue;
+      if (frame == placed_frame_[i] + settle && n.in_frustum && n.cls == MDS_CULL_CLASS_O) ++occluded;
+      if (frame < placed_frame_[i] + settle && demanded(i)) wave_open = true;
+    }
+  }
   window_.end_frame(arrived, occluded);
   const size_t window = window_.size();
-  if (requested_.size() < window) {
+  if (wave_open) {
+    pending = true;  // the next wave waits for the classes that saw this one
+  } else if (requested_.size() < window) {
     const auto order_next = table_->prefetch_order();
     uint64_t planned = 0;
     double rank = 0.0;  // this frame's order (a re-submitted queued node gets its new rank)

@@ -20,6 +20,10 @@
 //      the window opens to max_outstanding when the motion starts and keeps its state across the
 //      views (halved by waste, doubled by a calm frame); a read of a node that merely left the
 //      frustum is not counted as waste. Queued reads of nodes that became unwanted are cancelled.
+//      At rest (occlusion policy, StreamSettings::wave_settle_frames > 0) the reads go out in
+//      waves: no new read while a read is in flight or a wanted node was placed fewer than
+//      wave_settle_frames frames ago, so every wave is chosen from classes that already saw the
+//      previous one; a node of a wave that turns O within those frames counts as waste.
 //   5. hits / misses of the frame's demand, counted after step 3 (the frame draws after it).
 // The render loop never waits on disk: update() only polls.
 #pragma once
@@ -119,6 +123,7 @@ class StreamCache {
   bool exhausted_ = false;
   bool has_view_ = false;
   Camera last_camera_;  // of the previous set_view (look-ahead extrapolation)
+  std::vector<uint64_t> placed_frame_;  // frame of each node's last placement (waves at rest)
   mds::streaming::ReadWindow window_;  // reads queued or in flight at a time (step 4)
 };
 
