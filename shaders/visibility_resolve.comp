@@ -23,9 +23,8 @@ void main() {
   if (kCoveredList) {
     uint i = (gl_WorkGroupID.y * kCoveredGroupsX + gl_WorkGroupID.x) * 64u + gl_LocalInvocationIndex;
     if (i >= covered_head.count) return;
-    uint pix = covered_pixels[i];
-    uint w = uint(frame.viewport.x);
-    p = ivec2(pix % w, pix / w);
+    uint xy = covered_pixels[i];
+    p = ivec2(xy & 0xffffu, xy >> 16);
   } else {
     p = ivec2(gl_GlobalInvocationID.xy);
     if (p.x >= int(frame.viewport.x) || p.y >= int(frame.viewport.y)) return;

@@ -60,6 +60,7 @@ class SpriteRoutesTest : public mds::testing::VulkanSuite {
     rs.visibility_route = visibility_route;
     rs.accumulation_buffer = accumulation_buffer;
     rs.covered_pixel_list = covered_pixel_list;
+    rs.covered_list_max_coverage = 1.0;  // every frame through the list (the block covers most pixels)
     auto r = Renderer::create(*ctx_, scene, rs);
     unsetenv("MDSTREAM_SMALL_PX");  // read once, by create()
     if (!r.ok()) return r.error();

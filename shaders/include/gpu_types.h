@@ -154,7 +154,7 @@ MDS_STRUCT(SpriteDrawHeader) {
 // The covered pixels of one frame's visibility buffer, listed by visibility_compact.comp so that
 // visibility_resolve.comp runs one thread per covered pixel instead of one per pixel (lavapipe
 // executes both sides of every branch, so a background pixel of a full-screen pass costs as much
-// as a shaded one; docs/rendering.md). After the header: pixel indices y * W + x [W * H]
+// as a shaded one; docs/rendering.md). After the header: pixel coordinates x | y << 16 [W * H]
 // (1920x1080: 8.3 MB). The resolve's VkDispatchIndirectCommand is (kCoveredGroupsX, groups_y, 1)
 // of 64 threads: groups_y = ceil(count / (64 * kCoveredGroupsX)), counted up by the compaction,
 // so that even 16.7 M covered pixels (128 MiB of visibility buffer) stay below the 65535

@@ -162,9 +162,14 @@ Status Renderer::Impl::create_targets() {
   MDS_ASSIGN_OR_RETURN(covered, vk::Buffer::create(alloc, covered_bytes,
                                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
                                                        VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                                       VK_BUFFER_USAGE_TRANSFER_SRC_BIT |
                                                        VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT,
                                                    vk::MemoryIntent::device_local,
                                                    covered_list ? "covered pixels" : "covered pixels (unused)"));
+  MDS_ASSIGN_OR_RETURN(coverage_rb, vk::Buffer::create(alloc, 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                                       vk::MemoryIntent::readback, "covered pixel count"));
+  view_coverage = -1;  // new targets: probe again
+  coverage_probe_pending = false;
   // The accumulation: 16 B/pixel (1920x1080: 33 MB) in a buffer where that fits the range.
   const uint64_t accum_bytes = 16ull * w * h;
   accum_in_buffer = settings.accumulation_buffer && accum_bytes <= ctx->limits().maxStorageBufferRange;
@@ -190,21 +195,25 @@ void Renderer::Impl::write_accumulation_descriptors() {
 }
 
 Status Renderer::Impl::create_accumulate_pipeline() {
-  vk::SpecConstants spec;
-  spec.add(0u, VkBool32(accum_in_buffer));  // accumulation.h: kAccumBuffer
-  if (vis_route) {  // visibility_resolve.comp: kCoveredList and its local size
-    spec.add(1u, VkBool32(covered_list)).add(2u, covered_list ? 64u : 16u).add(3u, covered_list ? 1u : 16u);
+  // list: visibility_resolve.comp's kCoveredList and its local size.
+  auto make = [&](const char* shader, bool list) -> Result<vk::UniquePipeline> {
+    vk::SpecConstants spec;
+    spec.add(0u, VkBool32(accum_in_buffer));  // accumulation.h: kAccumBuffer
+    if (vis_route) spec.add(1u, VkBool32(list)).add(2u, list ? 64u : 16u).add(3u, list ? 1u : 16u);
+    return vk::create_compute_pipeline(ctx->device(), layout.get(), shader, &spec);
+  };
+  if (vis_route) {
+    MDS_ASSIGN_OR_RETURN(full_resolve_pipe, make("visibility_resolve.comp", false));
+    if (covered_list) {
+      MDS_ASSIGN_OR_RETURN(resolve_pipe, make("visibility_resolve.comp", true));
+    }
+  } else {
+    MDS_ASSIGN_OR_RETURN(accum_pipe, make("accumulate.comp", false));
   }
-  MDS_ASSIGN_OR_RETURN(vk::UniquePipeline pipe,
-                       vk::create_compute_pipeline(ctx->device(), layout.get(),
-                                                   vis_route ? "visibility_resolve.comp" : "accumulate.comp", &spec));
-  (vis_route ? resolve_pipe : accum_pipe) = std::move(pipe);
   accum_pipe_in_buffer = accum_in_buffer;
   return {};
 }
 
-// The accumulation holds the covered samples only (background pixels add nothing, on both
-// routes), so the background is composed here, once per read instead of once per pixel and frame.
 Result<std::vector<float>> Renderer::Impl::read_average(uint32_t sample_count) {
   const size_t n = size_t(settings.width) * settings.height * 4;
   std::vector<float> px(n);
@@ -292,7 +301,14 @@ Status Renderer::Impl::create_pipelines() {
   }
   vk::SpecConstants prepass_spec;
   prepass_spec.add(0u, VkBool32(point_sprites)).add(1u, max_point).add(2u, small_px);
+  prepass_spec.add(3u, VkBool32(false));  // kParticleOcclusion
   MDS_ASSIGN_OR_RETURN(prepass_pipe, vk::create_compute_pipeline(dev, layout, "sphere_prepass.comp", &prepass_spec));
+  if (settings.cull && settings.particle_occlusion) {
+    vk::SpecConstants occ_spec;
+    occ_spec.add(0u, VkBool32(point_sprites)).add(1u, max_point).add(2u, small_px).add(3u, VkBool32(true));
+    MDS_ASSIGN_OR_RETURN(prepass_occ_pipe,
+                         vk::create_compute_pipeline(dev, layout, "sphere_prepass.comp", &occ_spec));
+  }
   if (small_px > 0.0f) {  // shaderInt64 + 64-bit atomics: only on the visibility route
     MDS_ASSIGN_OR_RETURN(raster_pipe, vk::create_compute_pipeline(dev, layout, "sprite_raster.comp"));
   }
@@ -365,7 +381,7 @@ void Renderer::Impl::record_sprite_prepass(VkCommandBuffer cmd) {
                      VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                      VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
                          VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, prepass_pipe);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, particle_test ? prepass_occ_pipe : prepass_pipe);
   vkCmdDispatchIndirect(cmd, sprite_draw.get(), offsetof(gpu::SpriteDrawHeader, dispatch_x));
   // Sprites and commands to the draw and to the compute rasterization.
   vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
@@ -533,7 +549,16 @@ void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first, bool accumulat
                        VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
   }
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &ds, 0, nullptr);
-  if (covered_list) {  // list the covered pixels, then shade those (one indirect thread each)
+  if (coverage_probe_pending) {  // the previous frame (complete: the slot waited) counted
+    coverage_rb.invalidate();
+    uint32_t count = 0;
+    std::memcpy(&count, coverage_rb.mapped(), sizeof(count));
+    view_coverage = count;
+    coverage_probe_pending = false;
+  }
+  const bool list_now = covered_list && (view_coverage < 0 || double(view_coverage) <
+                                                                  settings.covered_list_max_coverage * double(w) * h);
+  if (list_now) {  // list the covered pixels, then shade those (one indirect thread each)
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, compact_pipe);
     vkCmdDispatch(cmd, (w + 15) / 16, (h + 15) / 16, 1);
     vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
@@ -541,8 +566,17 @@ void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first, bool accumulat
                        VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolve_pipe);
     vkCmdDispatchIndirect(cmd, covered.get(), offsetof(gpu::CoveredPixelsHeader, dispatch_x));
+    if (view_coverage < 0) {  // the view's probe: its count to the host
+      vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                         VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
+      const VkBufferCopy region{offsetof(gpu::CoveredPixelsHeader, count), 0, sizeof(uint32_t)};
+      vkCmdCopyBuffer(cmd, covered.get(), coverage_rb.get(), 1, &region);
+      vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                         VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+      coverage_probe_pending = true;
+    }
   } else {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, vis_route ? resolve_pipe : accum_pipe);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, vis_route ? full_resolve_pipe : accum_pipe);
     const uint32_t tile = vis_route ? 16 : 8;  // the shaders' local size
     vkCmdDispatch(cmd, (w + tile - 1) / tile, (h + tile - 1) / tile, 1);
   }
@@ -590,6 +624,8 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
   Impl& m = *impl_;
   if (m.cache) return render_streaming(camera_in, stats);
   m.has_view = false;  // the progressive state does not survive a full render
+  m.view_coverage = -1;  // the first frame probes the coverage (resolve choice)
+  m.coverage_probe_pending = false;
   const auto t0 = std::chrono::steady_clock::now();
   Camera camera = camera_in;
   fit_clip_planes(camera, m.bounds);

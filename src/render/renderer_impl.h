@@ -49,6 +49,14 @@ struct Renderer::Impl {
   // a full-screen resolve).
   vk::Buffer covered;
   bool covered_list = false;
+  // Which resolve a frame uses: the list pays a compaction pass (~10 ms at 1920x1080 on
+  // lavapipe) and scattered per-pixel access, so where most pixels are covered the full-screen
+  // resolve is cheaper. The first frame of a view uses the list and copies its count into
+  // coverage_rb (host-visible); the following frames of the view use the list only while that
+  // coverage is below RenderSettings::covered_list_max_coverage.
+  vk::Buffer coverage_rb;
+  bool coverage_probe_pending = false;  // the last list frame copied its count
+  int64_t view_coverage = -1;           // covered pixels of this view's probe (-1: not known)
   bool targets_created = false;     // the route is decided by the first create_targets()
   bool point_sprites = false;       // small on-screen sprites drawn as points (see create_pipelines)
   float small_px = 0.0f;            // sprites up to this size rasterized in compute (0: none)
@@ -68,7 +76,12 @@ struct Renderer::Impl {
   vk::DescriptorSet set;
   vk::UniquePipelineLayout layout;
   vk::UniquePipeline draw_list_pipe, sprite_args_pipe, prepass_pipe, raster_pipe, sphere_pipe, point_pipe,
-      resolve_pipe, accum_pipe, compact_pipe;
+      resolve_pipe, full_resolve_pipe, accum_pipe, compact_pipe;  // resolve_pipe: over the covered list
+  // The pre-pass with the particle occlusion test compiled in (specialization constant 3), bound
+  // in the frames whose uniforms switch the test on (particle_test, write_frame_uniforms); null
+  // without culling or with RenderSettings::particle_occlusion off.
+  vk::UniquePipeline prepass_occ_pipe;
+  bool particle_test = false;
   vk::FrameSlot slot;
   vk::TimestampPool timestamps;
   vk::DeferredDestroyer destroyer;

@@ -123,6 +123,7 @@ void Renderer::Impl::write_frame_uniforms(const Camera& camera, uint32_t sample,
   // pyramid is then final and the frame draws the potentially visible set.
   const bool occlusion_test = settings.particle_occlusion && cull && !cull_active && cull_iteration > 0 &&
                               !all_meshlets && cull->width() == w && cull->height() == h;
+  particle_test = occlusion_test && prepass_occ_pipe;
   if (cull)
     fu.occlusion = glm::vec4(float(cull->settings().c_occ), float(cull->settings().c_medium),
                              occlusion_test ? float(cull->pyramid_levels()) : 0.0f, 0.0f);
@@ -182,6 +183,8 @@ Status Renderer::set_view(const Camera& camera_in) {
   m.view_camera = camera;
   m.has_view = true;
   m.samples = 0;
+  m.view_coverage = -1;  // the next frame probes the new view's coverage (resolve choice)
+  m.coverage_probe_pending = false;
   m.quiet = 0;
   m.culling_converged = false;
   m.cull_iteration = 0;
