@@ -52,7 +52,6 @@ MDS_STRUCT(FrameUniforms) {
   vec4 viewport;      // width, height, 1/width, 1/height
   vec4 radius_range;  // radius_min, radius_max - radius_min (per-particle radii), near, far
   uvec4 counts;       // meshlet_count, max_meshlet_particles, flags, sample index
-  vec4 background;    // linear rgb of the background, a = 0 (the host composes it: Renderer::Impl::read_average)
   vec4 occlusion;     // particle occlusion test (particle_occlusion.h): C_occ, C_medium, pyramid levels (0: off), 0
 };
 
@@ -175,11 +174,10 @@ static_assert(offsetof(SpriteDrawHeader, raster_x) == 56);
 static_assert(offsetof(SpriteDrawHeader, occluded) == 48);
 static_assert(offsetof(SpriteDrawHeader, quad_vertex_count) == 16);
 static_assert(offsetof(SpriteDrawHeader, dispatch_x) == 32);
-static_assert(sizeof(FrameUniforms) == 272);
+static_assert(sizeof(FrameUniforms) == 256);
 static_assert(offsetof(FrameUniforms, viewport) == 192);
 static_assert(offsetof(FrameUniforms, counts) == 224);
-static_assert(offsetof(FrameUniforms, background) == 240);
-static_assert(offsetof(FrameUniforms, occlusion) == 256);
+static_assert(offsetof(FrameUniforms, occlusion) == 240);
 static_assert(sizeof(GpuNode) == 64);
 static_assert(offsetof(GpuNode, first_particle) == 12);
 static_assert(offsetof(GpuNode, step) == 16);

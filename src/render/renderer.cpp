@@ -299,15 +299,14 @@ Status Renderer::Impl::create_pipelines() {
   if (covered_list) {  // decided with the route (create_targets); a resize keeps it
     MDS_ASSIGN_OR_RETURN(compact_pipe, vk::create_compute_pipeline(dev, layout, "visibility_compact.comp"));
   }
-  vk::SpecConstants prepass_spec;
-  prepass_spec.add(0u, VkBool32(point_sprites)).add(1u, max_point).add(2u, small_px);
-  prepass_spec.add(3u, VkBool32(false));  // kParticleOcclusion
-  MDS_ASSIGN_OR_RETURN(prepass_pipe, vk::create_compute_pipeline(dev, layout, "sphere_prepass.comp", &prepass_spec));
+  auto prepass = [&](bool particle_occlusion) {  // specialization constant 3: kParticleOcclusion
+    vk::SpecConstants spec;
+    spec.add(0u, VkBool32(point_sprites)).add(1u, max_point).add(2u, small_px).add(3u, VkBool32(particle_occlusion));
+    return vk::create_compute_pipeline(dev, layout, "sphere_prepass.comp", &spec);
+  };
+  MDS_ASSIGN_OR_RETURN(prepass_pipe, prepass(false));
   if (settings.cull && settings.particle_occlusion) {
-    vk::SpecConstants occ_spec;
-    occ_spec.add(0u, VkBool32(point_sprites)).add(1u, max_point).add(2u, small_px).add(3u, VkBool32(true));
-    MDS_ASSIGN_OR_RETURN(prepass_occ_pipe,
-                         vk::create_compute_pipeline(dev, layout, "sphere_prepass.comp", &occ_spec));
+    MDS_ASSIGN_OR_RETURN(prepass_occ_pipe, prepass(true));
   }
   if (small_px > 0.0f) {  // shaderInt64 + 64-bit atomics: only on the visibility route
     MDS_ASSIGN_OR_RETURN(raster_pipe, vk::create_compute_pipeline(dev, layout, "sprite_raster.comp"));

@@ -45,8 +45,8 @@ struct Renderer::Impl {
   bool vis_route = false;
   // Visibility route where the device has subgroup ballots in compute: the covered pixels of each
   // frame (gpu_types.h CoveredPixelsHeader, 4 B/pixel + 16; 1920x1080: 8.3 MB), listed by
-  // visibility_compact.comp so that the resolve shades only those (otherwise a 16-byte stub and
-  // a full-screen resolve).
+  // visibility_compact.comp so that the resolve shades only those (otherwise a 16-byte buffer
+  // that only keeps the binding valid, and a full-screen resolve).
   vk::Buffer covered;
   bool covered_list = false;
   // Which resolve a frame uses: the list pays a compaction pass (~10 ms at 1920x1080 on

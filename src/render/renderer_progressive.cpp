@@ -118,7 +118,6 @@ void Renderer::Impl::write_frame_uniforms(const Camera& camera, uint32_t sample,
   fu.radius_range = glm::vec4(radius_min, radius_max - radius_min, float(camera.near), float(camera.far));
   fu.counts = glm::uvec4(meshlet_count, max_meshlet, flags | extra_flags | (camera.ortho ? gpu::kFrameOrtho : 0u),
                          sample);
-  fu.background = glm::vec4(background_linear(), 0.0f);
   // The particle occlusion test (particle_occlusion.h) once the view's culling has stopped: the
   // pyramid is then final and the frame draws the potentially visible set.
   const bool occlusion_test = settings.particle_occlusion && cull && !cull_active && cull_iteration > 0 &&
