@@ -23,7 +23,9 @@
 #include "cull_bindings.h"
 
 layout(local_size_x = 64) in;
-const int kNodeExtent = 32;     // texels per side at most: <= 1024 ray tests per node
+// Texels per side at most: kNodeExtentInMemory (32, <= 1024 ray tests per node) or, streaming,
+// kNodeExtentStreaming (128) -- cull_loop.h.
+layout(constant_id = 0) const int kNodeExtent = 32;
 const int kMeshletExtent = 32;  // <= 1024 ray tests per meshlet
 // Measured at 1920x1080 (1M, ablation v1 / porous v0): 16 makes the meshlet classification 3x
 // cheaper (119 -> 41, 79 -> 28 ms) but keeps 5 % more meshlets (kept / visible 1.08 -> 1.13,

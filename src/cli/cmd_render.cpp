@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <memory>
 #include <optional>
+#include <span>
 #include <sstream>
 #include <string>
 
@@ -20,7 +21,9 @@
 #include "cli/render_options.h"
 #include "cli/stream_options.h"
 #include "core/byte_size.h"
+#include "culling/culling_constants.h"
 #include "render/camera.h"
+#include "render/culling/cull_loop.h"
 #include "render/image_io.h"
 #include "render/renderer.h"
 #include "render/scene.h"
@@ -47,6 +50,43 @@ struct RenderOptions {
   bool visible_reference = false;
   uint32_t paired_frames = 0;
 };
+
+// What a streaming cache that reads whole nodes would read for this converged view, at two
+// granularities of the classification it reads by (compressed payload bytes): nodes whose own
+// class is not O (classified by their boxes: what the cache reads, docs/streaming.md), nodes
+// with a meshlet not in O (what it would read if it could classify meshlets it has not loaded),
+// and the nodes holding a visible particle (issue 4's reference). In memory only: every meshlet
+// is classified and draws as an occluder, so these are the classes with the whole store resident.
+struct NodeGranularity {
+  uint64_t visible_nodes = 0, visible_bytes = 0;
+  uint64_t node_kept_nodes = 0, node_kept_bytes = 0;
+  uint64_t meshlet_kept_nodes = 0, meshlet_kept_bytes = 0;
+};
+
+NodeGranularity node_granularity(const store::StoreReader& reader, std::span<const uint32_t> node_classes,
+                                 std::span<const uint32_t> meshlet_classes, std::span<const uint8_t> visible_nodes) {
+  NodeGranularity g;
+  const auto& nodes = reader.nodes();
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    const uint64_t bytes = nodes[i].payload_bytes;
+    if (i < visible_nodes.size() && visible_nodes[i]) {
+      ++g.visible_nodes;
+      g.visible_bytes += bytes;
+    }
+    if (i < node_classes.size() && node_classes[i] != uint32_t(MDS_CULL_CLASS_O)) {
+      ++g.node_kept_nodes;
+      g.node_kept_bytes += bytes;
+    }
+    bool kept = false;
+    for (uint64_t m = nodes[i].first_meshlet; m < nodes[i].first_meshlet + nodes[i].meshlet_count && !kept; ++m)
+      kept = m < meshlet_classes.size() && meshlet_classes[m] != uint32_t(MDS_CULL_CLASS_O);
+    if (kept) {
+      ++g.meshlet_kept_nodes;
+      g.meshlet_kept_bytes += bytes;
+    }
+  }
+  return g;
+}
 
 Result<glm::vec3> parse_rgb(const std::string& s) {
   glm::vec3 c(0.0f);
@@ -133,11 +173,16 @@ Status run_render(const RenderOptions& o) {
   // The meshlets holding a visible particle of the last frame (render/visible_nodes.h): the
   // smallest set the culling could keep, the reference for the culled fraction.
   std::optional<render::VisibleSet> visible;
+  std::optional<NodeGranularity> granularity;
   if (o.visible_reference) {
     MDS_ASSIGN_OR_RETURN(std::vector<float> depth, renderer->read_last_depth());
     render::Camera cam = camera;
     render::fit_clip_planes(cam, renderer->bounds());
     MDS_ASSIGN_OR_RETURN(visible, render::visible_set(*reader, cam, renderer->width(), renderer->height(), depth, true));
+    if (!streaming && renderer->cull_loop()) {
+      MDS_ASSIGN_OR_RETURN(std::vector<uint32_t> mc, renderer->cull_loop()->read_meshlet_classes());
+      granularity = node_granularity(*reader, renderer->cull_loop()->node_classes(), mc, visible->nodes);
+    }
   }
 
   if (!o.stats.empty()) {
@@ -243,6 +288,18 @@ Status run_render(const RenderOptions& o) {
       j["visible_meshlet_fraction"] = stats.meshlets ? double(vm) / double(stats.meshlets) : 0.0;
       if (!o.cull.no_cull)
         j["kept_over_visible_meshlets"] = vm ? double(stats.meshlets - stats.cull.meshlets_culled) / double(vm) : 0.0;
+    }
+    if (granularity) {
+      const NodeGranularity& g = *granularity;
+      const auto ratio = [&](uint64_t b) { return g.visible_bytes ? double(b) / double(g.visible_bytes) : 0.0; };
+      j["node_granularity"] = {{"visible_nodes", g.visible_nodes},
+                               {"visible_bytes", g.visible_bytes},
+                               {"node_kept_nodes", g.node_kept_nodes},
+                               {"node_kept_bytes", g.node_kept_bytes},
+                               {"node_kept_over_visible", ratio(g.node_kept_bytes)},
+                               {"meshlet_kept_nodes", g.meshlet_kept_nodes},
+                               {"meshlet_kept_bytes", g.meshlet_kept_bytes},
+                               {"meshlet_kept_over_visible", ratio(g.meshlet_kept_bytes)}};
     }
     j["pass_ms_median"] = stats.pass_ms_median;
     j["wall_ms"] = stats.wall_ms;

@@ -97,6 +97,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create_streaming(vk::Context& ctx, c
     cs.radius_min = h.radius_min;
     cs.radius_max = h.radius_max;
     cs.node_density = true;  // issue 4: O updates subtract whole nodes, resident or not
+    cs.node_extent = culling::kNodeExtentStreaming;  // node classes decide the reads
     cs.voxel_first = m.cache->voxel_first();
     cs.voxel_refs = m.cache->voxel_refs();
     MDS_TRY(m.create_cull(cs, vol));

@@ -258,7 +258,11 @@ Status CullLoop::Impl::create_pipelines() {
     MDS_ASSIGN_OR_RETURN(sample_comp_pipe, vk::create_compute_pipeline(dev, layout, "cull_sample.comp"));
   }
   MDS_ASSIGN_OR_RETURN(pyramid_pipe, vk::create_compute_pipeline(dev, layout, "cull_pyramid.comp"));
-  MDS_ASSIGN_OR_RETURN(classify_pipe, vk::create_compute_pipeline(dev, layout, "cull_classify.comp"));
+  {
+    vk::SpecConstants spec;
+    spec.add(0u, int32_t(node_extent));  // cull_classify.comp: kNodeExtent
+    MDS_ASSIGN_OR_RETURN(classify_pipe, vk::create_compute_pipeline(dev, layout, "cull_classify.comp", &spec));
+  }
   MDS_ASSIGN_OR_RETURN(draw_list_pipe, vk::create_compute_pipeline(dev, layout, "cull_draw_list.comp"));
   vk::GraphicsPipelineDesc g;
   g.vertex_shader = "cull_sample.vert";
@@ -363,6 +367,7 @@ Result<std::unique_ptr<CullLoop>> CullLoop::create(vk::Context& ctx, const CullS
   m.max_meshlet = scene.max_meshlet_particles;
   m.meshlet_class = buffers.meshlet_class;
   m.node_density = scene.node_density;
+  m.node_extent = std::clamp<uint32_t>(scene.node_extent, 1, 1024);
   m.frame_flags = scene.per_particle_radius ? gpu::kFramePerParticleRadius : 0u;
   m.radius_min = scene.radius_min;
   m.radius_max = scene.radius_max;

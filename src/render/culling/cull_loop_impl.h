@@ -44,6 +44,7 @@ struct CullLoop::Impl {
   vk::Buffer meshlet_voxel_first, voxel_refs, own_meshlet_class, node_class, counters, counters_host, node_class_host;
   VkBuffer meshlet_class = VK_NULL_HANDLE;  // own_meshlet_class or the streaming pool's
   bool node_density = false;
+  uint32_t node_extent = kNodeExtentInMemory;
   vk::Buffer occluder_list, indices;
   vk::Buffer normal_cdf;  // supplement A's table for cull_update.comp (culling_math.glsl)
   // Occlusion samples: the rasterized route renders into sample_image (+ depth); the compute
