@@ -173,6 +173,18 @@ TEST_F(RenderCli, VisibleReferenceCountsVisibleMeshlets) {
   EXPECT_GT(visible_nc, 0u);
   EXPECT_LT(visible_nc, meshlets / 2) << "a shell shows less than half of itself";
   EXPECT_FALSE(jnc.contains("kept_over_visible_meshlets"));
+  // node_granularity: the nodes with a visible particle drew it, so a meshlet of theirs is kept;
+  // a node in O puts its meshlets in O, so the nodes with a kept meshlet are kept nodes.
+  ASSERT_TRUE(j.contains("node_granularity"));
+  const nlohmann::json& g = j["node_granularity"];
+  EXPECT_EQ(g["visible_nodes"], j["visible_nodes"]);
+  EXPECT_GT(g["visible_bytes"].get<uint64_t>(), 0u);
+  EXPECT_GE(g["meshlet_kept_nodes"].get<uint64_t>(), g["visible_nodes"].get<uint64_t>());
+  EXPECT_GE(g["meshlet_kept_bytes"].get<uint64_t>(), g["visible_bytes"].get<uint64_t>());
+  EXPECT_GE(g["node_kept_nodes"].get<uint64_t>(), g["meshlet_kept_nodes"].get<uint64_t>());
+  EXPECT_GE(g["node_kept_bytes"].get<uint64_t>(), g["meshlet_kept_bytes"].get<uint64_t>());
+  EXPECT_GE(g["node_kept_over_visible"].get<double>(), 1.0);
+  EXPECT_FALSE(jnc.contains("node_granularity"));  // --no-cull: no classes
 }
 
 TEST_F(RenderCli, BadCameraAndMissingStoreFailCleanly) {
