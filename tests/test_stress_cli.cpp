@@ -438,6 +438,17 @@ TEST_F(StressCli, HeldDefaultViewFromAColdCache) {
               pf["bytes_read_total"][v["frames_to_converge"].get<size_t>() - 1].get<uint64_t>());
     EXPECT_GT(v["wanted_bytes_at_convergence"].get<uint64_t>(), 0u);
   }
+  // Without waves (--wave-settle-frames 0) the same view converges too.
+  const fs::path js0 = dir_ / "view0_nowaves.json";
+  ASSERT_EQ(run("stress " + store() + " --gpu-budget " + std::to_string(budget) +
+                " --path view0 --frames 3 --settle-frames 40 --wave-settle-frames 0 --json " + js0.string() + small()),
+            0)
+      << last_stderr();
+  std::ifstream f0(js0);
+  const auto j0 = nlohmann::json::parse(f0);
+  check_report(j0, budget);
+  EXPECT_TRUE(j0["final_view"]["converged"].get<bool>());
+  EXPECT_GT(j0["nodes_loaded"].get<uint64_t>(), 0u);
 }
 
 TEST_F(StressCli, UsageAndInputErrors) {
@@ -454,6 +465,8 @@ TEST_F(StressCli, UsageAndInputErrors) {
   EXPECT_EQ(run("stress " + store() + " --path orbit"), 2);
   EXPECT_NE(last_stderr().find("--gpu-budget"), std::string::npos) << last_stderr();
   // Bad policy, bad bandwidth, negative latency.
+  EXPECT_EQ(run(base + "--gpu-budget 1MiB --path orbit --wave-settle-frames -1"), 2);
+  EXPECT_NE(last_stderr().find("--wave-settle-frames"), std::string::npos) << last_stderr();
   EXPECT_EQ(run(base + "--gpu-budget 1MiB --path orbit --policy mru"), 2);
   EXPECT_NE(last_stderr().find("mru"), std::string::npos) << last_stderr();
   EXPECT_EQ(run(base + "--gpu-budget 1MiB --path orbit --io-bandwidth fast"), 2);

@@ -21,6 +21,11 @@ void add_stream_options(CLI::App& sub, StreamOptions& o, bool budget_required) {
                  "Cap of the node reads queued or in flight at a time (the window adapts from 4 per view)")
       ->check(CLI::Range(1u, 100000u))
       ->capture_default_str();
+  sub.add_option("--wave-settle-frames", o.wave_settle_frames,
+                 "At rest, reads go out in waves: the next wave waits until the last one's nodes have been resident "
+                 "this many frames (sampled as occluders); 0: no waves (docs/streaming.md)")
+      ->check(CLI::Range(0u, 1000u))
+      ->capture_default_str();
 }
 
 Result<render::StreamSettings> stream_settings(const StreamOptions& o) {
@@ -43,6 +48,7 @@ Result<render::StreamSettings> stream_settings(const StreamOptions& o) {
   ss.io.threads = o.io_threads;
   ss.io.io_latency_ms = o.io_latency_ms;
   ss.max_outstanding = o.max_outstanding;
+  ss.wave_settle_frames = o.wave_settle_frames;
   return ss;
 }
 

@@ -21,6 +21,7 @@ struct StreamOptions {
   std::string io_bandwidth;  // empty: unlimited
   std::string upload_per_frame = "32MiB";
   uint32_t max_outstanding = 64;
+  uint32_t wave_settle_frames = 2;  // render::StreamSettings::wave_settle_frames
 };
 
 // Adds --gpu-budget (required when budget_required) and the others.
