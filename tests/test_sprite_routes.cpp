@@ -45,7 +45,8 @@ class SpriteRoutesTest : public mds::testing::VulkanSuite {
 
   // small_px: MDSTREAM_SMALL_PX for this renderer (nullptr: the default threshold).
   static Result<Out> render(const SceneData& scene, bool visibility_route, const char* small_px, bool cull,
-                            bool accumulation_buffer = true, bool covered_pixel_list = true) {
+                            bool accumulation_buffer = true, bool covered_pixel_list = true,
+                            double covered_list_max_coverage = 1.0) {
     if (small_px) {
       setenv("MDSTREAM_SMALL_PX", small_px, 1);
     } else {
@@ -60,7 +61,7 @@ class SpriteRoutesTest : public mds::testing::VulkanSuite {
     rs.visibility_route = visibility_route;
     rs.accumulation_buffer = accumulation_buffer;
     rs.covered_pixel_list = covered_pixel_list;
-    rs.covered_list_max_coverage = 1.0;  // every frame through the list (the block covers most pixels)
+    rs.covered_list_max_coverage = covered_list_max_coverage;  // default 1.0: every frame through the list
     auto r = Renderer::create(*ctx_, scene, rs);
     unsetenv("MDSTREAM_SMALL_PX");  // read once, by create()
     if (!r.ok()) return r.error();
@@ -146,6 +147,17 @@ TEST_F(SpriteRoutesTest, CoveredPixelListMatchesFullScreenResolve) {
     }
     EXPECT_GT(covered, 0u);
     EXPECT_GT(empty, 0u);
+    // The view's probe counted the covered pixels of its first sample; the image holds the union
+    // over all samples. The full-screen render has no list, so no probe.
+    EXPECT_GT(list->stats.covered_fraction, 0.0);
+    EXPECT_LE(list->stats.covered_fraction, double(covered) / double(covered + empty) + 1e-12);
+    EXPECT_EQ(full->stats.covered_fraction, -1.0);
+    // Above the threshold the frames after the probe take the full-screen resolve: the same image.
+    auto chosen = render(scene, true, nullptr, cull, true, true, list->stats.covered_fraction / 2.0);
+    ASSERT_TRUE(chosen.ok()) << chosen.error().message;
+    EXPECT_FALSE(chosen->stats.covered_pixel_list);
+    EXPECT_EQ(chosen->stats.covered_fraction, list->stats.covered_fraction);
+    EXPECT_EQ(chosen->image.rgba, full->image.rgba);
   }
 }
 

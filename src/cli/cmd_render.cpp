@@ -196,6 +196,7 @@ Status run_render(const RenderOptions& o) {
     j["pixel_route"] = stats.visibility_route ? "visibility" : "attachments";
     j["accumulation"] = stats.accumulation_buffer ? "buffer" : "image";
     j["resolve"] = stats.visibility_route ? (stats.covered_pixel_list ? "covered pixels" : "full screen") : "none";
+    if (stats.covered_fraction >= 0.0) j["covered_fraction"] = stats.covered_fraction;  // the view's coverage probe
     j["particles"] = stats.particles;
     j["meshlets"] = stats.meshlets;
     j["nodes"] = reader->nodes().size();

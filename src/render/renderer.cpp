@@ -557,6 +557,7 @@ void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first, bool accumulat
   }
   const bool list_now = covered_list && (view_coverage < 0 || double(view_coverage) <
                                                                   settings.covered_list_max_coverage * double(w) * h);
+  last_resolve_listed = list_now;
   if (list_now) {  // list the covered pixels, then shade those (one indirect thread each)
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, compact_pipe);
     vkCmdDispatch(cmd, (w + 15) / 16, (h + 15) / 16, 1);
@@ -813,7 +814,8 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     stats->mesh_sprites = m.mesh_path;
     stats->visibility_route = m.vis_route;
     stats->accumulation_buffer = m.accum_in_buffer;
-    stats->covered_pixel_list = m.covered_list;
+    stats->covered_pixel_list = m.covered_list && m.last_resolve_listed;
+    stats->covered_fraction = m.view_coverage >= 0 ? double(m.view_coverage) / (double(w) * h) : -1.0;
     stats->particles = m.particle_count;
     stats->meshlets = m.meshlet_count;
     stats->spp = m.settings.spp;

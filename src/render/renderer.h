@@ -212,7 +212,8 @@ struct RenderStats {
   bool mesh_sprites = false;  // sprites drawn by the task/mesh path (else compute + indirect draws)
   bool visibility_route = false;  // pixels by the visibility buffer (else colour + depth attachments)
   bool accumulation_buffer = false;  // accumulation in a storage buffer (else a storage image)
-  bool covered_pixel_list = false;   // the resolve ran over the listed covered pixels (else full screen)
+  bool covered_pixel_list = false;   // the last frame's resolve ran over the listed covered pixels (else full screen)
+  double covered_fraction = -1.0;    // covered pixels / pixels by the view's probe (-1: not probed)
   CullStats cull;
   CacheStats cache;                 // streaming only
   double frame_wall_ms_p50 = 0.0;   // CPU wall time per frame (step), all frames of the render

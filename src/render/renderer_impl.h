@@ -57,6 +57,7 @@ struct Renderer::Impl {
   vk::Buffer coverage_rb;
   bool coverage_probe_pending = false;  // the last list frame copied its count
   int64_t view_coverage = -1;           // covered pixels of this view's probe (-1: not known)
+  bool last_resolve_listed = false;     // the last resolved frame used the list (stats)
   bool targets_created = false;     // the route is decided by the first create_targets()
   bool point_sprites = false;       // small on-screen sprites drawn as points (see create_pipelines)
   float small_px = 0.0f;            // sprites up to this size rasterized in compute (0: none)
