@@ -16,7 +16,11 @@ layout(std430, set = 1, binding = kCullNormalCdf) readonly buffer NormalCdfBlock
 #include "culling_math.glsl"
 #include "cull_bindings.h"
 
-layout(local_size_x = 8, local_size_y = 8) in;
+// Specialization constant 1 (kSampledList, compute route only): one thread per pixel of the
+// sampled-pixel list (cull_sample_compact.comp), dispatched indirectly as (kCoveredGroupsX, y, 1)
+// workgroups of 64; else one thread per pixel of the image. Constants 2/3: the local size.
+layout(constant_id = 1) const bool kSampledList = false;
+layout(local_size_x_id = 2, local_size_y_id = 3) in;  // (64, 1) with the list, else (8, 8)
 layout(set = 1, binding = kCullSampleImage, rg32f) uniform readonly image2D sample_image;
 // The compute sampling route (cull_sample.comp) leaves its samples in a uint64 per pixel, read
 // here as two words (no shaderInt64 needed): .x = alpha_s bits, .y = view depth bits (all ones,
@@ -25,9 +29,17 @@ layout(constant_id = 0) const bool kSampleBuffer = false;
 layout(std430, set = 1, binding = kCullSampleBuffer) readonly buffer SampleBlock { uvec2 sample_words[]; };
 
 void main() {
-  uvec2 p = gl_GlobalInvocationID.xy;
+  uvec2 p;
   uint W = cull_width(), H = cull_height();
-  if (p.x >= W || p.y >= H) return;
+  if (kSampledList) {
+    uint i = (gl_WorkGroupID.y * kCoveredGroupsX + gl_WorkGroupID.x) * 64u + gl_LocalInvocationIndex;
+    if (i >= sampled_head.count) return;
+    uint xy = sampled_pixels[i];
+    p = uvec2(xy & 0xffffu, xy >> 16);
+  } else {
+    p = gl_GlobalInvocationID.xy;
+    if (p.x >= W || p.y >= H) return;
+  }
   uint pix = p.y * W + p.x;
   vec2 s;
   if (kSampleBuffer) {

@@ -44,9 +44,10 @@ struct RenderRun {
 RenderRun render_scene(vk::Context& ctx, const SceneData& scene, bool cull, int acceptance, uint32_t spp,
                  bool record_classes = false, uint32_t samples_per_iteration = 0, uint32_t paired_frames = 0,
                  culling::SampleRoute sample_route = culling::SampleRoute::automatic, double closer = 1.0,
-                 bool particle_occlusion = true) {
+                 bool particle_occlusion = true, bool sampled_pixel_list = true) {
   RenderSettings rs;
   rs.particle_occlusion = particle_occlusion;
+  rs.cull_settings.sampled_pixel_list = sampled_pixel_list;
   rs.cull_settings.sample_route = sample_route;
   rs.paired_frames = paired_frames;
   rs.width = kW;
@@ -192,6 +193,25 @@ TEST_F(CullRender, ComputeAndRasterizedSamplingAgree) {
     EXPECT_LE(px, size_t(kW * kH / 1000));
     std::printf("compute vs rasterized sampling (closer %.1f): %zu of %zu classes differ, %zu pixels, culled %.3f\n",
                 closer, differ, total, px, culled_fraction(comp));
+  }
+}
+
+// The compute route's update over the list of sampled pixels (cull_sample_compact.comp) and the
+// update over every pixel apply Algorithm 1 to the same pixels with the same random numbers: the
+// same classes in every iteration and the same image, bit for bit.
+TEST_F(CullRender, SampledPixelListUpdatesLikeTheFullScreenUpdate) {
+  if (!ctx_->int64_atomics()) GTEST_SKIP() << "no 64-bit buffer atomics: no compute sampling route";
+  if (!ctx_->compute_ballot()) GTEST_SKIP() << "no subgroup ballots in compute: no sampled-pixel list";
+  for (double closer : {1.0, 0.3}) {
+    SCOPED_TRACE(closer == 1.0 ? "default view" : "close-up");
+    RenderRun list = render_scene(*ctx_, *scene_, true, MDS_CULL_ACCEPT_NORMAL, 8, true, 0, 0,
+                                  culling::SampleRoute::compute, closer, true, true);
+    RenderRun full = render_scene(*ctx_, *scene_, true, MDS_CULL_ACCEPT_NORMAL, 8, true, 0, 0,
+                                  culling::SampleRoute::compute, closer, true, false);
+    ASSERT_FALSE(list.classes.empty());
+    EXPECT_EQ(list.classes, full.classes);
+    EXPECT_GT(culled_fraction(list), 0.2);
+    EXPECT_EQ(list.image.rgba, full.image.rgba);
   }
 }
 

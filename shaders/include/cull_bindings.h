@@ -5,6 +5,7 @@
 #ifndef __cplusplus
 
 #include "cull_shared.h"
+#include "gpu_types.h"
 
 layout(std140, set = 1, binding = kCullUniforms) uniform CullBlock { CullUniforms cull; };
 layout(std430, set = 1, binding = kCullHistogram) buffer HistBlock { float hist_counts[]; };
@@ -16,6 +17,10 @@ layout(std430, set = 1, binding = kCullMeshletVoxels) readonly buffer MeshletVox
 layout(std430, set = 1, binding = kCullVoxelRefs) readonly buffer VoxelRefBlock { uvec2 voxel_refs[]; };
 layout(std430, set = 1, binding = kCullMeshletClass) buffer MeshletClassBlock { uint meshlet_class[]; };
 layout(std430, set = 1, binding = kCullNodeClass) buffer NodeClassBlock { uint node_class[]; };
+layout(std430, set = 1, binding = kCullSampledPixels) buffer SampledPixelsBlock {
+  CoveredPixelsHeader sampled_head;
+  uint sampled_pixels[];
+};
 layout(std430, set = 1, binding = kCullCounters) coherent buffer CounterBlock { CullCounters counters; };
 
 layout(push_constant) uniform PushBlock { CullPush push; };

@@ -32,6 +32,7 @@ MDS_CONST(uint, kCullCounters, 10);    // CullCounters
 MDS_CONST(uint, kCullSampleImage, 11); // rg32f storage image: (view depth, alpha_s) of the sample
 MDS_CONST(uint, kCullNormalCdf, 12);   // float[256]: the normal CDF table of supplement A (1 KiB)
 MDS_CONST(uint, kCullSampleBuffer, 13); // uint64[W * H] (read as uvec2): the compute route's samples, depth bits << 32 | alpha bits
+MDS_CONST(uint, kCullSampledPixels, 14); // CoveredPixelsHeader (gpu_types.h) + uint[W * H]: the pixels with a sample of this pass (x | y << 16; compute route)
 
 // CullUniforms.params.w flags
 MDS_CONST(uint, kCullOrtho, 1u);

@@ -120,11 +120,11 @@ Status CullLoop::Impl::create_buffers(const CullScene& s, const DensityVolume& v
 Status CullLoop::Impl::create_pixel_buffers() {
   auto& alloc = ctx->allocator();
   const uint64_t px = uint64_t(width) * height;
-  auto make = [&](vk::Buffer& b, uint64_t bytes, const char* what) -> Status {
+  auto make = [&](vk::Buffer& b, uint64_t bytes, const char* what, VkBufferUsageFlags extra = 0) -> Status {
     if (bytes > ctx->limits().maxStorageBufferRange)
       return make_error(Errc::budget, "culling: {} need {} bytes, more than maxStorageBufferRange ({})", what, bytes,
                         ctx->limits().maxStorageBufferRange);
-    MDS_ASSIGN_OR_RETURN(b, vk::Buffer::create(alloc, std::max<uint64_t>(bytes, 16), kSsbo,
+    MDS_ASSIGN_OR_RETURN(b, vk::Buffer::create(alloc, std::max<uint64_t>(bytes, 16), kSsbo | extra,
                                                vk::MemoryIntent::device_local, what));
     return {};
   };
@@ -143,6 +143,10 @@ Status CullLoop::Impl::create_pixel_buffers() {
   compute_available = ctx->int64_atomics() && forced != SampleRoute::raster &&
                       px * 8 <= ctx->limits().maxStorageBufferRange;
   MDS_TRY(make(sample_buf, compute_available ? px * 8 : 16, "occlusion samples (compute route)"));
+  sampled_list = compute_available && sampled_list_wanted() && ctx->compute_ballot() &&
+                 sizeof(gpu::CoveredPixelsHeader) + px * 4 <= ctx->limits().maxStorageBufferRange;
+  MDS_TRY(make(sampled_pixels, sampled_list ? sizeof(gpu::CoveredPixelsHeader) + px * 4 : 16,
+               "sampled pixels (compute route)", VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT));
   const bool image_used = !(compute_available && forced == SampleRoute::compute);
   const uint32_t iw = image_used ? width : 1, ih = image_used ? height : 1;
   MDS_ASSIGN_OR_RETURN(sample_image, vk::Image::create_2d(alloc, iw, ih, kSampleFormat,
@@ -179,6 +183,7 @@ void CullLoop::Impl::write_pixel_descriptors() {
   set1.write_buffer(gpu::kCullPyramid, SSBO, pyramid.get());
   set1.write_storage_image(gpu::kCullSampleImage, sample_image.view());
   set1.write_buffer(gpu::kCullSampleBuffer, SSBO, sample_buf.get());
+  set1.write_buffer(gpu::kCullSampledPixels, SSBO, sampled_pixels.get());
 }
 
 Status CullLoop::Impl::create_sets() {
@@ -211,7 +216,8 @@ Status CullLoop::Impl::create_sets() {
                                        b(gpu::kCullMeshletClass, SSBO), b(gpu::kCullNodeClass, SSBO),
                                        b(gpu::kCullCounters, SSBO),
                                        b(gpu::kCullSampleImage, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE),
-                                       b(gpu::kCullNormalCdf, SSBO), b(gpu::kCullSampleBuffer, SSBO)}));
+                                       b(gpu::kCullNormalCdf, SSBO), b(gpu::kCullSampleBuffer, SSBO),
+                                       b(gpu::kCullSampledPixels, SSBO)}));
   set1.write_buffer(gpu::kCullUniforms, UBO, cull_ubo.get());
   set1.write_buffer(gpu::kCullHistogram, SSBO, histogram.get());
   set1.write_buffer(gpu::kCullHistRange, SSBO, hist_range.get());
@@ -226,6 +232,7 @@ Status CullLoop::Impl::create_sets() {
   set1.write_storage_image(gpu::kCullSampleImage, sample_image.view());
   set1.write_buffer(gpu::kCullNormalCdf, SSBO, normal_cdf.get());
   set1.write_buffer(gpu::kCullSampleBuffer, SSBO, sample_buf.get());
+  set1.write_buffer(gpu::kCullSampledPixels, SSBO, sampled_pixels.get());
   return {};
 }
 
@@ -245,13 +252,23 @@ Status CullLoop::Impl::create_pipelines() {
   MDS_ASSIGN_OR_RETURN(histogram_pipe, vk::create_compute_pipeline(dev, layout, "cull_histogram.comp"));
   MDS_ASSIGN_OR_RETURN(select_pipe, vk::create_compute_pipeline(dev, layout, "cull_select.comp"));
   {
-    vk::SpecConstants image_spec, buffer_spec;
-    image_spec.add(0u, VkBool32(false));  // cull_update.comp: kSampleBuffer
-    buffer_spec.add(0u, VkBool32(true));
+    // cull_update.comp: kSampleBuffer, kSampledList, local size x, y.
+    auto update_spec = [](bool buffer, bool list) {
+      vk::SpecConstants s;
+      s.add(0u, VkBool32(buffer)).add(1u, VkBool32(list)).add(2u, list ? 64u : 8u).add(3u, list ? 1u : 8u);
+      return s;
+    };
+    vk::SpecConstants image_spec = update_spec(false, false), buffer_spec = update_spec(true, false),
+                      list_spec = update_spec(true, true);
     MDS_ASSIGN_OR_RETURN(update_pipe, vk::create_compute_pipeline(dev, layout, "cull_update.comp", &image_spec));
     if (ctx->int64_atomics()) {
       MDS_ASSIGN_OR_RETURN(update_buffer_pipe,
                            vk::create_compute_pipeline(dev, layout, "cull_update.comp", &buffer_spec));
+    }
+    if (ctx->int64_atomics() && ctx->compute_ballot() && sampled_list_wanted()) {
+      MDS_ASSIGN_OR_RETURN(update_list_pipe, vk::create_compute_pipeline(dev, layout, "cull_update.comp", &list_spec));
+      MDS_ASSIGN_OR_RETURN(sample_compact_pipe,
+                           vk::create_compute_pipeline(dev, layout, "cull_sample_compact.comp"));
     }
   }
   if (ctx->int64_atomics()) {
@@ -307,9 +324,30 @@ void CullLoop::Impl::write_frame_uniforms(uint32_t iteration) {
 }
 
 void CullLoop::Impl::record_update(VkCommandBuffer cmd, uint32_t pass) {
-  bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, sample_compute ? update_buffer_pipe : update_pipe, set0_sample);
-  push(cmd, 0, pass);
-  vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1);
+  if (sample_compute && sampled_list && update_list_pipe) {
+    // List the sampled pixels (cull_sample_compact.comp), then update those (one thread each).
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT,
+                       VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
+    const gpu::CoveredPixelsHeader head{gpu::kCoveredGroupsX, 0u, 1u, 0u};
+    vkCmdUpdateBuffer(cmd, sampled_pixels.get(), 0, sizeof(head), &head);
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+    bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, sample_compact_pipe, set0_sample);
+    push(cmd, 0, pass);
+    vkCmdDispatch(cmd, (width + 15) / 16, (height + 15) / 16, 1);
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+    bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, update_list_pipe, set0_sample);
+    push(cmd, 0, pass);
+    vkCmdDispatchIndirect(cmd, sampled_pixels.get(), offsetof(gpu::CoveredPixelsHeader, dispatch_x));
+  } else {
+    bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, sample_compute ? update_buffer_pipe : update_pipe, set0_sample);
+    push(cmd, 0, pass);
+    vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1);
+  }
   compute_barrier(cmd);
 }
 

@@ -89,6 +89,11 @@ struct CullSettings {
   // one runs until the next comparison kSampleRouteExplore iterations later.
   // MDSTREAM_CULL_SAMPLE=raster|compute overrides automatic (A/B measurements).
   SampleRoute sample_route = SampleRoute::automatic;
+  // Compute route: the update (Algorithm 1) runs over a list of the pixels that received a sample
+  // (cull_sample_compact.comp) instead of every pixel (lavapipe runs a skipped branch anyway,
+  // docs/rendering.md). Needs subgroup ballots in compute. Both give the same state (tested).
+  // MDSTREAM_CULL_UPDATE=full overrides it (A/B measurements).
+  bool sampled_pixel_list = true;
 };
 
 // The renderer's scene buffers the culling passes read (and the draw list they write).

@@ -61,10 +61,14 @@ struct CullLoop::Impl {
   vk::TimestampPool route_ts;       // "raster" / "compute" around the passes of a comparison
   vk::Image sample_image, depth;
   vk::Buffer sample_buf;
+  // Compute route: the pixels with a sample of the pass (cull_sample_compact.comp), so that the
+  // update runs over those only; CoveredPixelsHeader + 4 B per pixel (16 B when unused).
+  bool sampled_list = false;
+  vk::Buffer sampled_pixels;
   vk::DescriptorSet set0_sample, set0_draw, set1;
   vk::UniquePipelineLayout layout;
   vk::UniquePipeline reset_pipe, histogram_pipe, select_pipe, update_pipe, pyramid_pipe, classify_pipe,
-      draw_list_pipe, sample_pipe, sample_comp_pipe, update_buffer_pipe;
+      draw_list_pipe, sample_pipe, sample_comp_pipe, update_buffer_pipe, sample_compact_pipe, update_list_pipe;
 
   Status create_buffers(const CullScene& scene_data, const DensityVolume& vol);
   Status create_pixel_buffers();
@@ -72,6 +76,7 @@ struct CullLoop::Impl {
   void write_pixel_descriptors();
   Status create_sets();
   Status create_pipelines();
+  bool sampled_list_wanted() const;  // CullSettings::sampled_pixel_list unless MDSTREAM_CULL_UPDATE=full
   SampleRoute forced_route() const;
   // The route of sampling pass p (of pass_count) of the iteration being recorded.
   bool choose_compute_route(uint32_t p, uint32_t pass_count);

@@ -20,6 +20,11 @@ SampleRoute CullLoop::Impl::forced_route() const {
   return settings.sample_route;
 }
 
+bool CullLoop::Impl::sampled_list_wanted() const {
+  if (const char* e = std::getenv("MDSTREAM_CULL_UPDATE")) return std::string(e) != "full";
+  return settings.sampled_pixel_list;
+}
+
 // Automatic route choice: which route samples faster depends on the view -- far views with
 // glyphs of a few pixels favour compute, close-ups with glyphs of hundreds of pixels the
 // rasterizer's depth test (docs/rendering.md). So the two are compared side by side: the
