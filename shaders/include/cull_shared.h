@@ -79,7 +79,8 @@ MDS_STRUCT(CullCounters) {
   uint selected;         // occluders selected in the last sampling pass
   uint node_class_count[4];
   uint node_changed;     // nodes whose class changed in the last classification
-  uint pad[3];
+  uint sampled;          // pixels with a sample in the last sampling pass whose update ran over the list
+  uint pad[2];
 };
 
 #ifdef __cplusplus

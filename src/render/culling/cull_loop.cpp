@@ -324,7 +324,11 @@ void CullLoop::Impl::write_frame_uniforms(uint32_t iteration) {
 }
 
 void CullLoop::Impl::record_update(VkCommandBuffer cmd, uint32_t pass) {
-  if (sample_compute && sampled_list && update_list_pipe) {
+  // The probe: the first pass of every kSampledListProbeIterations-th iteration, and every pass
+  // until a count arrived (the fraction changes little within a view once its first occluders
+  // are sampled).
+  const bool probe = sampled_fraction < 0.0 || pass % (passes * kSampledListProbeIterations) == 0;
+  if (sample_compute && sampled_list && update_list_pipe && (probe || sampled_fraction < kSampledListMaxFraction)) {
     // List the sampled pixels (cull_sample_compact.comp), then update those (one thread each).
     vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
                        VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT,
@@ -343,6 +347,16 @@ void CullLoop::Impl::record_update(VkCommandBuffer cmd, uint32_t pass) {
     bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, update_list_pipe, set0_sample);
     push(cmd, 0, pass);
     vkCmdDispatchIndirect(cmd, sampled_pixels.get(), offsetof(gpu::CoveredPixelsHeader, dispatch_x));
+    if (probe) {  // the count to CullCounters::sampled (read back with the counters)
+      vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                         VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT);
+      const VkBufferCopy region{offsetof(gpu::CoveredPixelsHeader, count), offsetof(gpu::CullCounters, sampled), 4};
+      vkCmdCopyBuffer(cmd, sampled_pixels.get(), counters.get(), 1, &region);
+      vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                         VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+                         VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT |
+                             VK_ACCESS_2_TRANSFER_READ_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT);
+    }
   } else {
     bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, sample_compute ? update_buffer_pipe : update_pipe, set0_sample);
     push(cmd, 0, pass);
@@ -445,6 +459,7 @@ Status CullLoop::resize(uint32_t width, uint32_t height) {
   Impl& m = *impl_;
   if (width == 0 || height == 0) return make_error(Errc::invalid_argument, "culling: resize to {}x{}", width, height);
   if (width == m.width && height == m.height) return {};
+  m.sampled_fraction = -1.0;
   const uint32_t bins = bins_for(width, height, m.ctx->limits().maxStorageBufferRange, m.settings.bins);
   if (bins == 0)
     return make_error(Errc::budget, "culling: one histogram bin for {}x{} pixels exceeds maxStorageBufferRange ({})",
@@ -459,6 +474,7 @@ Status CullLoop::resize(uint32_t width, uint32_t height) {
 }
 
 Status CullLoop::begin_view(const Camera& camera, uint32_t live_meshlets) {
+  impl_->sampled_fraction = -1.0;  // the new view probes its sampled fraction again
   Impl& m = *impl_;
   if (!(camera.near > 0.0 && camera.far > camera.near))
     return make_error(Errc::invalid_argument, "culling: begin_view needs fitted near/far planes");
@@ -553,6 +569,8 @@ gpu::CullCounters CullLoop::counters() const {
   gpu::CullCounters c{};
   impl_->counters_host.invalidate();
   std::memcpy(&c, impl_->counters_host.mapped(), sizeof(c));
+  // The next iteration's update route (cull_loop_impl.h sampled_fraction).
+  if (c.sampled > 0) impl_->sampled_fraction = double(c.sampled) / (double(impl_->width) * impl_->height);
   return c;
 }
 

@@ -92,9 +92,17 @@ struct CullSettings {
   // Compute route: the update (Algorithm 1) runs over a list of the pixels that received a sample
   // (cull_sample_compact.comp) instead of every pixel (lavapipe runs a skipped branch anyway,
   // docs/rendering.md). Needs subgroup ballots in compute. Both give the same state (tested).
-  // MDSTREAM_CULL_UPDATE=full overrides it (A/B measurements).
+  // MDSTREAM_CULL_UPDATE=full overrides it (A/B measurements). Where the last count found
+  // kSampledListMaxFraction or more of the pixels sampled, only the probe passes take the list
+  // (cull_loop_impl.h).
   bool sampled_pixel_list = true;
 };
+// Sampled pixels / pixels above which the full-screen update is used. 1080p ablation 1M, per
+// sampling pass: full screen ~80-100 ms; the list ~12 ms of compaction plus ~200 ms x fraction
+// (scattered access): 42 ms at ~15 % sampled (view 1), ~170 ms at ~95 % (view 2); even at ~0.4.
+inline constexpr double kSampledListMaxFraction = 0.35;
+// Iterations between two probes of the sampled fraction (the first pass of the iteration).
+inline constexpr uint32_t kSampledListProbeIterations = 8;
 
 // The renderer's scene buffers the culling passes read (and the draw list they write).
 // meshlet_class: the per-slot class buffer when its owner is the streaming pool (which resets

@@ -65,6 +65,12 @@ struct CullLoop::Impl {
   // update runs over those only; CoveredPixelsHeader + 4 B per pixel (16 B when unused).
   bool sampled_list = false;
   vk::Buffer sampled_pixels;
+  // Which update a pass uses: the list pays a compaction and scattered access, so where most
+  // pixels receive a sample (close-ups) the full-screen update is cheaper. A probe pass (cull_loop.h
+  // kSampledListProbeIterations) takes the list and counts its pixels (CullCounters::sampled);
+  // counters() keeps that count's fraction, and the other passes use the list only below
+  // kSampledListMaxFraction.
+  mutable double sampled_fraction = -1.0;  // -1: not measured in this view
   vk::DescriptorSet set0_sample, set0_draw, set1;
   vk::UniquePipelineLayout layout;
   vk::UniquePipeline reset_pipe, histogram_pipe, select_pipe, update_pipe, pyramid_pipe, classify_pipe,
