@@ -229,6 +229,11 @@ Result<FrameReport> Renderer::step() {
     m.complete = cf.complete;
     if (cf.nodes_uploaded > 0) {  // new data: refine again
       m.samples = 0;
+      // ... and probe the coverage again (resolve choice): a cold cache's first frame covers
+      // nothing, so the view's first probe alone would keep the list on a close-up. A probe still
+      // in flight counted the old data: dropped.
+      m.view_coverage = -1;
+      m.coverage_probe_pending = false;
       if (m.cull && m.cull_iteration < std::max(1u, m.cull->settings().max_iterations)) {
         m.cull_active = true;
         m.quiet = 0;
