@@ -5,12 +5,13 @@
 // the update runs one thread per sampled pixel. On lavapipe a branch does not skip work (both
 // sides run for every SIMD lane, docs/rendering.md), so the full-screen update paid the density
 // queries and the acceptance probability for every pixel without a sample; this pass reads
-// 4 bytes per pixel instead. One atomic per subgroup, as visibility_compact.comp.
+// 4 bytes per pixel instead. One atomic per subgroup (pixel_list.glsl).
 #extension GL_GOOGLE_include_directive : require
 #extension GL_KHR_shader_subgroup_ballot : require
 #include "cull_shared.h"
 #include "culling_math.glsl"
 #include "cull_bindings.h"
+#include "pixel_list.glsl"
 
 layout(std430, set = 1, binding = kCullSampleBuffer) readonly buffer SampleWords { uint sample_words[]; };
 
@@ -21,13 +22,5 @@ void main() {
   uint W = cull_width(), H = cull_height();
   bool sampled = false;
   if (p.x < W && p.y < H) sampled = uintBitsToFloat(sample_words[2u * (p.y * W + p.x) + 1u]) < float(MDS_CULL_DEPTH_EMPTY);
-  uvec4 ballot = subgroupBallot(sampled);
-  uint n = subgroupBallotBitCount(ballot);
-  uint base = 0u;
-  if (n > 0u && subgroupElect()) {
-    base = atomicAdd(sampled_head.count, n);
-    atomicMax(sampled_head.dispatch_y, (base + n + 64u * kCoveredGroupsX - 1u) / (64u * kCoveredGroupsX));
-  }
-  base = subgroupBroadcastFirst(base);
-  if (sampled) sampled_pixels[base + subgroupBallotExclusiveBitCount(ballot)] = p.x | (p.y << 16);
+  MDS_PIXEL_LIST_APPEND(sampled_head, sampled_pixels, sampled, p)
 }

@@ -15,6 +15,7 @@ layout(std430, set = 1, binding = kCullNormalCdf) readonly buffer NormalCdfBlock
 #define MDS_NORMAL_CDF_AT(i) normal_cdf[i]
 #include "culling_math.glsl"
 #include "cull_bindings.h"
+#include "pixel_list.glsl"
 
 // Specialization constant 1 (kSampledList, compute route only): one thread per pixel of the
 // sampled-pixel list (cull_sample_compact.comp), dispatched indirectly as (kCoveredGroupsX, y, 1)
@@ -32,10 +33,9 @@ void main() {
   uvec2 p;
   uint W = cull_width(), H = cull_height();
   if (kSampledList) {
-    uint i = (gl_WorkGroupID.y * kCoveredGroupsX + gl_WorkGroupID.x) * 64u + gl_LocalInvocationIndex;
+    uint i = mds_pixel_list_index();
     if (i >= sampled_head.count) return;
-    uint xy = sampled_pixels[i];
-    p = uvec2(xy & 0xffffu, xy >> 16);
+    p = mds_pixel_list_xy(sampled_pixels[i]);
   } else {
     p = gl_GlobalInvocationID.xy;
     if (p.x >= W || p.y >= H) return;

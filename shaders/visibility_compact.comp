@@ -4,10 +4,11 @@
 // resolve runs one thread per covered pixel. On lavapipe a branch does not skip work (both sides
 // run for every SIMD lane), so the full-screen resolve paid the ray test and shading for every
 // background pixel; this pass reads 8 bytes per pixel instead (docs/rendering.md).
-// One atomic per subgroup: the ballot's bit count reserves the subgroup's run of the list.
+// One atomic per subgroup (pixel_list.glsl).
 #extension GL_GOOGLE_include_directive : require
 #extension GL_KHR_shader_subgroup_ballot : require
 #include "bindings.h"
+#include "pixel_list.glsl"
 
 // The visibility buffer as 32-bit words: the low word of pixel i (little-endian) is word 2 i,
 // the sprite index; all ones = empty. Reading one word instead of the uint64 halves the loads
@@ -22,15 +23,7 @@ void main() {
   const uint pix = uint(p.y) * w + uint(p.x);
   bool covered = p.x < int(frame.viewport.x) && p.y < int(frame.viewport.y) &&
                  visibility_words[2u * pix] != 0xffffffffu;
-  uvec4 ballot = subgroupBallot(covered);
-  uint n = subgroupBallotBitCount(ballot);
-  uint base = 0u;
-  if (n > 0u && subgroupElect()) {
-    base = atomicAdd(covered_head.count, n);
-    atomicMax(covered_head.dispatch_y, (base + n + 64u * kCoveredGroupsX - 1u) / (64u * kCoveredGroupsX));
-  }
-  base = subgroupBroadcastFirst(base);
   // Stored as x | y << 16 (viewport <= 16384): the resolve needs no integer division (lavapipe
   // has no SIMD division; a per-lane pix % w, pix / w cost ~10 ms per 1920x1080 frame).
-  if (covered) covered_pixels[base + subgroupBallotExclusiveBitCount(ballot)] = uint(p.x) | (uint(p.y) << 16);
+  MDS_PIXEL_LIST_APPEND(covered_head, covered_pixels, covered, p)
 }

@@ -14,6 +14,7 @@
 #include "bindings.h"
 #include "sphere_shading.h"
 #include "accumulation.h"
+#include "pixel_list.glsl"
 
 layout(constant_id = 1) const bool kCoveredList = true;
 layout(local_size_x_id = 2, local_size_y_id = 3) in;  // (64, 1) with the list, else (16, 16)
@@ -21,10 +22,9 @@ layout(local_size_x_id = 2, local_size_y_id = 3) in;  // (64, 1) with the list, 
 void main() {
   ivec2 p;
   if (kCoveredList) {
-    uint i = (gl_WorkGroupID.y * kCoveredGroupsX + gl_WorkGroupID.x) * 64u + gl_LocalInvocationIndex;
+    uint i = mds_pixel_list_index();
     if (i >= covered_head.count) return;
-    uint xy = covered_pixels[i];
-    p = ivec2(xy & 0xffffu, xy >> 16);
+    p = ivec2(mds_pixel_list_xy(covered_pixels[i]));
   } else {
     p = ivec2(gl_GlobalInvocationID.xy);
     if (p.x >= int(frame.viewport.x) || p.y >= int(frame.viewport.y)) return;

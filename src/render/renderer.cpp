@@ -815,7 +815,7 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     stats->visibility_route = m.vis_route;
     stats->accumulation_buffer = m.accum_in_buffer;
     stats->covered_pixel_list = m.covered_list && m.last_resolve_listed;
-    stats->covered_fraction = m.view_coverage >= 0 ? double(m.view_coverage) / (double(w) * h) : -1.0;
+    stats->covered_fraction = m.covered_fraction(w, h);
     stats->particles = m.particle_count;
     stats->meshlets = m.meshlet_count;
     stats->spp = m.settings.spp;

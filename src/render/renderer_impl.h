@@ -58,6 +58,10 @@ struct Renderer::Impl {
   bool coverage_probe_pending = false;  // the last list frame copied its count
   int64_t view_coverage = -1;           // covered pixels of this view's probe (-1: not known)
   bool last_resolve_listed = false;     // the last resolved frame used the list (stats)
+  // RenderStats::covered_fraction of a w x h image: the probe's share of the pixels, -1 unknown.
+  double covered_fraction(uint32_t w, uint32_t h) const {
+    return view_coverage >= 0 ? double(view_coverage) / (double(w) * h) : -1.0;
+  }
   bool targets_created = false;     // the route is decided by the first create_targets()
   bool point_sprites = false;       // small on-screen sprites drawn as points (see create_pipelines)
   float small_px = 0.0f;            // sprites up to this size rasterized in compute (0: none)

@@ -347,7 +347,7 @@ RenderStats Renderer::stats() const {
   s.visibility_route = m.vis_route;
   s.accumulation_buffer = m.accum_in_buffer;
   s.covered_pixel_list = m.covered_list && m.last_resolve_listed;
-  s.covered_fraction = m.view_coverage >= 0 ? double(m.view_coverage) / (double(m.settings.width) * m.settings.height) : -1.0;
+  s.covered_fraction = m.covered_fraction(m.settings.width, m.settings.height);
   s.particles = m.particle_count;
   s.meshlets = m.cache ? m.cache->live_meshlets() : m.meshlet_count;
   s.spp = m.settings.spp;
