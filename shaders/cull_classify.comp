@@ -11,7 +11,8 @@
 // depth test fails (occluded) when the entry depth is >= d_cull on every covered texel (the
 // pyramid stores max depth, so coarser levels stay conservative); the aggregated confidence is
 // the mean C_cull over the covered texels (Eq. 23 averages: the covered area's mean).
-// Boxes reaching behind the near plane pass. Boxes entirely outside the image are O (frustum
+// Boxes reaching behind the near plane pass unless their part in front of it projects outside
+// the image. Boxes entirely outside the image are O (frustum
 // culled: they cannot contribute to any pixel, and their particles are not on any pixel ray).
 // Classes only move upward (mds_classify_occlusion keeps max(previous, new)). A meshlet that
 // reaches O subtracts its voxel contributions from the density volume (Sect. 4.4); with
@@ -36,12 +37,14 @@ int classify_box(vec3 bmin, vec3 bmax, int max_extent) {
   float W = cull.viewport.x, H = cull.viewport.y;
   vec2 lo = vec2(3.0e38), hi = vec2(-3.0e38);
   float znear = 3.0e38, zfar = 0.0;
+  vec3 vlo = vec3(3.0e38), vhi = vec3(-3.0e38);  // view-space bounds of the corners
   for (int i = 0; i < 8; ++i) {
     vec3 c = vec3((i & 1) != 0 ? bmax.x : bmin.x, (i & 2) != 0 ? bmax.y : bmin.y,
                   (i & 4) != 0 ? bmax.z : bmin.z);
     vec4 v = cull.view * vec4(c, 1.0);
+    vlo = min(vlo, v.xyz);
+    vhi = max(vhi, v.xyz);
     float z = -v.z;
-    if (z <= cull.camera.z) return MDS_CULL_CLASS_P;  // reaches the near plane: visible
     znear = min(znear, z);
     zfar = max(zfar, z);
     vec4 clip = cull.proj * v;
@@ -49,6 +52,24 @@ int classify_box(vec3 bmin, vec3 bmax, int max_extent) {
     vec2 px = (ndc * 0.5 + 0.5) * vec2(W, H);
     lo = min(lo, px);
     hi = max(hi, px);
+  }
+  if (znear <= cull.camera.z) {
+    // The box reaches the near plane: no depth test (visible), unless its part in front of the
+    // plane -- inside the view-space box of its corners cut at the plane -- projects outside
+    // the image (a box beside the eye, as when the camera is inside the data).
+    if (zfar <= cull.camera.z) return -1;  // entirely behind the near plane
+    lo = vec2(3.0e38);
+    hi = vec2(-3.0e38);
+    for (int i = 0; i < 8; ++i) {
+      vec4 v = vec4((i & 1) != 0 ? vhi.x : vlo.x, (i & 2) != 0 ? vhi.y : vlo.y,
+                    -((i & 4) != 0 ? zfar : cull.camera.z), 1.0);
+      vec4 clip = cull.proj * v;
+      vec2 px = (clip.xy / clip.w * 0.5 + 0.5) * vec2(W, H);
+      lo = min(lo, px);
+      hi = max(hi, px);
+    }
+    if (hi.x <= 0.0 || hi.y <= 0.0 || lo.x >= W || lo.y >= H) return -1;
+    return MDS_CULL_CLASS_P;
   }
   if (hi.x <= 0.0 || hi.y <= 0.0 || lo.x >= W || lo.y >= H) return -1;
   ivec2 p0 = clamp(ivec2(floor(lo)), ivec2(0), ivec2(W, H) - 1);

@@ -37,9 +37,10 @@ void main() {
   uint base = kPoints ? atomicAdd(sprite_draw.point_vertex_count, count)
                       : atomicAdd(sprite_draw.quad_vertex_count, 6u * count) / 6u;
   if (base + count > sprite_draw.capacity) return;  // a list with repeated meshlets (never expected)
-  uint occluded = 0u, small = 0u;
+  uint occluded = 0u, small = 0u, offscreen = 0u;
   for (uint local = 0u; local < count; ++local) {
     GpuSprite s = mds_make_sprite(m, node, local);
+    if ((s.flags & kSpriteHidden) != 0u) ++offscreen;
     if (kParticleOcclusion && (s.flags & kSpriteHidden) == 0u && mds_particle_occluded(s)) {
       s.flags |= kSpriteHidden;
       ++occluded;
@@ -63,6 +64,7 @@ void main() {
     sprites[base + local] = s;
   }
   if (occluded > 0u) atomicAdd(sprite_draw.occluded, occluded);
+  if (offscreen > 0u) atomicAdd(sprite_draw.offscreen, offscreen);
   if (small > 0u) {
     // One run of the small list for this meshlet, and the rasterization's workgroups: one per 64
     // entries, counted by the run that reaches each multiple of 64.

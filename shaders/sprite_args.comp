@@ -18,6 +18,7 @@ void main() {
   sprite_draw.quad_first_vertex = 0u;
   sprite_draw.quad_first_instance = 0u;
   sprite_draw.occluded = 0u;
+  sprite_draw.offscreen = 0u;
   sprite_draw.small_count = 0u;
   sprite_draw.raster_x = 0u;
   sprite_draw.raster_y = 1u;

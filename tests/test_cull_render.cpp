@@ -280,3 +280,73 @@ TEST_F(CullRender, PairedFramesLeaveTheImageAlone) {
   EXPECT_EQ(plain.stats.cull.meshlets_culled, paired.stats.cull.meshlets_culled);
   EXPECT_EQ(plain.image.rgba, paired.image.rgba);
 }
+
+// A camera inside the block: node boxes that reach behind the near plane take no depth test
+// (visible), except those whose part in front of the plane -- the view-space box of their
+// corners cut at the near plane -- projects outside the image: they are frustum culled (O), as
+// a box entirely in front and outside the image is. The expectation is computed here in double
+// from the nodes' boxes and the camera. Before, every box reaching the near plane stayed
+// visible, so the nodes beside the eye were drawn (and, streaming, read) in every frame.
+TEST_F(CullRender, BoxesBesideTheEyeAreFrustumCulled) {
+  RenderSettings rs;
+  rs.width = kW;
+  rs.height = kH;
+  rs.spp = 1;
+  rs.cull = true;
+  auto r = Renderer::create(*ctx_, *scene_, rs);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  Camera cam;
+  cam.eye = scene_->bounds.center();
+  cam.target = cam.eye + glm::dvec3(0.0, 0.0, -1.0);
+  cam.up = {0.0, 1.0, 0.0};
+  cam.fov_y_deg = 40.0;
+  cam.near = 0.05;
+  cam.far = 60.0;
+  std::vector<uint32_t> first;
+  r.value()->set_iteration_hook([&](uint32_t it) {
+    if (it == 0) {
+      auto c = r.value()->cull_loop()->node_classes();
+      first.assign(c.begin(), c.end());
+    }
+  });
+  ASSERT_TRUE(r.value()->render(cam).ok());
+  ASSERT_EQ(first.size(), scene_->nodes.size());
+
+  const glm::dmat4 view = view_matrix(cam, scene_->origin);
+  const glm::dmat4 proj = projection_matrix(cam, double(kW) / kH);
+  size_t beside = 0, crossing_on_screen = 0;
+  for (size_t i = 0; i < scene_->nodes.size(); ++i) {
+    const gpu::GpuNode& n = scene_->nodes[i];
+    glm::dvec3 lo(1e300), hi(-1e300);
+    for (int c = 0; c < 8; ++c) {
+      const glm::dvec3 p((c & 1) ? n.aabb_max.x : n.aabb_min.x, (c & 2) ? n.aabb_max.y : n.aabb_min.y,
+                         (c & 4) ? n.aabb_max.z : n.aabb_min.z);
+      const glm::dvec3 v = glm::dvec3(view * glm::dvec4(p, 1.0));
+      lo = glm::min(lo, v);
+      hi = glm::max(hi, v);
+    }
+    const double znear = -hi.z, zfar = -lo.z;  // view distances
+    if (!(znear <= cam.near && zfar > cam.near)) continue;  // not reaching the near plane
+    glm::dvec2 a(1e300), b(-1e300);
+    for (int c = 0; c < 8; ++c) {
+      const glm::dvec4 v((c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, -((c & 4) ? zfar : cam.near), 1.0);
+      const glm::dvec4 clip = proj * v;
+      const glm::dvec2 ndc = glm::dvec2(clip) / clip.w;
+      a = glm::min(a, ndc);
+      b = glm::max(b, ndc);
+    }
+    const bool outside = b.x <= -1.0 || b.y <= -1.0 || a.x >= 1.0 || a.y >= 1.0;
+    // Boxes whose rectangle edge lies within 1e-3 NDC of the image border are left out (float).
+    const bool margin = std::min({std::abs(b.x + 1.0), std::abs(b.y + 1.0), std::abs(a.x - 1.0), std::abs(a.y - 1.0)}) < 1e-3;
+    if (margin) continue;
+    if (outside) {
+      ++beside;
+      EXPECT_EQ(first[i], uint32_t(MDS_CULL_CLASS_O)) << "node " << i << " beside the eye";
+    } else {
+      ++crossing_on_screen;
+      EXPECT_NE(first[i], uint32_t(MDS_CULL_CLASS_O)) << "node " << i << " reaches the near plane on screen";
+    }
+  }
+  EXPECT_GT(beside, 0u);
+  EXPECT_GT(crossing_on_screen, 0u);
+}

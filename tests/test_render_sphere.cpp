@@ -3,6 +3,7 @@
 // basis (eye, target, up, fov / ortho half height) intersected with the sphere in double.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -299,4 +300,42 @@ TEST_F(RenderSphere, SuperSamplingConverges) {
   EXPECT_EQ(a64.stats.particles, 3000u);
   EXPECT_EQ(a64.stats.meshlets, 3u * 16u);  // nodes of 1000 -> 15 x 64 + 40 each
   EXPECT_EQ(a64.stats.pass_ms_median.count("draw"), 1u);
+}
+
+// Spheres that cross the near plane beside the eye (a camera inside the data) have nothing on
+// screen: the pre-pass must hide them (their part in front of the near plane projects outside
+// the image), not cover the viewport with their rectangle -- which costs a ray test per pixel
+// each and made frames inside the porous block take seconds on lavapipe. A sphere crossing the
+// near plane in front of the eye keeps its rectangle; spheres behind the eye are hidden. The
+// sprites beside the eye add no pixel to the image (up to silhouette pixels of the requantized scene).
+TEST_F(RenderSphere, SpheresBesideTheEyeStayOffScreen) {
+  Camera cam;
+  cam.eye = {0.0, 0.0, 0.0};
+  cam.target = {0.0, 0.0, -1.0};
+  cam.up = {0.0, 1.0, 0.0};
+  cam.fov_y_deg = 40.0;
+  cam.near = 0.05;
+  cam.far = 30.0;
+  std::vector<Sphere> seen;
+  for (int y = -1; y <= 1; ++y)
+    for (int x = -1; x <= 1; ++x) seen.push_back({{1.2 * x, 1.2 * y, -6.0}, 0.3});  // in front, on screen
+  // Crosses the near plane (view distances -0.1 .. 0.3) without holding the eye, its part in
+  // front of the plane on screen.
+  seen.push_back({{0.25, 0.0, -0.1}, 0.2});
+  seen.push_back({{0.0, 0.0, 2.0}, 0.3});  // behind the eye
+  std::vector<Sphere> all = seen;
+  // Beside the eye: view distances -0.3 .. 0.3 around 0, laterally 2-3 units away.
+  for (const glm::dvec3 c : {glm::dvec3(2, 0, 0), glm::dvec3(-2, 0, 0), glm::dvec3(0, 2, 0), glm::dvec3(0, -2, 0),
+                             glm::dvec3(3, 3, 0.1), glm::dvec3(-3, 3, -0.1), glm::dvec3(3, -3, 0.1),
+                             glm::dvec3(-3, -3, -0.1)})
+    all.push_back({c, 0.3});
+  const uint32_t W = 64, H = 48;
+  auto with = render(scene_of(all), cam, W, H, 1);
+  auto without = render(scene_of(seen), cam, W, H, 1);
+  EXPECT_EQ(with.stats.sprites_listed, all.size());
+  EXPECT_EQ(with.stats.sprites_offscreen, 1u + (all.size() - seen.size()));  // behind + beside the eye
+  EXPECT_EQ(without.stats.sprites_offscreen, 1u);
+  // The two scenes quantize their nodes in different frames: a silhouette pixel may flip.
+  EXPECT_LE(mds::testing::differing_pixels(with.image, without.image), 2u);
+  EXPECT_GT(std::count_if(with.depth.begin(), with.depth.end(), [](float d) { return d < 1.0f; }), 0);
 }

@@ -145,7 +145,7 @@ MDS_STRUCT(SpriteDrawHeader) {
   uint raster_x;            // ceil(small_count / 64), counted up by the pre-pass
   uint raster_y;
   uint raster_z;
-  uint pad0;
+  uint offscreen;           // sprites of the list with nothing to draw: behind the near plane, off screen, beyond the far plane (atomic counter)
   uint pad1;
   uint pad2;
 };

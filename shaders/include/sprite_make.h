@@ -57,9 +57,20 @@ GpuSprite mds_make_sprite(GpuMeshlet m, GpuNode node, uint local) {
     ndc_lo = min(a.xy, b.xy);
     ndc_hi = max(a.xy, b.xy);
   } else if (zc - r <= near) {
-    // The sphere crosses the near plane: cover the whole viewport.
-    ndc_lo = vec2(-1.0);
-    ndc_hi = vec2(1.0);
+    // The sphere crosses the near plane: its part in front of the plane lies in the view-space
+    // box [c.xy - r, c.xy + r] x [near, zc + r] of view distances, whose screen rectangle has
+    // the extreme slopes x / z at the box's corners (z > 0). Spheres beside the eye (a camera
+    // inside the data) thus stay off screen instead of covering the whole viewport: at
+    // 144x81 inside the porous block (a slab of ~9000 particles at the eye's depth) they cost
+    // ~1.1 s of ray tests per frame.
+    vec2 e_lo = c.xy - r, e_hi = c.xy + r;
+    float z1 = zc + r;
+    vec2 s_lo = min(e_lo / near, e_lo / z1);
+    vec2 s_hi = max(e_hi / near, e_hi / z1);
+    vec3 a = mds_project(vec3(s_lo * zq, -zq));
+    vec3 b = mds_project(vec3(s_hi * zq, -zq));
+    ndc_lo = min(a.xy, b.xy);
+    ndc_hi = max(a.xy, b.xy);
   } else {
     float denom = zc * zc - r * r;
     vec2 t = sqrt(max(c.xy * c.xy + denom, 0.0));

@@ -198,6 +198,10 @@ Status run_render(const RenderOptions& o) {
     j["resolve"] = stats.visibility_route ? (stats.covered_pixel_list ? "covered pixels" : "full screen") : "none";
     if (stats.covered_fraction >= 0.0) j["covered_fraction"] = stats.covered_fraction;  // the view's coverage probe
     j["particles"] = stats.particles;
+    if (!stats.mesh_sprites)  // the last drawn frame's sprite pre-pass
+      j["sprites"] = {{"listed", stats.sprites_listed},
+                      {"offscreen", stats.sprites_offscreen},
+                      {"compute_raster", stats.sprites_small}};
     j["meshlets"] = stats.meshlets;
     j["nodes"] = reader->nodes().size();
     j["spp"] = stats.spp;

@@ -834,6 +834,14 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     stats->near = camera.near;
     stats->far = camera.far;
     stats->cull = cs;
+    if (!m.mesh_path) {
+      MDS_ASSIGN_OR_RETURN(auto raw, vk::read_buffer(*m.ctx, m.sprite_draw, 0, sizeof(gpu::SpriteDrawHeader)));
+      gpu::SpriteDrawHeader head;
+      std::memcpy(&head, raw.data(), sizeof(head));
+      stats->sprites_listed = m.point_sprites ? head.point_vertex_count : head.quad_vertex_count / 6;
+      stats->sprites_offscreen = head.offscreen;
+      stats->sprites_small = head.small_count;
+    }
   }
   return img;
 }

@@ -214,6 +214,10 @@ struct RenderStats {
   bool accumulation_buffer = false;  // accumulation in a storage buffer (else a storage image)
   bool covered_pixel_list = false;   // the last frame's resolve ran over the listed covered pixels (else full screen)
   double covered_fraction = -1.0;    // covered pixels / pixels by the view's probe (-1: not probed)
+  // The sprite pre-pass of the last drawn frame (compute path; zeros on the task/mesh path):
+  // particles of the listed meshlets, those with nothing to draw (behind the near plane, off
+  // screen, beyond the far plane: sprite_make.h), those rasterized in compute (small sprites).
+  uint64_t sprites_listed = 0, sprites_offscreen = 0, sprites_small = 0;
   CullStats cull;
   CacheStats cache;                 // streaming only
   double frame_wall_ms_p50 = 0.0;   // CPU wall time per frame (step), all frames of the render
