@@ -261,8 +261,8 @@ def main():
                  "inside the data (more is resident, so more is drawn).")
     L += ["- Every frame of the flight is a new view (classes restart, one culling iteration + draw). The "
           "spread follows the view: outside the data a frame is cheap, inside it (the middle of the flight) "
-          "the draw and occlusion-sampling passes on lavapipe cost seconds (large sprites near the eye, much "
-          "overdraw), and after the exit the view is nearly empty."]
+          "more is drawn and sampled (larger sprites near the eye, more overdraw), and after the exit the view "
+          "is nearly empty."]
     if abs(s["corr_uploads_frame_ms"]) < 0.3 and s["upload_stalls"] == 0:
         L.append("- So the ratio measures the renderer's per-view cost on a CPU rasterizer; the frame times do "
                  "not follow the cache's uploads.")

@@ -157,8 +157,8 @@ Status run_stress(const StressOptions& o) {
       uint32_t sw = 0, sh = 0;
       render::FramePacer::scaled_size(o.width, o.height, scale, sw, sh);
       MDS_TRY(renderer->resize(sw, sh));
-      renderer->set_motion(moving);
     }
+    renderer->set_motion(moving);  // one occlusion sampling pass per iteration while moving
     MDS_TRY(renderer->set_view(cam));
     MDS_ASSIGN_OR_RETURN(render::FrameReport fr, renderer->step());
     MDS_TRY(renderer->finish());

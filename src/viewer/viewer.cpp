@@ -340,7 +340,7 @@ Status Viewer::run() {
       render::FramePacer::scaled_size(host_->settings().width, host_->settings().height, render_scale_, sw, sh);
       Status st = r->resize(sw, sh);
       if (!st.ok()) render_error_ = st.error();
-      if (pacer_) r->set_motion(moved);
+      r->set_motion(moved);  // one occlusion sampling pass per iteration while moving
     }
     if (moved) {
       view_camera_ = cam;
