@@ -322,6 +322,20 @@ TEST_F(StressCli, ContinuousPathsSettleTheFinalViewAndAcceptSlowDiskOptions) {
     EXPECT_EQ(j["io"]["bandwidth_bytes_per_s"].get<uint64_t>(), 100000000u);  // MB = 10^6 bytes
     EXPECT_EQ(j["io"]["threads"].get<uint32_t>(), 3u);
     EXPECT_DOUBLE_EQ(j["io"]["latency_ms"].get<double>(), 0.5);
+    // Every frame has its own GPU passes, the moving ones too (a new camera used to drop the
+    // previous frame's timestamps with the pool: 0 ms on every frame of a fly-through).
+    const auto& gpu = j["per_frame"]["gpu_ms"];
+    const auto& passes = j["per_frame"]["gpu_passes"];
+    ASSERT_EQ(gpu.size(), passes.size());
+    for (size_t i = 0; i < gpu.size(); ++i) {
+      double sum = 0.0;
+      for (const auto& [name, ms] : passes[i].items()) sum += ms.get<double>();
+      EXPECT_GT(gpu[i].get<double>(), 0.0) << "frame " << i;
+      EXPECT_NEAR(sum, gpu[i].get<double>(), 1e-6 * sum) << "frame " << i;
+      if (i > 0 && i < 12) {
+        EXPECT_TRUE(passes[i].contains("classify")) << "frame " << i;  // a culling iteration
+      }
+    }
     // Camera motion is not a held view: only the final camera (held after the path) is one.
     EXPECT_EQ(j["views_held"].get<uint32_t>(), 1u);
     const auto& v = j["final_view"];

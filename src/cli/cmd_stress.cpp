@@ -170,7 +170,10 @@ Status run_stress(const StressOptions& o) {
     r.settle = settle;
     r.after_converged = after;
     r.wall_ms = fr.wall_ms;
-    r.gpu_ms = fr.gpu_ms;
+    // This frame's own GPU passes (finish() collected them; fr.gpu_ms is the previous frame's).
+    const render::FrameGpu gpu = renderer->last_frame_gpu();
+    r.gpu_ms = gpu.ms;
+    r.gpu_passes = gpu.passes;
     r.converged = fr.converged;
     r.complete = fr.complete;
     r.upload_stall = fr.upload_stall;
@@ -347,7 +350,8 @@ Status run_stress(const StressOptions& o) {
                                {"complete", nlohmann::ordered_json::array()}, {"converged", nlohmann::ordered_json::array()},
                                {"hits", nlohmann::ordered_json::array()},    {"misses", nlohmann::ordered_json::array()},
                                {"bytes_read_total", nlohmann::ordered_json::array()},
-                               {"scale", nlohmann::ordered_json::array()}};
+                               {"scale", nlohmann::ordered_json::array()},
+                               {"gpu_passes", nlohmann::ordered_json::array()}};
   for (const auto& f : frames) {
     pf["wall_ms"].push_back(f.wall_ms);
     pf["gpu_ms"].push_back(f.gpu_ms);
@@ -359,6 +363,7 @@ Status run_stress(const StressOptions& o) {
     pf["misses"].push_back(f.misses);
     pf["bytes_read_total"].push_back(f.bytes_read_total);
     pf["scale"].push_back(f.scale);
+    pf["gpu_passes"].push_back(f.gpu_passes);  // pass -> GPU ms of this frame (summed over repeats)
   }
   j["per_frame"] = pf;  // arrays: in the JSON only (the CSV keeps scalars)
 

@@ -24,7 +24,8 @@ struct FrameRecord {
   bool settle = false;      // after the path: the final camera held until converged
   bool after_converged = false;  // extra frames after the final view converged (converged-frame cost)
   double wall_ms = 0.0;
-  double gpu_ms = 0.0;
+  double gpu_ms = 0.0;                          // this frame's timestamped passes
+  std::map<std::string, double> gpu_passes;     // per pass (the sampling passes of an iteration summed)
   bool converged = false;
   bool complete = false;
   bool upload_stall = false;

@@ -177,6 +177,13 @@ struct CacheStats {
 };
 
 // One frame of the progressive API (Renderer::step).
+// GPU time of one frame: its timestamped passes (a pass run several times, like the occlusion
+// sampling passes of a culling iteration, summed).
+struct FrameGpu {
+  double ms = 0.0;
+  std::map<std::string, double> passes;
+};
+
 struct FrameReport {
   uint64_t frame = 0;             // counts from 0 over the renderer's life
   uint32_t samples = 0;           // samples accumulated in the current image
@@ -185,7 +192,7 @@ struct FrameReport {
   bool culling_converged = false; // the current view's culling converged (Sect. 5.3)
   bool complete = false;          // streaming: every wanted node resident (or failed), nothing in flight
   bool converged = false;         // culling_converged && complete (in-memory: culling_converged or no culling)
-  double gpu_ms = 0.0;            // GPU time of the PREVIOUS frame's passes (known once it completed)
+  double gpu_ms = 0.0;            // GPU time of the PREVIOUS frame's passes (known once it completed; 0: not timed)
   double wall_ms = 0.0;           // CPU wall time of step()
   uint32_t class_counts[4] = {};  // meshlets P, L, M, O after the last classification
   uint32_t node_class_counts[4] = {};
@@ -253,8 +260,12 @@ class Renderer {
   // Accumulation restarts on a new view and, when streaming, on any frame that uploaded nodes.
   Status set_view(const Camera& camera);
   Result<FrameReport> step();
-  // Waits until the frame in flight (the last step()) has finished on the device.
+  // Waits until the frame in flight (the last step()) has finished on the device, and collects
+  // its GPU timestamps (last_frame_gpu()).
   Status finish();
+  // The passes of the last frame whose GPU work completed and was collected (by finish(), the
+  // next step() or set_view()); zeros when timestamps are not available.
+  FrameGpu last_frame_gpu() const;
   // The current accumulated image (average of FrameReport::samples samples), at the current size.
   Result<FrameImage> read_image();
   // Changes the render size without re-creating the renderer (window resize; dynamic resolution,

@@ -117,6 +117,10 @@ struct Renderer::Impl {
   bool pending_iteration = false;
   uint64_t view_first_frame = 0;
   std::vector<double> frame_gpu_ms, frame_wall_ms;  // per step() since set_view
+  // The passes of the frame whose timestamps were collected last (Renderer::last_frame_gpu), and
+  // the GPU ms collected outside step() (set_view, finish) that the next FrameReport reports.
+  FrameGpu last_gpu;
+  double unreported_gpu_ms = 0.0;
   CullStats view_cull;         // culling statistics of the current view
   std::chrono::steady_clock::time_point view_t0;
 
@@ -128,6 +132,8 @@ struct Renderer::Impl {
   // all_meshlets: a frame of every meshlet (no particle occlusion test).
   void write_frame_uniforms(const Camera& camera, uint32_t sample, uint32_t extra_flags = 0,
                             bool all_meshlets = false);
+  // Collects the timestamps of the frame that completed last (0 when none was timed); sets
+  // last_gpu when there were some.
   Result<double> collect_frame_ms();
   void after_iteration();
   Status create_targets();

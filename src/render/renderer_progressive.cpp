@@ -137,8 +137,16 @@ Result<double> Renderer::Impl::collect_frame_ms() {
   for (const auto& [name, v] : timestamps.samples()) before[name] = v.size();
   MDS_TRY(timestamps.collect());
   double sum = 0.0;
+  FrameGpu g;
   for (const auto& [name, v] : timestamps.samples())
-    for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i) sum += v[i];
+    for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i) {
+      sum += v[i];
+      g.passes[name] += v[i];
+    }
+  if (!g.passes.empty()) {
+    g.ms = sum;
+    last_gpu = std::move(g);
+  }
   return sum;
 }
 
@@ -176,6 +184,9 @@ Status Renderer::set_view(const Camera& camera_in) {
   if (m.has_view && !m.view_stale && identical_cameras(camera, m.view_camera)) return {};
   m.view_stale = false;
   MDS_TRY(m.slot.wait());  // the frame in flight belongs to the old view
+  // Its timestamps, before the pool is replaced: the next FrameReport reports them.
+  MDS_ASSIGN_OR_RETURN(double old_view_ms, m.collect_frame_ms());
+  m.unreported_gpu_ms += old_view_ms;
   // Its culling iteration still tells the cache what is occluded (the view did not mature).
   if (m.pending_iteration && m.cache) m.cache->set_classes(m.cull->node_classes(), false);
   m.pending_iteration = false;
@@ -213,6 +224,9 @@ Result<FrameReport> Renderer::step() {
   MDS_ASSIGN_OR_RETURN(VkCommandBuffer cmd, m.slot.begin());  // waits for the previous frame
   MDS_ASSIGN_OR_RETURN(rep.gpu_ms, m.collect_frame_ms());
   if (rep.gpu_ms > 0.0) m.frame_gpu_ms.push_back(rep.gpu_ms);
+  // Collected by finish() (this view) or set_view() (the previous view's last frame).
+  rep.gpu_ms += m.unreported_gpu_ms;
+  m.unreported_gpu_ms = 0.0;
   if (m.pending_iteration) m.after_iteration();
   m.pending_iteration = false;
   m.destroyer.collect(m.frame_index);
@@ -312,7 +326,18 @@ Status Renderer::set_c_occ(double c_occ) {
   return {};
 }
 
-Status Renderer::finish() { return impl_->slot.wait(); }
+Status Renderer::finish() {
+  Impl& m = *impl_;
+  MDS_TRY(m.slot.wait());
+  MDS_ASSIGN_OR_RETURN(double ms, m.collect_frame_ms());
+  if (ms > 0.0) {
+    m.frame_gpu_ms.push_back(ms);
+    m.unreported_gpu_ms += ms;
+  }
+  return {};
+}
+
+FrameGpu Renderer::last_frame_gpu() const { return impl_->last_gpu; }
 
 void Renderer::set_motion(bool moving) {
   Impl& m = *impl_;
