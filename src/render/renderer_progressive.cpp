@@ -341,7 +341,10 @@ FrameGpu Renderer::last_frame_gpu() const { return impl_->last_gpu; }
 
 void Renderer::set_motion(bool moving) {
   Impl& m = *impl_;
-  if (m.cull) m.cull->set_samples_per_iteration(moving ? 1u : m.settings.cull_settings.samples_per_iteration);
+  if (m.cull) {
+    m.cull->set_samples_per_iteration(moving ? 1u : m.settings.cull_settings.samples_per_iteration);
+    m.cull->set_moving(moving);
+  }
 }
 
 Status Renderer::set_spp(uint32_t spp) {

@@ -279,6 +279,12 @@ Status CullLoop::Impl::create_pipelines() {
     vk::SpecConstants spec;
     spec.add(0u, int32_t(node_extent));  // cull_classify.comp: kNodeExtent
     MDS_ASSIGN_OR_RETURN(classify_pipe, vk::create_compute_pipeline(dev, layout, "cull_classify.comp", &spec));
+    if (node_extent != kNodeExtentInMemory) {
+      vk::SpecConstants coarse;
+      coarse.add(0u, int32_t(kNodeExtentInMemory));
+      MDS_ASSIGN_OR_RETURN(classify_coarse_pipe,
+                           vk::create_compute_pipeline(dev, layout, "cull_classify.comp", &coarse));
+    }
   }
   MDS_ASSIGN_OR_RETURN(draw_list_pipe, vk::create_compute_pipeline(dev, layout, "cull_draw_list.comp"));
   vk::GraphicsPipelineDesc g;
@@ -445,6 +451,7 @@ uint32_t CullLoop::samples_per_iteration() const { return impl_->passes; }
 void CullLoop::set_samples_per_iteration(uint32_t passes) {
   impl_->passes = std::clamp(passes, 1u, std::max(1u, impl_->settings.samples_per_iteration));
 }
+void CullLoop::set_moving(bool moving) { impl_->moving = moving; }
 uint32_t CullLoop::pyramid_levels() const { return impl_->levels; }
 VkBuffer CullLoop::pyramid_buffer() const { return impl_->pyramid.get(); }
 void CullLoop::set_c_occ(double c_occ) {
@@ -476,6 +483,7 @@ Status CullLoop::resize(uint32_t width, uint32_t height) {
 Status CullLoop::begin_view(const Camera& camera, uint32_t live_meshlets) {
   impl_->sampled_fraction = -1.0;  // the new view probes its sampled fraction again
   Impl& m = *impl_;
+  m.histogram_pending = false;  // cast below for the new view
   if (!(camera.near > 0.0 && camera.far > camera.near))
     return make_error(Errc::invalid_argument, "culling: begin_view needs fitted near/far planes");
   m.camera = camera;
@@ -519,6 +527,17 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
     if (ts) ts->end(cmd);
   };
   // Sect. 3.2: several occlusion sampling passes per iteration, each with its own occluder subset.
+  // Eq. 9-11 after the previous iteration's volume update (a no-op on the GPU when nothing reached
+  // O). Cast here rather than at the end of that iteration: a view that ends (new camera,
+  // begin_view casts for the new one; converged) never pays for it -- a moving camera is a new
+  // view every frame. The volume changes only in the classification, so the histograms are the
+  // same.
+  if (m.histogram_pending) {
+    begin("histogram");
+    m.record_histogram(cmd, 0);
+    end();
+    m.histogram_pending = false;
+  }
   const uint32_t passes = m.passes;
   m.begin_route_choice(cmd);
   for (uint32_t p = 0; p < passes; ++p) {
@@ -538,7 +557,8 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
   vkCmdFillBuffer(cmd, m.counters.get(), 0, offsetof(gpu::CullCounters, selected), 0);
   vkCmdFillBuffer(cmd, m.counters.get(), offsetof(gpu::CullCounters, node_class_count), 20, 0);  // + node_changed
   compute_barrier(cmd);
-  m.bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, m.classify_pipe, m.set0_sample);
+  m.bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
+         m.moving && m.classify_coarse_pipe ? m.classify_coarse_pipe.get() : m.classify_pipe.get(), m.set0_sample);
   m.push(cmd, 0);
   vkCmdDispatch(cmd, (m.node_count + 63) / 64, 1, 1);
   compute_barrier(cmd);
@@ -547,9 +567,7 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
   compute_barrier(cmd);
   end();
 
-  begin("histogram");  // Eq. 9-11 after the volume update (no-op when nothing reached O)
-  m.record_histogram(cmd, 0);
-  end();
+  m.histogram_pending = true;  // cast at the start of the next iteration of this view
 
   VkBufferCopy bc{0, 0, sizeof(gpu::CullCounters)};
   vkCmdCopyBuffer(cmd, m.counters.get(), m.counters_host.get(), 1, &bc);

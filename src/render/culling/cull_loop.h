@@ -13,7 +13,9 @@
 //   histogram per-pixel density histograms (Eq. 9-11), recomputed when the volume changed.
 //             Sect. 3/4.4 update the volume "after each iteration of determining occlusion
 //             classes"; doing it once per iteration (not per sampling pass) is what the paper
-//             requires, and amortises the ray cast over the iteration's passes.
+//             requires, and amortises the ray cast over the iteration's passes. Recorded at the
+//             start of the next iteration of the same view (before its sampling passes), so a
+//             view that ends -- a moving camera starts a new one every frame -- skips it.
 // record_draw_list writes the potentially visible set (all meshlets not in O) into a draw list
 // in the renderer's format. The host decides convergence (Sect. 5.3) from counters() read after
 // each iteration: no meshlet changed class for `converge_iterations` iterations.
@@ -202,6 +204,11 @@ class CullLoop {
   // Occlusion sampling passes per iteration from the next recorded iteration on, in
   // 1..settings().samples_per_iteration (the timestamp pool is sized for that many).
   void set_samples_per_iteration(uint32_t passes);
+  // Camera in motion (Renderer::set_motion): nodes are tested at kNodeExtentInMemory texels per
+  // side whatever CullScene::node_extent says. A moving frame's classes never mature (the cache
+  // takes only its confident O), and inside the data the 128-texel tests of the nodes around the
+  // eye cost the classification ~20 ms per 320x180 frame instead of ~5.
+  void set_moving(bool moving);
 
   // Inspection and test hooks (each submits and waits).
   Result<std::vector<uint32_t>> read_meshlet_classes();

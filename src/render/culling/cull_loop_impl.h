@@ -73,6 +73,9 @@ struct CullLoop::Impl {
   mutable double sampled_fraction = -1.0;  // -1: not measured in this view
   vk::DescriptorSet set0_sample, set0_draw, set1;
   vk::UniquePipelineLayout layout;
+  vk::UniquePipeline classify_coarse_pipe;  // kNodeExtentInMemory, while moving (set_moving); null when node_extent is that
+  bool moving = false;
+  bool histogram_pending = false;  // the last iteration's classification may have changed the volume
   vk::UniquePipeline reset_pipe, histogram_pipe, select_pipe, update_pipe, pyramid_pipe, classify_pipe,
       draw_list_pipe, sample_pipe, sample_comp_pipe, update_buffer_pipe, sample_compact_pipe, update_list_pipe;
 
