@@ -120,13 +120,12 @@ cc::PixelRay cpu_ray(const Fixture& f, int px, int py, uint32_t w = kW, uint32_t
 // stride s > 1 (CullSettings::histogram_stride): every pixel holds its s x s block's histogram,
 // cast along the block centre's ray -- the pixel centre ray of a (kW / s) x (kH / s) image -- with
 // the footprint of one full-resolution pixel.
-void check_histograms(bool ortho, uint32_t s = 1) {
+// The loop's current histograms against the CPU cast per s x s block.
+void compare_histograms(Fixture& f, uint32_t s) {
   ASSERT_EQ(kW % s, 0u);
   ASSERT_EQ(kH % s, 0u);
-  Fixture f = make_fixture(ortho, MDS_CULL_ACCEPT_NORMAL, s);
   rc::CullLoop* loop = f.renderer->cull_loop();
   ASSERT_NE(loop, nullptr);
-  ASSERT_TRUE(loop->begin_view(f.camera).ok());
   auto counts = loop->read_histograms();
   auto ranges = loop->read_hist_ranges();
   ASSERT_TRUE(counts.ok() && ranges.ok());
@@ -160,10 +159,36 @@ void check_histograms(bool ortho, uint32_t s = 1) {
   EXPECT_GT(hit, int(kW * kH / 4));
 }
 
+void check_histograms(bool ortho, uint32_t s = 1) {
+  Fixture f = make_fixture(ortho, MDS_CULL_ACCEPT_NORMAL, s);
+  rc::CullLoop* loop = f.renderer->cull_loop();
+  ASSERT_NE(loop, nullptr);
+  ASSERT_TRUE(loop->begin_view(f.camera).ok());
+  compare_histograms(f, s);
+}
+
 TEST(CullParity, HistogramPassMatchesCpuPerspective) { check_histograms(false); }
 TEST(CullParity, HistogramPassMatchesCpuOrtho) { check_histograms(true); }
 TEST(CullParity, HistogramBlocksMatchCpuPerspective) { check_histograms(false, 2); }
 TEST(CullParity, HistogramBlocksMatchCpuOrtho) { check_histograms(true, 2); }
+
+// A view begun while the camera moves casts per kMovingHistogramStride^2 block; when the camera
+// rests on it, the next iteration casts per configured block again (CullLoop::set_moving).
+TEST(CullParity, MovingViewCastsCoarserBlocksUntilItRests) {
+  Fixture f = make_fixture(false, MDS_CULL_ACCEPT_NORMAL, 2);
+  rc::CullLoop* loop = f.renderer->cull_loop();
+  ASSERT_NE(loop, nullptr);
+  loop->set_moving(true);
+  ASSERT_TRUE(loop->begin_view(f.camera).ok());
+  ASSERT_EQ(loop->view_histogram_stride(), rc::kMovingHistogramStride);
+  compare_histograms(f, rc::kMovingHistogramStride);
+  loop->set_moving(false);
+  EXPECT_EQ(loop->view_histogram_stride(), 2u);
+  // One culling iteration: the cast runs at its start, before its classification changes the
+  // volume, so against the initial volume, per 2x2 block.
+  ASSERT_TRUE(f.ctx->submit_and_wait([&](VkCommandBuffer cmd) { loop->record_iteration(cmd, nullptr, 0); }).ok());
+  compare_histograms(f, 2);
+}
 
 TEST(CullParity, PyramidPassMatchesCpu) {
   Fixture f = make_fixture(false);

@@ -135,8 +135,10 @@ Status CullLoop::Impl::create_pixel_buffers() {
     h = (h + 1) / 2;
     pyramid_texels += uint64_t(w) * h;
   }
-  MDS_TRY(make(histogram, hist_blocks() * bins * sizeof(float), "density histograms"));
-  MDS_TRY(make(hist_range, hist_blocks() * 8, "histogram ranges"));
+  const uint32_t s = configured_stride();  // the most blocks any view uses
+  const uint64_t blocks = uint64_t((width + s - 1) / s) * ((height + s - 1) / s);
+  MDS_TRY(make(histogram, blocks * bins * sizeof(float), "density histograms"));
+  MDS_TRY(make(hist_range, blocks * 8, "histogram ranges"));
   MDS_TRY(make(pixel_state, px * 32, "cull/accumulation buffers"));
   MDS_TRY(make(pyramid, pyramid_texels * 8, "confidence pyramid"));
   const SampleRoute forced = forced_route();
@@ -451,7 +453,18 @@ uint32_t CullLoop::samples_per_iteration() const { return impl_->passes; }
 void CullLoop::set_samples_per_iteration(uint32_t passes) {
   impl_->passes = std::clamp(passes, 1u, std::max(1u, impl_->settings.samples_per_iteration));
 }
-void CullLoop::set_moving(bool moving) { impl_->moving = moving; }
+void CullLoop::set_moving(bool moving) {
+  Impl& m = *impl_;
+  m.moving = moving;
+  // At rest, a view begun while moving goes on with the configured histogram blocks: cast again
+  // (all of them) before its next sampling pass; its classes stay.
+  if (!moving && m.hist_stride() != m.configured_stride()) {
+    m.view_stride = m.configured_stride();
+    m.set_pixel_uniforms();
+    m.histogram_recast = true;
+  }
+}
+uint32_t CullLoop::view_histogram_stride() const { return impl_->hist_stride(); }
 uint32_t CullLoop::pyramid_levels() const { return impl_->levels; }
 VkBuffer CullLoop::pyramid_buffer() const { return impl_->pyramid.get(); }
 void CullLoop::set_c_occ(double c_occ) {
@@ -484,6 +497,9 @@ Status CullLoop::begin_view(const Camera& camera, uint32_t live_meshlets) {
   impl_->sampled_fraction = -1.0;  // the new view probes its sampled fraction again
   Impl& m = *impl_;
   m.histogram_pending = false;  // cast below for the new view
+  m.histogram_recast = false;
+  m.view_stride = m.moving ? std::max(m.configured_stride(), kMovingHistogramStride) : m.configured_stride();
+  m.set_pixel_uniforms();
   if (!(camera.near > 0.0 && camera.far > camera.near))
     return make_error(Errc::invalid_argument, "culling: begin_view needs fitted near/far planes");
   m.camera = camera;
@@ -532,11 +548,12 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
   // begin_view casts for the new one; converged) never pays for it -- a moving camera is a new
   // view every frame. The volume changes only in the classification, so the histograms are the
   // same.
-  if (m.histogram_pending) {
+  if (m.histogram_pending || m.histogram_recast) {
     begin("histogram");
-    m.record_histogram(cmd, 0);
+    m.record_histogram(cmd, m.histogram_recast ? 1 : 0);  // 1: every block (the stride changed)
     end();
     m.histogram_pending = false;
+    m.histogram_recast = false;
   }
   const uint32_t passes = m.passes;
   m.begin_route_choice(cmd);

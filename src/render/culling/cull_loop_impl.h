@@ -29,7 +29,11 @@ struct CullLoop::Impl {
   float radius_min = 0, radius_max = 0;
   uint64_t pyramid_texels = 0;
   // Density histogram blocks (CullSettings::histogram_stride): s x s pixels share one histogram.
-  uint32_t hist_stride() const { return std::max(1u, settings.histogram_stride); }
+  // The configured stride sizes the buffers; a view begun while moving casts coarser blocks
+  // (kMovingHistogramStride, fewer of them: they fit).
+  uint32_t configured_stride() const { return std::max(1u, settings.histogram_stride); }
+  uint32_t view_stride = 0;  // the current view's stride (0: configured)
+  uint32_t hist_stride() const { return view_stride ? view_stride : configured_stride(); }
   uint32_t hist_blocks_x() const { return (width + hist_stride() - 1) / hist_stride(); }
   uint32_t hist_blocks_y() const { return (height + hist_stride() - 1) / hist_stride(); }
   uint64_t hist_blocks() const { return uint64_t(hist_blocks_x()) * hist_blocks_y(); }
@@ -76,6 +80,7 @@ struct CullLoop::Impl {
   vk::UniquePipeline classify_coarse_pipe;  // kNodeExtentInMemory, while moving (set_moving); null when node_extent is that
   bool moving = false;
   bool histogram_pending = false;  // the last iteration's classification may have changed the volume
+  bool histogram_recast = false;   // the view's stride changed (set_moving(false)): cast every block
   vk::UniquePipeline reset_pipe, histogram_pipe, select_pipe, update_pipe, pyramid_pipe, classify_pipe,
       draw_list_pipe, sample_pipe, sample_comp_pipe, update_buffer_pipe, sample_compact_pipe, update_list_pipe;
 
