@@ -163,7 +163,8 @@ TEST_F(CullRender, ComputeAndRasterizedSamplingAgree) {
   // iteration classifies the same meshlets the same way. A pixel centre exactly on a quad edge
   // is the only place the two may differ (the rasterizer's tie rule), hence a small tolerance
   // rather than equality. Two views: the default one (glyphs of a few pixels) and a close-up
-  // (glyphs of hundreds of pixels, each looped over by one compute thread).
+  // (glyphs of hundreds of pixels, shared by a subgroup where the device has ballot + shuffle:
+  // cull_sample_coop.comp; fails when that loop skips every other pixel).
   if (!ctx_->int64_atomics()) GTEST_SKIP() << "no 64-bit buffer atomics: only the rasterized route exists";
   const uint32_t spp = 10;
   for (double closer : {1.0, 0.3}) {

@@ -216,6 +216,7 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
     vkGetPhysicalDeviceProperties2(c->physical_, &p2);
     c->compute_ballot_ = (sg.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) != 0 &&
                          (sg.supportedOperations & VK_SUBGROUP_FEATURE_BALLOT_BIT) != 0;
+    c->compute_shuffle_ = c->compute_ballot_ && (sg.supportedOperations & VK_SUBGROUP_FEATURE_SHUFFLE_BIT) != 0;
   }
   {
     uint32_t nq = 0;

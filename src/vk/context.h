@@ -77,6 +77,8 @@ class Context {
   bool int64_atomics() const { return int64_atomics_; }
   // Subgroup ballot operations in compute shaders (VkPhysicalDeviceSubgroupProperties).
   bool compute_ballot() const { return compute_ballot_; }
+  // ... and shuffles (subgroupShuffle) too.
+  bool compute_shuffle() const { return compute_shuffle_; }
   // Number of validation warnings/errors reported so far (0 without validation).
   uint64_t validation_messages() const;
   Allocator& allocator() { return *allocator_; }
@@ -103,6 +105,7 @@ class Context {
   bool mesh_shaders_ = false;
   bool int64_atomics_ = false;
   bool compute_ballot_ = false;
+  bool compute_shuffle_ = false;
   DeviceInfo info_;
   VkPhysicalDeviceProperties props_{};
   std::unique_ptr<Allocator> allocator_;

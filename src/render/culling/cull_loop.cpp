@@ -274,7 +274,12 @@ Status CullLoop::Impl::create_pipelines() {
     }
   }
   if (ctx->int64_atomics()) {
-    MDS_ASSIGN_OR_RETURN(sample_comp_pipe, vk::create_compute_pipeline(dev, layout, "cull_sample.comp"));
+    // Subgroup-shared large glyphs where the device has ballot and shuffle in compute
+    // (cull_sample.comp); MDSTREAM_CULL_COOP=0 takes the per-thread glyphs (A/B runs).
+    const char* coop_env = std::getenv("MDSTREAM_CULL_COOP");
+    const bool coop = ctx->compute_shuffle() && !(coop_env && std::string(coop_env) == "0");
+    MDS_ASSIGN_OR_RETURN(sample_comp_pipe,
+                         vk::create_compute_pipeline(dev, layout, coop ? "cull_sample_coop.comp" : "cull_sample.comp"));
   }
   MDS_ASSIGN_OR_RETURN(pyramid_pipe, vk::create_compute_pipeline(dev, layout, "cull_pyramid.comp"));
   {
