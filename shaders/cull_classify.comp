@@ -10,7 +10,8 @@
 // a neighbouring pore, at the corners of the rectangle, no longer keep a box visible -- and the
 // depth test fails (occluded) when the entry depth is >= d_cull on every covered texel (the
 // pyramid stores max depth, so coarser levels stay conservative); the aggregated confidence is
-// the mean C_cull over the covered texels (Eq. 23 averages: the covered area's mean).
+// the mean C_cull over the covered texels (Eq. 23 averages: the covered area's mean). The first
+// texel where the box lies in front ends the test: the box is P whatever the confidence.
 // Boxes reaching behind the near plane pass unless their part in front of it projects outside
 // the image. Boxes entirely outside the image are O (frustum
 // culled: they cannot contribute to any pixel, and their particles are not on any pixel ray).
@@ -91,7 +92,6 @@ int classify_box(vec3 bmin, vec3 bmax, int max_extent) {
   float texel_px = float(1u << level);
   float grow = 1.001 * mds_texel_half_diagonal(texel_px, zfar, !ortho, cull.camera.x, cull.camera.y);
   vec3 eye = (cull.inv_view * vec4(0.0, 0.0, 0.0, 1.0)).xyz;
-  bool failed = true;
   float csum = 0.0, n = 0.0;
   for (int y = t0.y; y <= t1.y; ++y)
     for (int x = t0.x; x <= t1.x; ++x) {
@@ -107,12 +107,14 @@ int classify_box(vec3 bmin, vec3 bmax, int max_extent) {
                                         bmax.x, bmax.y, bmax.z, grow, cull.camera.z);
       if (!(t_entry < float(MDS_CULL_DEPTH_EMPTY))) continue;  // the box does not reach this texel
       vec2 dc = pyramid[lo_off + uint(y) * ls.x + uint(x)];
-      failed = failed && t_entry >= dc.x;
+      // In front of d_cull on one texel: the depth test passes, the box is P whatever the
+      // confidence (mds_classify_occlusion), so the other texels need no test.
+      if (!(t_entry >= dc.x)) return MDS_CULL_CLASS_P;
       csum += dc.y;
       n += 1.0;
     }
   if (n == 0.0) return MDS_CULL_CLASS_P;  // (not expected: the box projects into the image)
-  return mds_classify_occlusion(MDS_CULL_CLASS_P, failed, csum / n, cull.thresholds.x,
+  return mds_classify_occlusion(MDS_CULL_CLASS_P, true, csum / n, cull.thresholds.x,
                                 cull.thresholds.y);
 }
 
