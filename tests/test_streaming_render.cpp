@@ -152,6 +152,11 @@ TEST_F(StreamingRender, WithoutCullingAnAmpleBudgetIsPixelIdentical) {
   const CacheStats& c = s.value().stats.cache;
   EXPECT_LE(c.gpu_peak_bytes, c.gpu_budget_bytes);
   EXPECT_EQ(c.nodes_never_loaded, 0u);  // the whole block is in view and nothing is culled
+  // The sprite pre-pass of the last frame is reported as in memory (it read zeros when streaming).
+  EXPECT_EQ(s.value().stats.sprites_listed, mem.stats.sprites_listed);
+  EXPECT_EQ(s.value().stats.sprites_offscreen, mem.stats.sprites_offscreen);
+  EXPECT_EQ(s.value().stats.sprites_small, mem.stats.sprites_small);
+  EXPECT_GT(s.value().stats.sprites_listed, 0u);
 }
 
 TEST_F(StreamingRender, CameraChangeEvictsTheOldViewFirstAndConvergesAgain) {

@@ -834,16 +834,20 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     stats->near = camera.near;
     stats->far = camera.far;
     stats->cull = cs;
-    if (!m.mesh_path) {
-      MDS_ASSIGN_OR_RETURN(auto raw, vk::read_buffer(*m.ctx, m.sprite_draw, 0, sizeof(gpu::SpriteDrawHeader)));
-      gpu::SpriteDrawHeader head;
-      std::memcpy(&head, raw.data(), sizeof(head));
-      stats->sprites_listed = m.point_sprites ? head.point_vertex_count : head.quad_vertex_count / 6;
-      stats->sprites_offscreen = head.offscreen;
-      stats->sprites_small = head.small_count;
-    }
+    MDS_TRY(m.read_sprite_counts(*stats));
   }
   return img;
+}
+
+Status Renderer::Impl::read_sprite_counts(RenderStats& s) {
+  if (mesh_path) return {};  // no pre-pass: the task/mesh path makes its sprites in place
+  MDS_ASSIGN_OR_RETURN(auto raw, vk::read_buffer(*ctx, sprite_draw, 0, sizeof(gpu::SpriteDrawHeader)));
+  gpu::SpriteDrawHeader head;
+  std::memcpy(&head, raw.data(), sizeof(head));
+  s.sprites_listed = point_sprites ? head.point_vertex_count : head.quad_vertex_count / 6;
+  s.sprites_offscreen = head.offscreen;
+  s.sprites_small = head.small_count;
+  return {};
 }
 
 culling::CullLoop* Renderer::cull_loop() { return impl_->cull.get(); }

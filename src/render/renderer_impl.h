@@ -135,6 +135,9 @@ struct Renderer::Impl {
   // Collects the timestamps of the frame that completed last (0 when none was timed); sets
   // last_gpu when there were some.
   Result<double> collect_frame_ms();
+  // RenderStats::sprites_* from the sprite pre-pass of the last drawn frame (waits for nothing:
+  // the caller waited for the frame).
+  Status read_sprite_counts(RenderStats& s);
   void after_iteration();
   Status create_targets();
   glm::vec3 background_linear() const {

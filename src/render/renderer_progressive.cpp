@@ -449,6 +449,7 @@ Result<FrameImage> Renderer::render_streaming(const Camera& camera, RenderStats*
   m.rendered = true;
   if (stats) {
     *stats = this->stats();
+    MDS_TRY(m.read_sprite_counts(*stats));
     stats->wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     stats->frames = uint32_t(m.frame_wall_ms.size());
     if (m.cull) {
