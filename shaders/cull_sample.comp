@@ -108,16 +108,17 @@ void main() {
     for (int y = p0.y; y <= p1.y; ++y)
       for (int x = p0.x; x <= p1.x; ++x) sample_pixel(x, y, s.center_radius, zmin_bits, jitter);
 #ifdef MDS_COOPERATIVE_GLYPHS
-  uvec4 todo = subgroupBallot(cooperative);
-  while (subgroupBallotBitCount(todo) > 0u) {
-    uint leader = subgroupBallotFindLSB(todo);
+  // The lanes whose glyph still waits for the subgroup; the lowest one leads each round.
+  uvec4 waiting = subgroupBallot(cooperative);
+  while (subgroupBallotBitCount(waiting) > 0u) {
+    uint leader = subgroupBallotFindLSB(waiting);
     ivec2 q0 = subgroupShuffle(p0, leader);
     int qw = subgroupShuffle(w, leader), qa = subgroupShuffle(area, leader);
     vec4 cr = subgroupShuffle(valid ? s.center_radius : vec4(0.0), leader);
     uint zb = subgroupShuffle(zmin_bits, leader);
     for (int i = int(gl_SubgroupInvocationID); i < qa; i += int(gl_SubgroupSize))
       sample_pixel(q0.x + i % qw, q0.y + i / qw, cr, zb, jitter);
-    todo[leader / 32u] &= ~(1u << (leader % 32u));
+    waiting[leader / 32u] &= ~(1u << (leader % 32u));  // its glyph is done
   }
 #endif
 }
