@@ -12,6 +12,9 @@
 // pyramid stores max depth, so coarser levels stay conservative); the aggregated confidence is
 // the mean C_cull over the covered texels (Eq. 23 averages: the covered area's mean). The first
 // texel where the box lies in front ends the test: the box is P whatever the confidence.
+// A node's test is tightened by its sub-node occupancy (src/culling/node_occupancy.h): only the
+// occupied cells of its box are tested, so a box that reaches into a pore with no particle of
+// the node there can still be O (issue 4: nodes known O before they are read are never read).
 // Boxes reaching behind the near plane pass unless their part in front of it projects outside
 // the image. Boxes entirely outside the image are O (frustum
 // culled: they cannot contribute to any pixel, and their particles are not on any pixel ray).
@@ -33,8 +36,75 @@ const int kMeshletExtent = 32;  // <= 1024 ray tests per meshlet
 // cheaper (119 -> 41, 79 -> 28 ms) but keeps 5 % more meshlets (kept / visible 1.08 -> 1.13,
 // 1.22 -> 1.28), which every frame after convergence pays; 32 stays.
 
+// Pixel rectangle [lo, hi] of the box's 8 projected corners (all in front of the near plane).
+void project_rect(vec3 bmin, vec3 bmax, out vec2 lo, out vec2 hi) {
+  vec2 size = cull.viewport.xy;
+  lo = vec2(3.0e38);
+  hi = vec2(-3.0e38);
+  for (int i = 0; i < 8; ++i) {
+    vec3 c = vec3((i & 1) != 0 ? bmax.x : bmin.x, (i & 2) != 0 ? bmax.y : bmin.y,
+                  (i & 4) != 0 ? bmax.z : bmin.z);
+    vec4 clip = cull.proj * (cull.view * vec4(c, 1.0));
+    vec2 px = (clip.xy / clip.w * 0.5 + 0.5) * size;
+    lo = min(lo, px);
+    hi = max(hi, px);
+  }
+}
+
+// The depth/confidence test of the box over the pyramid texels [t0, t1] of `level`: per texel
+// the box's conservative entry depth on the texel's centre ray (the box grown by `grow`, the
+// texel's half diagonal at the far side, culling_math.h ray_box_entry); texels the box does not
+// reach take no part. True when the box lies in front of d_cull on one texel (the depth test
+// passes: P whatever the confidence); otherwise C_cull of the reached texels is summed into
+// csum and their number into n.
+bool texels_in_front(vec3 bmin, vec3 bmax, uint level, ivec2 t0, ivec2 t1, float grow, inout float csum,
+                     inout float n) {
+  uvec2 ls = cull_level_size(level);
+  uint lo_off = cull_level_offset(level);
+  bool ortho = (cull.params.w & kCullOrtho) != 0u;
+  float texel_px = float(1u << level);
+  vec3 eye = (cull.inv_view * vec4(0.0, 0.0, 0.0, 1.0)).xyz;
+  for (int y = t0.y; y <= t1.y; ++y)
+    for (int x = t0.x; x <= t1.x; ++x) {
+      vec2 ndc = (vec2(x, y) + 0.5) * texel_px * cull.viewport.zw * 2.0 - 1.0;
+      vec3 o = eye, dir;
+      if (ortho) {
+        o = (cull.inv_view * vec4(ndc.x / cull.proj[0][0], ndc.y / cull.proj[1][1], 0.0, 1.0)).xyz;
+        dir = mat3(cull.inv_view) * vec3(0.0, 0.0, -1.0);
+      } else {
+        dir = mat3(cull.inv_view) * vec3(ndc.x / cull.proj[0][0], ndc.y / cull.proj[1][1], -1.0);
+      }
+      float t_entry = mds_ray_box_entry(o.x, o.y, o.z, dir.x, dir.y, dir.z, bmin.x, bmin.y, bmin.z,
+                                        bmax.x, bmax.y, bmax.z, grow, cull.camera.z);
+      if (!(t_entry < float(MDS_CULL_DEPTH_EMPTY))) continue;  // the box does not reach this texel
+      vec2 dc = pyramid[lo_off + uint(y) * ls.x + uint(x)];
+      if (!(t_entry >= dc.x)) return true;
+      csum += dc.y;
+      n += 1.0;
+    }
+  return false;
+}
+
+// Texel rectangle at `level` of the pixel rectangle [lo, hi] clipped to the image; false when
+// the rectangle lies outside the image.
+bool texel_rect(vec2 lo, vec2 hi, uint level, out ivec2 t0, out ivec2 t1) {
+  float W = cull.viewport.x, H = cull.viewport.y;
+  t0 = ivec2(0);
+  t1 = ivec2(-1);
+  if (hi.x <= 0.0 || hi.y <= 0.0 || lo.x >= W || lo.y >= H) return false;
+  ivec2 p0 = clamp(ivec2(floor(lo)), ivec2(0), ivec2(W, H) - 1);
+  ivec2 p1 = max(clamp(ivec2(ceil(hi)) - 1, ivec2(0), ivec2(W, H) - 1), p0);
+  t0 = p0 >> int(level);
+  t1 = p1 >> int(level);
+  return true;
+}
+
 // Returns MDS_CULL_CLASS_* for the box without the "upward" rule (-1: outside the image).
-int classify_box(vec3 bmin, vec3 bmax, int max_extent) {
+// occupancy (nodes only): bit c set = cell c of the box's 4^3 cells holds part of a particle
+// (src/culling/node_occupancy.h; 0 = unknown, treated as full); only occupied cells are tested,
+// at the pyramid level the whole box selects, and the box is P when one of them is in front on
+// one texel, O (frustum culled) when none reaches into the image.
+int classify_box(vec3 bmin, vec3 bmax, int max_extent, uvec2 occupancy) {
   float W = cull.viewport.x, H = cull.viewport.y;
   vec2 lo = vec2(3.0e38), hi = vec2(-3.0e38);
   float znear = 3.0e38, zfar = 0.0;
@@ -72,48 +142,45 @@ int classify_box(vec3 bmin, vec3 bmax, int max_extent) {
     if (hi.x <= 0.0 || hi.y <= 0.0 || lo.x >= W || lo.y >= H) return -1;
     return MDS_CULL_CLASS_P;
   }
-  if (hi.x <= 0.0 || hi.y <= 0.0 || lo.x >= W || lo.y >= H) return -1;
-  ivec2 p0 = clamp(ivec2(floor(lo)), ivec2(0), ivec2(W, H) - 1);
-  ivec2 p1 = clamp(ivec2(ceil(hi)) - 1, ivec2(0), ivec2(W, H) - 1);
-  p1 = max(p1, p0);
-  int extent = max(p1.x - p0.x, p1.y - p0.y) + 1;
+  ivec2 t0, t1;
+  if (!texel_rect(lo, hi, 0u, t0, t1)) return -1;
+  int extent = max(t1.x - t0.x, t1.y - t0.y) + 1;
   uint level = 0u;
   while (extent > max_extent && level + 1u < cull.pyramid.x) {
     level++;
-    extent = max((p1.x >> level) - (p0.x >> level), (p1.y >> level) - (p0.y >> level)) + 1;
+    extent = max((t1.x >> level) - (t0.x >> level), (t1.y >> level) - (t0.y >> level)) + 1;
   }
-  uvec2 ls = cull_level_size(level);
-  uint lo_off = cull_level_offset(level);
-  ivec2 t0 = p0 >> int(level), t1 = p1 >> int(level);
-  // Per covered texel, the box's conservative entry depth on the texel's centre ray (the box
-  // grown by the texel's half diagonal at the box's far side, culling_math.h ray_box_entry):
-  // texels of the rectangle the box does not reach take no part in the test.
   bool ortho = (cull.params.w & kCullOrtho) != 0u;
-  float texel_px = float(1u << level);
-  float grow = 1.001 * mds_texel_half_diagonal(texel_px, zfar, !ortho, cull.camera.x, cull.camera.y);
-  vec3 eye = (cull.inv_view * vec4(0.0, 0.0, 0.0, 1.0)).xyz;
+  float grow = 1.001 * mds_texel_half_diagonal(float(1u << level), zfar, !ortho, cull.camera.x, cull.camera.y);
   float csum = 0.0, n = 0.0;
-  for (int y = t0.y; y <= t1.y; ++y)
-    for (int x = t0.x; x <= t1.x; ++x) {
-      vec2 ndc = (vec2(x, y) + 0.5) * texel_px * cull.viewport.zw * 2.0 - 1.0;
-      vec3 o = eye, dir;
-      if (ortho) {
-        o = (cull.inv_view * vec4(ndc.x / cull.proj[0][0], ndc.y / cull.proj[1][1], 0.0, 1.0)).xyz;
-        dir = mat3(cull.inv_view) * vec3(0.0, 0.0, -1.0);
-      } else {
-        dir = mat3(cull.inv_view) * vec3(ndc.x / cull.proj[0][0], ndc.y / cull.proj[1][1], -1.0);
+  bool full = occupancy == uvec2(0u) || occupancy == uvec2(0xffffffffu);
+  if (full) {
+    if (texels_in_front(bmin, bmax, level, t0 >> int(level), t1 >> int(level), grow, csum, n))
+      return MDS_CULL_CLASS_P;
+    if (n == 0.0) return MDS_CULL_CLASS_P;  // (not expected: the box projects into the image)
+  } else {
+    vec3 cell = (bmax - bmin) * 0.25;
+    bool in_image = false;
+    for (int word = 0; word < 2; ++word) {
+      uint bits = word == 0 ? occupancy.x : occupancy.y;
+      while (bits != 0u) {
+        int b = findLSB(bits);
+        bits &= bits - 1u;
+        int c = 32 * word + b;
+        ivec3 ci = ivec3(c & 3, (c >> 2) & 3, c >> 4);
+        vec3 cmin = bmin + cell * vec3(ci);
+        vec3 cmax = mix(bmin + cell * vec3(ci + 1), bmax, equal(ci, ivec3(3)));
+        vec2 clo, chi;
+        project_rect(cmin, cmax, clo, chi);
+        ivec2 c0, c1;
+        if (!texel_rect(clo, chi, level, c0, c1)) continue;
+        in_image = true;
+        if (texels_in_front(cmin, cmax, level, c0, c1, grow, csum, n)) return MDS_CULL_CLASS_P;
       }
-      float t_entry = mds_ray_box_entry(o.x, o.y, o.z, dir.x, dir.y, dir.z, bmin.x, bmin.y, bmin.z,
-                                        bmax.x, bmax.y, bmax.z, grow, cull.camera.z);
-      if (!(t_entry < float(MDS_CULL_DEPTH_EMPTY))) continue;  // the box does not reach this texel
-      vec2 dc = pyramid[lo_off + uint(y) * ls.x + uint(x)];
-      // In front of d_cull on one texel: the depth test passes, the box is P whatever the
-      // confidence (mds_classify_occlusion), so the other texels need no test.
-      if (!(t_entry >= dc.x)) return MDS_CULL_CLASS_P;
-      csum += dc.y;
-      n += 1.0;
     }
-  if (n == 0.0) return MDS_CULL_CLASS_P;  // (not expected: the box projects into the image)
+    if (!in_image) return -1;  // no occupied cell projects into the image
+    if (n == 0.0) return MDS_CULL_CLASS_P;  // (not expected: an occupied cell reaches the image)
+  }
   return mds_classify_occlusion(MDS_CULL_CLASS_P, true, csum / n, cull.thresholds.x,
                                 cull.thresholds.y);
 }
@@ -132,7 +199,8 @@ void main() {
     uint prev = node_class[i];
     uint now = prev;
     if (prev != uint(MDS_CULL_CLASS_O)) {
-      int c = classify_box(nodes[i].aabb_min, nodes[i].aabb_max, kNodeExtent);
+      int c = classify_box(nodes[i].aabb_min, nodes[i].aabb_max, kNodeExtent,
+                           uvec2(nodes[i].occupancy_lo, nodes[i].occupancy_hi));
       now = c < 0 ? uint(MDS_CULL_CLASS_O) : max(prev, uint(c));
       node_class[i] = now;
     }
@@ -152,7 +220,7 @@ void main() {
     if (node_class[m.node] == uint(MDS_CULL_CLASS_O)) {
       now = uint(MDS_CULL_CLASS_O);
     } else {
-      int c = classify_box(m.aabb_min, m.aabb_max, kMeshletExtent);
+      int c = classify_box(m.aabb_min, m.aabb_max, kMeshletExtent, uvec2(0u));
       now = c < 0 ? uint(MDS_CULL_CLASS_O) : max(prev, uint(c));  // classes only move upward
     }
   }

@@ -65,6 +65,10 @@ MDS_STRUCT(GpuNode) {
   float max_radius;
   vec3 aabb_max;
   uint first_meshlet;
+  uint occupancy_lo;    // sub-node occupancy of [aabb_min, aabb_max] (src/culling/node_occupancy.h):
+  uint occupancy_hi;    //   bit c of the uint64 lo | hi << 32 = cell c of 4^3 holds part of a particle
+  uint pad0;
+  uint pad1;
 };
 
 // One meshlet: a run of particles of one node, with bounds computed at load from decoded positions.
@@ -178,7 +182,8 @@ static_assert(sizeof(FrameUniforms) == 256);
 static_assert(offsetof(FrameUniforms, viewport) == 192);
 static_assert(offsetof(FrameUniforms, counts) == 224);
 static_assert(offsetof(FrameUniforms, occlusion) == 240);
-static_assert(sizeof(GpuNode) == 64);
+static_assert(sizeof(GpuNode) == 80);
+static_assert(offsetof(GpuNode, occupancy_lo) == 64);
 static_assert(offsetof(GpuNode, first_particle) == 12);
 static_assert(offsetof(GpuNode, step) == 16);
 static_assert(offsetof(GpuNode, max_radius) == 44);

@@ -35,6 +35,22 @@ struct SceneData {
   uint64_t particle_count() const { return particles.size() / 4; }
 };
 
+// Stores a sub-node occupancy mask (culling/node_occupancy.h) in the node record.
+inline void set_occupancy(gpu::GpuNode& g, uint64_t mask) {
+  g.occupancy_lo = uint32_t(mask);
+  g.occupancy_hi = uint32_t(mask >> 32);
+}
+inline uint64_t occupancy(const gpu::GpuNode& g) { return uint64_t(g.occupancy_lo) | uint64_t(g.occupancy_hi) << 32; }
+
+// A node's sub-node occupancy (culling/node_occupancy.h) before it is read: the density voxels
+// of its voxel list, grown by the node's largest radius, hold every particle sphere of the node
+// (each voxel holds the centres counted in it; half a quantization step more covers the decoded
+// centres, 1e-6 of a voxel the converter's rounding of a centre on a voxel face). No voxels
+// (not expected): the full mask.
+// The node's culling box is its centre bounds -/+ max_radius (the streaming directory's box).
+uint64_t node_voxel_occupancy(const store::FileHeader& h, const store::NodeEntry& e,
+                              std::span<const store::VoxelRef> voxels);
+
 // Distinct per-type colour (Tableau 10 qualitative palette, cycled), as sRGB in [0, 1].
 glm::vec3 type_color_srgb(uint32_t type_index);
 float srgb_to_linear(float c);

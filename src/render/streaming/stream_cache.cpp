@@ -6,10 +6,12 @@
 #include <limits>
 
 #include "culling/culling_constants.h"
+#include "render/scene.h"
 
 namespace mds::render::streaming_gpu {
 
 using mds::streaming::Residency;
+
 
 Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const store::StoreReader& reader,
                                                          const StreamSettings& settings, const glm::dvec3& origin,
@@ -41,6 +43,7 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
     g.max_radius = e.max_radius;
     g.aabb_min = glm::vec3(cmin - origin - double(e.max_radius));
     g.aabb_max = glm::vec3(cmax - origin + double(e.max_radius));
+    set_occupancy(g, node_voxel_occupancy(h, e, reader.voxels(i)));
     for (int a = 0; a < 3; ++a) {
       c->frames_[i].center_min[a] = e.center_min[a];
       c->frames_[i].center_max[a] = e.center_max[a];
