@@ -1,5 +1,6 @@
-// Private to the renderer's translation units (renderer.cpp: creation and the pass recording;
-// renderer_progressive.cpp: set_view/step, streaming): the renderer's state.
+// Private to the renderer's translation units (renderer.cpp: creation, render() and read-backs;
+// renderer_record.cpp: the pass recording; renderer_progressive.cpp: set_view/step, streaming):
+// the renderer's state.
 #pragma once
 
 #include <chrono>
