@@ -537,6 +537,31 @@ Status CullLoop::begin_view(const Camera& camera, uint32_t live_meshlets) {
   });
 }
 
+Status CullLoop::warm_up(const Camera& camera) {
+  Impl& m = *impl_;
+  const int best_route = m.best_route;
+  const bool comparing = m.comparing;
+  const uint32_t since_compare = m.since_compare, route_passes[2] = {m.route_passes[0], m.route_passes[1]};
+  const bool moving = m.moving;
+  Status st;
+  for (bool mv : {false, true}) {  // at rest and moving: their classify pipelines differ
+    m.moving = mv;
+    st = begin_view(camera, 0);
+    if (st.ok()) st = m.ctx->submit_and_wait([&](VkCommandBuffer cmd) { record_iteration(cmd, nullptr, 0); });
+    if (!st.ok()) break;
+  }
+  m.moving = moving;
+  m.best_route = best_route;
+  m.comparing = comparing;
+  m.since_compare = since_compare;
+  m.route_passes[0] = route_passes[0];
+  m.route_passes[1] = route_passes[1];
+  m.compare_ms[0].clear();
+  m.compare_ms[1].clear();
+  m.histogram_pending = false;
+  return st;
+}
+
 void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint32_t iteration) {
   Impl& m = *impl_;
   m.write_uniforms(iteration);

@@ -166,6 +166,11 @@ class CullLoop {
   // histograms cast. `camera` must have near/far set. Submits and waits.
   // live_meshlets: occupied slots (the initial |P| of the occluder selection); default all.
   Status begin_view(const Camera& camera, uint32_t live_meshlets = UINT32_MAX);
+  // Runs begin_view and one culling iteration with `camera` (submits and waits), then forgets
+  // them: the first view's frame no longer pays the first use of the culling pipelines and
+  // buffers (docs/streaming.md "Warm-up"). Call before the first begin_view; that view starts
+  // from the same state as without the warm-up (the sampling-route choice included).
+  Status warm_up(const Camera& camera);
   // One culling iteration (see the file comment) into cmd; `iteration` counts from 0 per view;
   // its sampling passes are numbered iteration * samples_per_iteration() + p.
   // Ends with a copy of the counters for counters(). Timestamps per pass when ts != nullptr.
