@@ -159,7 +159,8 @@ int classify_box(vec3 bmin, vec3 bmax, int max_extent, uvec2 occupancy) {
       return MDS_CULL_CLASS_P;
     if (n == 0.0) return MDS_CULL_CLASS_P;  // (not expected: the box projects into the image)
   } else {
-    vec3 cell = (bmax - bmin) * 0.25;
+    const int kCells = MDS_OCCUPANCY_CELLS;  // cell c = i + kCells (j + kCells k), node_occupancy.h
+    vec3 cell = (bmax - bmin) / float(kCells);
     bool in_image = false;
     for (int word = 0; word < 2; ++word) {
       uint bits = word == 0 ? occupancy.x : occupancy.y;
@@ -167,9 +168,9 @@ int classify_box(vec3 bmin, vec3 bmax, int max_extent, uvec2 occupancy) {
         int b = findLSB(bits);
         bits &= bits - 1u;
         int c = 32 * word + b;
-        ivec3 ci = ivec3(c & 3, (c >> 2) & 3, c >> 4);
+        ivec3 ci = ivec3(c % kCells, (c / kCells) % kCells, c / (kCells * kCells));
         vec3 cmin = bmin + cell * vec3(ci);
-        vec3 cmax = mix(bmin + cell * vec3(ci + 1), bmax, equal(ci, ivec3(3)));
+        vec3 cmax = mix(bmin + cell * vec3(ci + 1), bmax, equal(ci, ivec3(kCells - 1)));
         vec2 clo, chi;
         project_rect(cmin, cmax, clo, chi);
         ivec2 c0, c1;

@@ -12,6 +12,7 @@
 #define MDS_CULL_ETA 0.98                // Eq. 20: clamp n_max to eta * D(d_min, d_s)
 #define MDS_CULL_C_OCC_DEFAULT 0.95      // Sect. 5.1: confidence threshold for class O
 #define MDS_CULL_HISTOGRAM_BINS 64       // Sect. 7.4: at most 64 density bins per pixel
+#define MDS_OCCUPANCY_CELLS 4            // sub-node occupancy cells per axis: 4^3 = 64 bits per node (node_occupancy.h)
 
 // Sect. 5.1 gives no number for the boundary between classes L (low) and M (medium):
 // "failed the depth test ... with medium confidence" vs "confidence in occlusion is low".

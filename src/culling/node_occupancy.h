@@ -10,15 +10,18 @@
 //
 // Cell (i, j, k), i, j, k in [0, 4), is bit i + 4 j + 16 k; it spans
 // lo + (hi - lo) * [i/4, (i+1)/4] along x (the same along y, z), the arithmetic of
-// mds_occupancy_cell in shaders/cull_classify.comp.
+// classify_box in shaders/cull_classify.comp.
 #pragma once
 
 #include <array>
 #include <cstdint>
 
+#include "culling/culling_constants.h"
+
 namespace mds::culling {
 
-inline constexpr int kOccupancyCells = 4;        // per axis: 4^3 = 64 cells = one uint64 per node
+inline constexpr int kOccupancyCells = MDS_OCCUPANCY_CELLS;  // per axis: 4^3 = 64 cells = one uint64 per node
+static_assert(kOccupancyCells * kOccupancyCells * kOccupancyCells == 64, "one uint64 mask per node");
 inline constexpr uint64_t kOccupancyFull = ~0ull;  // every cell occupied (the plain box test)
 
 // Marks the cells of box [lo, hi] that the box [a, b] overlaps (touching counts; widened by a
