@@ -104,7 +104,13 @@ bool texel_rect(vec2 lo, vec2 hi, uint level, out ivec2 t0, out ivec2 t1) {
 // (src/culling/node_occupancy.h; 0 = unknown, treated as full); only occupied cells are tested,
 // at the pyramid level the whole box selects, and the box is P when one of them is in front on
 // one texel, O (frustum culled) when none reaches into the image.
-int classify_box(vec3 bmin, vec3 bmax, int max_extent, uvec2 occupancy) {
+// The fine occupancy byte of coarse cell c of node i (0: unknown; gpu_types.h GpuNode).
+uint fine_cell_bits(uint i, int c) {
+  return (nodes[i].occupancy_fine[c / 16][(c / 4) % 4] >> (8 * (c % 4))) & 0xffu;
+}
+
+// node: the node whose occupancy is passed (its fine level is read from nodes[]), -1 for meshlets.
+int classify_box(vec3 bmin, vec3 bmax, int max_extent, uvec2 occupancy, int node) {
   float W = cull.viewport.x, H = cull.viewport.y;
   vec2 lo = vec2(3.0e38), hi = vec2(-3.0e38);
   float znear = 3.0e38, zfar = 0.0;
@@ -153,7 +159,16 @@ int classify_box(vec3 bmin, vec3 bmax, int max_extent, uvec2 occupancy) {
   bool ortho = (cull.params.w & kCullOrtho) != 0u;
   float grow = 1.001 * mds_texel_half_diagonal(float(1u << level), zfar, !ortho, cull.camera.x, cull.camera.y);
   float csum = 0.0, n = 0.0;
-  bool full = occupancy == uvec2(0u) || occupancy == uvec2(0xffffffffu);
+  bool fine = false;  // the node has a fine level that is not all set
+  if (node >= 0) {
+    uvec4 any_bits = uvec4(0u), all_bits = uvec4(0xffffffffu);
+    for (int w = 0; w < 4; ++w) {
+      any_bits |= nodes[node].occupancy_fine[w];
+      all_bits &= nodes[node].occupancy_fine[w];
+    }
+    fine = any(notEqual(any_bits, uvec4(0u))) && any(notEqual(all_bits, uvec4(0xffffffffu)));
+  }
+  bool full = occupancy == uvec2(0u) || (occupancy == uvec2(0xffffffffu) && !fine);
   if (full) {
     if (texels_in_front(bmin, bmax, level, t0 >> int(level), t1 >> int(level), grow, csum, n))
       return MDS_CULL_CLASS_P;
@@ -176,7 +191,29 @@ int classify_box(vec3 bmin, vec3 bmax, int max_extent, uvec2 occupancy) {
         ivec2 c0, c1;
         if (!texel_rect(clo, chi, level, c0, c1)) continue;
         in_image = true;
-        if (texels_in_front(cmin, cmax, level, c0, c1, grow, csum, n)) return MDS_CULL_CLASS_P;
+        float cs = 0.0, cn = 0.0;
+        if (!texels_in_front(cmin, cmax, level, c0, c1, grow, cs, cn)) {
+          csum += cs;
+          n += cn;
+          continue;
+        }
+        // The cell lies in front somewhere: its occupied sub-cells decide (P when one of them
+        // lies in front on one texel; else their texels' confidence counts instead of the cell's).
+        uint sub = fine ? fine_cell_bits(uint(node), c) : 0u;
+        if (sub == 0u) return MDS_CULL_CLASS_P;
+        vec3 half_cell = (cmax - cmin) * 0.5;
+        while (sub != 0u) {
+          int s = findLSB(sub);
+          sub &= sub - 1u;
+          bvec3 upper = bvec3((s & 1) != 0, (s & 2) != 0, (s & 4) != 0);
+          vec3 smin = mix(cmin, cmin + half_cell, upper);
+          vec3 smax = mix(cmin + half_cell, cmax, upper);
+          vec2 slo, shi;
+          project_rect(smin, smax, slo, shi);
+          ivec2 s0, s1;
+          if (!texel_rect(slo, shi, level, s0, s1)) continue;
+          if (texels_in_front(smin, smax, level, s0, s1, grow, csum, n)) return MDS_CULL_CLASS_P;
+        }
       }
     }
     if (!in_image) return -1;  // no occupied cell projects into the image
@@ -201,7 +238,7 @@ void main() {
     uint now = prev;
     if (prev != uint(MDS_CULL_CLASS_O)) {
       int c = classify_box(nodes[i].aabb_min, nodes[i].aabb_max, kNodeExtent,
-                           uvec2(nodes[i].occupancy_lo, nodes[i].occupancy_hi));
+                           uvec2(nodes[i].occupancy_lo, nodes[i].occupancy_hi), int(i));
       now = c < 0 ? uint(MDS_CULL_CLASS_O) : max(prev, uint(c));
       node_class[i] = now;
     }
@@ -221,7 +258,7 @@ void main() {
     if (node_class[m.node] == uint(MDS_CULL_CLASS_O)) {
       now = uint(MDS_CULL_CLASS_O);
     } else {
-      int c = classify_box(m.aabb_min, m.aabb_max, kMeshletExtent, uvec2(0u));
+      int c = classify_box(m.aabb_min, m.aabb_max, kMeshletExtent, uvec2(0u), -1);
       now = c < 0 ? uint(MDS_CULL_CLASS_O) : max(prev, uint(c));  // classes only move upward
     }
   }

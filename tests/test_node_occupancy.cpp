@@ -85,4 +85,62 @@ TEST(NodeOccupancy, CellsTileTheBoxAndHoldEveryMarkedSphere) {
   EXPECT_EQ(lo, kLo);
 }
 
+// The fine level: byte c holds the 8 sub-cells of coarse cell c, bit si + 2 sj + 4 sk.
+TEST(NodeOccupancy, FineCellsLayout) {
+  using mds::culling::FineOccupancy;
+  using mds::culling::fine_occupancy_of_box;
+  FineOccupancy f{};
+  // Box [0,4]x[0,8]x[0,12]: fine cells 0.5 x 1 x 1.5. A point-like box at (0.6, 1.2, 1.6) is
+  // fine cell (1, 1, 1) = coarse cell 0, sub-cell 7.
+  fine_occupancy_of_box(kLo, kHi, {0.6, 1.2, 1.6}, {0.61, 1.21, 1.61}, f);
+  for (int c = 0; c < 64; ++c) EXPECT_EQ(f[c], c == 0 ? 0x80 : 0) << c;
+  EXPECT_EQ(mds::culling::coarse_occupancy(f), 1ull);
+  // Fine cell (7, 0, 2) = coarse cell (3, 0, 1) = 3 + 16, sub-cell (1, 0, 0) = bit 1.
+  f = {};
+  fine_occupancy_of_box(kLo, kHi, {3.8, 0.2, 3.2}, {3.9, 0.3, 3.3}, f);
+  EXPECT_EQ(f[19], 0x02);
+  EXPECT_EQ(mds::culling::coarse_occupancy(f), 1ull << 19);
+}
+
+// The converter's per-node record from quantized centres holds exactly the cells of the
+// spheres' boxes (at most the rounding of a cell boundary apart), flat axes included.
+TEST(NodeOccupancy, QuantizedRecordMatchesTheSpheres) {
+  using mds::culling::FineOccupancy;
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int trial = 0; trial < 100; ++trial) {
+    double cmin[3], cmax[3];
+    for (int a = 0; a < 3; ++a) {
+      cmin[a] = 100.0 * u(rng) - 50.0;
+      cmax[a] = (trial % 10 == 0 && a == 2) ? cmin[a] : cmin[a] + 20.0 * u(rng);  // some flat nodes
+    }
+    const double r = trial % 7 == 0 ? 0.0 : 3.0 * u(rng) * u(rng);
+    std::vector<uint16_t> q(3 * (1 + trial * 10));
+    for (auto& v : q) v = uint16_t(rng());
+    const FineOccupancy got = mds::culling::fine_occupancy_of_quantized(cmin, cmax, r, q);
+    V lo, hi;
+    for (int a = 0; a < 3; ++a) lo[a] = cmin[a] - r, hi[a] = cmax[a] + r;
+    FineOccupancy want{};
+    for (size_t i = 0; i < q.size() / 3; ++i) {
+      V a, b;
+      for (int ax = 0; ax < 3; ++ax) {
+        const double x = cmin[ax] + double(q[3 * i + ax]) * ((cmax[ax] - cmin[ax]) / 65535.0);
+        a[ax] = x - r;
+        b[ax] = x + r;
+      }
+      mds::culling::fine_occupancy_of_box(lo, hi, a, b, want);
+    }
+    int got_bits = 0, want_bits = 0, extra = 0;
+    for (int c = 0; c < 64; ++c) {
+      EXPECT_EQ(want[c] & ~got[c], 0) << "trial " << trial << " cell " << c << ": a sphere's cell is missing";
+      got_bits += std::popcount(unsigned(got[c]));
+      want_bits += std::popcount(unsigned(want[c]));
+      extra += std::popcount(unsigned(got[c] & ~want[c]));
+    }
+    EXPECT_LE(extra, 2) << "trial " << trial;
+    EXPECT_GT(got_bits, 0);
+    EXPECT_EQ(mds::culling::coarse_occupancy(got) & ~mds::culling::coarse_occupancy(want), 0u) << trial;
+  }
+}
+
 }  // namespace

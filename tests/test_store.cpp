@@ -1,4 +1,4 @@
-// Store writer/reader: round trips of synthetic stores, golden bytes of format version 1,
+// Store writer/reader: round trips of synthetic stores, golden bytes of format version 2,
 // writer preconditions and temp-file handling, and the `mdstream info` / `export` commands.
 #include <gtest/gtest.h>
 
@@ -182,7 +182,7 @@ TEST(Store, EmptyStoreRoundTrips) {
 }
 
 // ---- golden bytes ------------------------------------------------------------------------
-// tests/data/store/golden_v1.mds is the exact output of golden_store() below. If the format
+// tests/data/store/golden_v2.mds is the exact output of golden_store() below. If the format
 // changes on purpose (with a version bump once released; v1 is still unreleased and its
 // payload layout was redefined in place), regenerate it with
 //   MDSTREAM_REGENERATE_GOLDEN=1 build-<name>/tests/test_store --gtest_filter='*Golden*'
@@ -208,7 +208,7 @@ TEST(StoreGolden, BytesMatchCommittedFile) {
   ASSERT_EQ(s.nodes.size(), 2u);
   ASSERT_EQ(mds::testing::write_store(s, dir / "g.mds"), "");
   const auto bytes = mds::testing::read_bytes(dir / "g.mds");
-  const std::filesystem::path golden = std::filesystem::path(MDSTREAM_SOURCE_DIR) / "tests/data/store/golden_v1.mds";
+  const std::filesystem::path golden = std::filesystem::path(MDSTREAM_SOURCE_DIR) / "tests/data/store/golden_v2.mds";
   if (std::getenv("MDSTREAM_REGENERATE_GOLDEN")) mds::testing::write_bytes(golden, bytes);
   const auto want = mds::testing::read_bytes(golden);
   ASSERT_FALSE(want.empty()) << "missing " << golden;
@@ -216,7 +216,7 @@ TEST(StoreGolden, BytesMatchCommittedFile) {
 
   // Header fields at their documented offsets (docs/store-format.md, "Header").
   EXPECT_EQ(std::string(reinterpret_cast<const char*>(want.data()), 8), std::string("MDSTORE\0", 8));
-  EXPECT_EQ(load<uint32_t>(want, 8), 1u);     // version
+  EXPECT_EQ(load<uint32_t>(want, 8), 2u);     // version
   EXPECT_EQ(load<uint32_t>(want, 12), 512u);  // header_bytes
   EXPECT_EQ(load<uint32_t>(want, 16), 1u);    // flags: per-particle radius
   EXPECT_EQ(load<uint32_t>(want, 20), 4u);    // node_size_max
@@ -238,7 +238,23 @@ TEST(StoreGolden, BytesMatchCommittedFile) {
   EXPECT_EQ(load<uint64_t>(want, 232), 512 + payload_bytes + 128);
   EXPECT_EQ(load<uint64_t>(want, 240), 2u * 112);
   EXPECT_EQ(load<uint64_t>(want, 312), 2u * 2 * 2 * 4);  // sections[3].raw_bytes (density)
-  for (size_t i = 328; i < 504; ++i) EXPECT_EQ(want[i], 0) << "reserved byte " << i;
+  // sections[4]: the occupancy records, 64 bytes per node, end the file.
+  EXPECT_EQ(load<uint64_t>(want, 328), load<uint64_t>(want, 296) + load<uint64_t>(want, 304));
+  EXPECT_EQ(load<uint64_t>(want, 336), 2u * 64);
+  EXPECT_EQ(load<uint64_t>(want, 344), 2u * 64);
+  EXPECT_EQ(load<uint64_t>(want, 328) + 128, want.size());
+  {
+    // Node 0's record: centres (0,0,0) (1,2,3) (2,1,0.5) (3,3,3) in the frame [0,3]^3, each grown
+    // by the node's largest radius 0.875, in the box [-0.875, 3.875]^3 of fine cells 0.59375 wide.
+    // (0,0,0) reaches fine cells 0..2 per axis: coarse cell 0 is full. (3,3,3) reaches 5..7:
+    // coarse cell 63 = (3,3,3) is full, and coarse 42 = (2,2,2) gets fine (5,5,5) = bit 7; (1,2,3)
+    // reaches x 1..4, y 3..6, z 5..7, so coarse 42 also gets fine (4,4,5) and (4,5,5) = bits 4, 6.
+    const uint64_t occ = load<uint64_t>(want, 328);
+    EXPECT_EQ(want[occ + 0], 0xFF);
+    EXPECT_EQ(want[occ + 63], 0xFF);
+    EXPECT_EQ(want[occ + 42], 0xD0);
+  }
+  for (size_t i = 360; i < 504; ++i) EXPECT_EQ(want[i], 0) << "reserved byte " << i;
   std::vector<uint8_t> h(want.begin(), want.begin() + 512);
   std::memset(h.data() + 504, 0, 8);
   EXPECT_EQ(load<uint64_t>(want, 504), hash_bytes(h));
@@ -430,7 +446,7 @@ TEST(StoreCli, InfoJsonHasTheKeys) {
   EXPECT_EQ(j["particles"].get<uint64_t>(), 3000u);
   EXPECT_EQ(j["nodes"].get<uint64_t>(), s.nodes.size());
   EXPECT_EQ(j["file_bytes"].get<uint64_t>(), std::filesystem::file_size(dir / "s.mds"));
-  EXPECT_EQ(j["format_version"].get<int>(), 1);
+  EXPECT_EQ(j["format_version"].get<int>(), 2);
   EXPECT_EQ(j["bounds_max"][1].get<double>(), s.summary.bounds_max[1]);
   EXPECT_EQ(j["density_dims"][0].get<int>(), 4);
   ASSERT_EQ(j["types"].size(), 3u);

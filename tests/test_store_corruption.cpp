@@ -27,6 +27,7 @@ struct Image {
   std::vector<VoxelRef> voxels;       // decoded voxel lists
   std::vector<uint8_t> voxel_block;   // stored voxel section (fix_layout re-encodes it from `voxels`)
   std::vector<uint8_t> density;
+  std::vector<uint8_t> occupancy;     // kOccupancyBytes per node
   std::vector<uint8_t> trailing;
 };
 
@@ -46,6 +47,7 @@ Image parse(const std::vector<uint8_t>& b) {
   im.voxels.resize(im.h.sections[kSectionVoxels].raw_bytes / sizeof(VoxelRef));
   EXPECT_TRUE(decode_voxel_section(im.voxel_block, im.voxels).ok());
   im.density = slice<uint8_t>(b, im.h.sections[kSectionDensity]);
+  im.occupancy = slice<uint8_t>(b, im.h.sections[kSectionOccupancy]);
   for (const auto& e : im.nodes)
     im.payloads.emplace_back(b.begin() + long(e.payload_offset), b.begin() + long(e.payload_offset + e.payload_bytes));
   return im;
@@ -66,12 +68,12 @@ void fix_layout(Image& im) {
     total += im.payloads[i].size();
   }
   im.h.payload_bytes = total;
-  const uint64_t sizes[4] = {im.types.size() * sizeof(TypeEntry), im.nodes.size() * sizeof(NodeEntry),
-                             im.voxel_block.size(), im.density.size()};
-  for (int s = 0; s < 4; ++s) {
+  const uint64_t sizes[kSectionCount] = {im.types.size() * sizeof(TypeEntry), im.nodes.size() * sizeof(NodeEntry),
+                                         im.voxel_block.size(), im.density.size(), im.occupancy.size()};
+  for (int s = 0; s < int(kSectionCount); ++s) {
     im.h.sections[s].offset = off;
     im.h.sections[s].bytes = sizes[s];
-    if (s == kSectionTypes || s == kSectionDirectory) im.h.sections[s].raw_bytes = sizes[s];
+    if (s == kSectionTypes || s == kSectionDirectory || s == kSectionOccupancy) im.h.sections[s].raw_bytes = sizes[s];
     off += sizes[s];
   }
 }
@@ -87,6 +89,7 @@ void seal(Image& im) {
   im.h.sections[kSectionDirectory].hash = hash_vec(im.nodes);
   im.h.sections[kSectionVoxels].hash = hash_vec(im.voxel_block);
   im.h.sections[kSectionDensity].hash = hash_vec(im.density);
+  im.h.sections[kSectionOccupancy].hash = hash_vec(im.occupancy);
   im.h.header_hash = 0;
   im.h.header_hash = hash_bytes({reinterpret_cast<const uint8_t*>(&im.h), sizeof(im.h)});
 }
@@ -103,6 +106,7 @@ std::vector<uint8_t> serialize(const Image& im) {
   put(im.nodes.data(), im.nodes.size() * sizeof(NodeEntry));
   put(im.voxel_block.data(), im.voxel_block.size());
   put(im.density.data(), im.density.size());
+  put(im.occupancy.data(), im.occupancy.size());
   put(im.trailing.data(), im.trailing.size());
   return b;
 }
@@ -210,8 +214,8 @@ TEST_F(Corruption, FlippedPayloadByteNamesNodeAndOffset) {
 
 TEST_F(Corruption, FlippedSectionByteIsChecksumError) {
   Image im = parse(good_);
-  const char* names[4] = {"type table", "node directory", "voxel lists", "density volume"};
-  for (int s = 0; s < 4; ++s) {
+  const char* names[kSectionCount] = {"type table", "node directory", "voxel lists", "density volume", "occupancy"};
+  for (int s = 0; s < int(kSectionCount); ++s) {
     auto b = good_;
     b[im.h.sections[s].offset + im.h.sections[s].bytes / 2] ^= 0x01;
     auto err = try_all(b);
@@ -230,7 +234,9 @@ TEST_F(Corruption, HeaderLies) {
     return im;
   };
   expect_open_error(with([](Image& im) { im.h.magic[0] = 'X'; }), Errc::format, {"magic", "byte 0"});
-  expect_open_error(with([](Image& im) { im.h.version = 2; }), Errc::unsupported, {"version", "byte 8"});
+  expect_open_error(with([](Image& im) { im.h.version = 3; }), Errc::unsupported, {"version", "byte 8"});
+  // Version 1 (no occupancy section) is no longer read: convert the input again.
+  expect_open_error(with([](Image& im) { im.h.version = 1; }), Errc::unsupported, {"version", "byte 8", "convert"});
   expect_open_error(with([](Image& im) { im.h.header_bytes = 1024; }), Errc::format, {"header_bytes", "byte 12"});
   {
     Image im = parse(good_);
@@ -238,7 +244,7 @@ TEST_F(Corruption, HeaderLies) {
     expect_open_error(im, Errc::checksum, {"header_hash", "byte 504"});
   }
   expect_open_error(with([](Image& im) { im.h.flags |= 4; }), Errc::unsupported, {"flags"});
-  expect_open_error(with([](Image& im) { im.h.reserved[10] = 1; }), Errc::format, {"reserved", "byte 338"});
+  expect_open_error(with([](Image& im) { im.h.reserved[10] = 1; }), Errc::format, {"reserved", "byte 370"});
   expect_open_error(with([](Image& im) { im.h.node_count = 1u << 31; }), Errc::range, {"particle_count"});
   expect_open_error(with([](Image& im) {
                       im.h.node_count = 1u << 31;
@@ -296,6 +302,15 @@ TEST_F(Corruption, SectionLies) {
                     {"voxel lists at byte", "LZ4"});
   expect_open_error(with([](Image& im) { im.h.sections[kSectionVoxels].raw_bytes = 0; }), Errc::format, {"sections[2].bytes"});
   expect_open_error(with([](Image& im) { im.trailing = {1, 2, 3}; }), Errc::format, {"after the last section"});
+  // Occupancy: 64 bytes per node, and every node occupies some cell.
+  expect_open_error(with([](Image& im) {
+                      im.occupancy.resize(im.occupancy.size() - 1);
+                      im.h.sections[kSectionOccupancy].bytes -= 1;
+                      im.h.sections[kSectionOccupancy].raw_bytes -= 1;
+                    }),
+                    Errc::format, {"sections[4].bytes", "node_count * 64"});
+  expect_open_error(with([](Image& im) { std::fill(im.occupancy.begin() + 64, im.occupancy.begin() + 128, 0); }),
+                    Errc::format, {"node 1 occupancy", "byte " + std::to_string(parse(good_).h.sections[kSectionOccupancy].offset + 64)});
   expect_open_error(with([](Image& im) {
                       // move the payload/section boundary: payloads claim one byte of the type table
                       im.h.payload_bytes += 1;

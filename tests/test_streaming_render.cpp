@@ -144,22 +144,25 @@ TEST_F(StreamingRender, EighthOfTheStoreMatchesInMemoryOnADenseView) {
   EXPECT_LE(differing_pixels(ref.img, s.value().img), size_t(kW * kH / 100));
 }
 
-// The sub-node occupancy the cache derives from the voxel lists (before a node is read) holds
-// every particle sphere of the node; and in this porous block some nodes are partly empty
-// (their masks are not full), which is what lets their boxes reach O in front of a pore.
-TEST_F(StreamingRender, VoxelOccupancyHoldsEveryParticle) {
+// The occupancy records of the store (docs/store-format.md, "Occupancy"), which the cache
+// classifies a node by before it is read, hold every particle sphere of the node; and in this
+// porous block many nodes are partly empty (their records are not full), which is what lets
+// their boxes reach O in front of a pore.
+TEST_F(StreamingRender, StoredOccupancyHoldsEveryParticle) {
   auto rd = store::StoreReader::open(store_path());
   ASSERT_TRUE(rd.ok());
   const store::StoreReader& reader = *rd.value();
-  const store::FileHeader& h = reader.header();
   store::NodeData d;
   std::vector<uint8_t> scratch;
   size_t partial = 0, cells = 0;
   for (uint32_t i = 0; i < reader.nodes().size(); ++i) {
     const store::NodeEntry& e = reader.nodes()[i];
-    const uint64_t mask = node_voxel_occupancy(h, e, reader.voxels(i));
-    partial += mask != ::mds::culling::kOccupancyFull;
-    cells += size_t(std::popcount(mask));
+    const std::span<const uint8_t> rec = reader.occupancy(i);
+    ASSERT_EQ(rec.size(), store::kOccupancyBytes);
+    size_t set = 0;
+    for (uint8_t b : rec) set += size_t(std::popcount(b));
+    partial += set < 512;
+    cells += set;
     ASSERT_TRUE(reader.read_node(i, d, scratch).ok());
     std::array<double, 3> lo, hi;
     for (int a = 0; a < 3; ++a) {
@@ -174,12 +177,14 @@ TEST_F(StreamingRender, VoxelOccupancyHoldsEveryParticle) {
         a[ax] = c[ax] - r;
         b[ax] = c[ax] + r;
       }
-      const uint64_t need = ::mds::culling::occupancy_of_box(lo, hi, a, b);
-      ASSERT_EQ(need & ~mask, 0u) << "node " << i << " particle " << p;
+      ::mds::culling::FineOccupancy need{};
+      ::mds::culling::fine_occupancy_of_box(lo, hi, a, b, need);
+      for (size_t c = 0; c < need.size(); ++c)
+        ASSERT_EQ(need[c] & ~rec[c], 0) << "node " << i << " particle " << p << " cell " << c;
     }
   }
-  EXPECT_GT(partial, reader.nodes().size() / 20) << "nodes with a partly empty box";
-  EXPECT_LT(cells, 64 * reader.nodes().size());
+  EXPECT_GT(partial, reader.nodes().size() / 4) << "nodes with a partly empty box";
+  EXPECT_LT(cells, 512 * reader.nodes().size());
   // The in-memory scene builds its masks from the decoded spheres over its tighter boxes: never
   // empty, and partly empty in this porous block too.
   auto scene = load_scene(reader);
@@ -211,14 +216,15 @@ TEST_F(StreamingRender, WithoutCullingAnAmpleBudgetIsPixelIdentical) {
 }
 
 TEST_F(StreamingRender, CameraChangeEvictsTheOldViewFirstAndConvergesAgain) {
-  // Close-ups of two opposite corners with a pool of 1/16 of the store: the second view's nodes
+  // Close-ups of two opposite corners with a small pool: the second view's nodes
   // replace the first view's (classes restart at P with the view, and the nearer nodes of the new
   // view displace the farther old ones), the pool never exceeds the budget, and the second view
-  // converges, with every node it needs resident, to the in-memory image. (1/24: the waves of
-  // reads at rest and the sub-node occupancy read so little of each view that both fit 1/16.)
+  // converges, with every node it needs resident, to the in-memory image. (1/40: the waves of
+  // reads at rest and the stored 8^3 occupancy records read so little of each view that both
+  // views fit 1/24 of the store, and nothing would be evicted.)
   auto reader = store::StoreReader::open(store_path());
   ASSERT_TRUE(reader.ok());
-  const uint64_t budget = file_size() / 24;
+  const uint64_t budget = file_size() / 40;
   StreamSettings ss;
   ss.gpu_budget = budget;
   auto r = Renderer::create_streaming(*ctx_, *reader.value(), settings(true), ss);

@@ -69,6 +69,8 @@ MDS_STRUCT(GpuNode) {
   uint occupancy_hi;    //   bit c of the uint64 lo | hi << 32 = cell c of 4^3 holds part of a particle
   uint pad0;
   uint pad1;
+  uvec4 occupancy_fine[4];  // 8^3 cells, 64 B: byte c (of 64, little-endian in the uints) = the 2^3
+                            //   sub-cells of coarse cell c (node_occupancy.h FineOccupancy); all 0 = unknown
 };
 
 // One meshlet: a run of particles of one node, with bounds computed at load from decoded positions.
@@ -182,7 +184,8 @@ static_assert(sizeof(FrameUniforms) == 256);
 static_assert(offsetof(FrameUniforms, viewport) == 192);
 static_assert(offsetof(FrameUniforms, counts) == 224);
 static_assert(offsetof(FrameUniforms, occlusion) == 240);
-static_assert(sizeof(GpuNode) == 80);
+static_assert(sizeof(GpuNode) == 144);
+static_assert(offsetof(GpuNode, occupancy_fine) == 80);
 static_assert(offsetof(GpuNode, occupancy_lo) == 64);
 static_assert(offsetof(GpuNode, first_particle) == 12);
 static_assert(offsetof(GpuNode, step) == 16);

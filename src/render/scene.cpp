@@ -123,33 +123,17 @@ Status append_node(SceneData& s, const double center_min[3], const double center
   g.max_radius = node_rmax;
   culling::OccupancyBuilder occ({node_min.x, node_min.y, node_min.z}, {node_max.x, node_max.y, node_max.z});
   for (const glm::vec4& q : spheres) occ.add_sphere({q.x, q.y, q.z}, q.w);
-  set_occupancy(g, occ.mask());
+  set_fine_occupancy(g, occ.fine());
   s.nodes.push_back(g);
   return {};
 }
 
-uint64_t node_voxel_occupancy(const store::FileHeader& h, const store::NodeEntry& e, std::span<const store::VoxelRef> voxels) {
-  std::array<double, 3> lo, hi, cell;
-  for (int a = 0; a < 3; ++a) {
-    lo[a] = e.center_min[a] - double(e.max_radius);
-    hi[a] = e.center_max[a] + double(e.max_radius);
-    cell[a] = (h.density_max[a] - h.density_min[a]) / double(std::max<uint32_t>(h.density_dims[a], 1));
+void set_fine_occupancy(gpu::GpuNode& g, const std::array<uint8_t, 64>& fine) {
+  set_occupancy(g, culling::coarse_occupancy(fine));
+  for (int c = 0; c < 64; ++c) {
+    uint32_t& word = g.occupancy_fine[c / 16][(c / 4) % 4];
+    word = (word & ~(0xffu << (8 * (c % 4)))) | uint32_t(fine[c]) << (8 * (c % 4));
   }
-  if (voxels.empty()) return culling::kOccupancyFull;
-  culling::OccupancyBuilder occ(lo, hi);
-  const uint64_t dx = std::max<uint32_t>(h.density_dims[0], 1), dy = std::max<uint32_t>(h.density_dims[1], 1);
-  for (const store::VoxelRef& v : voxels) {
-    const uint64_t idx[3] = {v.voxel % dx, (v.voxel / dx) % dy, v.voxel / (dx * dy)};
-    std::array<double, 3> a, b;
-    for (int ax = 0; ax < 3; ++ax) {
-      const double grow = double(e.max_radius) + 0.5 * store::quant_step(e, ax) + 1e-6 * cell[ax];
-      a[ax] = h.density_min[ax] + cell[ax] * double(idx[ax]) - grow;
-      b[ax] = h.density_min[ax] + cell[ax] * double(idx[ax] + 1) + grow;
-    }
-    occ.add_box(a, b);
-    if (occ.mask() == culling::kOccupancyFull) break;
-  }
-  return occ.mask();
 }
 
 Result<SceneData> load_scene(const store::StoreReader& reader) {

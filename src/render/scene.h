@@ -6,6 +6,7 @@
 // through append_node() -- the same decoded-node layout the store uses.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -41,15 +42,8 @@ inline void set_occupancy(gpu::GpuNode& g, uint64_t mask) {
   g.occupancy_hi = uint32_t(mask >> 32);
 }
 inline uint64_t occupancy(const gpu::GpuNode& g) { return uint64_t(g.occupancy_lo) | uint64_t(g.occupancy_hi) << 32; }
-
-// A node's sub-node occupancy (culling/node_occupancy.h) before it is read: the density voxels
-// of its voxel list, grown by the node's largest radius, hold every particle sphere of the node
-// (each voxel holds the centres counted in it; half a quantization step more covers the decoded
-// centres, 1e-6 of a voxel the converter's rounding of a centre on a voxel face). No voxels
-// (not expected): the full mask.
-// The node's culling box is its centre bounds -/+ max_radius (the streaming directory's box).
-uint64_t node_voxel_occupancy(const store::FileHeader& h, const store::NodeEntry& e,
-                              std::span<const store::VoxelRef> voxels);
+// Stores the fine level (and the coarse mask it implies).
+void set_fine_occupancy(gpu::GpuNode& g, const std::array<uint8_t, 64>& fine);  // culling::FineOccupancy
 
 // Distinct per-type colour (Tableau 10 qualitative palette, cycled), as sRGB in [0, 1].
 glm::vec3 type_color_srgb(uint32_t type_index);

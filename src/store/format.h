@@ -1,4 +1,4 @@
-// The mdstream store (.mds), format version 1: on-disk structs.
+// The mdstream store (.mds), format version 2: on-disk structs.
 // docs/store-format.md describes every byte in prose; this header is the single definition
 // the writer, the reader and (later) the GPU upload code share. All integers little-endian.
 //
@@ -9,6 +9,7 @@
 //   [section: node directory]         NodeEntry[node_count]                 (uncompressed)
 //   [section: voxel lists]            LZ4 block of VoxelRef[sum of NodeEntry::voxel_count] (delta + byte planes)
 //   [section: density volume]         LZ4 block of uint32 counts[dims.x*dims.y*dims.z] (byte planes)
+//   [section: occupancy]              uint8 occupancy[node_count][64]        (uncompressed; since version 2)
 // Every section and every payload carries an XXH3-64 hash of its stored bytes; the header
 // carries an XXH3-64 hash of itself (computed with header_hash = 0).
 #pragma once
@@ -19,7 +20,7 @@
 namespace mds::store {
 
 inline constexpr char kMagic[8] = {'M', 'D', 'S', 'T', 'O', 'R', 'E', '\0'};
-inline constexpr uint32_t kFormatVersion = 1;
+inline constexpr uint32_t kFormatVersion = 2;  // 2: the occupancy section
 inline constexpr uint32_t kHeaderBytes = 512;
 
 inline constexpr uint32_t kMaxNodeParticles = 65535;   // per-node indices fit in uint16
@@ -36,7 +37,8 @@ enum SectionId : uint32_t {
   kSectionDirectory = 1,
   kSectionVoxels = 2,
   kSectionDensity = 3,
-  kSectionCount = 4,
+  kSectionOccupancy = 4,
+  kSectionCount = 5,
 };
 
 struct Section {
@@ -70,7 +72,7 @@ struct FileHeader {
   uint64_t payload_bytes;         // sum of compressed node payloads
   uint64_t payload_raw_bytes;     // sum of decoded node payloads
   Section sections[kSectionCount];
-  uint8_t reserved[176];          // zero
+  uint8_t reserved[144];          // zero
   uint64_t header_hash;           // XXH3-64 of these 512 bytes with header_hash = 0
 };
 static_assert(sizeof(FileHeader) == kHeaderBytes);
@@ -106,6 +108,14 @@ struct NodeEntry {
   uint32_t reserved;           // zero
 };
 static_assert(sizeof(NodeEntry) == 112);
+
+// Occupancy section: per node, 8^3 = 512 bits = 64 bytes saying which cells of its culling box
+// [center_min - max_radius, center_max + max_radius] (cut into 8 equal parts per axis) a sphere of
+// the node reaches into (centres as decoded, each grown by max_radius). Byte c = i + 4 (j + 4 k),
+// i, j, k in [0, 4), holds the 2^3 cells (2i + si, 2j + sj, 2k + sk) as bit si + 2 sj + 4 sk
+// (src/culling/node_occupancy.h). The renderer classifies a node that is not loaded by its
+// occupied cells (docs/streaming.md, "Sub-node occupancy"); a node has at least one bit set.
+inline constexpr uint32_t kOccupancyBytes = 64;  // per node: 512 cells, one bit each
 
 // A density voxel touched by a node, and how many of the node's particles it holds.
 // Subtracting a node's VoxelRefs from the density volume removes that node (paper 000, §4.4).

@@ -9,6 +9,7 @@
 
 #include <lz4.h>
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstring>
@@ -25,7 +26,8 @@ namespace mds::store {
 namespace {
 
 constexpr uint64_t kMaxDensityVoxels = uint64_t(1) << 28;
-constexpr const char* kSectionNames[kSectionCount] = {"type table", "node directory", "voxel lists", "density volume"};
+constexpr const char* kSectionNames[kSectionCount] = {"type table", "node directory", "voxel lists", "density volume",
+                                                      "occupancy"};
 
 bool finite3(const double v[3]) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }
 
@@ -48,6 +50,7 @@ struct StoreReader::Impl {
   std::vector<NodeEntry> nodes;
   std::vector<VoxelRef> voxels;
   std::vector<uint32_t> density;
+  std::vector<uint8_t> occupancy;  // kOccupancyBytes per node
 
   Status check_header();
   Status check_sections();
@@ -64,7 +67,9 @@ Status StoreReader::Impl::check_header() {
   if (std::memcmp(h.magic, kMagic, sizeof(kMagic)) != 0)
     return make_error(Errc::format, "{}: field magic at byte 0: not an mdstream store (bad magic)", name);
   if (h.version != kFormatVersion)
-    return make_error(Errc::unsupported, "{}: field version at byte {}: format version {} is not supported (this build reads {})",
+    return make_error(Errc::unsupported,
+                      "{}: field version at byte {}: format version {} is not supported (this build reads {}; convert the "
+                      "input again)",
                       name, HFIELD(version), h.version, kFormatVersion);
   if (h.header_bytes != kHeaderBytes)
     return make_error(Errc::format, "{}: field header_bytes at byte {}: {} (expected {})", name, HFIELD(header_bytes),
@@ -184,6 +189,9 @@ Status StoreReader::Impl::check_sections() {
                       sn.raw_bytes > lz4_max_decoded(sn.bytes)))
     return size_error(kSectionDensity, product == 0 ? 0 : uint64_t(LZ4_compressBound(int(4 * product))),
                       "an LZ4 block of the density counts");
+  const Section& so = h.sections[kSectionOccupancy];
+  if (so.bytes != uint64_t(h.node_count) * kOccupancyBytes || so.raw_bytes != so.bytes)
+    return size_error(kSectionOccupancy, uint64_t(h.node_count) * kOccupancyBytes, "node_count * 64");
   return {};
 }
 
@@ -377,6 +385,14 @@ Result<std::unique_ptr<StoreReader>> StoreReader::open(const std::filesystem::pa
   }
   std::vector<uint8_t> density_block(h.sections[kSectionDensity].bytes);
   MDS_TRY(s.read_section(kSectionDensity, density_block.data()));
+  s.occupancy.resize(h.sections[kSectionOccupancy].bytes);
+  MDS_TRY(s.read_section(kSectionOccupancy, s.occupancy.data()));
+  for (uint32_t i = 0; i < h.node_count; ++i) {
+    const uint8_t* rec = s.occupancy.data() + uint64_t(i) * kOccupancyBytes;
+    if (std::all_of(rec, rec + kOccupancyBytes, [](uint8_t b) { return b == 0; }))
+      return make_error(Errc::format, "{}: node {} occupancy at byte {}: no cell occupied", s.name, i,
+                        h.sections[kSectionOccupancy].offset + uint64_t(i) * kOccupancyBytes);
+  }
   MDS_TRY(s.check_types());
   MDS_TRY(s.check_directory());
   MDS_TRY(s.check_voxels_and_density(density_block));
@@ -390,6 +406,11 @@ uint64_t StoreReader::file_bytes() const { return impl_->file_bytes; }
 std::span<const TypeEntry> StoreReader::types() const { return impl_->types; }
 std::span<const NodeEntry> StoreReader::nodes() const { return impl_->nodes; }
 std::span<const uint32_t> StoreReader::density_counts() const { return impl_->density; }
+
+std::span<const uint8_t> StoreReader::occupancy(uint32_t node) const {
+  if (node >= impl_->nodes.size()) return {};
+  return std::span<const uint8_t>(impl_->occupancy).subspan(uint64_t(node) * kOccupancyBytes, kOccupancyBytes);
+}
 
 std::span<const VoxelRef> StoreReader::voxels(uint32_t node) const {
   if (node >= impl_->nodes.size()) return {};

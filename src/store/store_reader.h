@@ -39,6 +39,8 @@ class StoreReader {
   std::span<const NodeEntry> nodes() const;
   std::span<const VoxelRef> voxels(uint32_t node) const;  // this node's voxel list
   std::span<const uint32_t> density_counts() const;      // dims.x*dims.y*dims.z particle counts
+  // This node's occupancy record (kOccupancyBytes, format.h); empty for a node that does not exist.
+  std::span<const uint8_t> occupancy(uint32_t node) const;
 
   // Reads node `i`'s compressed bytes into `out` (resized) and checks its hash.
   // Errc::checksum names the file, node index and byte offset on mismatch.

@@ -1,8 +1,8 @@
 // Store writer: serializes (payload_codec.h) and LZ4-compresses node payloads (format.h /
 // docs/store-format.md), appends them to "<path>.tmp.<pid>" through aligned 4 MiB blocks that a
 // background thread writes (O_DIRECT where possible, see BlockStream), then writes the type table,
-// the node directory, and the LZ4-compressed voxel lists and density volume (section_codec.h),
-// each with its XXH3-64 hash, and finally the header (hashed with header_hash = 0), fsync and
+// the node directory, the LZ4-compressed voxel lists and density volume (section_codec.h) and the
+// occupancy records, each with its XXH3-64 hash, and finally the header (hashed with header_hash = 0), fsync and
 // rename.
 #include "store/store_writer.h"
 
@@ -10,6 +10,7 @@
 #include <lz4.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <bit>
 #include <cerrno>
 #include <cmath>
@@ -23,6 +24,7 @@
 #include <string>
 #include <thread>
 
+#include "culling/node_occupancy.h"
 #include "store/file_io.h"
 #include "store/hash.h"
 #include "store/payload_codec.h"
@@ -106,6 +108,10 @@ Result<EncodedNode> encode_node(const NodeInput& node) {
   e.max_radius = node.max_radius;
   e.voxel_count = static_cast<uint32_t>(node.voxels.size());
   out.voxels.assign(node.voxels.begin(), node.voxels.end());
+  static_assert(sizeof(culling::FineOccupancy) == kOccupancyBytes);
+  const culling::FineOccupancy occ =
+      culling::fine_occupancy_of_quantized(node.center_min, node.center_max, double(node.max_radius), node.qpos);
+  std::copy(occ.begin(), occ.end(), out.occupancy.begin());
   out.max_meshlet_size = max_meshlet;
   out.per_particle_radius = radius;
   uint32_t counts[256] = {};  // n <= 65535
@@ -301,6 +307,7 @@ struct StoreWriter::Impl {
   std::unique_ptr<BlockStream> writer;
   std::vector<NodeEntry> entries;
   std::vector<VoxelRef> voxels;
+  std::vector<uint8_t> occupancy;  // kOccupancyBytes per node
   std::vector<uint64_t> type_counts;
   uint64_t particles = 0;
   uint64_t meshlets = 0;
@@ -372,6 +379,7 @@ Status StoreWriter::append(EncodedNode&& node) {
   if (node.type_counts.size() > s.type_counts.size()) s.type_counts.resize(node.type_counts.size(), 0);
   for (size_t t = 0; t < node.type_counts.size(); ++t) s.type_counts[t] += node.type_counts[t];
   s.voxels.insert(s.voxels.end(), node.voxels.begin(), node.voxels.end());
+  s.occupancy.insert(s.occupancy.end(), node.occupancy.begin(), node.occupancy.end());
   s.entries.push_back(e);
   return {};
 }
@@ -445,6 +453,9 @@ Status StoreWriter::finish(const StoreSummary& sum) {
         e.payload_raw_bytes > node_payload_max_bytes(e.particle_count, e.meshlet_count, radius))
       return make_error(Errc::internal, "{}: node {}: decoded payload size {} impossible for its counts", name, i,
                         e.payload_raw_bytes);
+    if (std::all_of(s.occupancy.begin() + ptrdiff_t(i * kOccupancyBytes),
+                    s.occupancy.begin() + ptrdiff_t((i + 1) * kOccupancyBytes), [](uint8_t b) { return b == 0; }))
+      return make_error(Errc::internal, "{}: node {}: empty occupancy record", name, i);
   }
   // The voxel section (the largest one to compress) is encoded on a second thread while this
   // one checks the density volume and encodes it.
@@ -540,6 +551,7 @@ Status StoreWriter::finish(const StoreSummary& sum) {
                         s.entries.size() * sizeof(NodeEntry)));
   MDS_TRY(write_section(kSectionVoxels, voxel_block->data(), voxel_block->size(), s.voxels.size() * sizeof(VoxelRef)));
   MDS_TRY(write_section(kSectionDensity, density.data(), density.size(), density_raw));
+  MDS_TRY(write_section(kSectionOccupancy, s.occupancy.data(), s.occupancy.size(), s.occupancy.size()));
   MDS_TRY(s.writer->flush());
 
   h.header_hash = 0;

@@ -4,6 +4,7 @@
 // "<path>.tmp.<pid>", fsync, rename); a writer destroyed before finish() removes it.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -34,6 +35,7 @@ struct EncodedNode {
   std::vector<uint8_t> payload;  // LZ4 block
   NodeEntry entry;               // offsets/prefix sums/voxel_first filled in by append()
   std::vector<VoxelRef> voxels;
+  std::array<uint8_t, kOccupancyBytes> occupancy{};  // the node's occupancy record (format.h)
   // Filled by encode_node; the writer uses them to fill TypeEntry::particle_count and to
   // check the node against the build parameters in finish().
   std::vector<uint64_t> type_counts;  // particles per type index (size = largest index + 1)

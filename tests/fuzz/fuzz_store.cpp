@@ -4,7 +4,7 @@
 // Random bytes rarely get past the header hash, so for inputs of odd length the harness first
 // recomputes every hash it can locate (payloads, sections, header): those inputs exercise the
 // semantic checks, even-length inputs the checksum paths.
-// Seed corpus: tests/data/store/golden_v1.mds. Built only with -DMDSTREAM_FUZZ=ON (clang).
+// Seed corpus: tests/data/store/golden_v2.mds. Built only with -DMDSTREAM_FUZZ=ON (clang).
 #include <cstring>
 #include <vector>
 
