@@ -13,8 +13,10 @@
 // the mean C_cull over the covered texels (Eq. 23 averages: the covered area's mean). The first
 // texel where the box lies in front ends the test: the box is P whatever the confidence.
 // A node's test is tightened by its sub-node occupancy (src/culling/node_occupancy.h): only the
-// occupied cells of its box are tested, so a box that reaches into a pore with no particle of
-// the node there can still be O (issue 4: nodes known O before they are read are never read).
+// occupied cells of its box are tested (4^3 coarse cells; where a coarse cell lies in front on
+// a texel, its occupied 2^3 sub-cells from the store's occupancy record decide), so a box that
+// reaches into a pore with no particle of the node there can still be O (issue 4: nodes known
+// O before they are read are never read).
 // Boxes reaching behind the near plane pass unless their part in front of it projects outside
 // the image. Boxes entirely outside the image are O (frustum
 // culled: they cannot contribute to any pixel, and their particles are not on any pixel ray).
@@ -102,8 +104,11 @@ bool texel_rect(vec2 lo, vec2 hi, uint level, out ivec2 t0, out ivec2 t1) {
 // Returns MDS_CULL_CLASS_* for the box without the "upward" rule (-1: outside the image).
 // occupancy (nodes only): bit c set = cell c of the box's 4^3 cells holds part of a particle
 // (src/culling/node_occupancy.h; 0 = unknown, treated as full); only occupied cells are tested,
-// at the pyramid level the whole box selects, and the box is P when one of them is in front on
-// one texel, O (frustum culled) when none reaches into the image.
+// at the pyramid level the whole box selects. A cell in front on a texel is refined into its
+// occupied sub-cells (nodes[node].occupancy_fine; none known: P), and the box is P when one of
+// them is in front on one texel, O (frustum culled) when no occupied cell reaches into the
+// image; otherwise the class follows the mean confidence over the texels the tested cells
+// reach (a refined cell's texels are counted through its sub-cells).
 // The fine occupancy byte of coarse cell c of node i (0: unknown; gpu_types.h GpuNode).
 uint fine_cell_bits(uint i, int c) {
   return (nodes[i].occupancy_fine[c / 16][(c / 4) % 4] >> (8 * (c % 4))) & 0xffu;
@@ -173,17 +178,29 @@ int classify_box(vec3 bmin, vec3 bmax, int max_extent, uvec2 occupancy, int node
     if (texels_in_front(bmin, bmax, level, t0 >> int(level), t1 >> int(level), grow, csum, n))
       return MDS_CULL_CLASS_P;
     if (n == 0.0) return MDS_CULL_CLASS_P;  // (not expected: the box projects into the image)
+  } else if (!texels_in_front(bmin, bmax, level, t0 >> int(level), t1 >> int(level), grow, csum, n) && n > 0.0) {
+    // The whole box lies behind d_cull on every texel it reaches, so every cell does too: the
+    // box's mean confidence decides, as for a full mask (one test instead of one per cell).
   } else {
+    csum = 0.0;
+    n = 0.0;
     const int kCells = MDS_OCCUPANCY_CELLS;  // cell c = i + kCells (j + kCells k), node_occupancy.h
     vec3 cell = (bmax - bmin) / float(kCells);
     bool in_image = false;
-    for (int word = 0; word < 2; ++word) {
-      uint bits = word == 0 ? occupancy.x : occupancy.y;
-      while (bits != 0u) {
-        int b = findLSB(bits);
-        bits &= bits - 1u;
-        int c = 32 * word + b;
-        ivec3 ci = ivec3(c % kCells, (c / kCells) % kCells, c / (kCells * kCells));
+    // Cells in front-to-back order (each axis from the eye's side: the cell index mirrored
+    // where the eye lies on the high side), so a visible node stops at a near cell.
+    bool ortho_view = (cull.params.w & kCullOrtho) != 0u;
+    vec3 toward = ortho_view ? mat3(cull.inv_view) * vec3(0.0, 0.0, -1.0)
+                             : 0.5 * (bmin + bmax) - (cull.inv_view * vec4(0.0, 0.0, 0.0, 1.0)).xyz;
+    bvec3 flip = lessThan(toward, vec3(0.0));
+    int sub_flip = (flip.x ? 1 : 0) | (flip.y ? 2 : 0) | (flip.z ? 4 : 0);
+    for (int j = 0; j < kCells * kCells * kCells; ++j) {
+      ivec3 ci = ivec3(j % kCells, (j / kCells) % kCells, j / (kCells * kCells));
+      ci = mix(ci, ivec3(kCells - 1) - ci, flip);
+      int c = ci.x + kCells * (ci.y + kCells * ci.z);
+      uint bits = c < 32 ? occupancy.x : occupancy.y;
+      if (((bits >> (c & 31)) & 1u) == 0u) continue;
+      {
         vec3 cmin = bmin + cell * vec3(ci);
         vec3 cmax = mix(bmin + cell * vec3(ci + 1), bmax, equal(ci, ivec3(kCells - 1)));
         vec2 clo, chi;
@@ -202,9 +219,9 @@ int classify_box(vec3 bmin, vec3 bmax, int max_extent, uvec2 occupancy, int node
         uint sub = fine ? fine_cell_bits(uint(node), c) : 0u;
         if (sub == 0u) return MDS_CULL_CLASS_P;
         vec3 half_cell = (cmax - cmin) * 0.5;
-        while (sub != 0u) {
-          int s = findLSB(sub);
-          sub &= sub - 1u;
+        for (int t = 0; t < 8; ++t) {
+          int s = t ^ sub_flip;
+          if (((sub >> s) & 1u) == 0u) continue;
           bvec3 upper = bvec3((s & 1) != 0, (s & 2) != 0, (s & 4) != 0);
           vec3 smin = mix(cmin, cmin + half_cell, upper);
           vec3 smax = mix(cmin + half_cell, cmax, upper);
