@@ -441,8 +441,12 @@ TEST(StoreCli, InfoJsonHasTheKeys) {
   for (const char* key : {"particles", "nodes", "meshlets", "bounds_min", "bounds_max", "max_quantization_error",
                           "quantization_step", "density_dims", "file_bytes", "bytes_per_particle", "format_version",
                           "node_size_max", "meshlet_size_max", "types", "payload_bytes", "payload_raw_bytes",
-                          "compression_ratio"})
+                          "compression_ratio", "occupancy"})
     EXPECT_TRUE(j.contains(key)) << key;
+  // Every node occupies some of its 512 cells.
+  EXPECT_GT(j["occupancy"]["cells_set_fraction"].get<double>(), 0.0);
+  EXPECT_LE(j["occupancy"]["cells_set_fraction"].get<double>(), 1.0);
+  EXPECT_LE(j["occupancy"]["full_nodes"].get<uint64_t>(), s.nodes.size());
   EXPECT_EQ(j["particles"].get<uint64_t>(), 3000u);
   EXPECT_EQ(j["nodes"].get<uint64_t>(), s.nodes.size());
   EXPECT_EQ(j["file_bytes"].get<uint64_t>(), std::filesystem::file_size(dir / "s.mds"));

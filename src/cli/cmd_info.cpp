@@ -1,6 +1,7 @@
 // `mdstream info STORE [--json] [--verify]`: summary of a store (header, types, sizes,
 // quantization), as text or JSON. --verify also reads and decodes every node payload.
 #include <algorithm>
+#include <bit>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -61,6 +62,17 @@ Result<nlohmann::json> store_info(const store::StoreReader& r) {
   j["payload_bytes"] = h.payload_bytes;
   j["payload_raw_bytes"] = h.payload_raw_bytes;
   j["compression_ratio"] = h.payload_bytes ? double(h.payload_raw_bytes) / double(h.payload_bytes) : 0.0;
+  // Occupancy records (docs/store-format.md "Occupancy"): the share of the 512 cells set, mean
+  // over nodes, and the nodes with every cell set (which the culling tests by their box alone).
+  uint64_t set = 0, full = 0;
+  for (uint32_t i = 0; i < h.node_count; ++i) {
+    uint64_t node_set = 0;
+    for (uint8_t b : r.occupancy(i)) node_set += uint64_t(std::popcount(b));
+    set += node_set;
+    full += node_set == 8 * store::kOccupancyBytes;
+  }
+  j["occupancy"] = {{"cells_set_fraction", h.node_count ? double(set) / (8.0 * store::kOccupancyBytes * h.node_count) : 0.0},
+                    {"full_nodes", full}};
   nlohmann::json types = nlohmann::json::array();
   const auto ts = r.types();
   for (size_t i = 0; i < ts.size(); ++i)
@@ -106,6 +118,8 @@ std::string human(const nlohmann::json& j, bool verified) {
                    v3(j["density_max"]));
   s += fmt::format("payloads         {} bytes LZ4 from {} bytes (ratio {:.3f})\n", j["payload_bytes"].get<uint64_t>(),
                    j["payload_raw_bytes"].get<uint64_t>(), j["compression_ratio"].get<double>());
+  s += fmt::format("occupancy        {:.1f} % of the 8^3 cells per node set (mean); {} nodes full\n",
+                   100.0 * j["occupancy"]["cells_set_fraction"].get<double>(), j["occupancy"]["full_nodes"].get<uint64_t>());
   s += fmt::format("types            {}\n", j["types"].size());
   for (const auto& t : j["types"])
     s += fmt::format("  [{}] id {:<6} name {:<10} radius {:<8.4g} particles {}\n", t["index"].get<size_t>(),
