@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/stress_report.h"
+#include "store/store_reader.h"
 
 namespace fs = std::filesystem;
 using namespace mds;
@@ -463,6 +464,29 @@ TEST_F(StressCli, HeldDefaultViewFromAColdCache) {
   check_report(j0, budget);
   EXPECT_TRUE(j0["final_view"]["converged"].get<bool>());
   EXPECT_GT(j0["nodes_loaded"].get<uint64_t>(), 0u);
+  // Waves of one node (--wave-nodes 1): the first frame with a read has read one node, and the
+  // view converges to the same wanted set.
+  const fs::path js1 = dir_ / "view0_wave1.json";
+  ASSERT_EQ(run("stress " + store() + " --gpu-budget " + std::to_string(budget) +
+                " --path view0 --frames 3 --settle-frames 60 --wave-nodes 1 --json " + js1.string() + small()),
+            0)
+      << last_stderr();
+  std::ifstream f1(js1);
+  const auto j1 = nlohmann::json::parse(f1);
+  check_report(j1, budget);
+  EXPECT_TRUE(j1["final_view"]["converged"].get<bool>());
+  const auto& totals = j1["per_frame"]["bytes_read_total"];
+  size_t first = 0;
+  while (first < totals.size() && totals[first].get<uint64_t>() == 0) ++first;
+  ASSERT_LT(first, totals.size());
+  auto reader = mds::store::StoreReader::open(store());
+  ASSERT_TRUE(reader.ok());
+  uint64_t largest = 0;
+  for (const auto& e : reader.value()->nodes()) largest = std::max<uint64_t>(largest, e.payload_bytes);
+  EXPECT_LE(totals[first].get<uint64_t>(), largest);
+  if (v["converged"].get<bool>())
+    EXPECT_EQ(j1["final_view"]["wanted_nodes_at_convergence"].get<uint64_t>(),
+              v["wanted_nodes_at_convergence"].get<uint64_t>());
 }
 
 TEST_F(StressCli, UsageAndInputErrors) {
@@ -481,6 +505,8 @@ TEST_F(StressCli, UsageAndInputErrors) {
   // Bad policy, bad bandwidth, negative latency.
   EXPECT_EQ(run(base + "--gpu-budget 1MiB --path orbit --wave-settle-frames -1"), 2);
   EXPECT_NE(last_stderr().find("--wave-settle-frames"), std::string::npos) << last_stderr();
+  EXPECT_EQ(run(base + "--gpu-budget 1MiB --path orbit --wave-nodes 0"), 2);
+  EXPECT_NE(last_stderr().find("--wave-nodes"), std::string::npos) << last_stderr();
   EXPECT_EQ(run(base + "--gpu-budget 1MiB --path orbit --policy mru"), 2);
   EXPECT_NE(last_stderr().find("mru"), std::string::npos) << last_stderr();
   EXPECT_EQ(run(base + "--gpu-budget 1MiB --path orbit --io-bandwidth fast"), 2);

@@ -18,13 +18,18 @@ void add_stream_options(CLI::App& sub, StreamOptions& o, bool budget_required) {
   sub.add_option("--upload-per-frame,--upload-budget", o.upload_per_frame, "Bytes uploaded to the GPU per frame at most")
       ->capture_default_str();
   sub.add_option("--max-outstanding", o.max_outstanding,
-                 "Cap of the node reads queued or in flight at a time (the window adapts from 4 per view)")
+                 "Cap of the node reads queued or in flight at a time (the window adapts from --wave-nodes per held view, 4 without waves)")
       ->check(CLI::Range(1u, 100000u))
       ->capture_default_str();
   sub.add_option("--wave-settle-frames", o.wave_settle_frames,
                  "At rest, reads go out in waves: the next wave waits until the last one's nodes have been resident "
                  "this many frames (sampled as occluders); 0: no waves (docs/streaming.md)")
       ->check(CLI::Range(0u, 1000u))
+      ->capture_default_str();
+  sub.add_option("--wave-nodes", o.wave_nodes,
+                 "Nodes of the first wave at rest and the window's step: 1 reads fewest bytes on close-ups, in more "
+                 "frames (docs/streaming.md, \"Wave size\")")
+      ->check(CLI::Range(1u, 100000u))
       ->capture_default_str();
 }
 
@@ -49,6 +54,7 @@ Result<render::StreamSettings> stream_settings(const StreamOptions& o) {
   ss.io.io_latency_ms = o.io_latency_ms;
   ss.max_outstanding = o.max_outstanding;
   ss.wave_settle_frames = o.wave_settle_frames;
+  ss.wave_nodes = o.wave_nodes;
   return ss;
 }
 

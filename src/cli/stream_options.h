@@ -22,6 +22,7 @@ struct StreamOptions {
   std::string upload_per_frame = "32MiB";
   uint32_t max_outstanding = 64;
   uint32_t wave_settle_frames = 2;  // render::StreamSettings::wave_settle_frames
+  uint32_t wave_nodes = 2;          // render::StreamSettings::wave_nodes
 };
 
 // Adds --gpu-budget (required when budget_required) and the others.

@@ -86,7 +86,8 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
   MDS_ASSIGN_OR_RETURN(c->io_, mds::streaming::IoPool::create(reader, settings.io));
   // With waves each wave is sampled before the next, so the window starts smaller.
   c->window_ = mds::streaming::ReadWindow(
-      {.min = settings.wave_settle_frames > 0 ? 2u : 4u, .calm_frames = 3, .cap = settings.max_outstanding});
+      {.min = settings.wave_settle_frames > 0 ? std::max(1u, settings.wave_nodes) : 4u, .calm_frames = 3,
+       .cap = settings.max_outstanding});
   c->placed_frame_.assign(nodes.size(), 0);
 
   CacheStats& s = c->stats_;
