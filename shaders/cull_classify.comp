@@ -103,12 +103,14 @@ bool texel_rect(vec2 lo, vec2 hi, uint level, out ivec2 t0, out ivec2 t1) {
 
 // Returns MDS_CULL_CLASS_* for the box without the "upward" rule (-1: outside the image).
 // occupancy (nodes only): bit c set = cell c of the box's 4^3 cells holds part of a particle
-// (src/culling/node_occupancy.h; 0 = unknown, treated as full); only occupied cells are tested,
-// at the pyramid level the whole box selects. A cell in front on a texel is refined into its
-// occupied sub-cells (nodes[node].occupancy_fine; none known: P), and the box is P when one of
-// them is in front on one texel, O (frustum culled) when no occupied cell reaches into the
-// image; otherwise the class follows the mean confidence over the texels the tested cells
-// reach (a refined cell's texels are counted through its sub-cells).
+// (src/culling/node_occupancy.h; 0 = unknown, treated as full). When the whole box lies behind
+// d_cull on every texel it reaches, so do its cells: the box's mean confidence decides, as for
+// a full mask (a cheaper and slightly different mean than the cells' own, never a P). Otherwise
+// only occupied cells are tested, nearest first, at the pyramid level the whole box selects; a
+// cell in front on a texel is refined into its occupied sub-cells (nodes[node].occupancy_fine;
+// none known: P), and the box is P when one of them is in front on one texel, O (frustum
+// culled) when no occupied cell reaches into the image; otherwise the class follows the mean
+// confidence over the texels the tested cells reach (a refined cell's through its sub-cells).
 // The fine occupancy byte of coarse cell c of node i (0: unknown; gpu_types.h GpuNode).
 uint fine_cell_bits(uint i, int c) {
   return (nodes[i].occupancy_fine[c / 16][(c / 4) % 4] >> (8 * (c % 4))) & 0xffu;

@@ -351,3 +351,80 @@ TEST_F(CullRender, BoxesBesideTheEyeAreFrustumCulled) {
   EXPECT_GT(beside, 0u);
   EXPECT_GT(crossing_on_screen, 0u);
 }
+
+namespace {
+
+// A wall of 24 x 41 x 41 spheres (radius 0.2, spacing 0.25: opaque; thick enough for the
+// confidence to pass C_occ behind it) over x, y in [0, 10], z in [-5.75, 0] (node 0), and behind
+// it node 1: a cluster at z in [-8, -7.5] behind the wall's centre plus one sphere at
+// (35, 5, 39.6), beside the view. Node 1's box (z in [-8.2, 39.8]) reaches far in front of the
+// wall, and so does the coarse occupancy cell holding the cluster (a quarter of the box: z up
+// to 3.8); only the cluster's sub-cell (z up to -2.2) lies behind the wall's front (z = 0.2).
+SceneData wall_and_hidden_node() {
+  std::vector<glm::dvec3> pos;
+  for (int l = 0; l < 24; ++l)
+    for (int j = 0; j <= 40; ++j)
+      for (int i = 0; i <= 40; ++i) pos.push_back({0.25 * i, 0.25 * j, -0.25 * l});
+  const size_t wall = pos.size();
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < 5; ++j)
+      for (int i = 0; i < 5; ++i) pos.push_back({4.5 + 0.25 * i, 4.5 + 0.25 * j, -8.0 + 0.25 * k});
+  pos.push_back({35.0, 5.0, 39.6});
+  std::vector<uint8_t> types(pos.size(), 0);
+  const float radius[1] = {0.2f};
+  auto s = scene_from_particles(pos, types, radius, uint32_t(wall), 16);
+  EXPECT_TRUE(s.ok());
+  return std::move(s.value());
+}
+
+// Node 1's class after a converged culled render looking at the wall along -z.
+uint32_t hidden_node_class(vk::Context& ctx, const SceneData& scene) {
+  RenderSettings rs;
+  rs.width = kW;
+  rs.height = kH;
+  rs.spp = 16;
+  rs.cull = true;
+  auto r = Renderer::create(ctx, scene, rs);
+  EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
+  if (!r.ok()) return ~0u;
+  std::vector<uint32_t> last;
+  r.value()->set_iteration_hook([&](uint32_t) {
+    auto c = r.value()->cull_loop()->node_classes();
+    last.assign(c.begin(), c.end());
+  });
+  Camera cam;
+  cam.eye = {5.0, 5.0, 80.0};
+  cam.target = {5.0, 5.0, 0.0};
+  cam.up = {0.0, 1.0, 0.0};
+  cam.fov_y_deg = 10.0;  // the wall fills about 70 % of the image height
+  cam.near = 1.0;
+  cam.far = 200.0;
+  EXPECT_TRUE(r.value()->render(cam).ok());
+  EXPECT_EQ(last.size(), 2u);
+  return last.size() == 2 ? last[1] : ~0u;
+}
+
+}  // namespace
+
+// The node test refines an occupied cell that lies in front into its occupied sub-cells
+// (cull_classify.comp; the fine level of GpuNode::occupancy_fine): the hidden node reaches O with
+// its fine level, and stays P with the coarse cells alone or with its whole box.
+TEST_F(CullRender, SubCellsLetANodeWhoseCellPokesThroughTheWallReachO) {
+  SceneData scene = wall_and_hidden_node();
+  ASSERT_EQ(scene.nodes.size(), 2u);
+  ASSERT_EQ(scene.nodes[1].particle_count, 76u);
+  // The cluster's coarse cell reaches in front of the wall, its sub-cell does not.
+  const gpu::GpuNode& n = scene.nodes[1];
+  const double zmin = n.aabb_min.z + scene.origin.z, zmax = n.aabb_max.z + scene.origin.z;  // world
+  ASSERT_GT(zmax, 39.0);
+  ASSERT_GT(zmin + (zmax - zmin) / 4.0, 0.2);  // the cluster's coarse cell (z index 0) tops the wall
+  ASSERT_LT(zmin + (zmax - zmin) / 8.0, 0.2);  // its lower sub-cell does not
+
+  EXPECT_EQ(hidden_node_class(*ctx_, scene), uint32_t(MDS_CULL_CLASS_O)) << "fine level";
+  SceneData coarse = scene;  // the fine level unknown: an occupied cell in front is P
+  for (auto& w : coarse.nodes[1].occupancy_fine) w = glm::uvec4(0u);
+  EXPECT_EQ(hidden_node_class(*ctx_, coarse), uint32_t(MDS_CULL_CLASS_P)) << "coarse cells only";
+  SceneData box = coarse;  // no occupancy: the box test
+  set_occupancy(box.nodes[1], ~0ull);
+  EXPECT_EQ(hidden_node_class(*ctx_, box), uint32_t(MDS_CULL_CLASS_P)) << "box";
+}

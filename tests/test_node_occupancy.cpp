@@ -1,6 +1,7 @@
 // Sub-node occupancy masks (src/culling/node_occupancy.h): cell indexing, conservative marking,
-// degenerate axes. The store-derived masks are checked on a real converted store in
-// test_streaming_render.cpp (VoxelOccupancyHoldsEveryParticle).
+// degenerate axes, the fine level's layout and the converter's records from quantized centres.
+// The stored records are checked on a real converted store in test_streaming_render.cpp
+// (StoredOccupancyHoldsEveryParticle), their use by the GPU in test_cull_render.cpp.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -98,7 +99,7 @@ TEST(NodeOccupancy, FineCellsLayout) {
   // Fine cell (7, 0, 2) = coarse cell (3, 0, 1) = 3 + 16, sub-cell (1, 0, 0) = bit 1.
   f = {};
   fine_occupancy_of_box(kLo, kHi, {3.8, 0.2, 3.2}, {3.9, 0.3, 3.3}, f);
-  EXPECT_EQ(f[19], 0x02);
+  for (int c = 0; c < 64; ++c) EXPECT_EQ(f[c], c == 19 ? 0x02 : 0) << c;
   EXPECT_EQ(mds::culling::coarse_occupancy(f), 1ull << 19);
 }
 

@@ -183,8 +183,7 @@ TEST(Store, EmptyStoreRoundTrips) {
 
 // ---- golden bytes ------------------------------------------------------------------------
 // tests/data/store/golden_v2.mds is the exact output of golden_store() below. If the format
-// changes on purpose (with a version bump once released; v1 is still unreleased and its
-// payload layout was redefined in place), regenerate it with
+// changes on purpose (with a version bump: version 2 added the occupancy section), regenerate it with
 //   MDSTREAM_REGENERATE_GOLDEN=1 build-<name>/tests/test_store --gtest_filter='*Golden*'
 // check that the hand-derived payload bytes below still hold, and commit the new file. The bytes also depend on liblz4 producing the same block for the
 // same input (true for all 1.9.x releases).

@@ -6,6 +6,8 @@
 
 #include <lz4.h>
 
+#include <bit>
+
 #include "store/hash.h"
 #include "store/payload_codec.h"
 #include "store/section_codec.h"
@@ -409,6 +411,44 @@ TEST_F(Corruption, VoxelAndDensityLies) {
 }
 
 // Payloads whose hashes match but whose content is wrong: decode must reject them.
+// An occupancy record that lacks a cell the node's particles reach (but is not empty) opens and
+// decodes; verify_occupancy (mdstream info --verify) names the node, the record and the byte.
+TEST_F(Corruption, OccupancyRecordMissingACellIsFoundByVerify) {
+  Image im = parse(good_);
+  const uint64_t base = im.h.sections[kSectionOccupancy].offset;
+  // Clear the first set bit of node 1's record, keeping another one set.
+  size_t byte = 64;
+  while (byte < 128 && im.occupancy[byte] == 0) ++byte;
+  ASSERT_LT(byte, 128u);
+  const uint8_t bit = uint8_t(im.occupancy[byte] & -im.occupancy[byte]);
+  im.occupancy[byte] = uint8_t(im.occupancy[byte] & ~bit);
+  size_t set = 0;
+  for (size_t b = 64; b < 128; ++b) set += size_t(std::popcount(unsigned(im.occupancy[b])));
+  ASSERT_GT(set, 0u) << "node 1's record would be empty";
+  seal(im);
+  EXPECT_FALSE(try_all(serialize(im)).has_value()) << "open and decode do not check the record's content";
+  auto r = StoreReader::open(dir_ / "bad.mds");
+  ASSERT_TRUE(r.ok());
+  NodeData d;
+  std::vector<uint8_t> scratch;
+  ASSERT_TRUE((*r)->read_node(0, d, scratch).ok());
+  EXPECT_TRUE((*r)->verify_occupancy(0, d).ok());
+  ASSERT_TRUE((*r)->read_node(1, d, scratch).ok());
+  Status st = (*r)->verify_occupancy(1, d);
+  ASSERT_FALSE(st.ok());
+  EXPECT_EQ(st.error().code, Errc::format);
+  for (const std::string n : {std::string("bad.mds"), std::string("node 1 occupancy"), "byte " + std::to_string(base + 64),
+                              "byte " + std::to_string(byte - 64) + " lacks"})
+    EXPECT_NE(st.error().message.find(n), std::string::npos) << n << " in: " << st.error().message;
+  // The good file passes for every node.
+  auto g = StoreReader::open(dir_ / "good.mds");
+  ASSERT_TRUE(g.ok());
+  for (uint32_t i = 0; i < (*g)->nodes().size(); ++i) {
+    ASSERT_TRUE((*g)->read_node(i, d, scratch).ok());
+    EXPECT_TRUE((*g)->verify_occupancy(i, d).ok()) << i;
+  }
+}
+
 TEST_F(Corruption, PayloadContentLies) {
   Image base = parse(good_);
   std::vector<uint32_t> counts;

@@ -1,5 +1,6 @@
 // `mdstream info STORE [--json] [--verify]`: summary of a store (header, types, sizes,
-// quantization), as text or JSON. --verify also reads and decodes every node payload.
+// quantization), as text or JSON. --verify also reads and decodes every node payload and
+// checks that its occupancy record holds its particles.
 #include <algorithm>
 #include <bit>
 #include <cstdio>
@@ -88,7 +89,10 @@ Result<nlohmann::json> store_info(const store::StoreReader& r) {
 Status verify_payloads(const store::StoreReader& r) {
   store::NodeData node;
   std::vector<uint8_t> scratch;
-  for (uint32_t i = 0; i < r.nodes().size(); ++i) MDS_TRY(r.read_node(i, node, scratch));
+  for (uint32_t i = 0; i < r.nodes().size(); ++i) {
+    MDS_TRY(r.read_node(i, node, scratch));
+    MDS_TRY(r.verify_occupancy(i, node));
+  }
   return {};
 }
 
@@ -125,7 +129,7 @@ std::string human(const nlohmann::json& j, bool verified) {
     s += fmt::format("  [{}] id {:<6} name {:<10} radius {:<8.4g} particles {}\n", t["index"].get<size_t>(),
                      t["id"].get<int32_t>(), t["name"].get<std::string>().empty() ? "-" : t["name"].get<std::string>(),
                      t["radius"].get<double>(), t["count"].get<uint64_t>());
-  if (verified) s += "verify           every node payload read, hash-checked and decoded: ok\n";
+  if (verified) s += "verify           every node payload read, hash-checked and decoded, occupancy checked: ok\n";
   return s;
 }
 
@@ -133,7 +137,8 @@ void setup_info(CLI::App& sub, int& exit_code) {
   auto opt = std::make_shared<InfoOptions>();
   sub.add_option("store", opt->store, "Store file (.mds)")->required();
   sub.add_flag("--json", opt->json, "Print JSON instead of text");
-  sub.add_flag("--verify", opt->verify, "Also read, hash-check and decode every node payload");
+  sub.add_flag("--verify", opt->verify,
+               "Also read, hash-check and decode every node payload and check its occupancy record");
   sub.callback([opt, &exit_code] {
     auto reader = store::StoreReader::open(opt->store);
     if (!reader.ok()) {

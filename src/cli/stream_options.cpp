@@ -27,8 +27,8 @@ void add_stream_options(CLI::App& sub, StreamOptions& o, bool budget_required) {
       ->check(CLI::Range(0u, 1000u))
       ->capture_default_str();
   sub.add_option("--wave-nodes", o.wave_nodes,
-                 "Nodes of the first wave at rest and the window's step: 1 reads fewest bytes on close-ups, in more "
-                 "frames (docs/streaming.md, \"Wave size\")")
+                 "Nodes of the first wave at rest and the window's step (at most --max-outstanding; unused without "
+                 "waves): 1 reads fewest bytes on close-ups, in more frames (docs/streaming.md, \"Wave size\")")
       ->check(CLI::Range(1u, 100000u))
       ->capture_default_str();
 }

@@ -1,14 +1,16 @@
 // Sub-node occupancy for node classification (paper 000, §5 "hierarchical" node test, made
 // tighter for streaming, issue 4): a node's culling box is cut into kOccupancyCells^3 = 64
-// equal cells and one bit per cell says whether any particle sphere of the node reaches into
-// it. The node test of cull_classify.comp then tests only the occupied cells, so a node whose
-// box pokes into a pore in front of the visible wall -- while its particles sit behind it --
-// can reach O before it is ever read. The mask needs no format change: the streaming cache
-// derives it from the node's density-voxel list (resident directory), the in-memory scene from
-// the decoded particles. Both are conservative: the union of the occupied cells holds every
+// equal cells, and each of those into 2^3 sub-cells (8^3 = 512 in all); one bit per (sub-)cell
+// says whether any particle sphere of the node reaches into it. The node test of
+// cull_classify.comp tests only the occupied cells, refined into their occupied sub-cells where a
+// cell lies in front, so a node whose box pokes into a pore in front of the visible wall -- while
+// its particles sit behind it -- can reach O before it is ever read. The store keeps the 512
+// bits per node (format version 2, docs/store-format.md "Occupancy", written by the converter
+// with fine_occupancy_of_quantized); the in-memory scene builds them from the decoded particles
+// with OccupancyBuilder. Both are conservative: the union of the occupied cells holds every
 // particle sphere of the node.
 //
-// Cell (i, j, k), i, j, k in [0, 4), is bit i + 4 j + 16 k; it spans
+// Cell (i, j, k), i, j, k in [0, 4), is bit i + 4 j + 16 k of the coarse mask; it spans
 // lo + (hi - lo) * [i/4, (i+1)/4] along x (the same along y, z), the arithmetic of
 // classify_box in shaders/cull_classify.comp.
 #pragma once
@@ -28,7 +30,7 @@ inline constexpr uint64_t kOccupancyFull = ~0ull;  // every cell occupied (the p
 // The fine level: each coarse cell split 2 x 2 x 2, 8^3 = 512 cells = 64 bytes per node. Byte c
 // holds the 8 sub-cells of coarse cell c; bit s = si + 2 sj + 4 sk is fine cell
 // (2 i + si, 2 j + sj, 2 k + sk). Coarse cell c is occupied exactly when byte c is non-zero.
-// All zero = unknown (the coarse mask alone, as derived from density voxels).
+// All zero = unknown (the GPU then tests the coarse mask alone).
 inline constexpr int kOccupancyFineCells = 2 * kOccupancyCells;  // per axis: 8^3 = 512 bits = 64 B per node
 using FineOccupancy = std::array<uint8_t, 64>;
 

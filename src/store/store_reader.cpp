@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "culling/node_occupancy.h"
 #include "store/file_io.h"
 #include "store/hash.h"
 #include "store/payload_codec.h"
@@ -452,6 +453,26 @@ Status StoreReader::decode_payload(uint32_t i, std::span<const uint8_t> compress
                           s.header.type_count, s.header.meshlet_size_max};
   Status st = decode_payload_raw(raw, lim, out);
   if (!st.ok()) return make_error(st.error().code, "{}: node {} payload at byte {}: {}", s.name, i, at, st.error().message);
+  return {};
+}
+
+Status StoreReader::verify_occupancy(uint32_t i, const NodeData& node) const {
+  const Impl& s = *impl_;
+  if (i >= s.nodes.size())
+    return make_error(Errc::invalid_argument, "{}: node {} does not exist ({} nodes)", s.name, i, s.nodes.size());
+  const NodeEntry& e = s.nodes[i];
+  if (node.qpos.size() != 3 * uint64_t(e.particle_count))
+    return make_error(Errc::invalid_argument, "{}: node {}: {} decoded positions, the node has {} particles", s.name, i,
+                      node.qpos.size() / 3, e.particle_count);
+  const culling::FineOccupancy need =
+      culling::fine_occupancy_of_quantized(e.center_min, e.center_max, double(e.max_radius), node.qpos);
+  const uint64_t at = s.header.sections[kSectionOccupancy].offset + uint64_t(i) * kOccupancyBytes;
+  const uint8_t* rec = s.occupancy.data() + uint64_t(i) * kOccupancyBytes;
+  for (uint32_t c = 0; c < kOccupancyBytes; ++c)
+    if (need[c] & ~rec[c])
+      return make_error(Errc::format,
+                        "{}: node {} occupancy at byte {}: byte {} lacks bits {:#04x} that the node's particles reach",
+                        s.name, i, at, c, unsigned(need[c] & ~rec[c]));
   return {};
 }
 

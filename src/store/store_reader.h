@@ -50,6 +50,11 @@ class StoreReader {
   Status decode_payload(uint32_t i, std::span<const uint8_t> compressed, NodeData& out) const;
   // read_payload + decode_payload.
   Status read_node(uint32_t i, NodeData& out, std::vector<uint8_t>& scratch) const;
+  // Checks that node `i`'s occupancy record holds every cell the decoded node `node` (from
+  // decode_payload of the same node) reaches (docs/store-format.md, "Occupancy"): a record that
+  // lacks one could make a renderer skip a visible node without reading it. Errc::format names
+  // the node, the record's byte offset and the missing cell. Costs about as much as decoding.
+  Status verify_occupancy(uint32_t i, const NodeData& node) const;
 
  private:
   StoreReader() = default;
