@@ -488,6 +488,44 @@ TEST_F(StressCli, HeldDefaultViewFromAColdCache) {
   EXPECT_TRUE(one_node) << got << " bytes in the first frame with a read: not the payload of one node";
 }
 
+// The close-up (view2) of the dense block: its nearest node is large on screen and dense, so the
+// first wave reads it alone (--front-node-alone, default true); without the rule the first wave
+// reads --wave-nodes (2) nodes. Both converge.
+TEST_F(StressCli, CloseUpReadsTheLargeDenseFrontNodeAlone) {
+  const uint64_t budget = fs::file_size(store()) / 4;
+  auto reader = mds::store::StoreReader::open(store());
+  ASSERT_TRUE(reader.ok());
+  auto first_read = [&](const std::string& options) -> uint64_t {
+    const fs::path out = dir_ / "closeup.json";
+    EXPECT_EQ(run("stress " + store() + " --gpu-budget " + std::to_string(budget) +
+                  " --path view2 --frames 1 --settle-frames 60 " + options + " --json " + out.string() + small()),
+              0)
+        << last_stderr();
+    std::ifstream in(out);
+    const auto rep = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+    if (rep.is_discarded()) {
+      ADD_FAILURE() << "no report from " << options;
+      return 0;
+    }
+    check_report(rep, budget);
+    EXPECT_TRUE(rep["final_view"]["converged"].get<bool>()) << options;
+    for (const auto& t : rep["per_frame"]["bytes_read_total"])
+      if (t.get<uint64_t>() > 0) return t.get<uint64_t>();
+    ADD_FAILURE() << "nothing read with " << options;
+    return 0;
+  };
+  auto one_node = [&](uint64_t bytes) {
+    for (const auto& e : reader.value()->nodes())
+      if (e.payload_bytes == bytes) return true;
+    return false;
+  };
+  const uint64_t alone = first_read("");
+  EXPECT_TRUE(one_node(alone)) << alone << " bytes in the first frame with a read: not one node";
+  const uint64_t pair = first_read("--front-node-alone false");
+  EXPECT_GT(pair, alone);
+  EXPECT_FALSE(one_node(pair)) << pair << " bytes: the first wave held one node";
+}
+
 TEST_F(StressCli, UsageAndInputErrors) {
   const fs::path js = dir_ / "err.json";
   const std::string base = "stress " + store() + small() + " --json " + js.string() + " ";

@@ -68,8 +68,9 @@ def main():
                     help="paths also run with --dynamic-resolution (occlusion policy); 'all', or '' for none")
     ap.add_argument("--no-scale", action="store_true", help="skip the 8x-data converged-frame measurement")
     ap.add_argument("--dense-view", default="view2", help="held view of the dense-view measurement (view0|view1|view2)")
-    ap.add_argument("--dense-wave-nodes", default="2,1",
-                    help="--wave-nodes values of the dense-view runs, the first one (the default 2) for the 8x ratio")
+    ap.add_argument("--dense-variants", default=",--front-node-alone false",
+                    help="comma-separated extra `stress` options of the dense-view runs; the first one (default: "
+                         "none) gives the 8x ratio")
     ap.add_argument("--out", default=os.path.join(REPO, "docs", "results"))
     ap.add_argument("--work", default=None, help="scratch folder (default: a temporary one, removed)")
     args = ap.parse_args()
@@ -91,7 +92,7 @@ def main():
     policies = args.policies.split(",")
     dyn_paths = paths if args.dynamic_paths == "all" else [p for p in args.dynamic_paths.split(",") if p]
     rows, runs, dense = [], {}, {}
-    wave_nodes = [int(w) for w in args.dense_wave_nodes.split(",") if w.strip()]
+    variants = [v.strip() for v in args.dense_variants.split(",")]
     for scene in scenes:
         store = make_store(mds, work, scene, args.particles, args.node_size, log)
         store_bytes = os.path.getsize(store)
@@ -132,17 +133,15 @@ def main():
                     "seconds": j["_seconds"],
                 })
         # Dense held view from a cold cache: bytes read to converge vs bytes the converged view wants.
-        for wn in wave_nodes:
-            print(f"  {scene} dense {args.dense_view}, waves of {wn} ...", file=sys.stderr, flush=True)
-            d = stress(mds, store, budget, args.dense_view, "occlusion", args, work, log,
-                       ["--frames", "1", "--wave-nodes", str(wn)])
+        for wn in variants:
+            print(f"  {scene} dense {args.dense_view} {wn or 'default'} ...", file=sys.stderr, flush=True)
+            d = stress(mds, store, budget, args.dense_view, "occlusion", args, work, log, ["--frames", "1"] + wn.split())
             dense[(scene, 1, wn)] = (store, store_bytes, budget, d)
         if not args.no_scale:
             big = make_store(mds, work, scene, args.particles * 8, args.node_size, log)
-            for wn in wave_nodes:
-                print(f"  {scene} dense {args.dense_view}, 8x data, waves of {wn} ...", file=sys.stderr, flush=True)
-                d8 = stress(mds, big, budget, args.dense_view, "occlusion", args, work, log,
-                            ["--frames", "1", "--wave-nodes", str(wn)])
+            for wn in variants:
+                print(f"  {scene} dense {args.dense_view}, 8x data, {wn or 'default'} ...", file=sys.stderr, flush=True)
+                d8 = stress(mds, big, budget, args.dense_view, "occlusion", args, work, log, ["--frames", "1"] + wn.split())
                 dense[(scene, 8, wn)] = (big, os.path.getsize(big), budget, d8)
             os.remove(big)
 
@@ -153,13 +152,13 @@ def main():
         w.writerows(rows)
     dense_rows = []
     for scene in scenes:
-        for scale, wn in [(sc, w) for sc in (1, 8) for w in wave_nodes]:
+        for scale, wn in [(sc, w) for sc in (1, 8) for w in variants]:
             if (scene, scale, wn) not in dense:
                 continue
             store, sb, budget, d = dense[(scene, scale, wn)]
             v = d["final_view"]
             dense_rows.append({
-                "scene": scene, "particles": d["particles"], "wave_nodes": wn, "store_bytes": sb, "budget": budget,
+                "scene": scene, "particles": d["particles"], "variant": wn or "default", "store_bytes": sb, "budget": budget,
                 "converged": v["converged"], "frames_to_converge": v.get("frames_to_converge"),
                 "ms_to_converge": v.get("ms_to_converge"), "bytes_read": v.get("bytes_read_to_converge"),
                 "wanted_bytes": v.get("wanted_bytes_at_convergence"), "ratio": v.get("bytes_read_over_wanted"),
@@ -171,7 +170,7 @@ def main():
                 "gpu_peak_bytes": d["gpu_peak_bytes"], "budget_exhausted": bool(d.get("budget_exhausted")),
             })
     plot(rows, runs, scenes, paths, policies, args.out, dyn_paths)
-    write_md(rows, dense_rows, args, mds, scenes, time.time() - t_start, wave_nodes)
+    write_md(rows, dense_rows, args, mds, scenes, time.time() - t_start, variants)
     log.close()
     if args.work is None:
         shutil.rmtree(work, ignore_errors=True)
@@ -235,7 +234,7 @@ def plot(rows, runs, scenes, paths, policies, out, dyn_paths=()):
     plt.close(fig)
 
 
-def write_md(rows, dense_rows, args, mds, scenes, seconds, wave_nodes):
+def write_md(rows, dense_rows, args, mds, scenes, seconds, variants):
     m = machine_info(REPO)
     L = []
     L.append("# Out-of-core cache stress benchmark\n")
@@ -302,11 +301,11 @@ def write_md(rows, dense_rows, args, mds, scenes, seconds, wave_nodes):
              "render/visible_nodes.h), the issue's reference. *Pool held the view* = the pool could hold every "
              "wanted node (`budget_exhausted` false); when it could not, the cache stops at a full pool of the "
              "nearest wanted nodes and the image lacks the rest, so the visible set (computed from that image) "
-             "and read / visible describe an incomplete image. *Waves* = `--wave-nodes`: the nodes of the first "
-             "wave at rest and the read window's step (2 is the default; 1 reads fewer nodes before the nodes in "
-             "front of them are sampled, in more frames: docs/streaming.md, \"Wave size\"). Issue targets: "
-             "read / visible <= 1.25; converged frame at 8x data <= 1.5x (default waves).\n")
-    L.append("| scene | particles | waves | store | budget | pool held the view | converged | frames | ms | bytes read "
+             "and read / visible describe an incomplete image. *Variant* = extra `stress` options: `default`, "
+             "and `--front-node-alone false` (a wave at rest whose first node is large on screen and dense no "
+             "longer reads it alone; docs/streaming.md, \"Wave size\"). Issue targets: read / visible <= 1.25; "
+             "converged frame at 8x data <= 1.5x (default).\n")
+    L.append("| scene | particles | variant | store | budget | pool held the view | converged | frames | ms | bytes read "
              "| wanted bytes | read / wanted | visible bytes | read / visible | wanted nodes / nodes | never loaded "
              "| converged frame ms (wall / GPU) |")
     L.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
@@ -317,18 +316,18 @@ def write_md(rows, dense_rows, args, mds, scenes, seconds, wave_nodes):
         cf = (f"{d['converged_frame_ms']:.1f} / {d['converged_frame_gpu_ms']:.1f}"
               if d["converged_frame_ms"] is not None else "-")
         held = "no" if d.get("budget_exhausted") else "yes"
-        L.append(f"| {d['scene']} | {d['particles']} | {d['wave_nodes']} | {fmt_bytes(d['store_bytes'])} | {fmt_bytes(d['budget'])} "
+        L.append(f"| {d['scene']} | {d['particles']} | {d['variant']} | {fmt_bytes(d['store_bytes'])} | {fmt_bytes(d['budget'])} "
                  f"| {held} | {d['converged']} | {d['frames_to_converge'] or '-'} "
                  f"| {d['ms_to_converge']:.0f} | {fmt_bytes(d['bytes_read'] or 0)} | {fmt_bytes(d['wanted_bytes'] or 0)} "
                  f"| {ratio} | {vis} | {rvis} | {d['wanted_nodes'] or '-'} / {d['nodes']} | {d['nodes_never_loaded']} | {cf} |"
                  if d["converged"] else
-                 f"| {d['scene']} | {d['particles']} | {d['wave_nodes']} | {fmt_bytes(d['store_bytes'])} | {fmt_bytes(d['budget'])} "
+                 f"| {d['scene']} | {d['particles']} | {d['variant']} | {fmt_bytes(d['store_bytes'])} | {fmt_bytes(d['budget'])} "
                  f"| {held} | False | - | - | - | - | - | - | - | - / {d['nodes']} | {d['nodes_never_loaded']} | - |")
     for scene in scenes:
         a = next((d for d in dense_rows if d["scene"] == scene and d["particles"] == args.particles
-                  and d["wave_nodes"] == wave_nodes[0]), None)
+                  and d["variant"] == (variants[0] or "default")), None)
         b = next((d for d in dense_rows if d["scene"] == scene and d["particles"] == args.particles * 8
-                  and d["wave_nodes"] == wave_nodes[0]), None)
+                  and d["variant"] == (variants[0] or "default")), None)
         if a and b and a["converged_frame_ms"] and b["converged_frame_ms"]:
             L.append(f"\n{scene}: converged frame at 8x data / 1x = {b['converged_frame_ms'] / a['converged_frame_ms']:.2f} "
                      f"(wall), {b['converged_frame_gpu_ms'] / max(a['converged_frame_gpu_ms'], 1e-9):.2f} (GPU).")
@@ -338,11 +337,11 @@ def write_md(rows, dense_rows, args, mds, scenes, seconds, wave_nodes):
         if not d["converged"] or d.get("ratio_visible") is None:
             continue
         if d.get("budget_exhausted"):
-            L.append(f"\n{d['scene']} {d['particles']} (waves of {d['wave_nodes']}): read / visible {d['ratio_visible']:.2f}, but the pool could not "
+            L.append(f"\n{d['scene']} {d['particles']} ({d['variant']}): read / visible {d['ratio_visible']:.2f}, but the pool could not "
                      "hold the view (incomplete image): not a measurement of the target.")
         else:
             verdict = "met" if d["ratio_visible"] <= 1.25 else "**not met**"
-            L.append(f"\n{d['scene']} {d['particles']} (waves of {d['wave_nodes']}): read / visible {d['ratio_visible']:.2f} (target <= 1.25: "
+            L.append(f"\n{d['scene']} {d['particles']} ({d['variant']}): read / visible {d['ratio_visible']:.2f} (target <= 1.25: "
                      f"{verdict}); of it, wanted / visible = {d['wanted_bytes'] / max(d['visible_bytes'], 1):.2f} comes "
                      "from nodes the converged classes still want (not in O) that show no pixel.")
     L.append("\nRaw numbers: `cache.csv` (one row per scene/path/policy).\n")

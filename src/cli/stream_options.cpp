@@ -28,8 +28,12 @@ void add_stream_options(CLI::App& sub, StreamOptions& o, bool budget_required) {
       ->capture_default_str();
   sub.add_option("--wave-nodes", o.wave_nodes,
                  "Nodes of the first wave at rest and the window's step (at most --max-outstanding; unused without "
-                 "waves): 1 reads fewest bytes on close-ups, in more frames (docs/streaming.md, \"Wave size\")")
+                 "waves; docs/streaming.md, \"Wave size\")")
       ->check(CLI::Range(1u, 100000u))
+      ->capture_default_str();
+  sub.add_option("--front-node-alone", o.front_node_alone,
+                 "At rest, a wave whose first node is large on screen and dense reads it alone (true/false; "
+                 "docs/streaming.md, \"Wave size\")")
       ->capture_default_str();
 }
 
@@ -55,6 +59,7 @@ Result<render::StreamSettings> stream_settings(const StreamOptions& o) {
   ss.max_outstanding = o.max_outstanding;
   ss.wave_settle_frames = o.wave_settle_frames;
   ss.wave_nodes = o.wave_nodes;
+  ss.front_node_alone = o.front_node_alone;
   return ss;
 }
 

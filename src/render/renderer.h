@@ -64,9 +64,13 @@ struct StreamSettings {
   uint32_t wave_settle_frames = 2;
   // Nodes of the first wave of a held view, and the window's additive step at rest. Smaller
   // waves read fewer nodes before the nodes in front of them are sampled, in more frames
-  // (docs/streaming.md, "Wave size": 1 reads 0.89x the bytes of 2 on four close-ups, in 1.3x
-  // the frames; wide views read the same bytes in 1.3-1.4x the frames).
+  // (docs/streaming.md, "Wave size": without front_node_alone, 1 reads 0.89x the bytes of 2 on
+  // four close-ups, in 1.3x the frames; wide views read the same bytes in 1.3-1.4x the frames).
   uint32_t wave_nodes = 2;
+  // At rest, a wave whose first node is large on screen (bounding-sphere radius >= a quarter of
+  // the image height) and dense (its spheres fill >= 10 % of its box) holds that node alone: it
+  // may hide most of what the window would read with it (docs/streaming.md, "Wave size").
+  bool front_node_alone = true;
   bool record_trace = false;  // FrameReport::wanted filled (stress: offline Belady bound)
 };
 

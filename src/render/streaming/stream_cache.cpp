@@ -55,6 +55,13 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
     }
     c->node_bytes_[i] = layout.node_bytes(e.particle_count, e.meshlet_count);
     c->node_meshlets_[i] = e.meshlet_count;
+    {
+      // Packing fraction bound: n spheres of at most max_radius in the culling box.
+      const glm::dvec3 ext = glm::dvec3(g.aabb_max) - glm::dvec3(g.aabb_min);
+      const double r = e.max_radius, volume = ext.x * ext.y * ext.z;
+      const double filled = double(e.particle_count) * (4.0 / 3.0) * 3.141592653589793 * r * r * r;
+      c->dense_.push_back(volume > 0.0 && filled >= kDenseNodePacking * volume ? 1 : 0);
+    }
     if (c->node_bytes_[i] > largest) largest = c->node_bytes_[i], largest_node = i;
     store_bytes += e.payload_bytes;
     for (const store::VoxelRef& v : reader.voxels(i)) c->voxel_refs_.push_back({v.voxel, v.count});
@@ -102,6 +109,12 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
 StreamCache::~StreamCache() = default;
 
 namespace {
+// Waves at rest (StreamSettings::front_node_alone): a first node whose bounding sphere's radius
+// is at least this share of half the image height (projected_size of set_view: a quarter of the
+// image height) and whose spheres fill at least kDenseNodePacking of its box makes a wave alone.
+// Porous / ablation stores of 1000-particle nodes: dense-block nodes fill 0.2-0.6 of their box,
+// plume nodes of the ablation scene less than 0.1 (docs/streaming.md, "Wave size").
+constexpr float kLoneFrontProjected = 0.5f;
 // Conservative frustum test of a box: out when all 8 corners are outside one clip plane.
 bool box_in_frustum(const glm::dmat4& clip_from_world, const glm::dvec3& lo, const glm::dvec3& hi) {
   int out[6] = {0, 0, 0, 0, 0, 0};
@@ -345,6 +358,11 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
       planned += node_bytes_[i];
       MDS_TRY(table_->mark_requested(i));
       requested_.push_back(i);
+      if (waves && settings_.front_node_alone && rank == 1.0 && dense_[i] &&
+          table_->node(i).projected_size >= kLoneFrontProjected) {
+        pending = true;  // a large dense node first: alone in its wave (StreamSettings::front_node_alone)
+        break;
+      }
     }
   } else {
     pending = true;

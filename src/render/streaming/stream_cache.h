@@ -90,6 +90,10 @@ class StreamCache {
   // that the motion brings in are read after every wanted node, into spare room (residency.h).
   void set_view(const Camera& camera, double aspect);
   static constexpr int kLookaheadFrames = 3;
+  // A node is dense when its spheres fill at least this share of its culling box (a bound from
+  // the directory: count x the volume of a sphere of max_radius / box volume). Dense-block nodes
+  // of the synth scenes fill 0.2-0.6, the ablation plume's gas nodes less (front_node_alone).
+  static constexpr double kDenseNodePacking = 0.1;
   // Node classes of a culling iteration (MDS_CULL_CLASS_*, one per node). `mature`: the view
   // has run enough iterations for its classes to replace the cache's; before that only new O
   // (confident occlusion) and upward moves are taken, so a camera in motion, whose views never
@@ -110,6 +114,7 @@ class StreamCache {
   std::unique_ptr<mds::streaming::IoPool> io_;
   std::unique_ptr<mds::streaming::ResidencyTable> table_;
   std::vector<gpu::GpuNode> directory_;
+  std::vector<uint8_t> dense_;  // per node: its spheres fill >= kDenseNodePacking of its box (waves)
   std::vector<NodeFrame> frames_;
   std::vector<uint64_t> node_bytes_;
   std::vector<uint32_t> voxel_first_;
