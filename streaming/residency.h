@@ -60,7 +60,7 @@ struct NodeState {
   uint64_t last_use = 0;        // last frame the node was drawn/sampled (touch)
   uint64_t load_seq = 0;        // order of arrival (FIFO)
   float distance = 0;           // camera distance (e.g. to the bounds centre)
-  float projected_size = 0;     // projected screen size (pixels or fraction)
+  float projected_size = 0;     // projected screen size (the cache: bounding radius / half the image height)
 };
 
 class ResidencyTable {

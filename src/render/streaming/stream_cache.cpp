@@ -139,6 +139,9 @@ void StreamCache::set_view(const Camera& camera, double aspect) {
   const glm::dmat4 clip_from_world = projection_matrix(camera, aspect) * view;
   const glm::dvec3 eye = camera.eye - origin;
   const double tan_half = std::tan(glm::radians(camera.fov_y_deg) * 0.5);
+  const double ortho_half_height = std::max(
+      camera.ortho_half_height > 0.0 ? camera.ortho_half_height : glm::length(camera.target - camera.eye) * tan_half,
+      1e-12);
   window_.new_view();  // restarts at rest, keeps its state while the camera moves (read_window.h)
   // Look-ahead while the camera moves: the views of the next frames if the motion of the last
   // one goes on (eye and target linearly; the near/far planes of this view).
@@ -164,7 +167,8 @@ void StreamCache::set_view(const Camera& camera, double aspect) {
     const glm::dvec3 nearest = glm::clamp(eye, lo, hi);
     const double dist = glm::length(nearest - eye);
     const double size = 0.5 * glm::length(hi - lo);
-    const double projected = camera.ortho ? size : size / std::max(dist * tan_half, 1e-12);
+    // Radius in units of half the image height (orthographic: of the view's half height).
+    const double projected = camera.ortho ? size / ortho_half_height : size / std::max(dist * tan_half, 1e-12);
     const bool was_in = table_->node(i).in_frustum && has_view_;
     table_->set_view(i, float(dist), float(projected), in);
     table_->set_ahead(i, frames_ahead);
