@@ -179,8 +179,8 @@ TEST_F(StreamingRender, StoredOccupancyHoldsEveryParticle) {
       }
       ::mds::culling::FineOccupancy need{};
       ::mds::culling::fine_occupancy_of_box(lo, hi, a, b, need);
-      for (size_t c = 0; c < need.size(); ++c)
-        ASSERT_EQ(need[c] & ~rec[c], 0) << "node " << i << " particle " << p << " cell " << c;
+      for (size_t cell = 0; cell < need.size(); ++cell)
+        ASSERT_EQ(need[cell] & ~rec[cell], 0) << "node " << i << " particle " << p << " cell " << cell;
     }
   }
   EXPECT_GT(partial, reader.nodes().size() / 4) << "nodes with a partly empty box";

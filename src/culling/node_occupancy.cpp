@@ -40,7 +40,7 @@ void fine_occupancy_of_box(const std::array<double, 3>& lo, const std::array<dou
       }
 }
 
-uint64_t coarse_occupancy(const FineOccupancy& fine) {
+uint64_t coarse_occupancy(std::span<const uint8_t, 64> fine) {
   uint64_t mask = 0;
   for (int c = 0; c < 64; ++c)
     if (fine[c] != 0) mask |= 1ull << c;
@@ -95,13 +95,11 @@ FineOccupancy fine_occupancy_of_quantized(const double center_min[3], const doub
 
 uint64_t occupancy_of_box(const std::array<double, 3>& lo, const std::array<double, 3>& hi,
                           const std::array<double, 3>& a, const std::array<double, 3>& b) {
-  int first[3], last[3];
-  cell_range(lo, hi, a, b, kOccupancyCells, first, last);
-  uint64_t mask = 0;
-  for (int k = first[2]; k <= last[2]; ++k)
-    for (int j = first[1]; j <= last[1]; ++j)
-      for (int i = first[0]; i <= last[0]; ++i) mask |= 1ull << (i + kOccupancyCells * (j + kOccupancyCells * k));
-  return mask;
+  // The coarse cells are the fine ones halved (cell_range at 8 and at 4 cells per axis floor the
+  // same values times an exact power of two), so the coarse mask is derived, not marked again.
+  FineOccupancy fine{};
+  fine_occupancy_of_box(lo, hi, a, b, fine);
+  return coarse_occupancy(fine);
 }
 
 void occupancy_cell_box(const std::array<double, 3>& lo, const std::array<double, 3>& hi, int cell,

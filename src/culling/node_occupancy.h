@@ -39,7 +39,7 @@ void fine_occupancy_of_box(const std::array<double, 3>& lo, const std::array<dou
                            const std::array<double, 3>& a, const std::array<double, 3>& b, FineOccupancy& fine);
 
 // The coarse mask of a fine one: bit c set when byte c is non-zero.
-uint64_t coarse_occupancy(const FineOccupancy& fine);
+uint64_t coarse_occupancy(std::span<const uint8_t, 64> fine);
 
 // The fine occupancy a store node records (docs/store-format.md, "Occupancy"): the node's
 // quantized centres x = center_min + q * (center_max - center_min) / 65535, each grown by r

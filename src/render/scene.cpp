@@ -128,7 +128,7 @@ Status append_node(SceneData& s, const double center_min[3], const double center
   return {};
 }
 
-void set_fine_occupancy(gpu::GpuNode& g, const std::array<uint8_t, 64>& fine) {
+void set_fine_occupancy(gpu::GpuNode& g, std::span<const uint8_t, 64> fine) {
   set_occupancy(g, culling::coarse_occupancy(fine));
   for (int c = 0; c < 64; ++c) {
     uint32_t& word = g.occupancy_fine[c / 16][(c / 4) % 4];

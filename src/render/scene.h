@@ -43,7 +43,7 @@ inline void set_occupancy(gpu::GpuNode& g, uint64_t mask) {
 }
 inline uint64_t occupancy(const gpu::GpuNode& g) { return uint64_t(g.occupancy_lo) | uint64_t(g.occupancy_hi) << 32; }
 // Stores the fine level (and the coarse mask it implies).
-void set_fine_occupancy(gpu::GpuNode& g, const std::array<uint8_t, 64>& fine);  // culling::FineOccupancy
+void set_fine_occupancy(gpu::GpuNode& g, std::span<const uint8_t, 64> fine);  // culling::FineOccupancy
 
 // Distinct per-type colour (Tableau 10 qualitative palette, cycled), as sRGB in [0, 1].
 glm::vec3 type_color_srgb(uint32_t type_index);

@@ -43,12 +43,7 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
     g.max_radius = e.max_radius;
     g.aabb_min = glm::vec3(cmin - origin - double(e.max_radius));
     g.aabb_max = glm::vec3(cmax - origin + double(e.max_radius));
-    {
-      std::array<uint8_t, store::kOccupancyBytes> fine;  // the store's record (format.h)
-      const std::span<const uint8_t> rec = reader.occupancy(i);
-      std::copy(rec.begin(), rec.end(), fine.begin());
-      set_fine_occupancy(g, fine);
-    }
+    set_fine_occupancy(g, reader.occupancy(i).first<store::kOccupancyBytes>());  // the store's record (format.h)
     for (int a = 0; a < 3; ++a) {
       c->frames_[i].center_min[a] = e.center_min[a];
       c->frames_[i].center_max[a] = e.center_max[a];
