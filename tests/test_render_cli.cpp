@@ -187,6 +187,43 @@ TEST_F(RenderCli, VisibleReferenceCountsVisibleMeshlets) {
   EXPECT_FALSE(jnc.contains("node_granularity"));  // --no-cull: no classes
 }
 
+// A streaming render whose pool cannot hold the view says so on stderr (the image lacks the
+// nodes that did not fit) and in its stats; one whose pool holds the view says nothing.
+TEST_F(RenderCli, StreamingRenderWarnsWhenThePoolCannotHoldTheView) {
+  const fs::path small = dir_ / "s2k.mds";
+  ASSERT_EQ(run("convert " + (dir_ / "s.lammpstrj").string() + " --node-size 2000 -q -o " + small.string()), 0)
+      << last_stderr();
+  const std::string base = "render " + small.string() + " --spp 2 --width 96 --height 64 ";
+  const fs::path png = dir_ / "pool.png", stats = dir_ / "pool.json";
+  ASSERT_EQ(run(base + "--gpu-budget 64MiB -o " + png.string() + " --stats " + stats.string()), 0) << last_stderr();
+  EXPECT_EQ(last_stderr().find("warning"), std::string::npos) << last_stderr();
+  nlohmann::json full;
+  {
+    std::ifstream f(stats);
+    full = nlohmann::json::parse(f);
+  }
+  EXPECT_FALSE(full["budget_exhausted"].get<bool>());
+  EXPECT_FALSE(full["gpu_pool_device_capped"].get<bool>());
+  const uint64_t wanted = full["wanted_bytes"];
+  ASSERT_GT(full["wanted_nodes"].get<uint64_t>(), 2u);
+  EXPECT_LE(wanted, full["gpu_pool_bytes"].get<uint64_t>());
+
+  // Half the pool pages of the nodes the converged view wants: some of them cannot be resident.
+  const fs::path png2 = dir_ / "pool2.png", stats2 = dir_ / "pool2.json";
+  ASSERT_EQ(run(base + "--gpu-budget " + std::to_string(wanted / 2) + " -o " + png2.string() + " --stats " +
+                stats2.string()),
+            0)
+      << last_stderr();
+  const std::string err = last_stderr();
+  EXPECT_NE(err.find("warning: the image is incomplete"), std::string::npos) << err;
+  EXPECT_NE(err.find("--gpu-budget"), std::string::npos) << err;
+  std::ifstream f2(stats2);
+  const nlohmann::json half = nlohmann::json::parse(f2);
+  EXPECT_TRUE(half["budget_exhausted"].get<bool>());
+  EXPECT_GT(half["wanted_bytes"].get<uint64_t>(), half["gpu_pool_bytes"].get<uint64_t>());
+  EXPECT_LE(half["gpu_peak_bytes"].get<uint64_t>(), half["gpu_budget_bytes"].get<uint64_t>());
+}
+
 TEST_F(RenderCli, BadCameraAndMissingStoreFailCleanly) {
   const fs::path png = dir_ / "bad.png";
   EXPECT_EQ(run("render " + store() + " -o " + png.string() + " --no-cull --camera 1,2,3"), 2);

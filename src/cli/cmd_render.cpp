@@ -168,6 +168,8 @@ Status run_render(const RenderOptions& o) {
   render::RenderStats stats;
   MDS_ASSIGN_OR_RETURN(render::FrameImage image, renderer->render(camera, &stats));
   for (const std::string& e : stats.cache.errors) std::fprintf(stderr, "mdstream render: skipped node: %s\n", e.c_str());
+  for (const std::string& w : cache_warnings(stats.cache, ctx->limits().maxStorageBufferRange))
+    std::fprintf(stderr, "mdstream render: warning: %s\n", w.c_str());
   MDS_TRY(render::write_image(o.output, image));
 
   // The meshlets holding a visible particle of the last frame (render/visible_nodes.h): the
@@ -280,6 +282,9 @@ Status run_render(const RenderOptions& o) {
       j["evictions"] = {{"P", c.evictions[0]}, {"L", c.evictions[1]}, {"M", c.evictions[2]}, {"O", c.evictions[3]}};
       j["upload_stalls"] = c.upload_stalls;
       j["budget_exhausted"] = c.budget_exhausted;
+      j["gpu_pool_device_capped"] = c.pool_device_capped;
+      j["wanted_nodes"] = c.wanted_nodes;
+      j["wanted_bytes"] = c.wanted_bytes;
       j["policy"] = o.stream.policy;
       j["frames"] = stats.frames;
       j["frame_ms_p50"] = stats.frame_wall_ms_p50;

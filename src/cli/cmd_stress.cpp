@@ -302,6 +302,9 @@ Status run_stress(const StressOptions& o) {
   j["nodes_loaded"] = c.nodes_loaded;
   j["nodes_never_loaded"] = c.nodes_never_loaded;
   j["budget_exhausted"] = c.budget_exhausted;
+  j["gpu_pool_device_capped"] = c.pool_device_capped;
+  j["wanted_nodes"] = c.wanted_nodes;
+  j["wanted_bytes"] = c.wanted_bytes;
   j["nodes_failed"] = c.nodes_failed;
   j["evictions"] = {{"O", c.evictions[3]}, {"M", c.evictions[2]}, {"L", c.evictions[1]}, {"P", c.evictions[0]}};
   j["upload_stalls"] = c.upload_stalls;

@@ -1,5 +1,7 @@
 #include "cli/stream_options.h"
 
+#include <fmt/format.h>
+
 #include "core/byte_size.h"
 
 namespace mds::cli {
@@ -86,6 +88,28 @@ Result<render::PacerSettings> pacer_settings(const PacingOptions& o) {
   p.target_ms = o.frame_ms_target;
   p.min_scale = o.min_scale;
   return p;
+}
+
+std::vector<std::string> cache_warnings(const render::CacheStats& c, uint64_t max_storage_range) {
+  std::vector<std::string> out;
+  if (!c.enabled) return out;
+  if (c.pool_device_capped)
+    out.push_back(fmt::format("the pool is {} of the {} of --gpu-budget: this device's maxStorageBufferRange ({}) "
+                              "bounds the pool's buffers and the renderer's per-particle scratch "
+                              "(docs/streaming.md, \"Limits\")",
+                              format_bytes(c.pool_bytes), format_bytes(c.gpu_budget_bytes),
+                              format_bytes(max_storage_range)));
+  if (c.budget_exhausted)
+    out.push_back(fmt::format(
+        "the image is incomplete: the view wants {} nodes ({} of pool pages: in the frustum and not known to be "
+        "occluded), more than the pool of {} holds; {}",
+        c.wanted_nodes, format_bytes(c.wanted_bytes), format_bytes(c.pool_bytes),
+        c.pool_device_capped ? "this device holds no larger pool: choose a closer view, or convert with a smaller "
+                               "--node-size (fewer hidden particles per node read)"
+                             : fmt::format("a --gpu-budget of {} would hold them all (less may do: the nodes "
+                                           "read first may occlude others)",
+                                           format_bytes(c.wanted_bytes))));
+  return out;
 }
 
 }  // namespace mds::cli

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -31,6 +32,12 @@ void add_stream_options(CLI::App& sub, StreamOptions& o, bool budget_required);
 // The settings; Errc::invalid_argument naming the option for a bad value. Precondition:
 // !o.gpu_budget.empty().
 Result<render::StreamSettings> stream_settings(const StreamOptions& o);
+
+// What a user of a streaming render must know about its cache, one sentence each (empty when
+// nothing): the device's limits made the pool smaller than --gpu-budget, and the last frame
+// wanted more nodes than the pool holds (the image lacks those that did not fit).
+// max_storage_range: the device's maxStorageBufferRange.
+std::vector<std::string> cache_warnings(const render::CacheStats& c, uint64_t max_storage_range);
 
 // Dynamic resolution while the camera moves (render/frame_pacer.h), shared by `view` (on by
 // default) and `stress` (off by default).

@@ -183,6 +183,9 @@ struct CacheStats {
   uint64_t upload_stalls = 0;     // frames where a ready node could not be placed (pool full of needed nodes)
   uint64_t in_flight = 0;         // reads queued or running now
   bool budget_exhausted = false;  // the last frame wanted more nodes than fit (image incomplete)
+  bool pool_device_capped = false;  // the device's limits made the pool smaller than the budget
+  uint64_t wanted_nodes = 0;      // the last frame's demand: nodes in the frustum and not in class O
+  uint64_t wanted_bytes = 0;      //   ... and the pool pages they take (bytes), resident or not
   std::vector<std::string> errors;  // one message per failed node
 };
 

@@ -28,13 +28,15 @@ PoolLayout pool_layout_for(const store::FileHeader& h) {
 
 Result<std::unique_ptr<NodePool>> NodePool::create(vk::Context& ctx, const PoolLayout& layout, PoolScene scene,
                                                    uint32_t node_count, uint64_t budget_bytes,
-                                                   uint64_t staging_bytes, uint64_t max_particle_slots) {
+                                                   uint64_t store_pages, uint64_t staging_bytes,
+                                                   uint64_t max_particle_slots) {
   std::unique_ptr<NodePool> p(new NodePool());
   p->ctx_ = &ctx;
   p->layout_ = layout;
   p->scene_ = std::move(scene);
   const uint64_t range = ctx.limits().maxStorageBufferRange;
-  uint64_t pages = budget_bytes / layout.page_bytes();
+  const uint64_t usable_pages = std::min<uint64_t>(budget_bytes / layout.page_bytes(), store_pages);
+  uint64_t pages = usable_pages;
   pages = std::min<uint64_t>(pages, range / (8ull * layout.page_particles));
   pages = std::min<uint64_t>(pages, range / (sizeof(gpu::GpuMeshlet) * layout.page_meshlets));
   pages = std::min<uint64_t>(pages, std::numeric_limits<uint32_t>::max() / layout.page_particles);
@@ -43,6 +45,7 @@ Result<std::unique_ptr<NodePool>> NodePool::create(vk::Context& ctx, const PoolL
     return make_error(Errc::budget, "--gpu-budget {} is smaller than one pool page ({})", format_bytes(budget_bytes),
                       format_bytes(layout.page_bytes()));
   p->pages_ = uint32_t(pages);
+  p->device_capped_ = pages < usable_pages;
   p->budget_ = mds::streaming::DeviceBudget(pages * layout.page_bytes());
   p->free_.resize(pages);
   for (uint32_t i = 0; i < pages; ++i) p->free_[i] = uint32_t(pages - 1 - i);  // page 0 popped first

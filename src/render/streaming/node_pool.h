@@ -64,13 +64,14 @@ struct NodeFrame {  // a node's quantization frame (NodeEntry center_min / cente
 
 class NodePool {
  public:
-  // Pages = budget / page_bytes, further limited so that each pool buffer stays within
+  // Pages = min(budget / page_bytes, store_pages), where store_pages would hold every node at
+  // once (a larger pool is never used), further limited so that each pool buffer stays within
   // maxStorageBufferRange and the particle slots within max_particle_slots (the renderer's
   // per-particle scratch, one GpuSprite per slot, must fit too). staging_bytes: per-frame upload
   // area (also bounds a frame's uploads).
   static Result<std::unique_ptr<NodePool>> create(vk::Context& ctx, const PoolLayout& layout, PoolScene scene,
-                                                  uint32_t node_count, uint64_t budget_bytes, uint64_t staging_bytes,
-                                                  uint64_t max_particle_slots);
+                                                  uint32_t node_count, uint64_t budget_bytes, uint64_t store_pages,
+                                                  uint64_t staging_bytes, uint64_t max_particle_slots);
   ~NodePool();
   NodePool(const NodePool&) = delete;
   NodePool& operator=(const NodePool&) = delete;
@@ -81,6 +82,9 @@ class NodePool {
   uint32_t meshlet_slots() const { return pages_ * layout_.page_meshlets; }
   uint64_t particle_slots() const { return uint64_t(pages_) * layout_.page_particles; }
   const mds::streaming::DeviceBudget& budget() const { return budget_; }
+  // The device's limits (buffer ranges, the renderer's sprite scratch) left fewer pages than
+  // the budget pays for and the store could use: the cache has less room than it was given.
+  bool device_capped() const { return device_capped_; }
   bool resident(uint32_t node) const { return !node_pages_[node].empty(); }
   uint64_t staging_free() const { return staging_.size() - staging_head_; }
 
@@ -119,6 +123,7 @@ class NodePool {
   uint64_t staging_head_ = 0;
   bool transfers_ = false;  // transfers recorded since begin_frame
   bool evicted_ = false;    // fills recorded that a later copy may overwrite
+  bool device_capped_ = false;
 };
 
 }  // namespace mds::render::streaming_gpu

@@ -78,8 +78,10 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
   ps.radius_min = h.radius_min;
   ps.radius_max = h.radius_max;
   const uint64_t staging = std::max<uint64_t>(settings.upload_bytes_per_frame, 2 * largest);
+  uint64_t store_pages = 0;  // every node resident at once
+  for (uint64_t b : c->node_bytes_) store_pages += b / layout.page_bytes();
   MDS_ASSIGN_OR_RETURN(c->pool_, NodePool::create(ctx, layout, std::move(ps), uint32_t(nodes.size()),
-                                                  settings.gpu_budget, staging, max_particle_slots));
+                                                  settings.gpu_budget, store_pages, staging, max_particle_slots));
   if (c->pool_->budget().pool_bytes() < largest)
     return make_error(Errc::budget, "the device's maxStorageBufferRange ({}) limits the pool to {}, less than node {} ({})",
                       format_bytes(ctx.limits().maxStorageBufferRange), format_bytes(c->pool_->budget().pool_bytes()),
@@ -96,6 +98,7 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
   s.enabled = true;
   s.gpu_budget_bytes = settings.gpu_budget;
   s.pool_bytes = c->pool_->budget().pool_bytes();
+  s.pool_device_capped = c->pool_->device_capped();
   s.store_payload_bytes = store_bytes;
   s.nodes = nodes.size();
   return c;
@@ -291,8 +294,11 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
   // Demand of this frame: hits and misses, counted after the placement because the frame draws
   // after it (the uploads are recorded into the same command buffer before the draw): a node
   // placed now is drawn by this frame.
+  stats_.wanted_nodes = stats_.wanted_bytes = 0;
   for (uint32_t i = 0; i < n_nodes; ++i) {
     if (!demanded(i)) continue;
+    ++stats_.wanted_nodes;
+    stats_.wanted_bytes += node_bytes_[i];
     if (settings_.record_trace) out.wanted.push_back(i);
     if (table_->node(i).residency == Residency::resident)
       ++out.hits;
