@@ -79,7 +79,7 @@ void main() {
   }
   GpuSprite s;
   if (valid) {
-    s = mds_make_sprite(m, nodes[m.node], local);
+    s = mds_make_sprite(m, nodes[m.node], local, 0u);
     valid = (s.flags & kSpriteHidden) == 0u && s.zndc >= 0.0;  // culled or clipped
   }
   vec2 size = frame.viewport.xy;

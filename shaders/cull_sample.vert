@@ -25,7 +25,7 @@ void main() {
   uint corner = uint(gl_VertexIndex) & 3u;
   v_center_radius = vec4(0.0);
   if (local >= m.particle_count) { emit_outside(); return; }
-  GpuSprite s = mds_make_sprite(m, nodes[m.node], local);
+  GpuSprite s = mds_make_sprite(m, nodes[m.node], local, 0u);
   if ((s.flags & kSpriteHidden) != 0u) { emit_outside(); return; }
   vec2 ndc_lo = s.rect.xy, ndc_hi = s.rect.zw;
   float zndc = s.zndc;

@@ -2,7 +2,7 @@
 // Exact sphere ray casting inside the billboard (include/sphere_shading.h): discard on a miss.
 // Attachment route: the hit's depth and shading into the depth and colour attachments.
 // Visibility route (built as sphere_vis.frag with MDS_VISIBILITY_ROUTE): no attachments; the
-// hit's depth and the sprite index go into the visibility buffer (sprite_raster.h), and
+// hit's depth and the sprite's vis_id go into the visibility buffer (sprite_raster.h), and
 // visibility_resolve.comp shades each pixel once.
 #extension GL_GOOGLE_include_directive : require
 #ifdef MDS_VISIBILITY_ROUTE

@@ -11,7 +11,7 @@ layout(constant_id = 0) const bool kQuadList = false;
 
 layout(location = 0) flat out vec4 v_center_radius;  // view space
 layout(location = 1) flat out vec3 v_color;
-layout(location = 2) flat out uint v_sprite;  // index into sprites[] (the visibility route)
+layout(location = 2) flat out uint v_sprite;  // the sprite's vis_id (the visibility route)
 
 void main() {
   uint v = uint(gl_VertexIndex);
@@ -32,5 +32,5 @@ void main() {
   gl_Position = vec4(xy, s.zndc, 1.0);
   v_center_radius = s.center_radius;
   v_color = types[s.flags & 0xffu].color.rgb;
-  v_sprite = sprite;
+  v_sprite = s.vis_id;
 }

@@ -1,8 +1,10 @@
 #version 460
-// Sprite pre-pass: for every particle of the meshlets in the draw list, computes once what the
-// vertex stage needs (compute runs on all of lavapipe's threads; its vertex stage mostly on one):
-// the glyph of include/sprite_make.h (conservative screen rectangle, depth, view-space sphere).
-// One thread per list entry: one atomicAdd reserves the meshlet's run of sprites.
+// Sprite pre-pass: for every particle of the meshlets in the current chunk of the draw list
+// (sprite_args.comp; gpu_types.h SpriteDrawHeader, "Chunks"), computes once what the vertex stage
+// needs (compute runs on all of lavapipe's threads; its vertex stage mostly on one): the glyph of
+// include/sprite_make.h (conservative screen rectangle, depth, view-space sphere, and the
+// particle's frame-wide id in the visibility buffer).
+// One thread per chunk entry: one atomicAdd reserves the meshlet's run of sprites.
 // After convergence each sprite first takes the particle occlusion test (particle_occlusion.h):
 // a particle of a potentially visible meshlet that is class O on its own is hidden, and counted.
 // kSmallPx > 0 (visibility route): sprites whose rectangle is at most kSmallPx pixels wide and
@@ -29,8 +31,8 @@ layout(constant_id = 2) const float kSmallPx = 0.0;
 layout(constant_id = 3) const bool kParticleOcclusion = false;
 
 void main() {
-  uint e = gl_GlobalInvocationID.x;
-  if (e >= draw_header.instance_count) return;
+  if (gl_GlobalInvocationID.x >= sprite_draw.chunk_count) return;
+  uint e = sprite_draw.chunk_first + gl_GlobalInvocationID.x;
   GpuMeshlet m = meshlets[draw_ids[e]];
   GpuNode node = nodes[m.node];
   uint count = m.particle_count;
@@ -39,7 +41,7 @@ void main() {
   if (base + count > sprite_draw.capacity) return;  // a list with repeated meshlets (never expected)
   uint occluded = 0u, small = 0u, offscreen = 0u;
   for (uint local = 0u; local < count; ++local) {
-    GpuSprite s = mds_make_sprite(m, node, local);
+    GpuSprite s = mds_make_sprite(m, node, local, e);
     if ((s.flags & kSpriteHidden) != 0u) ++offscreen;
     if (kParticleOcclusion && (s.flags & kSpriteHidden) == 0u && mds_particle_occluded(s)) {
       s.flags |= kSpriteHidden;
@@ -63,11 +65,13 @@ void main() {
     }
     sprites[base + local] = s;
   }
+  atomicAdd(sprite_draw.listed, count);
   if (occluded > 0u) atomicAdd(sprite_draw.occluded, occluded);
   if (offscreen > 0u) atomicAdd(sprite_draw.offscreen, offscreen);
   if (small > 0u) {
     // One run of the small list for this meshlet, and the rasterization's workgroups: one per 64
     // entries, counted by the run that reaches each multiple of 64.
+    atomicAdd(sprite_draw.small_total, small);
     uint first = atomicAdd(sprite_draw.small_count, small);
     uint groups = (first + small + 63u) / 64u - (first + 63u) / 64u;
     if (groups > 0u) atomicAdd(sprite_draw.raster_x, groups);

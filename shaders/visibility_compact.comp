@@ -22,7 +22,7 @@ void main() {
   const uint w = uint(frame.viewport.x);
   const uint pix = uint(p.y) * w + uint(p.x);
   bool covered = p.x < int(frame.viewport.x) && p.y < int(frame.viewport.y) &&
-                 visibility_words[2u * pix] != 0xffffffffu;
+                 visibility_words[2u * pix] != kVisEmpty;
   // Stored as x | y << 16 (viewport <= 16384): the resolve needs no integer division (lavapipe
   // has no SIMD division; a per-lane pix % w, pix / w cost ~10 ms per 1920x1080 frame).
   MDS_PIXEL_LIST_APPEND(covered_head, covered_pixels, covered, p)

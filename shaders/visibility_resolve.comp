@@ -1,8 +1,10 @@
 #version 460
-// Visibility route, last pass of a sampling frame: per covered pixel the nearest sprite of the
+// Visibility route, last pass of a sampling frame: per covered pixel the nearest sphere of the
 // visibility buffer (sprite_raster.h; written by the compute rasterization of small sprites and
 // by the rasterized ones) is shaded once -- the same ray and shading as sphere.frag
-// (sphere_shading.h) -- and added to the accumulation (accumulation.h). Background pixels add
+// (sphere_shading.h) -- and added to the accumulation (accumulation.h). The buffer holds the
+// winner's vis_id, not a sprite index (the sprite records are reused chunk by chunk), so its
+// sphere is rebuilt from the particle (sprite_make.h mds_vis_id_sphere: the pre-pass's bits). Background pixels add
 // nothing: the accumulation holds the covered samples only (rgb sum, a = their count) and the
 // host composes the background over it (Renderer::Impl::read_average). Timing frames
 // (kFrameTimingOnly) add with weight 0: the same work, the image unchanged.
@@ -13,6 +15,7 @@
 #define MDS_VISIBILITY
 #include "bindings.h"
 #include "sphere_shading.h"
+#include "sprite_make.h"
 #include "accumulation.h"
 #include "pixel_list.glsl"
 
@@ -30,11 +33,12 @@ void main() {
     if (p.x >= int(frame.viewport.x) || p.y >= int(frame.viewport.y)) return;
   }
   uint id = uint(visibility[uint(p.y) * uint(frame.viewport.x) + uint(p.x)] & 0xffffffffu);
-  if (id == 0xffffffffu) return;  // background: nothing to add
-  GpuSprite s = sprites[id];
+  if (id == kVisEmpty) return;  // background: nothing to add
+  uint type;
+  vec4 center_radius = mds_vis_id_sphere(id, type);
   vec3 hit, n, d;
   float depth;
-  if (!ray_sphere(vec2(p) + 0.5, s.center_radius, hit, n, d, depth)) return;
+  if (!ray_sphere(vec2(p) + 0.5, center_radius, hit, n, d, depth)) return;
   float weight = (frame.counts.z & kFrameTimingOnly) != 0u ? 0.0 : 1.0;
-  accumulate_pixel(p, weight * shade_sphere(n, d, types[s.flags & 0xffu].color.rgb));
+  accumulate_pixel(p, weight * shade_sphere(n, d, types[type].color.rgb));
 }

@@ -94,10 +94,13 @@ class StreamingRender : public ::testing::Test {
     out.img = std::move(img.value());
     return out;
   }
-  static Result<Image> streamed(const store::StoreReader& reader, bool cull, int view_index, uint64_t budget) {
+  static Result<Image> streamed(const store::StoreReader& reader, bool cull, int view_index, uint64_t budget,
+                                uint64_t sprite_capacity = 0) {
     StreamSettings ss;
     ss.gpu_budget = budget;
-    MDS_ASSIGN_OR_RETURN(auto r, Renderer::create_streaming(*ctx_, reader, settings(cull), ss));
+    RenderSettings rs = settings(cull);
+    rs.sprite_capacity = sprite_capacity;
+    MDS_ASSIGN_OR_RETURN(auto r, Renderer::create_streaming(*ctx_, reader, rs, ss));
     Image out;
     MDS_ASSIGN_OR_RETURN(out.img, r->render(view(reader, view_index), &out.stats));
     return out;
@@ -111,6 +114,30 @@ fs::path StreamingRender::dir_;
 std::unique_ptr<vk::Context> StreamingRender::ctx_;
 
 }  // namespace
+
+// Sprite records for 16384 sprites, far fewer than the pool's particle slots: each frame draws
+// its list in chunks (RenderSettings::sprite_capacity). Without culling every resident particle
+// is listed in every frame. The pool, the reads and the image stay those of the default records
+// (ties at equal depth aside: a node's pool slots, and so the ids that break them, follow the
+// order in which reads complete).
+TEST_F(StreamingRender, PoolLargerThanTheSpriteRecordsDrawsInChunks) {
+  auto reader = store::StoreReader::open(store_path());
+  ASSERT_TRUE(reader.ok()) << reader.error().message;
+  const uint64_t budget = 4 * file_size();  // the pool holds the view
+  auto whole = streamed(*reader.value(), false, 2, budget);
+  auto chunks = streamed(*reader.value(), false, 2, budget, 16384);
+  ASSERT_TRUE(whole.ok()) << whole.error().message;
+  ASSERT_TRUE(chunks.ok()) << chunks.error().message;
+  EXPECT_EQ(whole.value().stats.sprite_chunks, 1u);
+  EXPECT_GT(chunks.value().stats.sprite_chunks, 4u);
+  EXPECT_EQ(chunks.value().stats.cache.pool_bytes, whole.value().stats.cache.pool_bytes);
+  EXPECT_FALSE(chunks.value().stats.cache.budget_exhausted);
+  EXPECT_EQ(chunks.value().stats.cache.bytes_read, whole.value().stats.cache.bytes_read);
+  EXPECT_GT(chunks.value().stats.sprites_listed, 4u * 16384u);
+  EXPECT_EQ(chunks.value().stats.sprites_listed, whole.value().stats.sprites_listed);
+  const size_t diff = differing_pixels(whole.value().img, chunks.value().img);
+  EXPECT_LE(diff, size_t(kW * kH / 1000)) << diff << " pixels differ";
+}
 
 TEST_F(StreamingRender, EighthOfTheStoreMatchesInMemoryOnADenseView) {
   auto reader = store::StoreReader::open(store_path());

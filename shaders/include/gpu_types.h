@@ -22,9 +22,9 @@ MDS_CONST(uint, kBindDrawList, 5);    // DrawListHeader + uint meshlet_ids[]
 MDS_CONST(uint, kBindRadii, 6);       // uint[] = two uint16 radius_q per uint (optional)
 MDS_CONST(uint, kBindColorImage, 7);  // rgba32f storage image: the pass's colour target
 MDS_CONST(uint, kBindAccumImage, 8);  // rgba32f storage image: the accumulation where kBindAccumBuffer does not fit
-MDS_CONST(uint, kBindSprites, 9);     // GpuSprite[]: per-particle glyph records of the list being drawn
+MDS_CONST(uint, kBindSprites, 9);     // GpuSprite[]: per-particle glyph records of the chunk of the list being drawn
 MDS_CONST(uint, kBindSpriteDraw, 10); // SpriteDrawHeader + uint quad_ids[] (sprites drawn as quads)
-MDS_CONST(uint, kBindVisibility, 11); // uint64[W * H]: nearest depth bits << 32 | sprite index (visibility route)
+MDS_CONST(uint, kBindVisibility, 11); // uint64[W * H]: nearest depth bits << 32 | GpuSprite.vis_id (visibility route)
 MDS_CONST(uint, kBindAccumBuffer, 12);  // vec4[W * H]: the accumulation, 16 B/pixel (accumulation.h)
 MDS_CONST(uint, kBindOcclusionPyramid, 13);  // vec2[]: the culling loop's confidence pyramid (particle_occlusion.h)
 MDS_CONST(uint, kBindCoveredPixels, 14);  // CoveredPixelsHeader + uint pixel[W * H]: the visibility buffer's covered pixels
@@ -118,21 +118,30 @@ MDS_STRUCT(DrawListHeader) {
 
 // One particle's glyph, computed once per pass by the sprite pre-pass (sphere_prepass.comp) so
 // that the vertex stages only load: screen rectangle, view-space sphere and billboard depth.
+// vis_id names the particle in the visibility buffer for the whole frame: draw-list entry x
+// max_meshlet_particles + local index (the records themselves are overwritten chunk by chunk,
+// so the resolve rebuilds the winner's sphere from it, sprite_make.h mds_vis_id_sphere).
 MDS_STRUCT(GpuSprite) {
   vec4 rect;           // NDC x_lo, y_lo, x_hi, y_hi, incl. the half-pixel margin
   vec4 center_radius;  // view space centre, radius
   float zndc;          // billboard depth (the sphere's nearest view distance)
   uint flags;          // bits 0..7: type; kSpriteHidden, kSpriteQuad
-  uint pad0;
+  uint vis_id;
   uint pad1;
 };
+MDS_CONST(uint, kVisEmpty, 0xffffffffu);  // the visibility buffer's id of a pixel no sphere covers
 
 // Indirect commands of the sprite draws, derived from a draw list (sprite_args.comp) and
 // filled by the pre-pass: two VkDrawIndirectCommand (points: one vertex per sprite; quads: six
 // vertices per sprite) and the pre-pass's VkDispatchIndirectCommand (one thread per list entry).
-// capacity (sprites the buffers hold) is written once by the host. After the header: quad_ids
-// [capacity], then (visibility route) the small sprites' ids [capacity] and the compute
-// rasterization's VkDispatchIndirectCommand (raster_*: one thread per small sprite).
+// capacity (sprites the buffers hold) and chunk_meshlets are written once by the host. After the
+// header: quad_ids [capacity], then (visibility route) the small sprites' ids [capacity] and the
+// compute rasterization's VkDispatchIndirectCommand (raster_*: one thread per small sprite).
+// Chunks: the sprite records hold `capacity` sprites, not one per particle slot, so a draw list
+// is turned into sprites and drawn chunk_meshlets entries at a time (capacity / max meshlet
+// size; one chunk where the records hold every slot). Each run of sprite_args.comp starts the
+// next chunk at chunk_next (the host zeroes it before a frame's first chunk) and resets the
+// per-chunk counters; occluded, offscreen, listed and small_total add up over the frame.
 MDS_STRUCT(SpriteDrawHeader) {
   uint point_vertex_count;  // sprites written (atomic counter)
   uint point_instance_count;
@@ -152,8 +161,12 @@ MDS_STRUCT(SpriteDrawHeader) {
   uint raster_y;
   uint raster_z;
   uint offscreen;           // sprites of the list with nothing to draw: behind the near plane, off screen, beyond the far plane (atomic counter)
-  uint pad1;
-  uint pad2;
+  uint chunk_meshlets;      // draw-list entries per chunk (host)
+  uint chunk_next;          // first entry of the next chunk (host: 0 before the first; sprite_args)
+  uint chunk_first;         // first entry of the current chunk (sprite_args)
+  uint chunk_count;         // entries of the current chunk (sprite_args)
+  uint listed;              // sprites of the frame's list, all chunks (atomic counter)
+  uint small_total;         // small sprites of the frame, all chunks (atomic counter)
 };
 
 // The covered pixels of one frame's visibility buffer, listed by visibility_compact.comp so that
@@ -175,7 +188,9 @@ MDS_STRUCT(CoveredPixelsHeader) {
 #ifdef __cplusplus
 static_assert(sizeof(CoveredPixelsHeader) == 16);
 static_assert(sizeof(GpuSprite) == 48);
-static_assert(sizeof(SpriteDrawHeader) == 80);
+static_assert(sizeof(SpriteDrawHeader) == 96);
+static_assert(offsetof(SpriteDrawHeader, chunk_next) == 76);
+static_assert(offsetof(GpuSprite, vis_id) == 40);
 static_assert(offsetof(SpriteDrawHeader, raster_x) == 56);
 static_assert(offsetof(SpriteDrawHeader, occluded) == 48);
 static_assert(offsetof(SpriteDrawHeader, quad_vertex_count) == 16);

@@ -19,29 +19,50 @@ vec3 mds_project(vec3 v) {
   return c.xyz / c.w;
 }
 
-// The sprite of local particle `local` of meshlet m (node = nodes[m.node]). flags = type, plus
-// kSpriteHidden when nothing can be drawn (behind the near plane, radius 0, off screen, beyond
-// the far plane); rect = NDC (lo.x, lo.y, hi.x, hi.y); zndc = depth of the rectangle.
-GpuSprite mds_make_sprite(GpuMeshlet m, GpuNode node, uint local) {
+// The view-space sphere (centre, radius) and the type of local particle `local` of meshlet m
+// (node = nodes[m.node]). `precise`: no contraction into fused multiply-adds, so that every
+// shader that includes this computes the same bits (the resolve rebuilds the sphere the pre-pass
+// made, mds_vis_id_sphere).
+vec4 mds_particle_sphere(GpuMeshlet m, GpuNode node, uint local, out uint type) {
   uint pi = mds_meshlet_particle(m, local);
   uvec2 raw = particles[pi];
   uvec3 q = uvec3(raw.x & 0xffffu, raw.x >> 16, raw.y & 0xffffu);
-  uint type = (raw.y >> 16) & 0xffu;
-  vec3 world = node.origin + vec3(q) * node.step;
+  type = (raw.y >> 16) & 0xffu;
+  precise vec3 world = node.origin + vec3(q) * node.step;
   float r = types[type].radius;
   if ((frame.counts.z & kFramePerParticleRadius) != 0u) {
     uint w = radii_q[pi >> 1];
     uint rq = (pi & 1u) != 0u ? (w >> 16) : (w & 0xffffu);
     r = frame.radius_range.x + float(rq) * frame.radius_range.y / 65535.0;
   }
+  precise vec3 c = (frame.view * vec4(world, 1.0)).xyz;
+  return vec4(c, r);
+}
+
+// The sphere and type of the particle a visibility-buffer id names (GpuSprite.vis_id: draw-list
+// entry x max meshlet particles + local index), the same bits as its sprite's center_radius.
+vec4 mds_vis_id_sphere(uint vis_id, out uint type) {
+  uint e = vis_id / frame.counts.y;
+  GpuMeshlet m = meshlets[draw_ids[e]];
+  return mds_particle_sphere(m, nodes[m.node], vis_id - e * frame.counts.y, type);
+}
+
+// The sprite of local particle `local` of meshlet m (node = nodes[m.node]) at draw-list entry e.
+// flags = type, plus kSpriteHidden when nothing can be drawn (behind the near plane, radius 0,
+// off screen, beyond the far plane); rect = NDC (lo.x, lo.y, hi.x, hi.y); zndc = depth of the
+// rectangle.
+GpuSprite mds_make_sprite(GpuMeshlet m, GpuNode node, uint local, uint e) {
+  uint type;
+  vec4 cr = mds_particle_sphere(m, node, local, type);
+  vec3 c = cr.xyz;
+  float r = cr.w;
   float near = frame.radius_range.z;
   bool ortho = (frame.counts.z & kFrameOrtho) != 0u;
-  vec3 c = (frame.view * vec4(world, 1.0)).xyz;
   float zc = -c.z;  // view distance of the centre
   GpuSprite s;
-  s.center_radius = vec4(c, r);
+  s.center_radius = cr;
   s.flags = type;
-  s.pad0 = 0u;
+  s.vis_id = e * frame.counts.y + local;
   s.pad1 = 0u;
   s.rect = vec4(0.0);
   s.zndc = 0.0;

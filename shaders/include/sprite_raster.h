@@ -1,26 +1,26 @@
 // GLSL-only: the visibility buffer's depth test (visibility_write), used by the rasterized
 // sprites (sphere.frag built with MDS_VISIBILITY_ROUTE) and by the compute rasterization of one
 // small sprite (raster_small_sprite, sphere_prepass.comp built with MDS_COMPUTE_RASTER).
-// Per pixel a 64-bit atomicMin of (depth's float bits << 32 | sprite index): non-negative floats
-// order like their bits, so the nearest depth wins and, at equal depths, the smaller index
-// (deterministic whatever the order of the threads). Depths >= 1 are dropped, as the depth test
+// Per pixel a 64-bit atomicMin of (depth's float bits << 32 | the sprite's vis_id, gpu_types.h):
+// non-negative floats order like their bits, so the nearest depth wins and, at equal depths, the
+// smaller id (deterministic whatever the order of the threads and the chunks). Depths >= 1 are dropped, as the depth test
 // against a depth buffer cleared to 1.0 would. Needs bindings.h with MDS_VISIBILITY defined,
 // and sphere_shading.h.
 #ifndef MDS_SPRITE_RASTER_H
 #define MDS_SPRITE_RASTER_H
 #ifndef __cplusplus
 
-void visibility_write(uint pix, float depth, uint sprite_index) {
+void visibility_write(uint pix, float depth, uint vis_id) {
   if (!(depth < 1.0)) return;
   uint bits = floatBitsToUint(max(depth, 0.0));
   if (bits <= uint(visibility[pix] >> 32))  // a plain read first: few atomics
-    atomicMin(visibility[pix], (uint64_t(bits) << 32) | uint64_t(sprite_index));
+    atomicMin(visibility[pix], (uint64_t(bits) << 32) | uint64_t(vis_id));
 }
 
 // Pixels are those whose centre lies in the sprite's rectangle (tight: Mara & McGuire bounds);
 // the ray test is the fragment shader's (sphere_shading.h).
 
-void raster_small_sprite(GpuSprite s, uint sprite_index) {
+void raster_small_sprite(GpuSprite s, uint vis_id) {
   vec2 size = frame.viewport.xy;
   vec2 lo = (s.rect.xy + 1.0) * 0.5 * size;  // framebuffer coordinates
   vec2 hi = (s.rect.zw + 1.0) * 0.5 * size;
@@ -39,7 +39,7 @@ void raster_small_sprite(GpuSprite s, uint sprite_index) {
       vec3 p, n, d;
       float depth;
       if (!ray_sphere(vec2(x, y) + 0.5, s.center_radius, p, n, d, depth)) continue;
-      visibility_write(pix, depth, sprite_index);
+      visibility_write(pix, depth, vis_id);
     }
   }
 }

@@ -204,6 +204,7 @@ Status run_render(const RenderOptions& o) {
       j["sprites"] = {{"listed", stats.sprites_listed},
                       {"offscreen", stats.sprites_offscreen},
                       {"compute_raster", stats.sprites_small}};
+  if (!stats.mesh_sprites) j["sprite_chunks"] = stats.sprite_chunks;  // RenderSettings::sprite_capacity
     j["meshlets"] = stats.meshlets;
     j["nodes"] = reader->nodes().size();
     j["spp"] = stats.spp;

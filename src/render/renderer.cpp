@@ -49,7 +49,7 @@ Status Renderer::Impl::upload(const SceneData& scene) {
   if (radii_padded.empty()) radii_padded.assign(2, 0);
   MDS_ASSIGN_OR_RETURN(radii, vk::Buffer::create(alloc, radii_padded.size() * sizeof(uint16_t), ssbo,
                                                  vk::MemoryIntent::device_local, "particle radii"));
-  MDS_TRY(create_draw_buffers(scene.meshlets.size(), particle_count));
+  MDS_TRY(create_draw_buffers(scene.meshlets.size()));
   meshlets_h = meshlets.get();
   particles_h = particles.get();
   radii_h = radii.get();
@@ -73,28 +73,41 @@ Status Renderer::Impl::create_frame_resources() {
   return {};
 }
 
-// The draw list (a meshlet id per slot), the sprite pre-pass output (one GpuSprite per particle
-// slot: a list holds each meshlet at most once, so the slots bound it; none on the mesh path)
-// and the frame uniforms.
-Status Renderer::Impl::create_draw_buffers(uint64_t meshlet_slots, uint64_t particle_slots) {
+// The draw list (a meshlet id per slot), the sprite pre-pass output (GpuSprite records for one
+// chunk of the list: the whole list where they fit the device's range, else the list is drawn
+// in chunks; none on the mesh path) and the frame uniforms.
+Status Renderer::Impl::create_draw_buffers(uint64_t meshlet_slots) {
   auto& alloc = ctx->allocator();
   const VkBufferUsageFlags ssbo = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
   const uint64_t max_range = ctx->limits().maxStorageBufferRange;
-  const uint64_t sprite_capacity = std::max<uint64_t>(particle_slots, 1);
-  const uint64_t record_capacity = mesh_path ? 1 : sprite_capacity;  // mesh path: no records
-  if (record_capacity * sizeof(gpu::GpuSprite) > max_range)
-    return make_error(Errc::budget,
-                      "sprite records for {} particles need {} bytes, more than this device's maxStorageBufferRange "
-                      "({} bytes); use a smaller --gpu-budget (streaming) or a smaller data set",
-                      sprite_capacity, sprite_capacity * sizeof(gpu::GpuSprite), max_range);
+  const uint64_t max_meshlet_slots = std::max<uint64_t>(max_meshlet, 1);
+  // A particle's visibility id is its draw-list entry x max_meshlet + local (GpuSprite.vis_id).
+  if ((uint64_t(meshlet_slots) + 1) * max_meshlet_slots >= gpu::kVisEmpty)
+    return make_error(Errc::budget, "{} meshlet slots of up to {} particles exceed the 32-bit particle ids of a frame",
+                      meshlet_slots, max_meshlet_slots);
+  // Sprite records: 48 B each, bound whole; the id lists (quads, small sprites) take 8 B each.
+  // A chunk is a run of list entries, so one chunk takes a record per particle a full list could
+  // hold, meshlet slots x max meshlet size (1.0-1.25x the particle slots), where the device allows.
+  uint64_t sprite_capacity = std::min<uint64_t>(std::max<uint64_t>(meshlet_slots, 1) * max_meshlet_slots,
+                                                std::min(max_range / sizeof(gpu::GpuSprite), max_range / 8));
+  if (settings.sprite_capacity > 0) sprite_capacity = std::min(sprite_capacity, settings.sprite_capacity);
+  sprite_capacity = std::max(sprite_capacity, max_meshlet_slots);  // a chunk holds one meshlet at least
+  if (mesh_path) {  // no records: the task/mesh path makes its sprites in place, in one launch
+    sprite_capacity = 1;
+    chunk_meshlets = 0xffffffffu;
+    sprite_chunks = 1;
+  } else {
+    chunk_meshlets = uint32_t(std::min<uint64_t>(sprite_capacity / max_meshlet_slots, 0xffffffffu));
+    sprite_chunks = uint32_t(std::max<uint64_t>(1, (meshlet_slots + chunk_meshlets - 1) / chunk_meshlets));
+  }
   MDS_ASSIGN_OR_RETURN(draw_list,
                        vk::Buffer::create(alloc, sizeof(gpu::DrawListHeader) + 4ull * meshlet_slots,
                                           ssbo | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                                           vk::MemoryIntent::device_local, "draw list"));
-  MDS_ASSIGN_OR_RETURN(sprites, vk::Buffer::create(alloc, record_capacity * sizeof(gpu::GpuSprite), ssbo,
+  MDS_ASSIGN_OR_RETURN(sprites, vk::Buffer::create(alloc, sprite_capacity * sizeof(gpu::GpuSprite), ssbo,
                                                    vk::MemoryIntent::device_local, "sprite records"));
   // Header, then two id lists of `capacity` uints (quads; small sprites for the compute
-  // rasterization): 8 bytes per particle slot, next to 48 for its sprite record.
+  // rasterization): 8 bytes per sprite, next to 48 for its record.
   MDS_ASSIGN_OR_RETURN(sprite_draw,
                        vk::Buffer::create(alloc, sizeof(gpu::SpriteDrawHeader) + 8 * sprite_capacity,
                                           ssbo | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
@@ -105,6 +118,7 @@ Status Renderer::Impl::create_draw_buffers(uint64_t meshlet_slots, uint64_t part
                                                      "frame uniforms"));
   gpu::SpriteDrawHeader sprite_head{};
   sprite_head.capacity = uint32_t(sprite_capacity);
+  sprite_head.chunk_meshlets = chunk_meshlets;
   MDS_ASSIGN_OR_RETURN(vk::StagingRing ring, vk::StagingRing::create(*ctx, 1 << 16));
   MDS_TRY(ring.upload_span(sprite_draw, 0, std::span<const gpu::SpriteDrawHeader>(&sprite_head, 1)));
   MDS_TRY(ring.flush());
@@ -561,7 +575,7 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
       MDS_ASSIGN_OR_RETURN(auto raw, vk::read_buffer(*m.ctx, m.sprite_draw, 0, sizeof(gpu::SpriteDrawHeader)));
       gpu::SpriteDrawHeader head;
       std::memcpy(&head, raw.data(), sizeof(head));
-      cs.particles_listed = m.point_sprites ? head.point_vertex_count : head.quad_vertex_count / 6;
+      cs.particles_listed = head.listed;
       cs.particles_occluded = head.occluded;
     }
   }
@@ -578,6 +592,7 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     stats->accumulation_buffer = m.accum_in_buffer;
     stats->covered_pixel_list = m.covered_list && m.last_resolve_listed;
     stats->covered_fraction = m.covered_fraction(w, h);
+    stats->sprite_chunks = m.sprite_chunks;
     stats->particles = m.particle_count;
     stats->meshlets = m.meshlet_count;
     stats->spp = m.settings.spp;
@@ -606,9 +621,9 @@ Status Renderer::Impl::read_sprite_counts(RenderStats& s) {
   MDS_ASSIGN_OR_RETURN(auto raw, vk::read_buffer(*ctx, sprite_draw, 0, sizeof(gpu::SpriteDrawHeader)));
   gpu::SpriteDrawHeader head;
   std::memcpy(&head, raw.data(), sizeof(head));
-  s.sprites_listed = point_sprites ? head.point_vertex_count : head.quad_vertex_count / 6;
+  s.sprites_listed = head.listed;
   s.sprites_offscreen = head.offscreen;
-  s.sprites_small = head.small_count;
+  s.sprites_small = head.small_total;
   return {};
 }
 

@@ -107,6 +107,13 @@ struct RenderSettings {
   // own (shaders/include/particle_occlusion.h; --particle-occlusion off: every particle of the
   // set is drawn, the paper's behaviour).
   bool particle_occlusion = true;
+  // Sprite records the compute sprite path holds at once (48 B each, bound whole, so at most
+  // maxStorageBufferRange / 48: 2.8 M on lavapipe). A draw list with more particles is turned
+  // into sprites and drawn in chunks of capacity / max meshlet size entries, so neither the
+  // in-memory scene nor the streaming pool is bounded by it (gpu_types.h SpriteDrawHeader,
+  // "Chunks"; docs/rendering.md). 0: the device's bound or one per particle a full draw list can
+  // hold (meshlet slots x max meshlet size), whichever is less. Smaller values force chunks (tests).
+  uint64_t sprite_capacity = 0;
 };
 
 // Culling loop statistics of one render() (RenderStats::cull).
@@ -233,6 +240,7 @@ struct RenderStats {
   bool visibility_route = false;  // pixels by the visibility buffer (else colour + depth attachments)
   bool accumulation_buffer = false;  // accumulation in a storage buffer (else a storage image)
   bool covered_pixel_list = false;   // the last frame's resolve ran over the listed covered pixels (else full screen)
+  uint32_t sprite_chunks = 1;        // chunks a frame's draw list is drawn in (RenderSettings::sprite_capacity)
   double covered_fraction = -1.0;    // covered pixels / pixels by the view's probe (-1: not probed)
   // The sprite pre-pass of the last drawn frame (compute path; zeros on the task/mesh path):
   // particles of the listed meshlets, those with nothing to draw (behind the near plane, off

@@ -37,6 +37,10 @@ struct Renderer::Impl {
   VkBuffer meshlets_h = VK_NULL_HANDLE, particles_h = VK_NULL_HANDLE, radii_h = VK_NULL_HANDLE;
   VkBuffer meshlet_class_h = VK_NULL_HANDLE;  // streaming: the pool's class buffer for the cull loop
   vk::Buffer sprites, sprite_draw;  // pre-pass output: GpuSprite per listed particle, draw commands
+  // The draw list is made into sprites and drawn sprite_chunks times per frame, chunk_meshlets
+  // entries each (RenderSettings::sprite_capacity; gpu_types.h SpriteDrawHeader, "Chunks").
+  uint32_t sprite_chunks = 1;
+  uint32_t chunk_meshlets = 0;
   // The visibility route (RenderSettings::visibility_route, where the device has 64-bit buffer
   // atomics, the buffer fits maxStorageBufferRange and the mesh path is off): every sprite --
   // small ones rasterized by the pre-pass, the others by points/quads -- writes depth bits and
@@ -126,7 +130,8 @@ struct Renderer::Impl {
   std::chrono::steady_clock::time_point view_t0;
 
   Status upload(const SceneData& scene);
-  Status create_draw_buffers(uint64_t meshlet_slots, uint64_t particle_slots);
+  // meshlet_slots: the draw list's capacity (the scene's meshlets, or the pool's meshlet slots).
+  Status create_draw_buffers(uint64_t meshlet_slots);
   Status upload_streaming(const SceneData& directory);
   Status create_cull(const culling::CullScene& cs, const culling::DensityVolume& vol);
   // The frame uniforms of one jittered sample of `camera` (render() and the progressive step()).
@@ -163,9 +168,12 @@ struct Renderer::Impl {
   // all_meshlets: draw every meshlet even when culling (the paired no-cull frames of render()).
   void record_pass(VkCommandBuffer cmd, bool first, bool accumulate = true, bool all_meshlets = false);
   void record_cull_only(VkCommandBuffer cmd);
-  void record_sprite_prepass(VkCommandBuffer cmd);
+  // `chunk`: which of the sprite_chunks (chunk 0 also clears the visibility buffer and zeroes the
+  // chunk counter).
+  void record_sprite_prepass(VkCommandBuffer cmd, uint32_t chunk);
   void record_small_raster(VkCommandBuffer cmd);
   void record_sprite_draws(VkCommandBuffer cmd);
+  void record_draw_scope(VkCommandBuffer cmd, bool clear);
 };
 
 

@@ -36,7 +36,7 @@ Status Renderer::Impl::upload_streaming(const SceneData& dir) {
   particles_h = pool.particles();
   radii_h = pool.radii();
   meshlet_class_h = pool.meshlet_class();
-  MDS_TRY(create_draw_buffers(pool.meshlet_slots(), pool.particle_slots()));
+  MDS_TRY(create_draw_buffers(pool.meshlet_slots()));
   MDS_ASSIGN_OR_RETURN(vk::StagingRing ring, vk::StagingRing::create(*ctx));
   MDS_TRY(ring.upload_span(nodes, 0, std::span<const gpu::GpuNode>(dir.nodes)));
   MDS_TRY(ring.upload_span(types, 0, std::span<const gpu::GpuType>(dir.types)));
@@ -68,10 +68,9 @@ Result<std::unique_ptr<Renderer>> Renderer::create_streaming(vk::Context& ctx, c
   m.reader = &reader;
   m.origin = dir.origin;
   m.bounds = dir.bounds;
-  // One GpuSprite of scratch per particle slot, bound whole: the slots must fit maxStorageBufferRange
-  // (the mesh path writes no sprite records: only the 4-byte quad-id scratch bounds them).
-  const uint64_t max_slots = ctx.limits().maxStorageBufferRange / (m.mesh_path ? 4u : sizeof(gpu::GpuSprite));
-  MDS_ASSIGN_OR_RETURN(m.cache, streaming_gpu::StreamCache::create(ctx, reader, stream, dir.origin, max_slots));
+  // The sprite records do not bound the pool: a draw list with more particles than they hold is
+  // drawn in chunks (create_draw_buffers); the pool's own buffers do (NodePool::create).
+  MDS_ASSIGN_OR_RETURN(m.cache, streaming_gpu::StreamCache::create(ctx, reader, stream, dir.origin));
   dir.nodes = m.cache->directory();
   m.meshlet_count = m.cache->pool().meshlet_slots();
   m.particle_count = h.particle_count;
@@ -376,6 +375,7 @@ RenderStats Renderer::stats() const {
   s.accumulation_buffer = m.accum_in_buffer;
   s.covered_pixel_list = m.covered_list && m.last_resolve_listed;
   s.covered_fraction = m.covered_fraction(m.settings.width, m.settings.height);
+  s.sprite_chunks = m.sprite_chunks;
   s.particles = m.particle_count;
   s.meshlets = m.cache ? m.cache->live_meshlets() : m.meshlet_count;
   s.spp = m.settings.spp;

@@ -13,13 +13,24 @@
 
 namespace mds::render {
 
+// The sprite_draw header's chunk counter to 0 (before a frame's first run of sprite_args.comp),
+// after the previous frame's reads of the header.
+static void zero_chunk_counter(VkCommandBuffer cmd, VkBuffer sprite_draw) {
+  vkCmdFillBuffer(cmd, sprite_draw, offsetof(gpu::SpriteDrawHeader, chunk_next), sizeof(uint32_t), 0u);
+}
+
 // The draw list (DrawListHeader.instance_count meshlet ids, written by a compute pass and made
-// visible to compute reads) -> sprite records and the sprite draw commands.
-void Renderer::Impl::record_sprite_prepass(VkCommandBuffer cmd) {
+// visible to compute reads) -> sprite records and the sprite draw commands of chunk `chunk`.
+void Renderer::Impl::record_sprite_prepass(VkCommandBuffer cmd, uint32_t chunk) {
   VkDescriptorSet ds = set.set();
   if (mesh_path) {  // only the launch size: ceil(list / kMeshTaskMeshlets) task workgroups
-    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT, VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT,
-                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT,
+                       VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
+    zero_chunk_counter(cmd, sprite_draw.get());
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, sprite_args_pipe);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &ds, 0, nullptr);
     vkCmdDispatch(cmd, 1, 1, 1);
@@ -28,25 +39,36 @@ void Renderer::Impl::record_sprite_prepass(VkCommandBuffer cmd) {
                        VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
     return;
   }
-  // The previous frame's reads of the sprites and commands (draw, resolve) are done before they
-  // are rewritten.
+  // The previous chunk's or frame's reads of the sprites and commands (draw, raster, resolve) are
+  // done before they are rewritten.
   vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
                               VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                      VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT,
                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
-  if (vis_route) {  // empty visibility buffer and covered-pixel list (after the previous resolve read them)
+  if (chunk == 0) {
+    // The chunk counter, and (visibility route) an empty visibility buffer and covered-pixel list,
+    // after the previous frame's resolve and draws read them.
     vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT |
                                 VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
                        VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT |
                            VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT,
                        VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
-    vkCmdFillBuffer(cmd, visibility.get(), 0, VK_WHOLE_SIZE, 0xffffffffu);
-    if (covered_list) {
-      const gpu::CoveredPixelsHeader head{gpu::kCoveredGroupsX, 0u, 1u, 0u};
-      vkCmdUpdateBuffer(cmd, covered.get(), 0, sizeof(head), &head);
+    zero_chunk_counter(cmd, sprite_draw.get());
+    if (vis_route) {
+      vkCmdFillBuffer(cmd, visibility.get(), 0, VK_WHOLE_SIZE, gpu::kVisEmpty);
+      if (covered_list) {
+        const gpu::CoveredPixelsHeader head{gpu::kCoveredGroupsX, 0u, 1u, 0u};
+        vkCmdUpdateBuffer(cmd, covered.get(), 0, sizeof(head), &head);
+      }
     }
     vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+  } else if (vis_route) {
+    // The previous chunk's fragment atomics on the visibility buffer before this chunk's compute
+    // rasterization.
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                        VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                        VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
   }
@@ -99,6 +121,59 @@ void Renderer::Impl::record_sprite_draws(VkCommandBuffer cmd) {
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &ds, 0, nullptr);
   vkCmdDrawIndirect(cmd, sprite_draw.get(), offsetof(gpu::SpriteDrawHeader, quad_vertex_count), 1,
                     sizeof(VkDrawIndirectCommand));
+}
+
+// One rendering scope of the sprite draws (record_sprite_draws). Attachment route: colour and
+// depth cleared when `clear` (a frame's first chunk), else kept from the previous chunk's scope.
+void Renderer::Impl::record_draw_scope(VkCommandBuffer cmd, bool clear) {
+  const uint32_t w = settings.width, h = settings.height;
+  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+  ri.renderArea = {{0, 0}, {w, h}};
+  ri.layerCount = 1;
+  VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  if (!vis_route) {
+    if (clear) {
+      vk::image_barrier(cmd, color.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                        VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                        VK_ACCESS_2_SHADER_STORAGE_READ_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                        VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
+      vk::image_barrier(cmd, depth.get(), VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                        VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
+                        VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+                        VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+                        VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+                        VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
+    } else {  // the previous chunk's colour and depth writes before this chunk's tests and blends
+      vk::image_barrier(cmd, color.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                        VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                        VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                        VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
+      vk::image_barrier(cmd, depth.get(), VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
+                        VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+                        VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+                        VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+                        VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
+    }
+    const VkAttachmentLoadOp load = clear ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD;
+    ca.imageView = color.view();
+    ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    ca.loadOp = load;
+    ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    ca.clearValue.color = {{0.0f, 0.0f, 0.0f, 0.0f}};  // uncovered: nothing (read_average composes the background)
+    da.imageView = depth.view();
+    da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    da.loadOp = load;
+    da.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    da.clearValue.depthStencil = {1.0f, 0};
+    ri.colorAttachmentCount = 1;
+    ri.pColorAttachments = &ca;
+    ri.pDepthAttachment = &da;
+  }
+  vkCmdBeginRendering(cmd, &ri);
+  vk::set_viewport_scissor(cmd, w, h);
+  record_sprite_draws(cmd);
+  vkCmdEndRendering(cmd);
 }
 
 // A culling iteration without drawing (iterations after the spp frames, until convergence).
@@ -157,54 +232,26 @@ void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first, bool accumulat
                      VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
   timestamps.end(cmd);
 
-  // 2. Sprites of the listed meshlets.
-  timestamps.begin(cmd, "prepass");
-  record_sprite_prepass(cmd);
-  timestamps.end(cmd);
-  if (raster_pipe != VK_NULL_HANDLE) {
-    timestamps.begin(cmd, "raster");
-    record_small_raster(cmd);
-    timestamps.end(cmd);
+  // 2.-3. Per chunk of the draw list (one unless the sprite records hold fewer sprites than the
+  //    list has particles; gpu_types.h SpriteDrawHeader, "Chunks"): its sprites, then the small
+  //    ones rasterized in compute, then the others drawn -- into the visibility buffer (visibility
+  //    route, no attachments) or into colour + depth (attachment route; the first chunk clears
+  //    them, the later ones draw over what the earlier ones left). Timestamps per pass with one
+  //    chunk; with several, one "sprites" span over all of them (a pass's median stays a
+  //    per-frame figure).
+  const bool one_chunk = sprite_chunks == 1;
+  auto timed = [&](const char* pass, auto&& record) {
+    if (one_chunk) timestamps.begin(cmd, pass);
+    record();
+    if (one_chunk) timestamps.end(cmd);
+  };
+  if (!one_chunk) timestamps.begin(cmd, "sprites");
+  for (uint32_t chunk = 0; chunk < sprite_chunks; ++chunk) {
+    timed("prepass", [&] { record_sprite_prepass(cmd, chunk); });
+    if (raster_pipe != VK_NULL_HANDLE) timed("raster", [&] { record_small_raster(cmd); });
+    timed("draw", [&] { record_draw_scope(cmd, chunk == 0); });
   }
-
-  // 3. Draw the sprites the pre-pass did not rasterize: into the visibility buffer (visibility
-  //    route, no attachments) or into colour + depth (attachment route).
-  timestamps.begin(cmd, "draw");
-  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-  ri.renderArea = {{0, 0}, {w, h}};
-  ri.layerCount = 1;
-  VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  if (!vis_route) {
-    vk::image_barrier(cmd, color.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                      VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-                      VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
-    vk::image_barrier(cmd, depth.get(), VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                      VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
-                      VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
-                      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-                      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-                      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
-    ca.imageView = color.view();
-    ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-    ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    ca.clearValue.color = {{0.0f, 0.0f, 0.0f, 0.0f}};  // uncovered: nothing (read_average composes the background)
-    da.imageView = depth.view();
-    da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-    da.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    da.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    da.clearValue.depthStencil = {1.0f, 0};
-    ri.colorAttachmentCount = 1;
-    ri.pColorAttachments = &ca;
-    ri.pDepthAttachment = &da;
-  }
-  vkCmdBeginRendering(cmd, &ri);
-  vk::set_viewport_scissor(cmd, w, h);
-  record_sprite_draws(cmd);
-  vkCmdEndRendering(cmd);
-  timestamps.end(cmd);
+  if (!one_chunk) timestamps.end(cmd);
 
   if (!accumulate) return;  // progressive API: the image already holds spp samples
 

@@ -28,8 +28,7 @@ PoolLayout pool_layout_for(const store::FileHeader& h) {
 
 Result<std::unique_ptr<NodePool>> NodePool::create(vk::Context& ctx, const PoolLayout& layout, PoolScene scene,
                                                    uint32_t node_count, uint64_t budget_bytes,
-                                                   uint64_t store_pages, uint64_t staging_bytes,
-                                                   uint64_t max_particle_slots) {
+                                                   uint64_t store_pages, uint64_t staging_bytes) {
   std::unique_ptr<NodePool> p(new NodePool());
   p->ctx_ = &ctx;
   p->layout_ = layout;
@@ -40,7 +39,6 @@ Result<std::unique_ptr<NodePool>> NodePool::create(vk::Context& ctx, const PoolL
   pages = std::min<uint64_t>(pages, range / (8ull * layout.page_particles));
   pages = std::min<uint64_t>(pages, range / (sizeof(gpu::GpuMeshlet) * layout.page_meshlets));
   pages = std::min<uint64_t>(pages, std::numeric_limits<uint32_t>::max() / layout.page_particles);
-  pages = std::min<uint64_t>(pages, max_particle_slots / layout.page_particles);
   if (pages == 0)
     return make_error(Errc::budget, "--gpu-budget {} is smaller than one pool page ({})", format_bytes(budget_bytes),
                       format_bytes(layout.page_bytes()));

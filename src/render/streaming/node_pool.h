@@ -66,12 +66,12 @@ class NodePool {
  public:
   // Pages = min(budget / page_bytes, store_pages), where store_pages would hold every node at
   // once (a larger pool is never used), further limited so that each pool buffer stays within
-  // maxStorageBufferRange and the particle slots within max_particle_slots (the renderer's
-  // per-particle scratch, one GpuSprite per slot, must fit too). staging_bytes: per-frame upload
-  // area (also bounds a frame's uploads).
+  // maxStorageBufferRange (lavapipe's 128 MiB: 16 M particle slots of 8 B). The renderer's
+  // per-sprite scratch does not bound it (draw lists are drawn in chunks). staging_bytes:
+  // per-frame upload area (also bounds a frame's uploads).
   static Result<std::unique_ptr<NodePool>> create(vk::Context& ctx, const PoolLayout& layout, PoolScene scene,
                                                   uint32_t node_count, uint64_t budget_bytes, uint64_t store_pages,
-                                                  uint64_t staging_bytes, uint64_t max_particle_slots);
+                                                  uint64_t staging_bytes);
   ~NodePool();
   NodePool(const NodePool&) = delete;
   NodePool& operator=(const NodePool&) = delete;
@@ -82,8 +82,8 @@ class NodePool {
   uint32_t meshlet_slots() const { return pages_ * layout_.page_meshlets; }
   uint64_t particle_slots() const { return uint64_t(pages_) * layout_.page_particles; }
   const mds::streaming::DeviceBudget& budget() const { return budget_; }
-  // The device's limits (buffer ranges, the renderer's sprite scratch) left fewer pages than
-  // the budget pays for and the store could use: the cache has less room than it was given.
+  // The device's buffer ranges left fewer pages than the budget pays for and the store could
+  // use: the cache has less room than it was given.
   bool device_capped() const { return device_capped_; }
   bool resident(uint32_t node) const { return !node_pages_[node].empty(); }
   uint64_t staging_free() const { return staging_.size() - staging_head_; }

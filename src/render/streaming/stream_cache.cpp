@@ -14,8 +14,7 @@ using mds::streaming::Residency;
 
 
 Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const store::StoreReader& reader,
-                                                         const StreamSettings& settings, const glm::dvec3& origin,
-                                                         uint64_t max_particle_slots) {
+                                                         const StreamSettings& settings, const glm::dvec3& origin) {
   std::unique_ptr<StreamCache> c(new StreamCache());
   c->reader_ = &reader;
   c->settings_ = settings;
@@ -81,7 +80,7 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
   uint64_t store_pages = 0;  // every node resident at once
   for (uint64_t b : c->node_bytes_) store_pages += b / layout.page_bytes();
   MDS_ASSIGN_OR_RETURN(c->pool_, NodePool::create(ctx, layout, std::move(ps), uint32_t(nodes.size()),
-                                                  settings.gpu_budget, store_pages, staging, max_particle_slots));
+                                                  settings.gpu_budget, store_pages, staging));
   if (c->pool_->budget().pool_bytes() < largest)
     return make_error(Errc::budget, "the device's maxStorageBufferRange ({}) limits the pool to {}, less than node {} ({})",
                       format_bytes(ctx.limits().maxStorageBufferRange), format_bytes(c->pool_->budget().pool_bytes()),

@@ -64,8 +64,7 @@ class StreamCache {
  public:
   // `reader` must outlive the cache. Errc::budget when the budget cannot hold the largest node.
   static Result<std::unique_ptr<StreamCache>> create(vk::Context& ctx, const store::StoreReader& reader,
-                                                     const StreamSettings& settings, const glm::dvec3& origin,
-                                                     uint64_t max_particle_slots);
+                                                     const StreamSettings& settings, const glm::dvec3& origin);
   ~StreamCache();
   StreamCache(const StreamCache&) = delete;
   StreamCache& operator=(const StreamCache&) = delete;
