@@ -95,7 +95,7 @@ std::vector<std::string> cache_warnings(const render::CacheStats& c, uint64_t ma
   if (!c.enabled) return out;
   if (c.pool_device_capped)
     out.push_back(fmt::format("the pool is {} of the {} of --gpu-budget: this device's maxStorageBufferRange ({}) "
-                              "bounds the pool's buffers and the renderer's per-particle scratch "
+                              "bounds the pool's buffers "
                               "(docs/streaming.md, \"Limits\")",
                               format_bytes(c.pool_bytes), format_bytes(c.gpu_budget_bytes),
                               format_bytes(max_storage_range)));
