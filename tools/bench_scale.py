@@ -8,14 +8,15 @@ Steps, each timed, with the peak RSS of its process (wait4):
   2. `mdstream convert` (default options: 2 GiB memory budget, PCL meshlets, nodes of <= 10000),
      its JSON report (bins, spill, stage times, bytes/particle);
   3. `mdstream info --verify` (every node decoded and checked against its hash and record);
-  4. `mdstream render --gpu-budget B` of the default views (close-up first), with stats: converged,
+  4. `mdstream render --gpu-budget B` of the default views (close-up first; each view with its own
+     budget, `--views 2:64MiB,1:256MiB`), with stats: converged,
      time to converge, bytes read / store, nodes read, pool size, whether the pool held the view
      (budget_exhausted, wanted_nodes/bytes); the images go next to the results;
   5. `mdstream stress --path view2` at 320x180 (the cache benchmark's dense view): bytes read to
      converge against the bytes of the nodes holding a visible particle.
 Writes docs/results/scale.md, scale.csv and the images (scale_view*.png).
 
-  /usr/bin/python3 tools/bench_scale.py [--particles 100M] [--budget 64MiB] [--views 2,1,0] [--quick]
+  /usr/bin/python3 tools/bench_scale.py [--particles 100M] [--budget 64MiB] [--views 2,1:256MiB,0:256MiB] [--quick]
 """
 import argparse
 import csv
@@ -63,12 +64,16 @@ def main():
     ap.add_argument("--mdstream", default=None, help="mdstream binary (default: newest build*/mdstream)")
     ap.add_argument("--scene", default="porous")
     ap.add_argument("--particles", default=None, help="default 100M (quick: 2M)")
-    ap.add_argument("--budget", default=None, help="render --gpu-budget (default 64MiB; quick 2MiB)")
-    ap.add_argument("--views", default="2,1,0", help="default views to render, in this order")
+    ap.add_argument("--budget", default=None, help="render --gpu-budget of views without their own, and of "
+                    "the stress run (default 64MiB; quick 2MiB)")
+    ap.add_argument("--views", default="2,1:256MiB,0:256MiB",
+                    help="default views to render, in this order, each V or V:BUDGET")
     ap.add_argument("--width", type=int, default=640)
     ap.add_argument("--height", type=int, default=360)
     ap.add_argument("--spp", type=int, default=16)
-    ap.add_argument("--max-iterations", type=int, default=256, help="render --max-iterations")
+    ap.add_argument("--max-iterations", type=int, default=96,
+                    help="render --max-iterations (default 96: about 100 s of culling per whole view at 10^8 on "
+                         "lavapipe)")
     ap.add_argument("--quick", action="store_true", help="smoke run: 2M particles, small budget")
     ap.add_argument("--work", default=None, help="scratch folder (default: a temporary one, removed)")
     ap.add_argument("--keep", action="store_true", help="keep the work folder (dump and store)")
@@ -104,11 +109,15 @@ def main():
     print(f"  info --verify {wall:.1f} s", file=sys.stderr)
 
     renders = []
-    for v in [int(x) for x in args.views.split(",") if x]:
+    for spec in [x for x in args.views.split(",") if x]:
+        v = int(spec.split(":")[0])
+        view_budget = spec.split(":", 1)[1] if ":" in spec else budget
+        if args.quick and ":" in spec:
+            view_budget = budget
         png = os.path.join(work, f"view{v}.png")
         stats = os.path.join(work, f"view{v}.json")
         wall, rss, err = timed_rss([mds, "render", store, "-o", png, "--view", str(v), "--width", str(args.width),
-                                    "--height", str(args.height), "--spp", str(args.spp), "--gpu-budget", budget,
+                                    "--height", str(args.height), "--spp", str(args.spp), "--gpu-budget", view_budget,
                                     "--max-iterations", str(args.max_iterations), "--stats", stats], log)
         with open(stats) as f:
             j = json.load(f)
@@ -144,7 +153,9 @@ def main():
                      "gpu_pool_bytes": j["gpu_pool_bytes"], "gpu_peak_bytes": j["gpu_peak_bytes"],
                      "budget_exhausted": j["budget_exhausted"], "wanted_nodes": j["wanted_nodes"],
                      "wanted_bytes": j["wanted_bytes"], "culled_fraction": j["culled_fraction"],
-                     "frame_ms_after_convergence": j["frame_ms_after_convergence"]})
+                     "frame_ms_during_culling": j["frame_ms_during_culling"],
+                     "frame_ms_after_convergence": j["frame_ms_after_convergence"],
+                     "sprite_chunks": j.get("sprite_chunks", 1)})
     rows.append({"what": "stress view2", "wall_s": round(stress["_wall_s"], 2), "peak_rss_bytes": stress["_peak_rss"],
                  "output_bytes": 0, "converged": fv["converged"], "bytes_read": fv["bytes_read_to_converge"],
                  "visible_node_bytes": fv.get("visible_node_bytes"),
@@ -180,23 +191,27 @@ def main():
           f"every node and checked its hash and occupancy record. Density grid "
           f"{'x'.join(str(d) for d in store_info['density_dims'])}.\n",
           "## Rendering with a GPU budget\n",
-          f"`mdstream render STORE --gpu-budget {budget} --view V --width {args.width} --height {args.height} "
+          f"`mdstream render STORE --gpu-budget B --view V --width {args.width} --height {args.height} "
           f"--spp {args.spp} --max-iterations {args.max_iterations}`. *Read / store* = compressed bytes read over the "
           "store's payload. *Pool held the view* = `budget_exhausted` false; when it is true the image lacks the "
           "nodes that did not fit and `render` warned (docs/streaming.md, \"Headless rendering and convergence\"); "
           "*wanted* = the last frame's nodes in the frustum and not known to be occluded, and the pool pages they "
           "take.\n",
           "| view | converged | time to converge [s] | iterations | wall [s] | peak RSS | bytes read | read / store "
-          "| nodes read / nodes | pool (budget) | pool held the view | wanted nodes (pages) | culled meshlets "
-          "(resident) | frame after convergence [ms] |",
-          "|---|---|---:|---:|---:|---:|---:|---:|---:|---|---|---:|---:|---:|"]
+          "| nodes read / nodes | pool (budget) | pool held the view | wanted nodes (pages) | sprite chunks | "
+          "resident meshlets P / L / M / O | culled meshlets (resident) | GPU frame during culling / after "
+          "convergence [ms] |",
+          "|---|---|---:|---:|---:|---:|---:|---:|---:|---|---|---:|---:|---|---:|---:|"]
     for v, j in renders:
         L.append(f"| {v} | {j['converged']} | {j['time_to_converge_ms'] / 1000:.1f} | {j['iterations']} | "
                  f"{j['_wall_s']:.1f} | {fmt_bytes(j['_peak_rss'])} | {fmt_bytes(j['bytes_read'])} | "
                  f"{j['bytes_read'] / j['store_payload_bytes']:.4f} | {j['nodes_loaded']} / {j['nodes']} | "
                  f"{fmt_bytes(j['gpu_pool_bytes'])} ({fmt_bytes(j['gpu_budget_bytes'])}) | "
                  f"{'no' if j['budget_exhausted'] else 'yes'} | {j['wanted_nodes']} ({fmt_bytes(j['wanted_bytes'])}) | "
-                 f"{100 * j['culled_fraction']:.1f} % | {j['frame_ms_after_convergence']:.0f} |")
+                 f"{j.get('sprite_chunks', 1)} | "
+                 f"{' / '.join(str(j['class_counts'][c]) for c in 'PLMO')} | "
+                 f"{100 * j['culled_fraction']:.1f} % | {j['frame_ms_during_culling']:.0f} / "
+                 f"{j['frame_ms_after_convergence']:.0f} |")
     L.append("")
     for v, j in renders:
         for w in j["_warnings"]:
