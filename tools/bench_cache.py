@@ -21,7 +21,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench_common import machine_info, make_store, newest_mdstream, open_work, parse_count, sh  # noqa: E402
+from bench_common import fmt_bytes, machine_info, make_store, newest_mdstream, open_work, parse_count, sh  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -41,13 +41,6 @@ def stress(mds, store, budget, path, policy, args, work, log, extra=()):
     j["_seconds"] = time.time() - t0
     _DEVICE.setdefault("name", j.get("device", "unknown"))
     return j
-
-
-def fmt_bytes(b):
-    for unit, s in (("GiB", 2**30), ("MiB", 2**20), ("KiB", 2**10)):
-        if b >= s:
-            return f"{b / s:.2f} {unit}"
-    return f"{b} B"
 
 
 def main():

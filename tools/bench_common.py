@@ -14,6 +14,14 @@ def parse_count(text):
     return int(float(text) * mult)
 
 
+def fmt_bytes(b):
+    """1536 -> '1.50 KiB' (binary units, two decimals)."""
+    for unit, s in (("GiB", 2**30), ("MiB", 2**20), ("KiB", 2**10)):
+        if b >= s:
+            return f"{b / s:.2f} {unit}"
+    return f"{b} B"
+
+
 def _first_field(path, prefix):
     try:
         with open(path) as f:

@@ -28,7 +28,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench_common import machine_info, newest_mdstream, open_work, parse_count  # noqa: E402
+from bench_common import fmt_bytes, machine_info, newest_mdstream, open_work, parse_count  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -50,13 +50,6 @@ def timed_rss(cmd, log):
     if rc != 0:
         raise RuntimeError(f"{' '.join(cmd)} failed ({rc}):\n{err[-3000:]}")
     return wall, ru.ru_maxrss * 1024, err
-
-
-def fmt_bytes(b):
-    for unit, s in (("GiB", 2**30), ("MiB", 2**20), ("KiB", 2**10)):
-        if b >= s:
-            return f"{b / s:.2f} {unit}"
-    return f"{b} B"
 
 
 def main():
