@@ -13,8 +13,10 @@ Steps, each timed, with the peak RSS of its process (wait4):
      time to converge, bytes read / store, nodes read, pool size, whether the pool held the view
      (budget_exhausted, wanted_nodes/bytes); the images go next to the results;
   5. `mdstream stress --path view2` at 320x180 (the cache benchmark's dense view): bytes read to
-     converge against the bytes of the nodes holding a visible particle.
-Writes docs/results/scale.md, scale.csv and the images (scale_view*.png).
+     converge against the bytes of the nodes holding a visible particle;
+  6. `mdstream view` on the close-up under xvfb-run (where it is installed): 60 frames, a
+     screenshot with the HUD.
+Writes docs/results/scale.md, scale.csv and the images (scale_view*.png, scale_viewer.png).
 
   /usr/bin/python3 tools/bench_scale.py [--particles 100M] [--budget 64MiB] [--views 2,1:256MiB,0:256MiB] [--quick]
 """
@@ -131,6 +133,16 @@ def main():
     fv = stress["final_view"]
     print(f"  stress view2: read / visible {fv.get('bytes_read_over_visible')}", file=sys.stderr)
 
+    viewer = None
+    if shutil.which("xvfb-run"):
+        shot = os.path.join(work, "viewer.png")
+        wall, rss, _ = timed_rss(["xvfb-run", "-a", "-s", "-screen 0 1280x800x24", mds, "view", store, "--gpu-budget",
+                                  budget, "--view", "2", "--width", str(args.width), "--height", str(args.height),
+                                  "--screenshot", shot, "--exit-after-frames", "60"], log)
+        shutil.copyfile(shot, os.path.join(args.out, "scale_viewer.png"))
+        viewer = wall
+        print(f"  view (xvfb) view 2, 60 frames: {wall:.1f} s", file=sys.stderr)
+
     # ---- results
     minutes = (time.time() - t_start) / 60
     rows = []
@@ -220,6 +232,12 @@ def main():
           f"{fv.get('visible_nodes')} ({fmt_bytes(fv.get('visible_node_bytes') or 0)}), read / visible "
           f"{(fv.get('bytes_read_over_visible') or 0):.2f} (issue 4's target 1.25 was set for the cache "
           f"benchmark's stores of nodes <= 1000; these nodes hold up to 10000 particles).\n"]
+    if viewer is not None:
+        L += ["## The viewer\n",
+              f"`xvfb-run mdstream view STORE --gpu-budget {budget} --view 2 --width {args.width} --height "
+              f"{args.height} --screenshot F --exit-after-frames 60`: {viewer:.1f} s for window, store, 60 frames "
+              "and the screenshot (HUD: frame time, samples, culled share, cache residency and nodes read).\n",
+              "![mdstream view](scale_viewer.png)\n"]
     with open(os.path.join(args.out, "scale.md"), "w") as f:
         f.write("\n".join(L) + "\n")
     print(f"bench_scale: wrote {os.path.join(args.out, 'scale.md')} ({minutes:.1f} min)", file=sys.stderr)
