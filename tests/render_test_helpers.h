@@ -32,6 +32,9 @@ struct RenderedFrame {
 class VulkanSuite : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
+    // With the Khronos layer installed: its synchronization validation too (missing or wrong
+    // barriers between passes are hazards it reports; the layer reads this variable).
+    setenv("VK_LAYER_ENABLES", "VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT", 0);
     vk::ContextOptions o;
     o.validation = true;
     auto c = vk::Context::create(o);
