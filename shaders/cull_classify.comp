@@ -179,7 +179,9 @@ int classify_box(vec3 bmin, vec3 bmax, int max_extent, uvec2 occupancy, int node
   if (full) {
     if (texels_in_front(bmin, bmax, level, t0 >> int(level), t1 >> int(level), grow, csum, n))
       return MDS_CULL_CLASS_P;
-    if (n == 0.0) return MDS_CULL_CLASS_P;  // (not expected: the box projects into the image)
+    // No texel's ray reaches the box: it covers no pixel of the image (its rectangle only
+    // overlaps the image's border, the box itself lies beyond it), so it is frustum culled.
+    if (n == 0.0) return -1;
   } else if (!texels_in_front(bmin, bmax, level, t0 >> int(level), t1 >> int(level), grow, csum, n) && n > 0.0) {
     // The whole box lies behind d_cull on every texel it reaches, so every cell does too: the
     // box's mean confidence decides, as for a full mask (one test instead of one per cell).
@@ -235,8 +237,9 @@ int classify_box(vec3 bmin, vec3 bmax, int max_extent, uvec2 occupancy, int node
         }
       }
     }
-    if (!in_image) return -1;  // no occupied cell projects into the image
-    if (n == 0.0) return MDS_CULL_CLASS_P;  // (not expected: an occupied cell reaches the image)
+    // No occupied cell projects into the image, or none covers a pixel of it (a cell's
+    // rectangle overlaps the image's border only): frustum culled.
+    if (!in_image || n == 0.0) return -1;
   }
   return mds_classify_occlusion(MDS_CULL_CLASS_P, true, csum / n, cull.thresholds.x,
                                 cull.thresholds.y);

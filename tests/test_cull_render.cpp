@@ -352,6 +352,94 @@ TEST_F(CullRender, BoxesBesideTheEyeAreFrustumCulled) {
   EXPECT_GT(crossing_on_screen, 0u);
 }
 
+// A box whose projected rectangle overlaps the image while the box itself covers no pixel: the
+// camera's up vector turned by 45 degrees makes an axis-aligned cluster project as a diamond,
+// placed beyond the image's corner so that the diamond's bounding rectangle reaches a few pixels
+// into the image. No texel's ray reaches the box, so it is frustum culled (O) in the first
+// classification (before, a rectangle without a reached texel counted as P: on the porous 8M
+// close-up two far nodes at the image's corner were read for nothing, 1.34x the visible bytes).
+TEST_F(CullRender, BoxBeyondTheImageCornerIsFrustumCulled) {
+  std::vector<glm::dvec3> pos;
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < 5; ++j)
+      for (int i = 0; i < 5; ++i) pos.push_back({0.25 * i, 0.25 * j, -0.25 * k});  // cluster A, on screen
+  const size_t a_count = pos.size();
+  // Screen axes: right = (1, -1, 0) / sqrt 2, up = (1, 1, 0) / sqrt 2; the image spans
+  // +-80 tan(5 deg) = +-7.0 units high and +-9.33 wide at the target's distance. Cluster B (2.4
+  // units square: a diamond of half-diagonal 1.70) centred 1.36 units beyond the corner along both
+  // screen axes: its rectangle reaches 0.34 units (2 pixels) into the image, its nearest point
+  // stays 1.0 unit (6 pixels) outside.
+  const double sx = 9.33 + 1.36, sy = 7.0 + 1.36;
+  const glm::dvec3 b_centre((sx + sy) / std::sqrt(2.0), (sy - sx) / std::sqrt(2.0), 0.0);
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < 9; ++j)
+      for (int i = 0; i < 9; ++i) pos.push_back(b_centre + glm::dvec3(0.25 * (i - 4), 0.25 * (j - 4), -0.25 * k));
+  std::vector<uint8_t> types(pos.size(), 0);
+  const float radius[1] = {0.2f};
+  // Nodes of <= 75 particles: A is one node (the partition's first split separates the
+  // clusters), B several.
+  auto scene = scene_from_particles(pos, types, radius, uint32_t(a_count), 16);
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  ASSERT_GE(scene->nodes.size(), 3u);
+
+  Camera cam;
+  cam.eye = {0.0, 0.0, 80.0};
+  cam.target = {0.0, 0.0, 0.0};
+  cam.up = glm::normalize(glm::dvec3(1.0, 1.0, 0.0));
+  cam.fov_y_deg = 10.0;
+  cam.near = 1.0;
+  cam.far = 200.0;
+  // The premise, on the CPU: every particle of B lies outside the image by more than its radius
+  // and a pixel (no pixel can show it), and some node of B has a box whose rectangle overlaps
+  // the image.
+  const glm::dmat4 view = view_matrix(cam, scene->origin);
+  const glm::dmat4 proj = projection_matrix(cam, double(kW) / kH);
+  const double px = 2.0 / kH;  // NDC units per pixel along y (along x, 2 / kW: smaller)
+  for (size_t i = a_count; i < pos.size(); ++i) {
+    const glm::dvec4 clip = proj * (view * glm::dvec4(pos[i] - scene->origin, 1.0));
+    const glm::dvec2 ndc = glm::dvec2(clip) / clip.w;
+    EXPECT_GT(std::max(std::abs(ndc.x) - 1.0, std::abs(ndc.y) - 1.0), 3.0 * px) << "particle " << i;
+  }
+  std::vector<bool> of_b(scene->nodes.size());
+  size_t b_overlapping = 0;
+  for (size_t k = 0; k < scene->nodes.size(); ++k) {
+    const gpu::GpuNode& n = scene->nodes[k];
+    of_b[k] = double(n.aabb_min.x) + scene->origin.x > 6.0;  // A lies at x < 1.2, B at x > 12
+    glm::dvec2 lo(1e300), hi(-1e300);
+    for (int c = 0; c < 8; ++c) {
+      const glm::dvec3 p((c & 1) ? n.aabb_max.x : n.aabb_min.x, (c & 2) ? n.aabb_max.y : n.aabb_min.y,
+                         (c & 4) ? n.aabb_max.z : n.aabb_min.z);
+      const glm::dvec4 clip = proj * (view * glm::dvec4(p, 1.0));
+      lo = glm::min(lo, glm::dvec2(clip) / clip.w);
+      hi = glm::max(hi, glm::dvec2(clip) / clip.w);
+    }
+    // Overlapping by more than a pixel on both axes (not a float tie at the border).
+    if (of_b[k] && lo.x < 1.0 - px && lo.y < 1.0 - px && hi.x > -1.0 + px && hi.y > -1.0 + px) ++b_overlapping;
+  }
+  ASSERT_EQ(std::count(of_b.begin(), of_b.end(), false), 1) << "A is one node";
+  ASSERT_GT(b_overlapping, 0u) << "a node of B whose rectangle reaches into the image";
+
+  RenderSettings rs;
+  rs.width = kW;
+  rs.height = kH;
+  rs.spp = 1;
+  rs.cull = true;
+  auto r = Renderer::create(*ctx_, *scene, rs);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  std::vector<uint32_t> first;
+  r.value()->set_iteration_hook([&](uint32_t it) {
+    if (it == 0) {
+      auto c = r.value()->cull_loop()->node_classes();
+      first.assign(c.begin(), c.end());
+    }
+  });
+  ASSERT_TRUE(r.value()->render(cam).ok());
+  ASSERT_EQ(first.size(), scene->nodes.size());
+  for (size_t k = 0; k < first.size(); ++k)
+    EXPECT_EQ(first[k], of_b[k] ? uint32_t(MDS_CULL_CLASS_O) : uint32_t(MDS_CULL_CLASS_P))
+        << "node " << k << (of_b[k] ? " of B covers no pixel" : " (A) is on screen");
+}
+
 namespace {
 
 // A wall of 24 x 41 x 41 spheres (radius 0.2, spacing 0.25: opaque; thick enough for the
