@@ -29,6 +29,10 @@ layout(constant_id = 2) const float kSmallPx = 0.0;
 // executes a branch's code even when the branch is not taken, and the test cost the pre-pass
 // ~10-15 ms per 1920x1080 frame while switched off by the uniform (docs/rendering.md).
 layout(constant_id = 3) const bool kParticleOcclusion = false;
+// Visibility ids (GpuSprite.vis_id): the sprite's record index where the frame draws its list in
+// one chunk (the resolve reads the record), the particle's frame-wide id where it draws in
+// several (the records are reused; the resolve rebuilds the sphere). gpu_types.h GpuSprite.
+layout(constant_id = 4) const bool kChunkedIds = false;
 
 void main() {
   if (gl_GlobalInvocationID.x >= sprite_draw.chunk_count) return;
@@ -42,6 +46,7 @@ void main() {
   uint occluded = 0u, small = 0u, offscreen = 0u;
   for (uint local = 0u; local < count; ++local) {
     GpuSprite s = mds_make_sprite(m, node, local, e);
+    if (!kChunkedIds) s.vis_id = base + local;
     if ((s.flags & kSpriteHidden) != 0u) ++offscreen;
     if (kParticleOcclusion && (s.flags & kSpriteHidden) == 0u && mds_particle_occluded(s)) {
       s.flags |= kSpriteHidden;

@@ -3,8 +3,11 @@
 // visibility buffer (sprite_raster.h; written by the compute rasterization of small sprites and
 // by the rasterized ones) is shaded once -- the same ray and shading as sphere.frag
 // (sphere_shading.h) -- and added to the accumulation (accumulation.h). The buffer holds the
-// winner's vis_id, not a sprite index (the sprite records are reused chunk by chunk), so its
-// sphere is rebuilt from the particle (sprite_make.h mds_vis_id_sphere: the pre-pass's bits). Background pixels add
+// winner's vis_id: its sprite record's index where the frame draws its list in one chunk, else
+// (specialization constant 4, kChunkedIds: the records are reused chunk by chunk) the particle's
+// frame-wide id, from which its sphere is rebuilt (sprite_make.h mds_vis_id_sphere: the
+// pre-pass's bits; on lavapipe the chain of loads costs a 1080p full-screen resolve ~25 ms more
+// than one record, so one chunk keeps the record). Background pixels add
 // nothing: the accumulation holds the covered samples only (rgb sum, a = their count) and the
 // host composes the background over it (Renderer::Impl::read_average). Timing frames
 // (kFrameTimingOnly) add with weight 0: the same work, the image unchanged.
@@ -20,6 +23,7 @@
 #include "pixel_list.glsl"
 
 layout(constant_id = 1) const bool kCoveredList = true;
+layout(constant_id = 4) const bool kChunkedIds = false;
 layout(local_size_x_id = 2, local_size_y_id = 3) in;  // (64, 1) with the list, else (16, 16)
 
 void main() {
@@ -35,7 +39,14 @@ void main() {
   uint id = uint(visibility[uint(p.y) * uint(frame.viewport.x) + uint(p.x)] & 0xffffffffu);
   if (id == kVisEmpty) return;  // background: nothing to add
   uint type;
-  vec4 center_radius = mds_vis_id_sphere(id, type);
+  vec4 center_radius;
+  if (kChunkedIds) {
+    center_radius = mds_vis_id_sphere(id, type);
+  } else {
+    GpuSprite s = sprites[id];
+    center_radius = s.center_radius;
+    type = s.flags & 0xffu;
+  }
   vec3 hit, n, d;
   float depth;
   if (!ray_sphere(vec2(p) + 0.5, center_radius, hit, n, d, depth)) return;

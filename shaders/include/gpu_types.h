@@ -118,9 +118,10 @@ MDS_STRUCT(DrawListHeader) {
 
 // One particle's glyph, computed once per pass by the sprite pre-pass (sphere_prepass.comp) so
 // that the vertex stages only load: screen rectangle, view-space sphere and billboard depth.
-// vis_id names the particle in the visibility buffer for the whole frame: draw-list entry x
-// max_meshlet_particles + local index (the records themselves are overwritten chunk by chunk,
-// so the resolve rebuilds the winner's sphere from it, sprite_make.h mds_vis_id_sphere).
+// vis_id names the particle in the visibility buffer: its record index where a frame draws its
+// list in one chunk; with several chunks (the records are overwritten chunk by chunk) the
+// particle's frame-wide id, draw-list entry x max_meshlet_particles + local index, from which
+// the resolve rebuilds the winner's sphere (sprite_make.h mds_vis_id_sphere).
 MDS_STRUCT(GpuSprite) {
   vec4 rect;           // NDC x_lo, y_lo, x_hi, y_hi, incl. the half-pixel margin
   vec4 center_radius;  // view space centre, radius

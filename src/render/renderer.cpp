@@ -222,7 +222,8 @@ Status Renderer::Impl::create_accumulate_pipeline() {
   auto make = [&](const char* shader, bool list) -> Result<vk::UniquePipeline> {
     vk::SpecConstants spec;
     spec.add(0u, VkBool32(accum_in_buffer));  // accumulation.h: kAccumBuffer
-    if (vis_route) spec.add(1u, VkBool32(list)).add(2u, list ? 64u : 16u).add(3u, list ? 1u : 16u);
+    if (vis_route)
+      spec.add(1u, VkBool32(list)).add(2u, list ? 64u : 16u).add(3u, list ? 1u : 16u).add(4u, VkBool32(sprite_chunks > 1));
     return vk::create_compute_pipeline(ctx->device(), layout.get(), shader, &spec);
   };
   if (vis_route) {
@@ -325,6 +326,7 @@ Status Renderer::Impl::create_pipelines() {
   auto prepass = [&](bool particle_occlusion) {  // specialization constant 3: kParticleOcclusion
     vk::SpecConstants spec;
     spec.add(0u, VkBool32(point_sprites)).add(1u, max_point).add(2u, small_px).add(3u, VkBool32(particle_occlusion));
+    spec.add(4u, VkBool32(sprite_chunks > 1));  // kChunkedIds: visibility ids by particle, not by record
     return vk::create_compute_pipeline(dev, layout, "sphere_prepass.comp", &spec);
   };
   MDS_ASSIGN_OR_RETURN(prepass_pipe, prepass(false));
