@@ -6,10 +6,16 @@
 #include <lz4.h>
 
 #include <cstring>
+#include <memory>
 
 namespace mds::store {
 
 namespace {
+
+// Section buffers are written whole right after allocation: no zero fill (`new T[n]`
+// default-initializes). On the 2-core VM a zero-filled 8 bytes per voxel ref cost the
+// converter's finish about as much as the LZ4 pass itself (fresh pages faulted in by memset).
+using Bytes = std::unique_ptr<uint8_t[]>;
 
 // planes[b * count + i] = byte b of values[i].
 void to_planes(const uint32_t* values, size_t count, uint8_t* planes) {
@@ -27,24 +33,28 @@ uint32_t from_planes(const uint8_t* planes, size_t count, size_t i) {
          uint32_t(planes[3 * count + i]) << 24;
 }
 
-Result<std::vector<uint8_t>> compress(const std::vector<uint8_t>& raw, const char* what) {
+// One LZ4 block of raw[0, n). The bound-sized scratch is touched only as far as LZ4 writes, and
+// only the compressed bytes are copied into the result.
+Result<std::vector<uint8_t>> compress(const uint8_t* raw, size_t n, const char* what) {
   std::vector<uint8_t> out;
-  if (raw.empty()) return out;
-  if (raw.size() > size_t(LZ4_MAX_INPUT_SIZE))
-    return make_error(Errc::range, "{} of {} bytes exceeds the LZ4 block limit", what, raw.size());
-  out.resize(size_t(LZ4_compressBound(int(raw.size()))));
-  const int c = LZ4_compress_default(reinterpret_cast<const char*>(raw.data()), reinterpret_cast<char*>(out.data()),
-                                     int(raw.size()), int(out.size()));
-  if (c <= 0) return make_error(Errc::internal, "LZ4 compression of the {} ({} bytes) failed", what, raw.size());
-  out.resize(size_t(c));
+  if (n == 0) return out;
+  if (n > size_t(LZ4_MAX_INPUT_SIZE))
+    return make_error(Errc::range, "{} of {} bytes exceeds the LZ4 block limit", what, n);
+  const int bound = LZ4_compressBound(int(n));
+  Bytes scratch(new uint8_t[size_t(bound)]);
+  const int c = LZ4_compress_default(reinterpret_cast<const char*>(raw), reinterpret_cast<char*>(scratch.get()),
+                                     int(n), bound);
+  if (c <= 0) return make_error(Errc::internal, "LZ4 compression of the {} ({} bytes) failed", what, n);
+  out.assign(scratch.get(), scratch.get() + c);
   return out;
 }
 
-Status decompress(std::span<const uint8_t> block, std::vector<uint8_t>& raw) {
-  const int got = LZ4_decompress_safe(reinterpret_cast<const char*>(block.data()), reinterpret_cast<char*>(raw.data()),
-                                      int(block.size()), int(raw.size()));
-  if (got != int(raw.size()))
-    return make_error(Errc::format, "LZ4 block is corrupt (decoded {} of {} bytes)", got, raw.size());
+// Decodes the block into raw[0, n); succeeds only when it fills all n bytes.
+Status decompress(std::span<const uint8_t> block, uint8_t* raw, size_t n) {
+  const int got = LZ4_decompress_safe(reinterpret_cast<const char*>(block.data()), reinterpret_cast<char*>(raw),
+                                      int(block.size()), int(n));
+  if (got != int(n))
+    return make_error(Errc::format, "LZ4 block is corrupt (decoded {} of {} bytes)", got, n);
   return {};
 }
 
@@ -53,45 +63,46 @@ Status decompress(std::span<const uint8_t> block, std::vector<uint8_t>& raw) {
 Result<std::vector<uint8_t>> encode_voxel_section(std::span<const VoxelRef> refs) {
   const size_t r = refs.size();
   if (r > kMaxVoxelRefs) return make_error(Errc::range, "{} voxel refs exceed the format's limit of {}", r, kMaxVoxelRefs);
-  std::vector<uint32_t> values(2 * r);
+  // Planes 0-3: voxel deltas (mod 2^32), planes 4-7: counts.
+  Bytes raw(new uint8_t[8 * r]);
+  uint8_t* p = raw.get();
   uint32_t prev = 0;
   for (size_t i = 0; i < r; ++i) {
-    values[i] = refs[i].voxel - prev;  // mod 2^32
+    const uint32_t d = refs[i].voxel - prev, c = refs[i].count;
     prev = refs[i].voxel;
-    values[r + i] = refs[i].count;
+    p[i] = uint8_t(d), p[r + i] = uint8_t(d >> 8), p[2 * r + i] = uint8_t(d >> 16), p[3 * r + i] = uint8_t(d >> 24);
+    p[4 * r + i] = uint8_t(c), p[5 * r + i] = uint8_t(c >> 8), p[6 * r + i] = uint8_t(c >> 16),
+              p[7 * r + i] = uint8_t(c >> 24);
   }
-  std::vector<uint8_t> raw(8 * r);
-  to_planes(values.data(), r, raw.data());
-  to_planes(values.data() + r, r, raw.data() + 4 * r);
-  return compress(raw, "voxel lists");
+  return compress(raw.get(), 8 * r, "voxel lists");
 }
 
 Status decode_voxel_section(std::span<const uint8_t> block, std::span<VoxelRef> refs) {
   const size_t r = refs.size();
   if (r == 0) return {};
-  std::vector<uint8_t> raw(8 * r);
-  MDS_TRY(decompress(block, raw));
+  Bytes raw(new uint8_t[8 * r]);
+  MDS_TRY(decompress(block, raw.get(), 8 * r));
   uint32_t voxel = 0;
   for (size_t i = 0; i < r; ++i) {
-    voxel += from_planes(raw.data(), r, i);
+    voxel += from_planes(raw.get(), r, i);
     refs[i].voxel = voxel;
-    refs[i].count = from_planes(raw.data() + 4 * r, r, i);
+    refs[i].count = from_planes(raw.get() + 4 * r, r, i);
   }
   return {};
 }
 
 Result<std::vector<uint8_t>> encode_density_section(std::span<const uint32_t> counts) {
-  std::vector<uint8_t> raw(4 * counts.size());
-  to_planes(counts.data(), counts.size(), raw.data());
-  return compress(raw, "density volume");
+  Bytes raw(new uint8_t[4 * counts.size()]);
+  to_planes(counts.data(), counts.size(), raw.get());
+  return compress(raw.get(), 4 * counts.size(), "density volume");
 }
 
 Status decode_density_section(std::span<const uint8_t> block, std::span<uint32_t> counts) {
   const size_t n = counts.size();
   if (n == 0) return {};
-  std::vector<uint8_t> raw(4 * n);
-  MDS_TRY(decompress(block, raw));
-  for (size_t i = 0; i < n; ++i) counts[i] = from_planes(raw.data(), n, i);
+  Bytes raw(new uint8_t[4 * n]);
+  MDS_TRY(decompress(block, raw.get(), 4 * n));
+  for (size_t i = 0; i < n; ++i) counts[i] = from_planes(raw.get(), n, i);
   return {};
 }
 
