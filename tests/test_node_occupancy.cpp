@@ -144,4 +144,63 @@ TEST(NodeOccupancy, QuantizedRecordMatchesTheSpheres) {
   }
 }
 
+// The converter's record evaluates the cell arithmetic once per node as thresholds; it must
+// give exactly the cells of evaluating it per particle (the store's bytes depend on it). Every
+// quantized value on every axis, random nodes, flat axes and r = 0 included.
+using FineOccupancyRef = mds::culling::FineOccupancy;
+
+FineOccupancyRef per_particle_reference(const double cmin[3], const double cmax[3], double r,
+                                        const std::vector<uint16_t>& q) {
+  constexpr int kF = mds::culling::kOccupancyFineCells;
+  FineOccupancyRef fine{};
+  for (size_t i = 0; i < q.size() / 3; ++i) {
+    int first[3], last[3];
+    for (int a = 0; a < 3; ++a) {
+      const double w = (cmax[a] - cmin[a]) + 2.0 * r;
+      if (!(w > 0.0)) {
+        first[a] = 0, last[a] = kF - 1;
+        continue;
+      }
+      const double f = double(q[3 * i + a]) * ((cmax[a] - cmin[a]) / 65535.0 / w * kF);
+      first[a] = std::max(int(f - 1e-5 * kF + 1.0) - 1, 0);
+      last[a] = std::min(int(std::min(f + (2.0 * r + 1e-5 * w) / w * kF, double(kF))), kF - 1);
+    }
+    for (int z = first[2]; z <= last[2]; ++z)
+      for (int y = first[1]; y <= last[1]; ++y)
+        for (int x = first[0]; x <= last[0]; ++x)
+          fine[(x >> 1) + 4 * ((y >> 1) + 4 * (z >> 1))] |= uint8_t(1u << ((x & 1) + 2 * (y & 1) + 4 * (z & 1)));
+  }
+  return fine;
+}
+
+TEST(NodeOccupancy, QuantizedRecordEqualsThePerParticleArithmetic) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int trial = 0; trial < 60; ++trial) {
+    double cmin[3], cmax[3];
+    for (int a = 0; a < 3; ++a) {
+      cmin[a] = 1000.0 * u(rng) - 500.0;
+      const double scale = trial % 3 == 0 ? 1e-3 : (trial % 3 == 1 ? 1.0 : 1e3);
+      cmax[a] = (trial % 8 == 0 && a == 1) ? cmin[a] : cmin[a] + scale * u(rng);
+    }
+    const double r = trial % 5 == 0 ? 0.0 : (trial % 5 == 1 ? 1e-6 : 2.0 * u(rng));
+    std::vector<uint16_t> q;
+    if (trial < 6) {
+      // Every value on every axis, in three orders.
+      for (uint32_t v = 0; v < 65536; ++v) {
+        q.push_back(uint16_t(v));
+        q.push_back(uint16_t(trial % 2 ? 65535 - v : v));
+        q.push_back(uint16_t(v * 40503u));
+      }
+    } else {
+      // A few particles: the cells are not all set, so a wrong one shows.
+      q.resize(3 * (1 + trial % 9));
+      for (auto& v : q) v = uint16_t(trial % 4 == 0 ? (rng() % 2 ? 0 : 65535) : rng());
+    }
+    const auto got = mds::culling::fine_occupancy_of_quantized(cmin, cmax, r, q);
+    const auto want = per_particle_reference(cmin, cmax, r, q);
+    for (int c = 0; c < 64; ++c) ASSERT_EQ(got[c], want[c]) << "trial " << trial << " cell " << c;
+  }
+}
+
 }  // namespace
