@@ -266,6 +266,27 @@ TEST_F(CullRender, ParticleOcclusionHidesParticlesNotPixels) {
 
 }  // namespace
 
+// The node classes after the first culling iteration of a 1-spp culled render at kW x kH.
+static std::vector<uint32_t> first_iteration_classes(vk::Context& ctx, const SceneData& scene, const Camera& cam) {
+  RenderSettings rs;
+  rs.width = kW;
+  rs.height = kH;
+  rs.spp = 1;
+  rs.cull = true;
+  auto r = Renderer::create(ctx, scene, rs);
+  EXPECT_TRUE(r.ok()) << r.error().message;
+  if (!r.ok()) return {};
+  std::vector<uint32_t> first;
+  r.value()->set_iteration_hook([&](uint32_t it) {
+    if (it == 0) {
+      auto c = r.value()->cull_loop()->node_classes();
+      first.assign(c.begin(), c.end());
+    }
+  });
+  EXPECT_TRUE(r.value()->render(cam).ok());
+  return first;
+}
+
 // RenderSettings::paired_frames: after convergence, every-meshlet and potentially-visible-set
 // frames alternately, for a speed-up measured in one process. They add nothing to the image.
 TEST_F(CullRender, PairedFramesLeaveTheImageAlone) {
@@ -289,13 +310,6 @@ TEST_F(CullRender, PairedFramesLeaveTheImageAlone) {
 // from the nodes' boxes and the camera. Before, every box reaching the near plane stayed
 // visible, so the nodes beside the eye were drawn (and, streaming, read) in every frame.
 TEST_F(CullRender, BoxesBesideTheEyeAreFrustumCulled) {
-  RenderSettings rs;
-  rs.width = kW;
-  rs.height = kH;
-  rs.spp = 1;
-  rs.cull = true;
-  auto r = Renderer::create(*ctx_, *scene_, rs);
-  ASSERT_TRUE(r.ok()) << r.error().message;
   Camera cam;
   cam.eye = scene_->bounds.center();
   cam.target = cam.eye + glm::dvec3(0.0, 0.0, -1.0);
@@ -303,14 +317,7 @@ TEST_F(CullRender, BoxesBesideTheEyeAreFrustumCulled) {
   cam.fov_y_deg = 40.0;
   cam.near = 0.05;
   cam.far = 60.0;
-  std::vector<uint32_t> first;
-  r.value()->set_iteration_hook([&](uint32_t it) {
-    if (it == 0) {
-      auto c = r.value()->cull_loop()->node_classes();
-      first.assign(c.begin(), c.end());
-    }
-  });
-  ASSERT_TRUE(r.value()->render(cam).ok());
+  const std::vector<uint32_t> first = first_iteration_classes(*ctx_, *scene_, cam);
   ASSERT_EQ(first.size(), scene_->nodes.size());
 
   const glm::dmat4 view = view_matrix(cam, scene_->origin);
@@ -419,21 +426,7 @@ TEST_F(CullRender, BoxBeyondTheImageCornerIsFrustumCulled) {
   ASSERT_EQ(std::count(of_b.begin(), of_b.end(), false), 1) << "A is one node";
   ASSERT_GT(b_overlapping, 0u) << "a node of B whose rectangle reaches into the image";
 
-  RenderSettings rs;
-  rs.width = kW;
-  rs.height = kH;
-  rs.spp = 1;
-  rs.cull = true;
-  auto r = Renderer::create(*ctx_, *scene, rs);
-  ASSERT_TRUE(r.ok()) << r.error().message;
-  std::vector<uint32_t> first;
-  r.value()->set_iteration_hook([&](uint32_t it) {
-    if (it == 0) {
-      auto c = r.value()->cull_loop()->node_classes();
-      first.assign(c.begin(), c.end());
-    }
-  });
-  ASSERT_TRUE(r.value()->render(cam).ok());
+  const std::vector<uint32_t> first = first_iteration_classes(*ctx_, *scene, cam);
   ASSERT_EQ(first.size(), scene->nodes.size());
   for (size_t k = 0; k < first.size(); ++k)
     EXPECT_EQ(first[k], of_b[k] ? uint32_t(MDS_CULL_CLASS_O) : uint32_t(MDS_CULL_CLASS_P))
