@@ -437,7 +437,7 @@ TEST_F(Corruption, OccupancyRecordMissingACellIsFoundByVerify) {
   Status st = (*r)->verify_occupancy(1, d);
   ASSERT_FALSE(st.ok());
   EXPECT_EQ(st.error().code, Errc::format);
-  for (const std::string n : {std::string("bad.mds"), std::string("node 1 occupancy"), "byte " + std::to_string(base + 64),
+  for (const std::string& n : {std::string("bad.mds"), std::string("node 1 occupancy"), "byte " + std::to_string(base + 64),
                               "byte " + std::to_string(byte - 64) + " lacks"})
     EXPECT_NE(st.error().message.find(n), std::string::npos) << n << " in: " << st.error().message;
   // The good file passes for every node.

@@ -84,7 +84,7 @@ void draw_class_boxes(Canvas& canvas, const render::Camera& camera, std::span<co
     bool ok = true;
     for (int c = 0; c < 8 && ok; ++c) {
       const glm::dvec3 p((c & 1) ? b.max.x : b.min.x, (c & 2) ? b.max.y : b.min.y, (c & 4) ? b.max.z : b.min.z);
-      glm::dvec3 q;
+      glm::dvec3 q(0.0);
       ok = proj.project(p, q) && q.z >= 0.0;
       lo = glm::min(lo, q);
       hi = glm::max(hi, q);
