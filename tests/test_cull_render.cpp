@@ -216,6 +216,21 @@ TEST_F(CullRender, SampledPixelListUpdatesLikeTheFullScreenUpdate) {
   }
 }
 
+// The comparison of the sampling routes ends early only when one route is clearly slower: every
+// pass of it at least kSampleRouteClearCut times the other's slowest.
+TEST(SampleRouteChoice, ClearCutRuleDecidesOnlyOnAClearGap) {
+  using mds::render::culling::sample_route_clear_winner;
+  const std::vector<double> none, fast{18.0, 19.5}, slow{140.0, 205.0}, close{25.0, 60.0};
+  EXPECT_EQ(sample_route_clear_winner(fast, slow), 0);   // raster fast, compute slow
+  EXPECT_EQ(sample_route_clear_winner(slow, fast), 1);   // compute fast
+  EXPECT_EQ(sample_route_clear_winner(fast, close), -1);  // a compute pass within 2x of raster's slowest
+  EXPECT_EQ(sample_route_clear_winner(close, fast), -1);
+  EXPECT_EQ(sample_route_clear_winner(fast, fast), -1);
+  EXPECT_EQ(sample_route_clear_winner(none, slow), -1);
+  EXPECT_EQ(sample_route_clear_winner(std::vector<double>{10.0}, std::vector<double>{20.0}), 0);  // 2x exactly
+  EXPECT_EQ(sample_route_clear_winner(std::vector<double>{10.0}, std::vector<double>{19.9}), -1);
+}
+
 TEST_F(CullRender, AutomaticSamplingRouteComparesBothRoutes) {
   if (!ctx_->int64_atomics()) GTEST_SKIP() << "no 64-bit buffer atomics: only the rasterized route exists";
   RenderRun r = render_scene(*ctx_, *scene_, true, MDS_CULL_ACCEPT_NORMAL, 10);

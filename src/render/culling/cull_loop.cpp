@@ -501,6 +501,7 @@ Status CullLoop::resize(uint32_t width, uint32_t height) {
 Status CullLoop::begin_view(const Camera& camera, uint32_t live_meshlets) {
   impl_->sampled_fraction = -1.0;  // the new view probes its sampled fraction again
   Impl& m = *impl_;
+  m.explore_interval = kSampleRouteExplore;  // a new view may favour the other sampling route
   m.histogram_pending = false;  // cast below for the new view
   m.histogram_recast = false;
   m.view_stride = m.moving ? std::max(m.configured_stride(), kMovingHistogramStride) : m.configured_stride();

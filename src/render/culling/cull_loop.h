@@ -62,11 +62,25 @@ inline constexpr uint32_t kDefaultMaxIterations = 256;
 uint32_t default_budget(uint32_t nodes, uint32_t meshlets);
 
 enum class SampleRoute : uint8_t { automatic, compute, raster };
-// Iterations from one route comparison to the next (automatic route choice).
+// Iterations from one route comparison to the next (automatic route choice). After a comparison
+// that ended early (the clear-cut rule below) with the same winner as the one before, the next
+// waits twice as long, up to kSampleRouteExploreMax; any other outcome, and every new view,
+// return to kSampleRouteExplore.
 inline constexpr uint32_t kSampleRouteExplore = 16;
+inline constexpr uint32_t kSampleRouteExploreMax = 128;
 // Timed sampling passes per route in one comparison (their median decides: robust against a
 // pass that pays a one-time cost; with 4 passes per iteration, the first two iterations).
 inline constexpr uint32_t kSampleRouteCompare = 4;
+// A comparison ends early, once each route has kSampleRouteEarly timed passes, when every pass of
+// one route took at least kSampleRouteClearCut times the slowest pass of the other: the other
+// route wins, and the loser's remaining passes (up to ~200 ms each on a close-up at rest) are
+// not paid. Two passes per route is one iteration of 4 passes.
+inline constexpr uint32_t kSampleRouteEarly = 2;
+inline constexpr double kSampleRouteClearCut = 2.0;
+// The clear-cut rule: 0 (raster) or 1 (compute) when every timed pass of the other route took at
+// least kSampleRouteClearCut times the winner's slowest pass; -1 otherwise (or when either
+// route has no pass yet).
+int sample_route_clear_winner(std::span<const double> raster_ms, std::span<const double> compute_ms);
 
 struct CullSettings {
   double c_occ = MDS_CULL_C_OCC_DEFAULT;        // --cocc

@@ -61,6 +61,7 @@ struct CullLoop::Impl {
   std::vector<double> compare_ms[2];     // GPU ms per pass of the comparison so far
   double compared_ms[2] = {-1.0, -1.0};  // the last finished comparison: median ms per pass
   uint32_t since_compare = 0;       // iterations since the last comparison started
+  uint32_t explore_interval = kSampleRouteExplore;  // iterations from one comparison to the next
   uint32_t route_passes[2] = {0, 0};
   vk::TimestampPool route_ts;       // "raster" / "compute" around the passes of a comparison
   vk::Image sample_image, depth;

@@ -32,13 +32,14 @@ bool CullLoop::Impl::sampled_list_wanted() const {
 // iteration, consecutive iterations alternate), each pass timed on the GPU (route_ts), until
 // each route has kSampleRouteCompare passes; the route with the smaller median time per pass
 // runs until the next comparison, kSampleRouteExplore iterations later (the view's occluders
-// change as it converges).
+// change as it converges). A clear-cut gap ends a comparison after kSampleRouteEarly passes per
+// route, and a clear-cut repeat of the same winner doubles the interval (cull_loop.h).
 void CullLoop::Impl::begin_route_choice(VkCommandBuffer cmd) {
   if (!compute_available || forced_route() != SampleRoute::automatic) {
     comparing = false;
     return;
   }
-  if (!comparing && (best_route < 0 || since_compare >= kSampleRouteExplore)) {
+  if (!comparing && (best_route < 0 || since_compare >= explore_interval)) {
     comparing = true;
     since_compare = 0;
     compare_ms[0].clear();
@@ -70,6 +71,15 @@ double CullLoop::sample_route_ms(SampleRoute route) const {
                                        : route == SampleRoute::raster ? impl_->compared_ms[0] : -1.0;
 }
 
+int sample_route_clear_winner(std::span<const double> raster_ms, std::span<const double> compute_ms) {
+  if (raster_ms.empty() || compute_ms.empty()) return -1;
+  const auto [r_lo, r_hi] = std::minmax_element(raster_ms.begin(), raster_ms.end());
+  const auto [c_lo, c_hi] = std::minmax_element(compute_ms.begin(), compute_ms.end());
+  if (*c_lo >= kSampleRouteClearCut * *r_hi) return 0;
+  if (*r_lo >= kSampleRouteClearCut * *c_hi) return 1;
+  return -1;
+}
+
 Status CullLoop::collect_route_timings() {
   Impl& m = *impl_;
   if (!m.comparing || !m.route_ts.enabled()) return {};
@@ -80,10 +90,16 @@ Status CullLoop::collect_route_timings() {
     const int r = name == "compute" ? 1 : 0;
     for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i) m.compare_ms[r].push_back(v[i]);
   }
-  if (m.compare_ms[0].size() >= kSampleRouteCompare && m.compare_ms[1].size() >= kSampleRouteCompare) {
+  const bool full = m.compare_ms[0].size() >= kSampleRouteCompare && m.compare_ms[1].size() >= kSampleRouteCompare;
+  const bool early = m.compare_ms[0].size() >= kSampleRouteEarly && m.compare_ms[1].size() >= kSampleRouteEarly &&
+                     sample_route_clear_winner(m.compare_ms[0], m.compare_ms[1]) >= 0;
+  if (full || early) {
     for (int r = 0; r < 2; ++r) m.compared_ms[r] = vk::median(m.compare_ms[r]);
+    const int previous = m.best_route;
     m.best_route = m.compared_ms[1] <= m.compared_ms[0] ? 1 : 0;
     m.comparing = false;
+    m.explore_interval = early && m.best_route == previous ? std::min(2 * m.explore_interval, kSampleRouteExploreMax)
+                                                         : kSampleRouteExplore;
   }
   return {};
 }
