@@ -23,6 +23,16 @@ namespace {
 
 constexpr uint32_t kW = 120, kH = 90;
 
+// A culled render of spp samples at kW x kH.
+RenderSettings culled_settings(uint32_t spp) {
+  RenderSettings rs;
+  rs.width = kW;
+  rs.height = kH;
+  rs.spp = spp;
+  rs.cull = true;
+  return rs;
+}
+
 // A dense block: 60000 spheres of radius 0.5 uniformly in a 20^3 cube (packing fraction ~0.4),
 // ordered in compact blocks, so front meshlets occlude back ones. Seeded: same scene every run.
 SceneData dense_block() {
@@ -283,12 +293,7 @@ TEST_F(CullRender, ParticleOcclusionHidesParticlesNotPixels) {
 
 // The node classes after the first culling iteration of a 1-spp culled render at kW x kH.
 static std::vector<uint32_t> first_iteration_classes(vk::Context& ctx, const SceneData& scene, const Camera& cam) {
-  RenderSettings rs;
-  rs.width = kW;
-  rs.height = kH;
-  rs.spp = 1;
-  rs.cull = true;
-  auto r = Renderer::create(ctx, scene, rs);
+  auto r = Renderer::create(ctx, scene, culled_settings(1));
   EXPECT_TRUE(r.ok()) << r.error().message;
   if (!r.ok()) return {};
   std::vector<uint32_t> first;
@@ -475,12 +480,7 @@ SceneData wall_and_hidden_node() {
 
 // Node 1's class after a converged culled render looking at the wall along -z.
 uint32_t hidden_node_class(vk::Context& ctx, const SceneData& scene) {
-  RenderSettings rs;
-  rs.width = kW;
-  rs.height = kH;
-  rs.spp = 16;
-  rs.cull = true;
-  auto r = Renderer::create(ctx, scene, rs);
+  auto r = Renderer::create(ctx, scene, culled_settings(16));
   EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
   if (!r.ok()) return ~0u;
   std::vector<uint32_t> last;
