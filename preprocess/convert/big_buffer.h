@@ -3,7 +3,7 @@
 // does not zero-fill arrays of hundreds of MiB that are overwritten right after. Plain
 // std::vector semantics otherwise. Arrays of 4 MiB and more are mapped directly, and their pages
 // can be mapped in bulk (prefault, BackgroundPrefault) rather than by one fault per page.
-// Arrays of 16 MiB and more ask for transparent huge pages (madvise(MADV_HUGEPAGE)): one fault
+// Arrays of 4 MiB and more ask for transparent huge pages (madvise(MADV_HUGEPAGE)): one fault
 // and one zeroing per 2 MiB instead of 512 faults (docs/results/convert.md, "Huge pages").
 #pragma once
 
@@ -48,8 +48,10 @@ struct BigAllocator {
     else ::munmap(p, bytes);
   }
   static constexpr size_t kMapThreshold = size_t(4) << 20;
-  // 8 huge pages: smaller arrays (per-bin scratch, buffers) gain little from them.
-  static constexpr size_t kHugeThreshold = size_t(16) << 20;
+  // 2 huge pages. 16 MiB before: the keys and permutations of a 1M-particle input (4-8 MiB
+  // each) then took 4 KiB pages, and a 1M LAMMPS text conversion 1.27x the time (A/B in
+  // docs/results/convert.md).
+  static constexpr size_t kHugeThreshold = size_t(4) << 20;
   template <class U, class... Args>
   void construct(U* p, Args&&... args) {
     if constexpr (sizeof...(Args) == 0) ::new (static_cast<void*>(p)) U;  // default-init: no zero fill
