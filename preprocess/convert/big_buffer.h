@@ -12,13 +12,14 @@
 
 #include <atomic>
 #include <cstddef>
-#include <cstdlib>
 #include <cstdint>
 #include <algorithm>
 #include <new>
 #include <thread>
 #include <utility>
 #include <vector>
+
+#include "huge_pages.h"
 
 namespace mds::convert {
 
@@ -36,10 +37,7 @@ struct BigAllocator {
     if (bytes < kMapThreshold) return static_cast<T*>(::operator new(bytes));
     void* p = ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
     if (p == MAP_FAILED) throw std::bad_alloc();
-#ifdef MADV_HUGEPAGE
-    // Best effort: where THP is off ("never") the call fails and 4 KiB pages are used.
-    if (bytes >= kHugeThreshold && !std::getenv("MDSTREAM_NO_HUGEPAGES")) (void)::madvise(p, bytes, MADV_HUGEPAGE);
-#endif
+    if (bytes >= kHugeThreshold) advise_huge_pages(p, bytes);
     return static_cast<T*>(p);
   }
   void deallocate(T* p, size_t n) noexcept {

@@ -2,14 +2,12 @@
 #include "readers/text_source.h"
 
 #include <fcntl.h>
-#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <condition_variable>
-#include <cstdlib>
 #include <cstring>
 #include <deque>
 #include <mutex>
@@ -18,24 +16,11 @@
 #include <zlib.h>
 #include <zstd.h>
 
+#include "huge_pages.h"
+
 namespace mds {
 
 namespace {
-
-// Asks for transparent huge pages on the 2 MiB-aligned part of a large line buffer (best
-// effort). Its first fill otherwise faults it in one 4 KiB page at a time: on the 2-core VM the
-// first 8 MiB read of a text input took about 25 ms, most of the converter's setup stage for a
-// 1M-particle dump (docs/results/convert.md).
-void advise_huge_pages(void* p, size_t bytes) {
-#ifdef MADV_HUGEPAGE
-  constexpr uintptr_t kHuge = uintptr_t(2) << 20;
-  const uintptr_t b = (uintptr_t(p) + kHuge - 1) & ~(kHuge - 1), e = (uintptr_t(p) + bytes) & ~(kHuge - 1);
-  if (e > b && !std::getenv("MDSTREAM_NO_HUGEPAGES")) (void)::madvise(reinterpret_cast<void*>(b), e - b, MADV_HUGEPAGE);
-#else
-  (void)p;
-  (void)bytes;
-#endif
-}
 
 constexpr size_t kMaxLineBytes = size_t{16} << 20;
 
@@ -359,6 +344,8 @@ Result<std::unique_ptr<TextSource>> TextSource::open(const std::filesystem::path
   const uint64_t expect = s->compression_ == TextCompression::none ? s->file_size_ + 1 : s->file_size_ * 8;
   s->cap_ = static_cast<size_t>(std::clamp<uint64_t>(expect, 4096, std::max<size_t>(buffer_bytes, 4096)));
   s->buf_.reset(new char[s->cap_ + 1]);
+  // Its first fill otherwise faults the buffer in one 4 KiB page at a time: on the 2-core VM
+  // the first 8 MiB read took about 25 ms, most of a 1M-particle dump's setup stage.
   advise_huge_pages(s->buf_.get(), s->cap_);
   MDS_TRY(s->reopen_input());
   return s;
