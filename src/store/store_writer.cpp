@@ -457,6 +457,19 @@ Status StoreWriter::finish(const StoreSummary& sum) {
                     s.occupancy.begin() + ptrdiff_t((i + 1) * kOccupancyBytes), [](uint8_t b) { return b == 0; }))
       return make_error(Errc::internal, "{}: node {}: empty occupancy record", name, i);
   }
+  // The payloads are complete: their blocks go to disk and their metadata into the journal
+  // (File::sync, on a third thread) while the sections below are checked and encoded, so that
+  // the fsync of commit() only has the sections and the header left. On the 2-core VM's ext4
+  // that sync took 45 ms of a 10M-particle conversion when it all waited for commit().
+  MDS_TRY(s.writer->flush());
+  std::optional<Status> early_sync;
+  std::thread sync_thread([&] { early_sync.emplace(s.out.file().sync()); });
+  struct SyncJoiner {
+    std::thread& t;
+    ~SyncJoiner() {
+      if (t.joinable()) t.join();
+    }
+  } sync_joiner{sync_thread};
   // The voxel section (the largest one to compress) is encoded on a second thread while this
   // one checks the density volume and encodes it.
   std::optional<Result<std::vector<uint8_t>>> voxel_result;
@@ -524,7 +537,8 @@ Status StoreWriter::finish(const StoreSummary& sum) {
     te.input_id = sum.types[t].input_id;
     te.radius = sum.types[t].radius;
     te.particle_count = t < s.type_counts.size() ? s.type_counts[t] : 0;
-    std::strncpy(te.name, sum.types[t].name, sizeof(te.name) - 1);
+    // At most sizeof(name) - 1 bytes: the rest stays zero, so the name is always terminated.
+    std::memcpy(te.name, sum.types[t].name, strnlen(sum.types[t].name, sizeof(te.name) - 1));
     types[t] = te;
   }
 
@@ -553,6 +567,8 @@ Status StoreWriter::finish(const StoreSummary& sum) {
   MDS_TRY(write_section(kSectionDensity, density.data(), density.size(), density_raw));
   MDS_TRY(write_section(kSectionOccupancy, s.occupancy.data(), s.occupancy.size(), s.occupancy.size()));
   MDS_TRY(s.writer->flush());
+  sync_thread.join();
+  if (!early_sync->ok()) return *early_sync;
 
   h.header_hash = 0;
   h.header_hash = hash_bytes({reinterpret_cast<const uint8_t*>(&h), sizeof(h)});
