@@ -280,13 +280,22 @@ TEST(XyzSort, MatchesStableSortByKeyAndMovesPositions) {
     std::vector<std::pair<uint64_t, size_t>> ref(n);
     for (size_t i = 0; i < n; ++i) ref[i] = {grid.key(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]), i};
     std::stable_sort(ref.begin(), ref.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
-    std::vector<uint64_t> keys(n);
     std::vector<float> sorted(3 * n);
-    sort_xyz_by_key(xyz.data(), n, grid, threads, keys.data(), sorted.data());
+    sort_xyz_by_key(xyz.data(), n, grid, threads, sorted.data());
+    std::vector<uint64_t> keys(n);
+    morton_keys_of_xyz(sorted.data(), n, grid, keys.data());
+    const XyzMortonKeys on_access{sorted.data(), n, &grid};
     for (size_t i = 0; i < n; ++i) {
       ASSERT_EQ(keys[i], ref[i].first) << "at " << i << ", " << threads << " threads";
+      ASSERT_EQ(on_access[i], ref[i].first) << "at " << i;
       for (int a = 0; a < 3; ++a)
         ASSERT_EQ(sorted[3 * i + a], xyz[3 * ref[i].second + a]) << "particle " << i << " axis " << a << " (stability)";
+    }
+    // The partition over keys computed on access equals the one over the key array.
+    for (uint32_t cap : {1000u, 64u}) {
+      const auto a = build_nodes(std::span<const uint64_t>(keys), 0, cap), b = build_nodes(on_access, 0, cap);
+      ASSERT_EQ(a.size(), b.size()) << cap;
+      for (size_t k = 0; k < a.size(); ++k) ASSERT_TRUE(a[k].begin == b[k].begin && a[k].end == b[k].end) << k;
     }
   };
   std::uniform_real_distribution<float> u(-50.0f, 150.0f);

@@ -270,10 +270,8 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   std::unique_ptr<BackgroundPrefault> sort_prefault;
   if (raw_mapped) {
     const size_t n = size_t(declared);
-    sb.keys.resize(n);
     xyz_sorted.resize(3 * n);
-    sort_prefault = std::make_unique<BackgroundPrefault>(std::vector<std::pair<void*, size_t>>{
-        {sb.keys.data(), n * sizeof(uint64_t)}, {xyz_sorted.data(), 3 * n * sizeof(float)}});
+    sort_prefault = std::make_unique<BackgroundPrefault>(xyz_sorted.data(), 3 * n * sizeof(float));
   } else if (declared <= plan.max_memory_records && declared >= (uint64_t(1) << 16)) {
     const size_t n = size_t(declared);
     sb.keys.resize(n);
@@ -345,21 +343,18 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
     // ---- everything fits: one bin, the root cell (sb possibly allocated before pass A)
     progress.stage("build", scan.count);
     if (raw_mapped) {
-      // Keys and positions sorted together (xyz_sort.h): the build reads them sequentially.
+      // The positions sorted by key (xyz_sort.h): the build reads them sequentially and
+      // computes their keys where it needs them.
       const auto t = Clock::now();
-      sb.keys.resize(raw_view.size());
       xyz_sorted.resize(3 * raw_view.size());
-      sort_xyz_by_key(raw_view.xyz, raw_view.size(), grid, o.threads, sb.keys.data(), xyz_sorted.data());
+      sort_xyz_by_key(raw_view.xyz, raw_view.size(), grid, o.threads, xyz_sorted.data());
       rep.seconds_radix = seconds_since(t);
       rep.seconds_sort = meter.lap("sort");
-      MDS_TRY(build_bin(ctx, workers, sb.keys, SortedXyzRecords{xyz_sorted.data(), raw_view.size(), raw_view.type,
-                                                                raw_view.radius},
-                        0, *writer, tot, progress));
-      // Unmapping the two arrays (about 0.03 s per 10M particles) overlaps with the finish.
-      release_thread = std::thread([k = std::move(sb.keys), x = std::move(xyz_sorted)]() mutable {
-        k = {};
-        x = {};
-      });
+      MDS_TRY(build_bin(ctx, workers,
+                        SortedXyzRecords{xyz_sorted.data(), raw_view.size(), raw_view.type, raw_view.radius}, grid, 0,
+                        *writer, tot, progress));
+      // Unmapping the array (about 0.02 s per 10M particles) overlaps with the finish.
+      release_thread = std::thread([x = std::move(xyz_sorted)]() mutable { x = {}; });
     } else {
       const SortTimes st = key_and_sort(SpillRecords{scan.memory}, grid, o.threads, sb);
       sb.keys_tmp = {};

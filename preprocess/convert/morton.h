@@ -4,6 +4,7 @@
 // and the external-memory binning of the converter rely on this).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 
 namespace mds::convert {
@@ -46,12 +47,23 @@ class MortonGrid {
     return morton_encode(cell(0, x), cell(1, y), cell(2, z));
   }
   double lo(int axis) const { return lo_[axis]; }
+  double scale(int axis) const { return scale_[axis]; }  // cells per unit length
   double hi(int axis) const { return hi_[axis]; }
 
  private:
   double lo_[3] = {0, 0, 0};
   double hi_[3] = {0, 0, 0};
   double scale_[3] = {0, 0, 0};
+};
+
+// The keys of float32 positions (3 per particle), computed on access: the octree partition of
+// the sorted raw input (xyz_sort.h) reads a few of them per cell instead of a key array.
+struct XyzMortonKeys {
+  const float* xyz = nullptr;
+  size_t n = 0;
+  const MortonGrid* grid = nullptr;
+  size_t size() const { return n; }
+  uint64_t operator[](size_t i) const { return grid->key(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]); }
 };
 
 // The 3 bits of `key` that choose the child at octree depth `level` (0 = root's children).

@@ -19,5 +19,7 @@ using NodeRange = KeyRange;
 // `keys` sorted, all inside the octree cell of depth `start_level` (keys share their first
 // 3*start_level bits). Returns the nodes in Morton order; they partition the range.
 std::vector<NodeRange> build_nodes(std::span<const uint64_t> keys, int start_level, uint32_t node_size);
+// The same over sorted float32 positions (xyz_sort.h), their keys computed on access.
+std::vector<NodeRange> build_nodes(const XyzMortonKeys& keys, int start_level, uint32_t node_size);
 
 }  // namespace mds::convert

@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "convert/node_builder.h"
+#include "convert/xyz_sort.h"
 
 namespace mds::convert {
 
@@ -54,23 +55,33 @@ struct NodeResult {
   double t_gather = 0, t_meshlets = 0, t_encode = 0;
 };
 
-// The records of one node through the sort permutation (random access, prefetched).
+// The records of one node through the sort permutation (random access, prefetched), with their
+// sorted keys.
 template <class Recs>
 struct PermSource {
+  std::span<const uint64_t> keys;
   std::span<const uint32_t> perm;
   const Recs* recs;
   size_t size() const { return perm.size(); }
-  PermSource slice(size_t b, size_t n) const { return {perm.subspan(b, n), recs}; }
+  PermSource slice(size_t b, size_t n) const { return {keys.subspan(b, n), perm.subspan(b, n), recs}; }
+  std::span<const uint64_t> node_keys(NodeWorker&) const { return keys; }
 };
 
-// The positions of one node of the sorted raw input (sequential, one type, one radius).
+// The positions of one node of the sorted raw input (sequential, one type, one radius); no key
+// array: the node's keys are computed into the worker's scratch.
 struct SortedSource {
   const float* xyz;
   size_t n;
   int32_t type;
   float radius;
+  const MortonGrid* grid;
   size_t size() const { return n; }
-  SortedSource slice(size_t b, size_t m) const { return {xyz + 3 * b, m, type, radius}; }
+  SortedSource slice(size_t b, size_t m) const { return {xyz + 3 * b, m, type, radius, grid}; }
+  std::span<const uint64_t> node_keys(NodeWorker& w) const {
+    w.keys.resize(n);
+    morton_keys_of_xyz(xyz, n, *grid, w.keys.data());
+    return w.keys;
+  }
 };
 
 template <class Recs>
@@ -194,10 +205,9 @@ void quantize_node(const QuantFrame& f, const double* xyz, const uint32_t* order
 }
 
 template <class Source>
-Result<NodeResult> build_node(const BuildContext& ctx, NodeWorker& w, std::span<const uint64_t> keys,
-                              const Source& src) {
+Result<NodeResult> build_node(const BuildContext& ctx, NodeWorker& w, const Source& src) {
   NodeResult res;
-  const size_t n = keys.size();
+  const size_t n = src.size();
   const double t0 = thread_cpu_seconds();
   // Gather the node's records (sort permutation) into node-local arrays, in Morton order.
   w.xyz.resize(3 * n);
@@ -211,7 +221,7 @@ Result<NodeResult> build_node(const BuildContext& ctx, NodeWorker& w, std::span<
   const double t1 = thread_cpu_seconds();
   res.t_gather = t1 - t0;
 
-  MDS_TRY(w.meshlets->build(keys, w.xyz, ctx.meshlet_size, w.order, w.sizes));
+  MDS_TRY(w.meshlets->build(src.node_keys(w), w.xyz, ctx.meshlet_size, w.order, w.sizes));
   const double t2 = thread_cpu_seconds();
   res.t_meshlets = t2 - t1;
   add_meshlet_quality(w.xyz, w.order, w.sizes, lo, hi, res.quality);
@@ -253,11 +263,12 @@ Result<NodeResult> build_node(const BuildContext& ctx, NodeWorker& w, std::span<
   return res;
 }
 
+// `nodes` partition the source's sorted records.
 template <class Source>
 Status build_bin_impl(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
-                      std::span<const uint64_t> keys, const Source& src, int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress) {
-  if (keys.empty()) return {};
-  const std::vector<NodeRange> nodes = build_nodes(keys, start_level, ctx.node_size);
+                      const std::vector<NodeRange>& nodes, const Source& src, store::StoreWriter& writer,
+                      BuildTotals& tot, Progress& progress) {
+  if (nodes.empty()) return {};
   const size_t window = workers.size() * kWindowPerThread;
   std::vector<std::optional<Result<NodeResult>>> slots(window);  // ring: node i in slot i % window
   std::mutex mu;
@@ -276,7 +287,7 @@ Status build_bin_impl(const BuildContext& ctx, std::vector<std::unique_ptr<NodeW
         if (abort) return;
       }
       const NodeRange nr = nodes[i];
-      auto r = build_node(ctx, w, keys.subspan(nr.begin, nr.size()), src.slice(nr.begin, nr.size()));
+      auto r = build_node(ctx, w, src.slice(nr.begin, nr.size()));
       {
         std::lock_guard lock(mu);
         slots[i % window].emplace(std::move(r));
@@ -342,22 +353,23 @@ Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker
                  std::span<const uint64_t> keys, std::span<const uint32_t> perm, std::span<const SpillRecord> recs,
                  int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress) {
   const SpillRecords r{recs};
-  return build_bin_impl(ctx, workers, keys, PermSource<SpillRecords>{perm, &r}, start_level, writer, tot, progress);
+  return build_bin_impl(ctx, workers, build_nodes(keys, start_level, ctx.node_size),
+                        PermSource<SpillRecords>{keys, perm, &r}, writer, tot, progress);
 }
 
 Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
                  std::span<const uint64_t> keys, std::span<const uint32_t> perm, const RawXyzRecords& recs,
                  int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress) {
-  return build_bin_impl(ctx, workers, keys, PermSource<RawXyzRecords>{perm, &recs}, start_level, writer, tot, progress);
+  return build_bin_impl(ctx, workers, build_nodes(keys, start_level, ctx.node_size),
+                        PermSource<RawXyzRecords>{keys, perm, &recs}, writer, tot, progress);
 }
 
 Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
-                 std::span<const uint64_t> keys, const SortedXyzRecords& recs, int start_level,
-                 store::StoreWriter& writer, BuildTotals& tot, Progress& progress) {
-  if (keys.size() != recs.size()) return make_error(Errc::internal, "build_bin: {} keys for {} positions", keys.size(), recs.size());
+                 const SortedXyzRecords& recs, const MortonGrid& grid, int start_level, store::StoreWriter& writer,
+                 BuildTotals& tot, Progress& progress) {
   if (ctx.per_particle_radius) return make_error(Errc::internal, "build_bin: sorted raw positions carry no radii");
-  return build_bin_impl(ctx, workers, keys, SortedSource{recs.xyz, recs.n, recs.type, recs.radius}, start_level, writer,
-                        tot, progress);
+  return build_bin_impl(ctx, workers, build_nodes(XyzMortonKeys{recs.xyz, recs.n, &grid}, start_level, ctx.node_size),
+                        SortedSource{recs.xyz, recs.n, recs.type, recs.radius, &grid}, writer, tot, progress);
 }
 
 }  // namespace mds::convert

@@ -72,6 +72,7 @@ struct NodeWorker {
   std::vector<store::VoxelRef> refs;
   std::vector<uint32_t> voxel_scratch;
   std::vector<uint16_t> permute_scratch;
+  std::vector<uint64_t> keys;  // the node's Morton keys, where the source has no key array
 };
 
 // Builds and appends the nodes of one bin: `keys` sorted, `perm[i]` the record of keys[i],
@@ -84,10 +85,11 @@ Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker
                  std::span<const uint64_t> keys, std::span<const uint32_t> perm, const RawXyzRecords& recs,
                  int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress);
 
-// The same over the sorted raw positions (xyz_sort.h; identity permutation).
+// The same over the raw positions sorted by their keys in `grid` (xyz_sort.h; identity
+// permutation). The keys are computed where needed (nodes, meshlets), not read from an array.
 Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
-                 std::span<const uint64_t> keys, const SortedXyzRecords& recs, int start_level,
-                 store::StoreWriter& writer, BuildTotals& tot, Progress& progress);
+                 const SortedXyzRecords& recs, const MortonGrid& grid, int start_level, store::StoreWriter& writer,
+                 BuildTotals& tot, Progress& progress);
 
 // CPU time of the calling thread.
 double thread_cpu_seconds();

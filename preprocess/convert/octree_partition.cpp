@@ -10,8 +10,10 @@ namespace mds::convert {
 
 namespace {
 
+// Keys: a sorted std::span<const uint64_t>, or XyzMortonKeys (computed on access).
+template <class Keys>
 struct Partitioner {
-  std::span<const uint64_t> keys;
+  const Keys& keys;
   uint32_t capacity;
   std::vector<KeyRange>& out;
 
@@ -40,9 +42,13 @@ struct Partitioner {
     } else {
       for (uint32_t c = 1; c < 8; ++c) {
         const uint64_t first_key_of_child = (base + c) << shift;
-        bounds[c] = size_t(std::lower_bound(keys.begin() + ptrdiff_t(bounds[c - 1]), keys.begin() + ptrdiff_t(e),
-                                            first_key_of_child) -
-                           keys.begin());
+        size_t lo = bounds[c - 1], hi = e;  // lower_bound by index
+        while (lo < hi) {
+          const size_t mid = lo + (hi - lo) / 2;
+          if (keys[mid] < first_key_of_child) lo = mid + 1;
+          else hi = mid;
+        }
+        bounds[c] = lo;
       }
     }
     group(bounds, 0, 8, level);
@@ -65,12 +71,21 @@ struct Partitioner {
   }
 };
 
+template <class Keys>
+void partition(const Keys& keys, int start_level, uint32_t capacity, std::vector<KeyRange>& out) {
+  if (keys.size() == 0 || capacity == 0) return;
+  Partitioner<Keys> p{keys, capacity, out};
+  p.split(0, keys.size(), std::clamp(start_level, 0, kMortonBitsPerAxis));
+}
+
 }  // namespace
 
 void octree_partition(std::span<const uint64_t> keys, int start_level, uint32_t capacity, std::vector<KeyRange>& out) {
-  if (keys.empty() || capacity == 0) return;
-  Partitioner p{keys, capacity, out};
-  p.split(0, keys.size(), std::clamp(start_level, 0, kMortonBitsPerAxis));
+  partition(keys, start_level, capacity, out);
+}
+
+void octree_partition(const XyzMortonKeys& keys, int start_level, uint32_t capacity, std::vector<KeyRange>& out) {
+  partition(keys, start_level, capacity, out);
 }
 
 int common_cell_level(uint64_t first, uint64_t last) {

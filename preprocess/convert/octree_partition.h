@@ -17,6 +17,8 @@
 #include <span>
 #include <vector>
 
+#include "convert/morton.h"
+
 namespace mds::convert {
 
 struct KeyRange {
@@ -29,6 +31,9 @@ struct KeyRange {
 // first 3*start_level bits). Appends the groups, in Morton order, to `out` (not cleared); the
 // groups partition [0, keys.size()) and each holds 1..capacity keys. Indices are relative to `keys`.
 void octree_partition(std::span<const uint64_t> keys, int start_level, uint32_t capacity, std::vector<KeyRange>& out);
+// The same over the keys of float32 positions sorted by key (xyz_sort.h), computed on access:
+// the same groups as over the array of those keys.
+void octree_partition(const XyzMortonKeys& keys, int start_level, uint32_t capacity, std::vector<KeyRange>& out);
 
 // Depth of the smallest octree cell holding both keys (sorted range: first and last key).
 int common_cell_level(uint64_t first, uint64_t last);

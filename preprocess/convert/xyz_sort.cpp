@@ -26,12 +26,26 @@ struct MagicKey {
   uint64_t operator()(const float* p) const { return g->key(p[0], p[1], p[2]); }
 };
 
-// morton_encode with BMI2: bit i of x -> 3i, y -> 3i+1, z -> 3i+2 (cells are < 2^21).
+// morton_encode with BMI2: bit i of x -> 3i, y -> 3i+1, z -> 3i+2 (cells are < 2^21). The cells
+// of x and y in one SSE2 vector: clamping (c, 0, kMortonAxisMax) before truncating gives
+// MortonGrid::cell's value for every c (max_pd(c, 0) is 0 for NaN and for c <= 0, as !(c > 0)).
 struct PdepKey {
-  const MortonGrid* g;
+  explicit PdepKey(const MortonGrid* g)
+      : lo_xy(_mm_setr_pd(g->lo(0), g->lo(1))),
+        lo_z(_mm_set_sd(g->lo(2))),
+        sc_xy(_mm_setr_pd(g->scale(0), g->scale(1))),
+        sc_z(_mm_set_sd(g->scale(2))),
+        top(_mm_set1_pd(double(kMortonAxisMax))) {}
+  __m128d lo_xy, lo_z, sc_xy, sc_z, top;
   __attribute__((target("bmi2"))) uint64_t operator()(const float* p) const {
-    return _pdep_u64(g->cell(0, p[0]), 0x1249249249249249ull) | _pdep_u64(g->cell(1, p[1]), 0x2492492492492492ull) |
-           _pdep_u64(g->cell(2, p[2]), 0x4924924924924924ull);
+    const __m128d zero = _mm_setzero_pd();
+    const __m128d xy = _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p))));
+    const __m128d z = _mm_cvtss_sd(zero, _mm_load_ss(p + 2));
+    const __m128i c_xy = _mm_cvttpd_epi32(_mm_min_pd(_mm_max_pd(_mm_mul_pd(_mm_sub_pd(xy, lo_xy), sc_xy), zero), top));
+    const uint32_t cz = uint32_t(_mm_cvttsd_si32(_mm_min_sd(_mm_max_sd(_mm_mul_sd(_mm_sub_sd(z, lo_z), sc_z), zero), top)));
+    const uint32_t cx = uint32_t(_mm_cvtsi128_si32(c_xy)), cy = uint32_t(_mm_cvtsi128_si32(_mm_srli_si128(c_xy, 4)));
+    return _pdep_u64(cx, 0x1249249249249249ull) | _pdep_u64(cy, 0x2492492492492492ull) |
+           _pdep_u64(cz, 0x4924924924924924ull);
   }
 };
 
@@ -41,50 +55,61 @@ inline void histogram_impl(const float* xyz, size_t b, size_t e, int shift, KeyF
 }
 
 template <class KeyFn>
-inline void scatter_impl(const float* xyz, size_t b, size_t e, int shift, KeyFn key, uint32_t* pos, uint64_t* keys,
-                         float* xs) {
+inline void scatter_impl(const float* xyz, size_t b, size_t e, int shift, KeyFn key, uint32_t* pos, float* xs) {
   for (size_t i = b; i < e; ++i) {
     const float* p = xyz + 3 * i;
-    const uint64_t k = key(p);
-    const uint32_t to = pos[(k >> shift) & (kBuckets - 1)]++;
-    keys[to] = k;
+    const uint32_t to = pos[(key(p) >> shift) & (kBuckets - 1)]++;
     std::memcpy(xs + 3 * size_t(to), p, 12);
   }
+}
+
+template <class KeyFn>
+inline void keys_impl(const float* xyz, size_t n, KeyFn key, uint64_t* keys) {
+  for (size_t i = 0; i < n; ++i) keys[i] = key(xyz + 3 * i);
 }
 
 void histogram_magic(const float* xyz, size_t b, size_t e, int shift, const MortonGrid* g, uint32_t* h) {
   histogram_impl(xyz, b, e, shift, MagicKey{g}, h);
 }
-void scatter_magic(const float* xyz, size_t b, size_t e, int shift, const MortonGrid* g, uint32_t* pos, uint64_t* keys,
-                   float* xs) {
-  scatter_impl(xyz, b, e, shift, MagicKey{g}, pos, keys, xs);
+void scatter_magic(const float* xyz, size_t b, size_t e, int shift, const MortonGrid* g, uint32_t* pos, float* xs) {
+  scatter_impl(xyz, b, e, shift, MagicKey{g}, pos, xs);
 }
+void keys_magic(const float* xyz, size_t n, const MortonGrid* g, uint64_t* keys) { keys_impl(xyz, n, MagicKey{g}, keys); }
 __attribute__((target("bmi2"), flatten)) void histogram_pdep(const float* xyz, size_t b, size_t e, int shift,
                                                              const MortonGrid* g, uint32_t* h) {
-  histogram_impl(xyz, b, e, shift, PdepKey{g}, h);
+  histogram_impl(xyz, b, e, shift, PdepKey(g), h);
 }
 __attribute__((target("bmi2"), flatten)) void scatter_pdep(const float* xyz, size_t b, size_t e, int shift,
-                                                           const MortonGrid* g, uint32_t* pos, uint64_t* keys,
-                                                           float* xs) {
-  scatter_impl(xyz, b, e, shift, PdepKey{g}, pos, keys, xs);
+                                                           const MortonGrid* g, uint32_t* pos, float* xs) {
+  scatter_impl(xyz, b, e, shift, PdepKey(g), pos, xs);
 }
+__attribute__((target("bmi2"), flatten)) void keys_pdep(const float* xyz, size_t n, const MortonGrid* g,
+                                                        uint64_t* keys) {
+  keys_impl(xyz, n, PdepKey(g), keys);
+}
+
+const bool kHavePdep = __builtin_cpu_supports("bmi2");
 
 // Per-thread scratch of the bucket sorts.
 struct BucketScratch {
-  std::vector<uint64_t> kt;
+  std::vector<uint64_t> k, kt;
   std::vector<uint32_t> idx, it;
   std::vector<float> xs;
 };
 
-// Sorts one bucket of m keys (and their positions) in place.
-void sort_bucket(uint64_t* keys, float* xyz, size_t m, BucketScratch& s) {
+// Sorts the m positions of one bucket in place by key (their keys computed here: the sort
+// stores no keys).
+void sort_bucket(float* xyz, size_t m, const MortonGrid& grid, BucketScratch& s) {
   if (m < 2) return;
   if (s.idx.size() < m) {
+    s.k.resize(m);
     s.kt.resize(m);
     s.idx.resize(m);
     s.it.resize(m);
     s.xs.resize(3 * m);
   }
+  uint64_t* keys = s.k.data();
+  morton_keys_of_xyz(xyz, m, grid, keys);
   bool sorted = true;
   for (size_t j = 1; j < m && sorted; ++j) sorted = keys[j - 1] <= keys[j];
   if (sorted) return;
@@ -97,13 +122,17 @@ void sort_bucket(uint64_t* keys, float* xyz, size_t m, BucketScratch& s) {
 
 }  // namespace
 
-void sort_xyz_by_key(const float* xyz, size_t n, const MortonGrid& grid, unsigned threads, uint64_t* keys,
-                     float* xyz_sorted) {
+void morton_keys_of_xyz(const float* xyz, size_t n, const MortonGrid& grid, uint64_t* keys) {
+  if (kHavePdep) keys_pdep(xyz, n, &grid, keys);
+  else keys_magic(xyz, n, &grid, keys);
+}
+
+void sort_xyz_by_key(const float* xyz, size_t n, const MortonGrid& grid, unsigned threads, float* xyz_sorted) {
   if (n == 0) return;
   // The top digit ends at the highest bit any key can have (that of the bounds' far corner).
   const uint64_t top = grid.key(grid.hi(0), grid.hi(1), grid.hi(2));
   const int shift = std::max(0, int(std::bit_width(top)) - kDigitBits);
-  const bool pdep = __builtin_cpu_supports("bmi2");
+  const bool pdep = kHavePdep;
   threads = std::max(1u, n < kMinParallel ? 1u : threads);
 
   std::vector<std::vector<uint32_t>> hist(threads, std::vector<uint32_t>(kBuckets, 0));
@@ -119,15 +148,15 @@ void sort_xyz_by_key(const float* xyz, size_t n, const MortonGrid& grid, unsigne
     if (pdep) histogram_pdep(xyz, b, e, shift, &grid, h);
     else histogram_magic(xyz, b, e, shift, &grid, h);
     sync_offsets.arrive_and_wait();
-    if (pdep) scatter_pdep(xyz, b, e, shift, &grid, h, keys, xyz_sorted);
-    else scatter_magic(xyz, b, e, shift, &grid, h, keys, xyz_sorted);
+    if (pdep) scatter_pdep(xyz, b, e, shift, &grid, h, xyz_sorted);
+    else scatter_magic(xyz, b, e, shift, &grid, h, xyz_sorted);
     sync_scatter.arrive_and_wait();
     BucketScratch scratch;
     for (;;) {
       const size_t d = next_bucket.fetch_add(1);
       if (d >= kBuckets) break;
       const size_t lo = bucket_begin[d], m = bucket_begin[d + 1] - lo;
-      sort_bucket(keys + lo, xyz_sorted + 3 * lo, m, scratch);
+      sort_bucket(xyz_sorted + 3 * lo, m, grid, scratch);
     }
   };
   std::vector<std::thread> pool;
