@@ -28,9 +28,9 @@ struct Run {
   std::string err;
 };
 
-Run convert(const TmpDir& td, const std::string& args) {
+Run convert(const TmpDir& td, const std::string& args, const std::string& env = "") {
   const fs::path err = td.p / "stderr.txt.log";
-  const std::string cmd = std::string(MDSTREAM_BIN) + " convert " + args + " 2>" + err.string() + " >/dev/null";
+  const std::string cmd = env + std::string(MDSTREAM_BIN) + " convert " + args + " 2>" + err.string() + " >/dev/null";
   const int st = std::system(cmd.c_str());
   std::ifstream f(err);
   std::string text((std::istreambuf_iterator<char>(f)), {});
@@ -172,4 +172,28 @@ TEST(ConvertErrors, SucceedsAndPrintsSummary) {
   EXPECT_NE(r.err.find("x spacing"), std::string::npos) << r.err;
   EXPECT_TRUE(fs::exists(td.p / "o.mds"));
   EXPECT_TRUE(leftovers(td.p, {"ok.dump", "o.mds"}).empty());
+}
+
+// H5MD is read by a module loaded on demand (readers/h5md_module.h): found next to the
+// executable or in the build folder, and when it cannot be loaded the conversion fails naming
+// the input and every place looked in, with no output.
+TEST(ConvertErrors, H5mdInputWithoutItsModule) {
+  TmpDir td;
+  const fs::path in = td.p / "in.h5md";
+  const std::string py = std::string(MDSTREAM_PYTHON) +
+                         " -c \"import h5py, numpy as np; f = h5py.File('" + in.string() +
+                         "', 'w'); f.create_group('h5md'); "
+                         "f.create_dataset('particles/all/position/value', data=np.random.rand(1, 50, 3).astype('f4')); "
+                         "f.close()\"";
+  ASSERT_EQ(std::system(py.c_str()), 0);
+  auto ok = convert(td, in.string() + " -o " + (td.p / "ok.mds").string() + " --quiet");
+  ASSERT_EQ(ok.code, 0) << ok.err;
+  fs::remove(td.p / "ok.mds");
+  fs::create_directory(td.p / "empty");
+  auto r = convert(td, in.string() + " -o " + (td.p / "o.mds").string(),
+                   "MDSTREAM_MODULE_DIR=" + (td.p / "empty").string() + " ");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.err.find("in.h5md"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find((td.p / "empty" / "libmdstream_h5md.so").string()), std::string::npos) << r.err;
+  EXPECT_EQ(leftovers(td.p, {"in.h5md", "empty"}), std::vector<std::string>{});
 }

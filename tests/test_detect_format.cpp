@@ -7,7 +7,7 @@
 #include <zstd.h>
 
 #include "binreader_test_util.h"
-#include "readers/h5md_reader.h"
+#include "h5md/h5md_reader.h"
 #include "readers/mmpld_reader.h"
 #include "readers/reader_factories.h"
 

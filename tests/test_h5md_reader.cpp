@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "binreader_test_util.h"
-#include "readers/h5md_reader.h"
+#include "h5md/h5md_reader.h"
 #include "readers/reader_factories.h"
 
 namespace mds {
@@ -129,7 +129,7 @@ class H5mdReaderTest : public ::testing::Test {
     ReaderOptions o;
     o.frame = frame;
     o.h5md_group = group;
-    return open_h5md_reader(p(name), o);
+    return H5mdReader::open(p(name), o);
   }
   static std::string error_of(const std::string& name, int64_t frame = 0, const std::string& group = "") {
     auto r = open(name, frame, group);

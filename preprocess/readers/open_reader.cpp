@@ -15,7 +15,7 @@
 #include <zlib.h>
 #include <zstd.h>
 
-#include "readers/h5md_reader.h"
+#include "readers/h5md_module.h"
 #include "readers/reader_factories.h"
 
 namespace mds {
@@ -150,7 +150,7 @@ Result<InputFormat> detect_format(const std::filesystem::path& path) {
     hdf5 = f.gcount() == 8 && std::string_view(sig.data(), 8) == kHdf5;
   }
   if (hdf5) {
-    MDS_ASSIGN_OR_RETURN(bool h5md, hdf5_has_h5md_group(path));
+    MDS_ASSIGN_OR_RETURN(bool h5md, h5md_detect(path));
     if (!h5md) return make_error(Errc::format, "{}: HDF5 file without /h5md group (not H5MD)", name);
     return InputFormat::h5md;
   }

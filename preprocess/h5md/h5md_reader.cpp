@@ -1,6 +1,6 @@
 // H5MD reader (see h5md_reader.h). HDF5 C API only; HDF5's automatic error printing is
 // switched off and every failure becomes an mds::Error naming the file and dataset.
-#include "readers/h5md_reader.h"
+#include "h5md/h5md_reader.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,6 @@
 
 #include <hdf5.h>
 
-#include "readers/reader_factories.h"
 
 namespace mds {
 namespace {
@@ -412,11 +411,6 @@ Result<size_t> H5mdReader::read(ParticleBatch& out, size_t max_particles) {
   }
   next_ += n;
   return static_cast<size_t>(n);
-}
-
-Result<std::unique_ptr<ParticleReader>> open_h5md_reader(const std::filesystem::path& path,
-                                                         const ReaderOptions& options) {
-  return H5mdReader::open(path, options);
 }
 
 }  // namespace mds
