@@ -541,7 +541,7 @@ Status CullLoop::begin_view(const Camera& camera, uint32_t live_meshlets) {
 Status CullLoop::warm_up(const Camera& camera) {
   Impl& m = *impl_;
   const int best_route = m.best_route;
-  const bool comparing = m.comparing;
+  const bool comparing = m.comparing, probing = m.probing;
   const uint32_t since_compare = m.since_compare, route_passes[2] = {m.route_passes[0], m.route_passes[1]};
   const bool moving = m.moving;
   Status st;
@@ -554,6 +554,7 @@ Status CullLoop::warm_up(const Camera& camera) {
   m.moving = moving;
   m.best_route = best_route;
   m.comparing = comparing;
+  m.probing = probing;
   m.since_compare = since_compare;
   m.route_passes[0] = route_passes[0];
   m.route_passes[1] = route_passes[1];
@@ -587,7 +588,7 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
     m.histogram_recast = false;
   }
   const uint32_t passes = m.passes;
-  m.begin_route_choice(cmd);
+  m.begin_route_choice(cmd, passes);
   for (uint32_t p = 0; p < passes; ++p) {
     m.sample_compute = m.choose_compute_route(p, passes);
     ++m.route_passes[m.sample_compute ? 1 : 0];

@@ -34,13 +34,21 @@ bool CullLoop::Impl::sampled_list_wanted() const {
 // runs until the next comparison, kSampleRouteExplore iterations later (the view's occluders
 // change as it converges). A clear-cut gap ends a comparison after kSampleRouteEarly passes per
 // route, and a clear-cut repeat of the same winner doubles the interval (cull_loop.h).
-void CullLoop::Impl::begin_route_choice(VkCommandBuffer cmd) {
+// A repeat comparison (a winner exists) with several passes per iteration starts as a probe:
+// one pass of the other route, the rest on the winner, all timed; when the probe pass took at
+// least kSampleRouteClearCut times the winner's slowest, the winner stays, and that iteration
+// paid for one pass of the slower route instead of half of its passes (on lavapipe's close-ups
+// the slower route's pass takes up to 8x the other's: 100-210 ms frames at every repeat).
+// Otherwise the comparison goes on alternating as above.
+void CullLoop::Impl::begin_route_choice(VkCommandBuffer cmd, uint32_t pass_count) {
   if (!compute_available || forced_route() != SampleRoute::automatic) {
     comparing = false;
+    probing = false;
     return;
   }
   if (!comparing && (best_route < 0 || since_compare >= explore_interval)) {
     comparing = true;
+    probing = best_route >= 0 && pass_count >= 2;
     since_compare = 0;
     compare_ms[0].clear();
     compare_ms[1].clear();
@@ -55,6 +63,7 @@ bool CullLoop::Impl::choose_compute_route(uint32_t p, uint32_t pass_count) {
   if (forced != SampleRoute::automatic) return forced == SampleRoute::compute;
   if (!route_ts.enabled()) return true;  // no timestamps on this queue: compute, unmeasured
   if (comparing) {
+    if (probing) return (p == 0 ? 1 - best_route : best_route) == 1;
     if (pass_count >= 2) return p % 2 == 0;
     return compare_ms[1].size() <= compare_ms[0].size();  // one pass per iteration: alternate
   }
@@ -89,6 +98,18 @@ Status CullLoop::collect_route_timings() {
   for (const auto& [name, v] : m.route_ts.samples()) {
     const int r = name == "compute" ? 1 : 0;
     for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i) m.compare_ms[r].push_back(v[i]);
+  }
+  if (m.probing) {
+    m.probing = false;
+    const int best = m.best_route, other = 1 - best;
+    if (sample_route_clear_winner(m.compare_ms[0], m.compare_ms[1]) == best) {
+      m.compared_ms[best] = vk::median(m.compare_ms[best]);
+      m.compared_ms[other] = vk::median(m.compare_ms[other]);
+      m.comparing = false;
+      m.explore_interval = std::min(2 * m.explore_interval, kSampleRouteExploreMax);
+      return {};
+    }
+    // Not clear-cut: the comparison continues with alternating passes (the probe's samples count).
   }
   const bool full = m.compare_ms[0].size() >= kSampleRouteCompare && m.compare_ms[1].size() >= kSampleRouteCompare;
   const bool early = m.compare_ms[0].size() >= kSampleRouteEarly && m.compare_ms[1].size() >= kSampleRouteEarly &&
