@@ -19,7 +19,7 @@
 #include <utility>
 #include <vector>
 
-#include "huge_pages.h"
+#include "core/huge_pages.h"
 
 namespace mds::convert {
 

@@ -317,6 +317,13 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
           : choose_density_dims(scan.lo, scan.hi,
                                 o.density.target_voxels ? o.density.target_voxels : default_density_target(scan.count));
   ctx.density = DensityGrid(scan.lo, scan.hi, dims);
+  {
+    // Nodes hold node_size/8..node_size particles (octree cells and merged siblings); a node
+    // touches a few voxels per 1000 particles, a voxel a few nodes.
+    const uint64_t voxels = uint64_t(dims[0]) * dims[1] * dims[2];
+    writer->reserve(8 * scan.count / std::max<uint32_t>(o.node_size, 1) + 64,
+                    std::min<uint64_t>(scan.count, 4 * voxels + 64 * (scan.count / std::max<uint32_t>(o.node_size, 1))));
+  }
   std::vector<int32_t> ids;
   for (const auto& [id, st] : scan.types) ids.push_back(id);
   TypeLut lut(ids);

@@ -16,7 +16,7 @@
 #include <zlib.h>
 #include <zstd.h>
 
-#include "huge_pages.h"
+#include "core/huge_pages.h"
 
 namespace mds {
 

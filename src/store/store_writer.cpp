@@ -24,6 +24,7 @@
 #include <string>
 #include <thread>
 
+#include "core/huge_pages.h"
 #include "culling/node_occupancy.h"
 #include "store/file_io.h"
 #include "store/hash.h"
@@ -138,16 +139,19 @@ class BlockStream {
   static constexpr size_t kBlock = size_t(4) << 20;
   static constexpr size_t kBuffers = 3;
   static constexpr size_t kAlign = 4096;  // O_DIRECT offset/length/address alignment (any logical block size up to 4 KiB)
+  static constexpr size_t kHugeAlign = size_t(2) << 20;  // buffer address: a transparent huge page boundary
 
   explicit BlockStream(const std::filesystem::path& temp_path) : name_(temp_path.string()) {
     direct_fd_ = ::open(temp_path.c_str(), O_WRONLY | O_CLOEXEC | O_DIRECT);
     plain_fd_ = ::open(temp_path.c_str(), O_WRONLY | O_CLOEXEC);
     for (size_t i = 0; i < kBuffers; ++i) {
-      void* p = std::aligned_alloc(kAlign, kBlock);
+      // 2 MiB-aligned, so that each block is two huge pages (two faults instead of 1024).
+      void* p = std::aligned_alloc(kHugeAlign, kBlock);
       if (!p) {
         buffers_ok_ = false;  // ok() is false; create() reports it
         return;
       }
+      advise_huge_pages(p, kBlock);
       buffers_.emplace_back(static_cast<uint8_t*>(p));
       free_.push_back(buffers_.back().get());
     }
@@ -340,6 +344,14 @@ Result<std::unique_ptr<StoreWriter>> StoreWriter::create(const std::filesystem::
 }
 
 StoreWriter::~StoreWriter() = default;  // AtomicOutput removes the temporary file unless committed
+
+void StoreWriter::reserve(uint64_t nodes, uint64_t voxel_refs) {
+  Impl& s = *impl_;
+  nodes = std::min<uint64_t>(nodes, uint64_t(1) << 24);
+  s.entries.reserve(size_t(nodes));
+  s.occupancy.reserve(size_t(nodes) * kOccupancyBytes);
+  s.voxels.reserve(size_t(std::min<uint64_t>(voxel_refs, kMaxVoxelRefs)));
+}
 
 Status StoreWriter::append(EncodedNode&& node) {
   Impl& s = *impl_;

@@ -73,6 +73,11 @@ class StoreWriter {
   StoreWriter(const StoreWriter&) = delete;
   StoreWriter& operator=(const StoreWriter&) = delete;
 
+  // Capacity hint for the tables kept until finish() (directory entries, voxel refs, occupancy
+  // records), so that appends do not copy them as they grow (2.7 % of a 10M conversion's CPU
+  // time in a profile, with their page faults). Reserved as address space: an overestimate
+  // maps no memory until written. Optional; any count may be exceeded.
+  void reserve(uint64_t nodes, uint64_t voxel_refs);
   // Appends the next node (nodes are numbered in append order).
   Status append(EncodedNode&& node);
   // Writes sections and header, fsyncs and renames to the final path. The header counts,

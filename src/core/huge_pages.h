@@ -1,5 +1,6 @@
-// Transparent huge pages for the converter's and readers' large buffers: one fault and one
-// zeroing per 2 MiB instead of 512 faults of 4 KiB (docs/results/convert.md, "Huge pages").
+// Transparent huge pages for large buffers (converter, readers, the store writer's blocks): one
+// fault and one zeroing per 2 MiB instead of 512 faults of 4 KiB (docs/results/convert.md,
+// "Huge pages").
 #pragma once
 
 #include <sys/mman.h>
