@@ -68,9 +68,8 @@ using BigVector = std::vector<T, BigAllocator<T>>;
 // same range. Best effort: does nothing where unsupported.
 inline void prefault(const void* data, size_t bytes) {
 #ifdef MADV_POPULATE_WRITE
-  const uintptr_t page = uintptr_t(::sysconf(_SC_PAGESIZE));
-  const uintptr_t b = (uintptr_t(data) + page - 1) / page * page, e = (uintptr_t(data) + bytes) / page * page;
-  if (e > b) (void)::madvise(reinterpret_cast<void*>(b), e - b, MADV_POPULATE_WRITE);
+  const PageRange r = whole_pages(data, bytes);
+  if (!r.empty()) (void)::madvise(r.data(), r.bytes(), MADV_POPULATE_WRITE);
 #else
   (void)data;
   (void)bytes;
@@ -89,11 +88,10 @@ class BackgroundPrefault {
   // Several arrays, one after the other on the one thread.
   explicit BackgroundPrefault(std::vector<std::pair<void*, size_t>> regions) {
 #ifdef MADV_POPULATE_WRITE
-    const uintptr_t page = uintptr_t(::sysconf(_SC_PAGESIZE));
     std::vector<std::pair<uintptr_t, uintptr_t>> ranges;
     for (const auto& [data, bytes] : regions) {
-      const uintptr_t b = (uintptr_t(data) + page - 1) / page * page, e = (uintptr_t(data) + bytes) / page * page;
-      if (e > b) ranges.push_back({b, e});
+      const PageRange r = whole_pages(data, bytes);
+      if (!r.empty()) ranges.push_back({r.first, r.end});
     }
     if (ranges.empty()) return;
     thread_ = std::thread([this, ranges = std::move(ranges)] {

@@ -12,15 +12,27 @@
 
 namespace mds {
 
+// The whole pages inside [p, p + bytes): [first, end) page-aligned addresses, empty (end <=
+// first) when the range holds no whole page. madvise() takes only such ranges.
+struct PageRange {
+  uintptr_t first = 0, end = 0;
+  bool empty() const { return end <= first; }
+  size_t bytes() const { return empty() ? 0 : size_t(end - first); }
+  void* data() const { return reinterpret_cast<void*>(first); }
+};
+inline PageRange whole_pages(const void* p, size_t bytes) {
+  const uintptr_t page = uintptr_t(::sysconf(_SC_PAGESIZE));
+  return {(uintptr_t(p) + page - 1) / page * page, (uintptr_t(p) + bytes) / page * page};
+}
+
 // Asks for huge pages on the whole pages inside [p, p + bytes) (madvise(MADV_HUGEPAGE)); the
 // kernel uses them for the 2 MiB-aligned parts. Best effort: where THP is off ("never") or
 // MDSTREAM_NO_HUGEPAGES is set (A/B runs), nothing changes and 4 KiB pages are used.
 inline void advise_huge_pages(void* p, size_t bytes) {
 #ifdef MADV_HUGEPAGE
   if (std::getenv("MDSTREAM_NO_HUGEPAGES")) return;
-  const uintptr_t page = uintptr_t(::sysconf(_SC_PAGESIZE));
-  const uintptr_t b = (uintptr_t(p) + page - 1) / page * page, e = (uintptr_t(p) + bytes) / page * page;
-  if (e > b) (void)::madvise(reinterpret_cast<void*>(b), e - b, MADV_HUGEPAGE);
+  const PageRange r = whole_pages(p, bytes);
+  if (!r.empty()) (void)::madvise(r.data(), r.bytes(), MADV_HUGEPAGE);
 #else
   (void)p;
   (void)bytes;
