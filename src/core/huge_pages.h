@@ -6,6 +6,7 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -37,6 +38,17 @@ inline void advise_huge_pages(void* p, size_t bytes) {
   (void)p;
   (void)bytes;
 #endif
+}
+
+inline constexpr size_t kHugePageBytes = size_t(2) << 20;  // x86-64 transparent huge page
+
+// A buffer of at least `bytes` bytes (rounded up to whole huge pages), 2 MiB-aligned, with huge
+// pages asked for; release it with std::free. nullptr when the allocation fails.
+inline void* allocate_huge_aligned(size_t bytes) {
+  const size_t rounded = (std::max<size_t>(bytes, 1) + kHugePageBytes - 1) / kHugePageBytes * kHugePageBytes;
+  void* p = std::aligned_alloc(kHugePageBytes, rounded);
+  if (p) advise_huge_pages(p, rounded);
+  return p;
 }
 
 }  // namespace mds

@@ -28,12 +28,9 @@ struct FreeBytes {
 using Bytes = std::unique_ptr<uint8_t[], FreeBytes>;
 
 Bytes allocate(size_t n) {
-  constexpr size_t kHuge = size_t(2) << 20, kHugeFrom = size_t(4) << 20;
+  constexpr size_t kHugeFrom = 2 * kHugePageBytes;
   if (n < kHugeFrom) return Bytes(static_cast<uint8_t*>(std::malloc(std::max<size_t>(n, 1))));
-  const size_t rounded = (n + kHuge - 1) / kHuge * kHuge;
-  auto* p = static_cast<uint8_t*>(std::aligned_alloc(kHuge, rounded));
-  if (p) advise_huge_pages(p, rounded);
-  return Bytes(p);
+  return Bytes(static_cast<uint8_t*>(allocate_huge_aligned(n)));
 }
 
 // planes[b * count + i] = byte b of values[i].
