@@ -2,7 +2,8 @@
 // "Howto triclinic" for the box; see lammps_reader.h for the box formulas.
 //
 // Headers are parsed line by line; atom lines are taken from the TextSource in large blocks
-// and parsed in parallel (one range of lines per hardware thread) with std::from_chars.
+// and parsed in parallel (one range of lines per hardware thread): numbers with parse_double
+// (decimal.h, Clinger's fast path before std::from_chars), integers with std::from_chars.
 // Frames before the requested one are skipped by counting newlines only.
 #include "readers/lammps_reader.h"
 
@@ -10,6 +11,7 @@
 #include <cmath>
 #include <limits>
 
+#include "readers/decimal.h"
 #include "readers/text_frame_reader.h"
 
 namespace mds {
@@ -185,7 +187,7 @@ class LammpsReader final : public TextFrameReader {
           case Col::y:
           case Col::z: {
             double v;
-            r = std::from_chars(p, end, v);
+            r = parse_double(p, end, v);
             if (r.ec == std::errc() && !std::isfinite(v)) {
               set_error(err, Errc::range, first_line + li,
                         fmt::format("non-finite coordinate '{}'", token_at(tok)));
@@ -207,7 +209,7 @@ class LammpsReader final : public TextFrameReader {
           case Col::radius:
           case Col::diameter: {
             double v;
-            r = std::from_chars(p, end, v);
+            r = parse_double(p, end, v);
             if (r.ec == std::errc() && (!std::isfinite(v) || v < 0)) {
               set_error(err, Errc::range, first_line + li, fmt::format("invalid radius/diameter '{}'", token_at(tok)));
               return;

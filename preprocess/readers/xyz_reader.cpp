@@ -1,7 +1,7 @@
 // XYZ / extended XYZ reader; formats described in xyz_reader.h.
 //
 // Like the LAMMPS reader: headers line by line, atom lines in large blocks parsed in
-// parallel with std::from_chars; species strings are mapped to type ids afterwards on one
+// parallel with parse_double (decimal.h); species strings are mapped to type ids afterwards on one
 // thread (first seen -> 1, 2, ...; an integer species is used as the type id itself).
 #include "readers/xyz_reader.h"
 
@@ -11,6 +11,7 @@
 #include <set>
 #include <unordered_map>
 
+#include "readers/decimal.h"
 #include "readers/text_frame_reader.h"
 
 namespace mds {
@@ -352,7 +353,7 @@ class XyzReader final : public TextFrameReader {
         } else if (c >= pcol && c < pcol + 3) {
           if (*p == '+') ++p;
           double v;
-          auto r = std::from_chars(p, end, v);
+          auto r = parse_double(p, end, v);
           if (r.ec != std::errc() || !is_token_end(*r.ptr)) {
             set_error(err, r.ec == std::errc::result_out_of_range ? Errc::range : Errc::format, line_no,
                       fmt::format("bad coordinate '{}'", token_at(tok)));
@@ -367,7 +368,7 @@ class XyzReader final : public TextFrameReader {
         } else if (c == rcol) {
           if (*p == '+') ++p;
           double v;
-          auto r = std::from_chars(p, end, v);
+          auto r = parse_double(p, end, v);
           if (r.ec != std::errc() || !is_token_end(*r.ptr) || !std::isfinite(v) || v < 0) {
             set_error(err, r.ec == std::errc::result_out_of_range ? Errc::range : Errc::format, line_no,
                       fmt::format("bad radius '{}'", token_at(tok)));
