@@ -97,18 +97,60 @@ struct Steps {
   }
 };
 
+// Per axis, the code first | last << 3 of every q, looked up by q's high byte: most of the 256
+// buckets of 256 values of q hold no threshold of `first` or `last` (7 each), so their code is
+// one table entry; the few that do are marked kMixed and searched per particle.
+struct AxisTable {
+  static constexpr uint8_t kMixed = 0x80;
+  Steps first, last;
+  uint8_t code[256];
+  void build() {
+    int f = 0, l = 0;  // values at the bucket's first q
+    for (uint32_t b = 0; b < 256; ++b) {
+      const uint32_t lo = b << 8, hi = lo + 255;
+      while (f < 7 && first.t[f + 1] <= lo) ++f;
+      while (l < 7 && last.t[l + 1] <= lo) ++l;
+      const bool mixed = (f < 7 && first.t[f + 1] <= hi) || (l < 7 && last.t[l + 1] <= hi);
+      code[b] = mixed ? kMixed : uint8_t(f | l << 3);
+    }
+  }
+  unsigned at(uint32_t q) const {
+    const uint8_t c = code[q >> 8];
+    return c != kMixed ? c : unsigned(first(q)) | unsigned(last(q)) << 3;
+  }
+};
+
+// For a code f | l << 3 (f <= l): the x bits f..l of a row, and the rows f..l of an 8 x 8
+// slice as bytes of 0x01.
+struct CodeTables {
+  uint8_t xbits[64];
+  uint64_t rows[64];
+  constexpr CodeTables() : xbits(), rows() {
+    for (unsigned c = 0; c < 64; ++c) {
+      const unsigned f = c & 7, l = c >> 3;
+      if (l < f) continue;
+      xbits[c] = uint8_t((2u << l) - (1u << f));
+      uint64_t r = 0;
+      for (unsigned y = f; y <= l; ++y) r |= 1ull << (8 * y);
+      rows[c] = r;
+    }
+  }
+};
+constexpr CodeTables kCodeTables;
+
 }  // namespace
 
 FineOccupancy fine_occupancy_of_quantized(const double center_min[3], const double center_max[3], double r,
                                           std::span<const uint16_t> qpos) {
   // The per-particle arithmetic of AxisCells is evaluated once per node, as thresholds (about
-  // 300 evaluations per axis); per particle the cells are six branchless searches of 3 compares
-  // (this runs for every particle of a conversion: 12 % of the converter's CPU time with the
-  // arithmetic per particle). Each z-slice is a uint64 of 8 x 8 bits (x + 8 y); the
+  // 300 evaluations per axis) and a table per axis over q's high byte (AxisTable); per particle
+  // the cells are three table lookups (this runs for every particle of a conversion: 12 % of
+  // the converter's CPU time with the arithmetic per particle, 8 % with three-compare searches
+  // per side and axis). Each z-slice is a uint64 of 8 x 8 bits (x + 8 y); the
   // byte-per-coarse-cell layout is made once per node.
   constexpr int kF = kOccupancyFineCells;
   static_assert(kF == 8, "one uint8 row of x-cells per (y, z); 7 thresholds per axis");
-  Steps first[3], last[3];
+  AxisTable axis[3];
   for (int a = 0; a < 3; ++a) {
     AxisCells ax;
     const double w = (center_max[a] - center_min[a]) + 2.0 * r;
@@ -119,22 +161,18 @@ FineOccupancy fine_occupancy_of_quantized(const double center_min[3], const doub
       ax.e = 1e-5 * kF;  // eps = 1e-5 w, in cells
       ax.k = (2.0 * r + 1e-5 * w) / w * kF;
     }
-    first[a] = Steps::of([&](uint32_t q) { return ax.first(q); });
-    last[a] = Steps::of([&](uint32_t q) { return ax.last(q); });
+    axis[a].first = Steps::of([&](uint32_t q) { return ax.first(q); });
+    axis[a].last = Steps::of([&](uint32_t q) { return ax.last(q); });
+    axis[a].build();
   }
   // by_z[8 fz + lz]: the x-y cells of the particles whose z-cells are fz..lz (one OR per
   // particle; spread over the slices once per node).
   uint64_t by_z[kF * kF] = {};
   const size_t n = qpos.size() / 3;
   for (size_t i = 0; i < n; ++i) {
-    const uint32_t qx = qpos[3 * i], qy = qpos[3 * i + 1], qz = qpos[3 * i + 2];
-    const int fx = first[0](qx), lx = last[0](qx), fy = first[1](qy), ly = last[1](qy);
-    const int fz = first[2](qz), lz = last[2](qz);
-    const uint64_t xbits = (2u << lx) - (1u << fx);
-    // xbits copied into rows fy..ly: bytes of 0x01 over those rows, times xbits.
-    const uint64_t rows = (ly == kF - 1 ? ~0ull : (1ull << (8 * (ly + 1))) - 1) & ~((1ull << (8 * fy)) - 1);
-    const uint64_t pattern = (rows & 0x0101010101010101ull) * xbits;
-    by_z[kF * fz + lz] |= pattern;
+    const unsigned cx = axis[0].at(qpos[3 * i]), cy = axis[1].at(qpos[3 * i + 1]), cz = axis[2].at(qpos[3 * i + 2]);
+    // x bits copied into rows fy..ly: bytes of 0x01 over those rows, times the x bits.
+    by_z[kF * (cz & 7) + (cz >> 3)] |= kCodeTables.rows[cy] * kCodeTables.xbits[cx];
   }
   uint64_t slice[kF] = {};  // per z: bit x + 8 y
   for (int fz = 0; fz < kF; ++fz)
