@@ -114,12 +114,18 @@ void encode_payload(const NodeInput& node, std::vector<uint8_t>& raw) {
   size_t k0 = 0;
   for (size_t j = 0; j < m; ++j) {
     const size_t end = k0 + node.meshlet_size[j];
-    uint16_t lo[3] = {0xFFFF, 0xFFFF, 0xFFFF}, hi[3] = {0, 0, 0};
-    for (size_t k = k0; k < end; ++k)
-      for (int a = 0; a < 3; ++a) {
-        lo[a] = std::min(lo[a], q[3 * k + a]);
-        hi[a] = std::max(hi[a], q[3 * k + a]);
-      }
+    // Bounds in six scalars: with lo[a] and hi[a] the compiler kept the arrays in memory and
+    // stored one per coordinate (this loop was the encoder's hottest).
+    uint16_t lx = 0xFFFF, ly = 0xFFFF, lz = 0xFFFF, hx = 0, hy = 0, hz = 0;
+    for (size_t k = k0; k < end; ++k) {
+      lx = std::min(lx, q[3 * k]);
+      ly = std::min(ly, q[3 * k + 1]);
+      lz = std::min(lz, q[3 * k + 2]);
+      hx = std::max(hx, q[3 * k]);
+      hy = std::max(hy, q[3 * k + 1]);
+      hz = std::max(hz, q[3 * k + 2]);
+    }
+    const uint16_t lo[3] = {lx, ly, lz}, hi[3] = {hx, hy, hz};
     uint16_t w = 0;
     unsigned wa[3];
     for (int a = 0; a < 3; ++a) {
