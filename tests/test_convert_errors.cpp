@@ -190,7 +190,8 @@ TEST(ConvertErrors, H5mdInputWithoutItsModule) {
   ASSERT_EQ(ok.code, 0) << ok.err;
   fs::remove(td.p / "ok.mds");
   fs::create_directory(td.p / "empty");
-  auto r = convert(td, in.string() + " -o " + (td.p / "o.mds").string(),
+  // (octree meshlets: the default PCL builder is a module too, MeshletBuilderWithoutItsModule)
+  auto r = convert(td, in.string() + " -o " + (td.p / "o.mds").string() + " --meshlet-builder octree",
                    "MDSTREAM_MODULE_DIR=" + (td.p / "empty").string() + " ");
   EXPECT_NE(r.code, 0);
   EXPECT_NE(r.err.find("in.h5md"), std::string::npos) << r.err;
@@ -198,9 +199,29 @@ TEST(ConvertErrors, H5mdInputWithoutItsModule) {
   EXPECT_EQ(leftovers(td.p, {"in.h5md", "empty"}), std::vector<std::string>{});
 }
 
-// The CLI itself does not link HDF5 (its 34 libraries cost 12.7 ms of every process start on the
-// 2-core VM): only the H5MD module does (readers/h5md_module.h).
-TEST(ConvertErrors, CliLoadsHdf5OnlyThroughTheModule) {
+// The PCL meshlet builder (the default) is a module as well (convert/meshlet_pcl_module.h):
+// without it a conversion with it fails before reading, naming every place looked in, and
+// leaves nothing; the octree builder needs no module.
+TEST(ConvertErrors, MeshletBuilderWithoutItsModule) {
+  TmpDir td;
+  write_dump(td.p / "ok.dump", 3000);
+  fs::create_directory(td.p / "empty");
+  const std::string env = "MDSTREAM_MODULE_DIR=" + (td.p / "empty").string() + " ";
+  auto r = convert(td, (td.p / "ok.dump").string() + " -o " + (td.p / "o.mds").string(), env);
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.err.find("PCL meshlet builder"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find((td.p / "empty" / "libmdstream_pcl.so").string()), std::string::npos) << r.err;
+  EXPECT_EQ(leftovers(td.p, {"ok.dump", "empty"}), std::vector<std::string>{});
+  auto ok = convert(td, (td.p / "ok.dump").string() + " -o " + (td.p / "o.mds").string() +
+                            " --meshlet-builder octree --quiet", env);
+  EXPECT_EQ(ok.code, 0) << ok.err;
+  EXPECT_TRUE(fs::exists(td.p / "o.mds"));
+}
+
+// The CLI itself links neither HDF5 (its 34 libraries cost 12.7 ms of every process start on the
+// 2-core VM) nor PCL (about 4 ms): only their modules do (readers/h5md_module.h,
+// convert/meshlet_pcl_module.h).
+TEST(ConvertErrors, CliLoadsHdf5AndPclOnlyThroughModules) {
   TmpDir td;
   const fs::path out = td.p / "ldd.txt.log";
   ASSERT_EQ(std::system(("ldd " + std::string(MDSTREAM_BIN) + " > " + out.string()).c_str()), 0);
@@ -208,4 +229,6 @@ TEST(ConvertErrors, CliLoadsHdf5OnlyThroughTheModule) {
   const std::string libs((std::istreambuf_iterator<char>(f)), {});
   EXPECT_NE(libs.find("libc.so"), std::string::npos) << libs;  // ldd listed the libraries
   EXPECT_EQ(libs.find("libhdf5"), std::string::npos) << libs;
+  EXPECT_EQ(libs.find("libpcl"), std::string::npos) << libs;  // nor PCL (meshlet_pcl_module.h)
+  EXPECT_EQ(libs.find("libgomp"), std::string::npos) << libs;
 }

@@ -342,7 +342,7 @@ static NodeData node_data(const std::vector<SpillRecord>& v) {
 
 // Builds meshlets and checks they partition the node: every index exactly once, sizes 1..msize.
 static MeshletStats check_meshlets(MeshletBuilderKind kind, const NodeData& d, uint32_t msize) {
-  auto mb = make_meshlet_builder(kind);
+  auto mb = std::move(make_meshlet_builder(kind).value());
   std::vector<uint32_t> order;
   std::vector<uint8_t> sizes;
   const auto& xyz = d.xyz;
@@ -415,7 +415,7 @@ TEST(MeshletBuilder, BothWorkFarFromOriginAndOnDegenerateData) {
 
 TEST(MeshletBuilder, RejectsBadArguments) {
   for (auto kind : kBothBuilders) {
-    auto mb = make_meshlet_builder(kind);
+    auto mb = std::move(make_meshlet_builder(kind).value());
     std::vector<uint32_t> order;
     std::vector<uint8_t> sizes;
     std::vector<double> xyz = {0, 0, 0, 1, 1, 1};

@@ -236,6 +236,14 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   rep.meshlet_builder = o.meshlet_builder;
   Progress progress(o.progress);
 
+  // The meshlet builders first: the PCL one needs its module (meshlet_pcl_module.h), and without
+  // it the conversion fails before any work.
+  std::vector<std::unique_ptr<NodeWorker>> workers;
+  for (unsigned i = 0; i < o.threads; ++i) {
+    MDS_ASSIGN_OR_RETURN(auto builder, make_meshlet_builder(o.meshlet_builder));
+    workers.push_back(std::make_unique<NodeWorker>(std::move(builder)));
+  }
+
   // Open every input first: a missing or malformed file fails before any work.
   std::vector<std::unique_ptr<ParticleReader>> readers;
   uint64_t declared = 0;
@@ -335,8 +343,6 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
 
   BuildTotals tot;
   tot.density.assign(size_t(ctx.density.voxel_count()), 0);
-  std::vector<std::unique_ptr<NodeWorker>> workers;
-  for (unsigned i = 0; i < o.threads; ++i) workers.push_back(std::make_unique<NodeWorker>(o.meshlet_builder));
   rep.seconds_setup += meter.lap("setup");
 
   std::thread release_thread;

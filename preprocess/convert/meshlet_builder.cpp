@@ -4,7 +4,7 @@
 #include <limits>
 
 #include "convert/meshlet_octree.h"
-#include "convert/meshlet_pcl.h"
+#include "convert/meshlet_pcl_module.h"
 
 namespace mds::convert {
 
@@ -46,9 +46,10 @@ Status MeshletBuilder::build(std::span<const uint64_t> keys, std::span<const dou
   return build_impl(keys, xyz, meshlet_size, order, sizes);
 }
 
-std::unique_ptr<MeshletBuilder> make_meshlet_builder(MeshletBuilderKind kind) {
-  if (kind == MeshletBuilderKind::octree) return std::make_unique<OctreeMeshletBuilder>();
-  return std::make_unique<PclMeshletBuilder>();
+Result<std::unique_ptr<MeshletBuilder>> make_meshlet_builder(MeshletBuilderKind kind) {
+  if (kind == MeshletBuilderKind::octree) return std::unique_ptr<MeshletBuilder>(std::make_unique<OctreeMeshletBuilder>());
+  MDS_ASSIGN_OR_RETURN(const PclModuleApi* pcl, pcl_module());
+  return pcl->make_builder();
 }
 
 }  // namespace mds::convert

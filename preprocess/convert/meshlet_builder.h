@@ -67,6 +67,7 @@ class MeshletBuilder {
                             std::vector<uint32_t>& order, std::vector<uint8_t>& sizes) = 0;
 };
 
-std::unique_ptr<MeshletBuilder> make_meshlet_builder(MeshletBuilderKind kind);
+// The PCL builder comes from its module (meshlet_pcl_module.h): an error when it cannot be loaded.
+Result<std::unique_ptr<MeshletBuilder>> make_meshlet_builder(MeshletBuilderKind kind);
 
 }  // namespace mds::convert

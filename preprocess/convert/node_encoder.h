@@ -60,7 +60,7 @@ struct BuildTotals {
 
 // Per-worker scratch, reused across nodes and bins.
 struct NodeWorker {
-  explicit NodeWorker(MeshletBuilderKind kind) : meshlets(make_meshlet_builder(kind)) {}
+  explicit NodeWorker(std::unique_ptr<MeshletBuilder> builder) : meshlets(std::move(builder)) {}
   std::unique_ptr<MeshletBuilder> meshlets;
   std::vector<double> xyz;
   std::vector<uint32_t> order;

@@ -4,7 +4,7 @@
 #include "h5md/h5md_reader.h"
 #include "readers/h5md_module.h"
 
-extern "C" __attribute__((visibility("default"))) const mds::H5mdModuleApi* mdstream_h5md_module() {
+extern "C" __attribute__((visibility("default"))) const void* mdstream_h5md_module() {
   static const mds::H5mdModuleApi api{mds::kH5mdModuleAbi, &mds::H5mdReader::open, &mds::hdf5_has_h5md_group};
   return &api;
 }

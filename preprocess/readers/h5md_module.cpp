@@ -1,64 +1,27 @@
 // Loading of the H5MD reader module (see h5md_module.h).
 #include "readers/h5md_module.h"
 
-#include <dlfcn.h>
-
-#include <cstdlib>
-#include <string>
-#include <system_error>
-#include <vector>
-
+#include "core/module_loader.h"
 #include "readers/reader_factories.h"
 
 namespace mds {
 
 namespace {
 
-std::vector<std::filesystem::path> module_dirs() {
-  std::vector<std::filesystem::path> dirs;
-  if (const char* e = std::getenv("MDSTREAM_MODULE_DIR"); e && *e) return {e};  // set: the only place
-  std::error_code ec;
-  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-  if (!ec) dirs.push_back(exe.parent_path());
-#ifdef MDSTREAM_BUILD_MODULE_DIR
-  dirs.emplace_back(MDSTREAM_BUILD_MODULE_DIR);
-#endif
-  return dirs;
+bool accept_h5md(const void* table) {
+  const auto* api = static_cast<const H5mdModuleApi*>(table);
+  return api->abi == kH5mdModuleAbi && api->open && api->has_h5md_group;
 }
 
-Result<const H5mdModuleApi*> load_module() {
-  std::string tried;
-  for (const auto& dir : module_dirs()) {
-    const std::filesystem::path file = dir / kH5mdModuleFile;
-    std::error_code ec;
-    if (!std::filesystem::exists(file, ec)) {
-      tried += "\n  " + file.string() + ": no such file";
-      continue;
-    }
-    void* handle = ::dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
-    if (!handle) {
-      const char* why = ::dlerror();
-      tried += "\n  " + file.string() + ": " + (why ? why : "dlopen failed");
-      continue;
-    }
-    auto entry = reinterpret_cast<H5mdModuleEntry>(::dlsym(handle, kH5mdModuleSymbol));
-    const H5mdModuleApi* api = entry ? entry() : nullptr;
-    if (!api || api->abi != kH5mdModuleAbi || !api->open || !api->has_h5md_group) {
-      tried += "\n  " + file.string() + ": not an mdstream H5MD module of this build (ABI " +
-               std::to_string(kH5mdModuleAbi) + ")";
-      ::dlclose(handle);
-      continue;
-    }
-    return api;  // the handle stays open for the life of the process (readers use its code)
-  }
-  return make_error(Errc::unsupported, "H5MD input needs the module {} (next to the mdstream executable); tried:{}",
-                    kH5mdModuleFile, tried);
+Result<const H5mdModuleApi*> load_h5md_module() {
+  MDS_ASSIGN_OR_RETURN(const void* table, load_module(kH5mdModuleFile, kH5mdModuleSymbol, accept_h5md, "H5MD input"));
+  return static_cast<const H5mdModuleApi*>(table);
 }
 
 }  // namespace
 
 Result<const H5mdModuleApi*> h5md_module() {
-  static const Result<const H5mdModuleApi*> loaded = load_module();  // thread-safe, once
+  static const Result<const H5mdModuleApi*> loaded = load_h5md_module();  // thread-safe, once
   return loaded;
 }
 

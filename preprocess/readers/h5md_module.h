@@ -1,13 +1,9 @@
-// H5MD input through a loadable module. The H5MD reader (h5md/h5md_reader.h) is the one part of
+// H5MD input through a loadable module (core/module_loader.h). The H5MD reader (h5md/h5md_reader.h) is the one part of
 // mdstream that needs HDF5, whose shared library brings 34 more (curl, gnutls, krb5, ...): linked
 // into the CLI they cost 12.7 ms of every process start on the 2-core VM (an empty program: 2.0
 // ms, linked with -lhdf5: 14.7 ms, medians of 21), also for `info`, `render` or a LAMMPS
 // conversion that never opens an HDF5 file. So the reader is built into libmdstream_h5md.so and
 // opened (dlopen) the first time an input turns out to be an HDF5 file.
-//
-// The module is looked up in the folder of the running executable, then in the build folder it
-// was built in (test executables live one level below); $MDSTREAM_MODULE_DIR, when set, is the
-// only place looked in.
 #pragma once
 
 #include <cstdint>
@@ -18,7 +14,8 @@
 
 namespace mds {
 
-// The module's entry points, returned by its one exported function (kH5mdModuleSymbol). Both
+// The module's entry points, returned (as const void*, core/module_loader.h) by its one exported
+// function (kH5mdModuleSymbol). Both
 // sides are compiled from this header in one build; kH5mdModuleAbi changes with the table or
 // with any type it passes (ParticleReader, ReaderOptions, Result).
 inline constexpr uint32_t kH5mdModuleAbi = 1;
@@ -31,7 +28,6 @@ struct H5mdModuleApi {
       nullptr;
   Result<bool> (*has_h5md_group)(const std::filesystem::path& path) = nullptr;
 };
-using H5mdModuleEntry = const H5mdModuleApi* (*)();
 
 // The loaded module (loaded once per process, never unloaded), or an error that names every
 // place looked in and why each failed.

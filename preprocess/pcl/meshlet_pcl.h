@@ -1,6 +1,8 @@
 // The `pcl` meshlet builder: greedy k-nearest-neighbour meshlets with the Point Cloud
 // Library's kd-tree (paper 000, §6 "Meshlet generation"); see meshlet_builder.h. This is the
 // only place that includes PCL; the builder keeps its point cloud and kd-tree between calls.
+// Built into libmdstream_pcl.so (convert/meshlet_pcl_module.h), which the converter opens only
+// when the PCL builder is asked for, and into the static library mdstream_pcl for tests.
 #pragma once
 
 #include <memory>

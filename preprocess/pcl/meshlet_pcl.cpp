@@ -1,5 +1,5 @@
 // Greedy kd-tree meshlets with PCL (paper 000, §6); see meshlet_builder.h and meshlet_pcl.h.
-#include "convert/meshlet_pcl.h"
+#include "pcl/meshlet_pcl.h"
 
 #include <algorithm>
 
