@@ -219,9 +219,9 @@ TEST(ConvertErrors, MeshletBuilderWithoutItsModule) {
 }
 
 // The CLI itself links neither HDF5 (its 34 libraries cost 12.7 ms of every process start on the
-// 2-core VM) nor PCL (about 4 ms): only their modules do (readers/h5md_module.h,
-// convert/meshlet_pcl_module.h).
-TEST(ConvertErrors, CliLoadsHdf5AndPclOnlyThroughModules) {
+// 2-core VM), PCL, nor the Vulkan commands' libraries: only their modules do
+// (readers/h5md_module.h, convert/meshlet_pcl_module.h, cli/vulkan_module.h).
+TEST(ConvertErrors, CliLoadsOptionalLibrariesOnlyThroughModules) {
   TmpDir td;
   const fs::path out = td.p / "ldd.txt.log";
   ASSERT_EQ(std::system(("ldd " + std::string(MDSTREAM_BIN) + " > " + out.string()).c_str()), 0);
@@ -231,4 +231,7 @@ TEST(ConvertErrors, CliLoadsHdf5AndPclOnlyThroughModules) {
   EXPECT_EQ(libs.find("libhdf5"), std::string::npos) << libs;
   EXPECT_EQ(libs.find("libpcl"), std::string::npos) << libs;  // nor PCL (meshlet_pcl_module.h)
   EXPECT_EQ(libs.find("libgomp"), std::string::npos) << libs;
+  // nor Vulkan, GLFW/X11 or the image libraries (cli/vulkan_module.h)
+  for (const char* lib : {"libvulkan", "libglfw", "libX11", "libpng", "libtinyexr"})
+    EXPECT_EQ(libs.find(lib), std::string::npos) << lib << "\n" << libs;
 }

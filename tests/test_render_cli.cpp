@@ -25,6 +25,12 @@ int run(const std::string& args) {
   return WIFEXITED(r) ? WEXITSTATUS(r) : -1;
 }
 
+int run_env(const std::string& env, const std::string& args) {
+  std::string cmd = env + std::string(MDSTREAM_BIN) + " " + args + " 2>" + stderr_path() + " >/dev/null";
+  int r = std::system(cmd.c_str());
+  return WIFEXITED(r) ? WEXITSTATUS(r) : -1;
+}
+
 std::string last_stderr() {
   std::ifstream f(stderr_path());
   return std::string(std::istreambuf_iterator<char>(f), {});
@@ -231,4 +237,25 @@ TEST_F(RenderCli, BadCameraAndMissingStoreFailCleanly) {
   EXPECT_NE(run("render " + (dir_ / "missing.mds").string() + " -o " + png.string() + " --no-cull"), 0);
   EXPECT_NE(last_stderr().find("missing.mds"), std::string::npos) << last_stderr();
   EXPECT_FALSE(fs::exists(png));
+}
+
+// The Vulkan commands live in libmdstream_vulkan.so (cli/vulkan_module.h): without it `render`
+// fails naming every place looked in and writes nothing, while `info` (no module) still works,
+// and the top-level help still lists the commands of the executable.
+TEST_F(RenderCli, RenderWithoutItsModuleFailsCleanly) {
+  const fs::path empty = dir_ / "empty";
+  fs::create_directories(empty);
+  const fs::path png = dir_ / "nomodule.png";
+  const std::string env = "MDSTREAM_MODULE_DIR=" + empty.string() + " ";
+  EXPECT_NE(run_env(env, "render " + store() + " -o " + png.string() + " --no-cull"), 0);
+  EXPECT_NE(last_stderr().find((empty / "libmdstream_vulkan.so").string()), std::string::npos) << last_stderr();
+  EXPECT_FALSE(fs::exists(png));
+  EXPECT_EQ(run_env(env, "info " + store()), 0) << last_stderr();
+  // With the module, the help lists its commands next to the executable's own.
+  const fs::path help = dir_ / "help.txt";
+  ASSERT_EQ(std::system((std::string(MDSTREAM_BIN) + " --help > " + help.string()).c_str()), 0);
+  std::ifstream f(help);
+  const std::string text((std::istreambuf_iterator<char>(f)), {});
+  for (const char* c : {"convert", "export", "info", "render", "stress", "synth", "view"})
+    EXPECT_NE(text.find(std::string("\n  ") + c), std::string::npos) << c << "\n" << text;
 }

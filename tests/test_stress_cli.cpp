@@ -17,7 +17,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "cli/stress_report.h"
+#include "cli/vulkan/stress_report.h"
 #include "store/store_reader.h"
 
 namespace fs = std::filesystem;

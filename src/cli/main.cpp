@@ -1,32 +1,38 @@
-// mdstream: one CLI, subcommands registered by src/cli/cmd_*.cpp.
-#include <unistd.h>
-
+// mdstream: one CLI, subcommands registered by src/cli/cmd_*.cpp; the Vulkan commands
+// (src/cli/vulkan/) come from libmdstream_vulkan.so, opened only when needed (vulkan_module.h).
 #include <algorithm>
 #include <cstdio>
+#include <string>
 
 #include "cli/command.h"
+#include "cli/vulkan_module.h"
+#include "core/module_loader.h"
 
-namespace mds::cli {
+namespace {
 
-std::vector<Command>& registry() {
-  static std::vector<Command> commands;
-  return commands;
+bool accept_vulkan(const void* table) {
+  const auto* api = static_cast<const mds::cli::VulkanModuleApi*>(table);
+  if (api->abi != mds::cli::kVulkanModuleAbi || !api->commands) return false;
+  if (api->commands->size() != mds::cli::kVulkanCommands.size()) return false;
+  for (const auto& c : *api->commands)
+    if (std::find(mds::cli::kVulkanCommands.begin(), mds::cli::kVulkanCommands.end(), c.name) ==
+        mds::cli::kVulkanCommands.end())
+      return false;
+  return true;
 }
 
-int report(const std::string& command, const Error& e) {
-  std::fprintf(stderr, "mdstream %s: error [%s]: %s\n", command.c_str(), errc_name(e.code), e.message.c_str());
-  switch (e.code) {
-    case Errc::invalid_argument: return 2;
-    case Errc::io: return 3;
-    case Errc::budget: return 4;
-    case Errc::internal: return 70;
-    default: return 1;
-  }
+// The module is needed for a Vulkan command and for the help that lists every command.
+bool needs_vulkan(int argc, char** argv, bool& required) {
+  required = false;
+  if (argc < 2) return true;
+  const std::string a = argv[1];
+  if (a == "-h" || a == "--help") return true;
+  required = std::find(mds::cli::kVulkanCommands.begin(), mds::cli::kVulkanCommands.end(), a) !=
+             mds::cli::kVulkanCommands.end();
+  return required;
 }
 
-bool stderr_is_tty() { return isatty(STDERR_FILENO) == 1; }
-
-}  // namespace mds::cli
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"mdstream: out-of-core renderer for large particle data (molecular dynamics)"};
@@ -34,6 +40,17 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "mdstream 0.1.0");
   int exit_code = 0;
   auto& commands = mds::cli::registry();
+  bool required = false;
+  if (needs_vulkan(argc, argv, required)) {
+    auto m = mds::load_module(mds::cli::kVulkanModuleFile, mds::cli::kVulkanModuleSymbol, accept_vulkan,
+                              "each Vulkan command (render, stress, view)");
+    if (m.ok()) {
+      const auto* api = static_cast<const mds::cli::VulkanModuleApi*>(*m);
+      commands.insert(commands.end(), api->commands->begin(), api->commands->end());
+    } else if (required) {
+      return mds::cli::report(argv[1], m.error());
+    }
+  }
   std::sort(commands.begin(), commands.end(), [](const auto& a, const auto& b) { return a.name < b.name; });
   for (auto& c : commands) {
     CLI::App* sub = app.add_subcommand(c.name, c.description);

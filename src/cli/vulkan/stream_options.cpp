@@ -1,4 +1,4 @@
-#include "cli/stream_options.h"
+#include "cli/vulkan/stream_options.h"
 
 #include <fmt/format.h>
 

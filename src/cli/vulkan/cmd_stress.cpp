@@ -23,9 +23,9 @@
 
 #include "core/text_file.h"
 #include "cli/command.h"
-#include "cli/render_options.h"
-#include "cli/stream_options.h"
-#include "cli/stress_report.h"
+#include "cli/vulkan/render_options.h"
+#include "cli/vulkan/stream_options.h"
+#include "cli/vulkan/stress_report.h"
 #include "core/byte_size.h"
 #include "render/camera.h"
 #include "render/camera_path.h"

@@ -18,8 +18,8 @@
 
 #include "core/text_file.h"
 #include "cli/command.h"
-#include "cli/render_options.h"
-#include "cli/stream_options.h"
+#include "cli/vulkan/render_options.h"
+#include "cli/vulkan/stream_options.h"
 #include "core/byte_size.h"
 #include "culling/culling_constants.h"
 #include "render/camera.h"

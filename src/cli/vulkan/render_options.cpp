@@ -1,5 +1,5 @@
 // The rendering options shared by `render`, `view` and `stress`; see render_options.h.
-#include "cli/render_options.h"
+#include "cli/vulkan/render_options.h"
 
 namespace mds::cli {
 

@@ -7,8 +7,8 @@
 #include "cli/command.h"
 #include "core/byte_size.h"
 #include "streaming/residency.h"
-#include "cli/render_options.h"
-#include "cli/stream_options.h"
+#include "cli/vulkan/render_options.h"
+#include "cli/vulkan/stream_options.h"
 #include "viewer/viewer.h"
 
 namespace mds::cli {
