@@ -151,3 +151,49 @@ TEST(ConvertRaw, FirstNonFiniteCoordinateNamesParticleAndByteOffset) {
   EXPECT_NE(m.find("particle 70000"), std::string::npos) << m;
   EXPECT_EQ(std::distance(fs::directory_iterator(td.p), fs::directory_iterator{}), 1);  // only the input
 }
+
+// The mapped path takes bounds with SSE2 lanes, which meet equal values in another order than
+// the records' scalar loop; only +0 and -0 (equal, different bits) can tell. The stores' bounds
+// must have the same bits either way: with +0 alone (a box from 0, the common case, where no
+// second pass runs), with -0 alone and with both in either order.
+TEST(ConvertRaw, ZeroBoundsHaveTheSameBitsOnBothPaths) {
+  TmpDir td;
+  const float pz = 0.0f, nz = -0.0f;
+  // (value, particle) pairs: particle 43 is in lane group 3 of a 4-particle SSE2 block and 1200
+  // in group 0, so the lanes' reduction meets the later zero first.
+  using Zeros = std::vector<std::pair<float, size_t>>;
+  const std::vector<Zeros> zeros = {{{pz, 43}}, {{nz, 43}}, {{pz, 43}, {nz, 1200}}, {{nz, 43}, {pz, 1200}},
+                                    {{pz, 43}, {pz, 500}, {nz, 1200}}};
+  for (size_t c = 0; c < zeros.size(); ++c) {
+    auto xyz = make_xyz(150000, uint32_t(11 + c));
+    // A positive box: the zeros are the lowest x.
+    for (auto& v : xyz) v = std::abs(v) + 1.0f;
+    for (const auto& [v, i] : zeros[c]) xyz[3 * i] = v;
+    write_raw(td.p / "z.raw", xyz);
+    convert::ConvertOptions opt;
+    opt.inputs = {td.p / "z.raw"};
+    opt.reader.format = InputFormat::raw;
+    opt.meshlet_builder = convert::MeshletBuilderKind::octree;
+    opt.node_size = 2000;
+    opt.density.target_voxels = 4096;
+    opt.output = td.p / "mapped.mds";
+    auto a = convert::convert(opt);
+    ASSERT_TRUE(a.ok()) << a.error().message;
+    EXPECT_FALSE(a->spilled);
+    opt.output = td.p / "records.mds";
+    opt.memory_budget = 2u << 20;  // below the 4.8 MB of records: the scalar loop of pass A
+    auto b = convert::convert(opt);
+    ASSERT_TRUE(b.ok()) << b.error().message;
+    EXPECT_TRUE(b->spilled);
+    auto ra = store::StoreReader::open(td.p / "mapped.mds");
+    auto rb = store::StoreReader::open(td.p / "records.mds");
+    ASSERT_TRUE(ra.ok() && rb.ok());
+    for (int ax = 0; ax < 3; ++ax) {
+      EXPECT_EQ(std::signbit((*ra)->header().bounds_min[ax]), std::signbit((*rb)->header().bounds_min[ax]))
+          << "case " << c << " axis " << ax;
+      EXPECT_EQ((*ra)->header().bounds_min[ax], (*rb)->header().bounds_min[ax]);
+      EXPECT_EQ((*ra)->header().bounds_max[ax], (*rb)->header().bounds_max[ax]);
+    }
+    EXPECT_EQ((*ra)->header().bounds_min[0], 0.0);
+  }
+}

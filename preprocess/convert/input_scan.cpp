@@ -124,8 +124,10 @@ uint32_t scan_xyz_scalar(const float* xyz, size_t n, float lo[3], float hi[3]) {
 }
 
 // The same, 4 particles (3 SSE2 vectors) at a time. The results equal the scalar loop's up to the
-// sign of a zero (see the caller). minps(v, acc) keeps acc on ties, as std::min(acc, v) does.
-uint32_t scan_xyz_sse2(const float* xyz, size_t n, float lo[3], float hi[3]) {
+// sign of a zero (see the caller), and exactly when no coordinate is -0.0 (all zeros then have the
+// same bits); `negative_zero` says whether one is. minps(v, acc) keeps acc on ties, as
+// std::min(acc, v) does.
+uint32_t scan_xyz_sse2(const float* xyz, size_t n, float lo[3], float hi[3], bool& negative_zero) {
   const size_t blocks = n / 4;
   // Lane layout of the three vectors of a block: x0 y0 z0 x1 | y1 z1 x2 y2 | z2 x3 y3 z3.
   const __m128 l0 = _mm_setr_ps(lo[0], lo[1], lo[2], lo[0]), l1 = _mm_setr_ps(lo[1], lo[2], lo[0], lo[1]),
@@ -134,7 +136,8 @@ uint32_t scan_xyz_sse2(const float* xyz, size_t n, float lo[3], float hi[3]) {
                h2 = _mm_setr_ps(hi[2], hi[0], hi[1], hi[2]);
   __m128 mn0 = l0, mn1 = l1, mn2 = l2, mx0 = h0, mx1 = h1, mx2 = h2;
   const __m128i expo = _mm_set1_epi32(0x7f800000);
-  __m128i bad = _mm_setzero_si128();
+  __m128i bad = _mm_setzero_si128(), nzero = _mm_setzero_si128();
+  const __m128i sign = _mm_set1_epi32(int(0x80000000u));
   for (size_t k = 0; k < blocks; ++k) {
     const float* p = xyz + 12 * k;
     const __m128 v0 = _mm_loadu_ps(p), v1 = _mm_loadu_ps(p + 4), v2 = _mm_loadu_ps(p + 8);
@@ -148,7 +151,13 @@ uint32_t scan_xyz_sse2(const float* xyz, size_t n, float lo[3], float hi[3]) {
     const __m128i e1 = _mm_cmpeq_epi32(_mm_and_si128(_mm_castps_si128(v1), expo), expo);
     const __m128i e2 = _mm_cmpeq_epi32(_mm_and_si128(_mm_castps_si128(v2), expo), expo);
     bad = _mm_or_si128(bad, _mm_or_si128(e0, _mm_or_si128(e1, e2)));
+    const __m128i z0 = _mm_cmpeq_epi32(_mm_castps_si128(v0), sign);
+    const __m128i z1 = _mm_cmpeq_epi32(_mm_castps_si128(v1), sign);
+    const __m128i z2 = _mm_cmpeq_epi32(_mm_castps_si128(v2), sign);
+    nzero = _mm_or_si128(nzero, _mm_or_si128(z0, _mm_or_si128(z1, z2)));
   }
+  negative_zero = _mm_movemask_epi8(nzero) != 0;
+  for (size_t i = 12 * blocks; i < 3 * n; ++i) negative_zero = negative_zero || (std::signbit(xyz[i]) && xyz[i] == 0.0f);
   alignas(16) float a[12], b[12];
   _mm_store_ps(a, mn0), _mm_store_ps(a + 4, mn1), _mm_store_ps(a + 8, mn2);
   _mm_store_ps(b, mx0), _mm_store_ps(b + 4, mx1), _mm_store_ps(b + 8, mx2);
@@ -325,12 +334,14 @@ Status scan_raw_mapped(const ScanOptions& o, RawReader& reader, unsigned threads
     if (pe > pb) (void)::madvise(reinterpret_cast<void*>(pb), pe - pb, MADV_POPULATE_READ);
 #endif
     float lo[3] = {xyz[3 * b], xyz[3 * b + 1], xyz[3 * b + 2]}, hi[3] = {lo[0], lo[1], lo[2]};
-    uint32_t special = scan_xyz_sse2(xyz.data() + 3 * b, e - b, lo, hi);
+    bool negative_zero = false;
+    uint32_t special = scan_xyz_sse2(xyz.data() + 3 * b, e - b, lo, hi, negative_zero);
     // The vector lanes may meet the same extreme value in another order than the scalar loop;
-    // that only shows for +0 and -0 (equal, different bits). Then the scalar loop decides.
+    // that only shows for +0 and -0 (equal, different bits). Then the scalar loop decides. (A
+    // bound of +0 alone is common, e.g. a box from 0, and needs no second pass.)
     bool zero = false;
     for (int a = 0; a < 3; ++a) zero = zero || lo[a] == 0.0f || hi[a] == 0.0f;
-    if (zero) {
+    if (zero && negative_zero) {
       for (int a = 0; a < 3; ++a) lo[a] = hi[a] = xyz[3 * b + a];
       special = scan_xyz_scalar(xyz.data() + 3 * b, e - b, lo, hi);
     }
