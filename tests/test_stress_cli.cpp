@@ -1,4 +1,4 @@
-// `mdstream stress` (issue 4): the report logic of cli/stress_report.h (quantiles, views and
+// `mdstream stress` (issue 4): the report logic of cli/vulkan/stress_report.h (quantiles, views and
 // their convergence, the offline Belady/LRU/FIFO bound, the CSV flattening) on constructed
 // inputs, and the built CLI end to end on a real synth -> convert store streamed through the
 // real renderer (headless Vulkan) with each cache policy, a camera path file, and its usage and

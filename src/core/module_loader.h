@@ -4,6 +4,8 @@
 // page faults); an empty program linked with -lhdf5 took 14.7 ms against 2.0 ms. The modules:
 //   libmdstream_h5md.so   the H5MD reader (HDF5), readers/h5md_module.h
 //   libmdstream_pcl.so    the PCL meshlet builder (PCL, OpenMP), convert/meshlet_pcl_module.h
+//   libmdstream_vulkan.so the render, stress and view commands (Vulkan, GLFW, libpng, tinyexr),
+//                         cli/vulkan_module.h
 //
 // A module is looked up in the folder of the running executable, then in the build folder it was
 // built in (test executables live one level below); $MDSTREAM_MODULE_DIR, when set, is the only

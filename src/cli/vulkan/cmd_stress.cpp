@@ -6,7 +6,7 @@
 // loaded), frame wall-time quantiles, convergence per held view, and, from the request trace
 // (FrameReport::wanted), the offline Belady/MIN hit rate for the same budget as the bound
 // (Belady 1966; streaming/belady.h), next to LRU and FIFO simulated on the same trace.
-// Report logic: cli/stress_report.h. Output: a table on stdout, --json and --csv files.
+// Report logic: cli/vulkan/stress_report.h. Output: a table on stdout, --json and --csv files.
 #include <chrono>
 #include <unistd.h>
 

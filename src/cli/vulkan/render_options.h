@@ -1,6 +1,6 @@
 // The rendering options shared by `render`, `view` and `stress`: the culling loop of paper 000
 // (docs/culling-math.md) and the sprite path (docs/rendering.md) -- one set of names, defaults,
-// help texts and checks, as cli/stream_options.h is for the streaming cache.
+// help texts and checks, as cli/vulkan/stream_options.h is for the streaming cache.
 #pragma once
 
 #include <cstdint>
