@@ -107,6 +107,14 @@ def main():
     ap.add_argument("--threads", type=int, default=None, help="pass --threads to convert (default: its own)")
     ap.add_argument("--builders", default="pcl,octree", help="meshlet builders to compare (default pcl,octree)")
     args = ap.parse_args()
+    # The raw inputs are made with numpy (in a child of this interpreter) and the plot with
+    # matplotlib: both are Debian packages of /usr/bin/python3, not of every python3 on PATH.
+    for module in ("numpy", "matplotlib"):
+        try:
+            __import__(module)
+        except ImportError:
+            sys.exit(f"bench_convert: {sys.executable} has no {module}; run the script with /usr/bin/python3 "
+                     f"(tools/bootstrap.sh installs python3-{module})")
     args.sizes = args.sizes or ("200k,500k" if args.quick else "1M,4M,10M")
     args.repeats = args.repeats or (2 if args.quick else 3)
 
