@@ -1,5 +1,5 @@
 // `mdstream render` end to end on real components: synth -> convert -> render (headless Vulkan
-// on the machine's device), PNG and EXR output, --stats JSON, and the error paths.
+// on the machine's device), PNG and EXR output, --stats JSON, and the error paths; `mdstream bench`.
 #include <gtest/gtest.h>
 #include <tinyexr.h>
 #include <unistd.h>
@@ -8,7 +8,10 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -256,6 +259,49 @@ TEST_F(RenderCli, RenderWithoutItsModuleFailsCleanly) {
   ASSERT_EQ(std::system((std::string(MDSTREAM_BIN) + " --help > " + help.string()).c_str()), 0);
   std::ifstream f(help);
   const std::string text((std::istreambuf_iterator<char>(f)), {});
-  for (const char* c : {"convert", "export", "info", "render", "stress", "synth", "view"})
+  for (const char* c : {"bench", "convert", "export", "info", "render", "stress", "synth", "view"})
     EXPECT_NE(text.find(std::string("\n  ") + c), std::string::npos) << c << "\n" << text;
+}
+
+// `mdstream bench`: every row is compared with the reference (every particle at
+// --reference-spp). The row with the reference's settings reproduces it exactly, fewer samples
+// do not, and on the close-up, where culling removes most meshlets, the culled row at the
+// reference's spp stays within the renderer's own tolerance (at most 1 % of the pixels beyond
+// 0.1, as test_cull_render.cpp requires of culled renders); at 1 spp the culled row differs from
+// the reference about as much as the unculled one.
+TEST_F(RenderCli, BenchComparesEveryRowWithTheReference) {
+  const fs::path csv = dir_ / "bench.csv";
+  ASSERT_EQ(run("bench " + store() + " --view 2 --width 64 --height 48 --spp-list 1,4 --reference-spp 4 --csv " +
+                csv.string() + " > /dev/null"),
+            0)
+      << last_stderr();
+  std::ifstream f(csv);
+  std::string line;
+  std::getline(f, line);
+  ASSERT_EQ(line.rfind("mode,spp,wall_ms,gpu_frame_ms,", 0), 0u) << line;
+  std::map<std::string, std::vector<std::string>> rows;
+  while (std::getline(f, line)) {
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    std::string c;
+    while (std::getline(ss, c, ',')) cells.push_back(c);
+    ASSERT_EQ(cells.size(), 12u) << line;
+    rows[cells[0] + "/" + cells[1]] = cells;
+  }
+  ASSERT_EQ(rows.size(), 4u);
+  const auto rmse = [&](const std::string& k) { return std::stod(rows.at(k)[7]); };
+  const auto beyond = [&](const std::string& k) { return std::stod(rows.at(k)[11]); };
+  EXPECT_EQ(rmse("all/4"), 0.0);
+  EXPECT_EQ(rows.at("all/4")[8], "inf");
+  EXPECT_GT(rmse("all/1"), 0.0);
+  EXPECT_LE(beyond("culled/4"), 0.01);
+  EXPECT_LE(beyond("culled/1"), beyond("all/1") + 0.01);
+  for (const char* k : {"culled/1", "culled/4"}) {
+    EXPECT_EQ(rows.at(k)[5], "1") << k << ": converged";
+    EXPECT_GT(std::stod(rows.at(k)[6]), 0.5) << k << ": culled fraction";
+  }
+  // Bad values are usage errors.
+  EXPECT_EQ(run("bench " + store() + " --spp-list 0"), 2);
+  EXPECT_NE(run("bench " + (dir_ / "missing.mds").string()), 0);
+  EXPECT_NE(last_stderr().find("missing.mds"), std::string::npos) << last_stderr();
 }

@@ -43,7 +43,7 @@ int main(int argc, char** argv) {
   bool required = false;
   if (needs_vulkan(argc, argv, required)) {
     auto m = mds::load_module(mds::cli::kVulkanModuleFile, mds::cli::kVulkanModuleSymbol, accept_vulkan,
-                              "each Vulkan command (render, stress, view)");
+                              "each Vulkan command (bench, render, stress, view)");
     if (m.ok()) {
       const auto* api = static_cast<const mds::cli::VulkanModuleApi*>(*m);
       commands.insert(commands.end(), api->commands->begin(), api->commands->end());

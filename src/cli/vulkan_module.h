@@ -1,6 +1,6 @@
-// The Vulkan commands through a loadable module (core/module_loader.h). `render`, `stress` and
-// `view` need the Vulkan loader, libpng, tinyexr and GLFW with its X11 libraries; linked into the
-// executable they cost every process start on the 2-core VM, also `convert`, `info`, `export`
+// The Vulkan commands through a loadable module (core/module_loader.h). `bench`, `render`,
+// `stress` and `view` need the Vulkan loader, libpng, tinyexr and GLFW with its X11 libraries;
+// linked into the executable they cost every process start on the 2-core VM, also `convert`, `info`, `export`
 // and `synth`, which never touch a GPU (an empty program: 2.9 ms; linked with -lvulkan: 4.9 ms,
 // with -lglfw: 5.9 ms, with -lpng16 -ltinyexr: 4.7 ms; medians of 40). So the Vulkan commands
 // (src/cli/vulkan/) and the libraries under them are built into libmdstream_vulkan.so, which
@@ -23,7 +23,7 @@ namespace mds::cli {
 inline constexpr uint32_t kVulkanModuleAbi = 1;
 inline constexpr const char* kVulkanModuleSymbol = "mdstream_vulkan_module";
 inline constexpr const char* kVulkanModuleFile = "libmdstream_vulkan.so";
-inline constexpr std::array<std::string_view, 3> kVulkanCommands = {"render", "stress", "view"};
+inline constexpr std::array<std::string_view, 4> kVulkanCommands = {"bench", "render", "stress", "view"};
 
 struct VulkanModuleApi {
   uint32_t abi = 0;
