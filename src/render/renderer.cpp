@@ -485,11 +485,7 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     m.record_pass(cmd, s == 0);
     MDS_TRY(end_submission());
   }
-  // 2. Not converged within spp: culling iterations alone until convergence or max_iterations,
-  //    then (if it converged) a few timing frames of the final potentially visible set for
-  //    frame_ms_after_convergence: every pass of a sampling frame, accumulating with weight 0
-  //    (kFrameTimingOnly), so they cost what a sampling frame costs and the image keeps exactly
-  //    spp samples.
+  // 2. Not converged within spp: culling iterations alone until convergence or max_iterations.
   bool late = false;
   while (m.cull) {
     MDS_ASSIGN_OR_RETURN(VkCommandBuffer cmd, begin_submission());
@@ -504,7 +500,23 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     MDS_TRY(end_submission());
   }
   pending_iteration = false;
-  if (late && cs.converged) {
+  // 3. With RenderSettings::converged_image (and frames of step 1 drawn while the loop was still
+  //    culling), the spp frames are drawn again with the final potentially visible set, the
+  //    accumulation restarted: the image the viewer shows once the loop has converged. Otherwise,
+  //    when the loop converged past spp, a few timing frames of the final set for
+  //    frame_ms_after_convergence: every pass of a sampling frame, accumulating with weight 0
+  //    (kFrameTimingOnly), so they cost what a sampling frame costs and the image keeps exactly
+  //    the spp samples of step 1.
+  const bool mixed = std::find(frame_kind.begin(), frame_kind.end(), FrameKind::during_culling) != frame_kind.end();
+  if (m.settings.converged_image && m.cull && cs.converged && mixed) {
+    for (uint32_t s = 0; s < m.settings.spp; ++s) {
+      MDS_ASSIGN_OR_RETURN(VkCommandBuffer cmd, begin_submission());
+      m.write_frame_uniforms(camera, s);
+      frame_kind.push_back(FrameKind::after_convergence);
+      m.record_pass(cmd, s == 0);
+      MDS_TRY(end_submission());
+    }
+  } else if (late && cs.converged) {
     for (uint32_t s = 0; s < kTimingFrames; ++s) {
       MDS_ASSIGN_OR_RETURN(VkCommandBuffer cmd, begin_submission());
       m.write_frame_uniforms(camera, m.settings.spp + s, gpu::kFrameTimingOnly);

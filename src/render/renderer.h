@@ -17,7 +17,9 @@
 //   4. "resolve" (visibility route: each pixel's nearest sphere shaded once) or "accumulate"
 //      (attachment route): the frame's colour (a = coverage) added into a float32 image.
 // The written image is accumulation / spp. When culling has not converged after spp frames,
-// culling iterations continue alone (no drawing) until convergence or max_iterations.
+// culling iterations continue alone (no drawing) until convergence or max_iterations. The image
+// then holds frames drawn with the classes of unsettled iterations; with
+// RenderSettings::converged_image the spp frames are drawn again with the final classes.
 // GPU timestamps are recorded per pass.
 #pragma once
 
@@ -102,6 +104,11 @@ struct RenderSettings {
   // frame_ms_paired_*. 0: none. On a shared machine a ratio of two separate renders' medians
   // carries both renders' noise; the paired frames see the same load.
   uint32_t paired_frames = 0;
+  // In-memory render() with culling: once the loop has converged, draw the spp frames again with
+  // the final potentially visible set (the accumulation restarted), so that the image is the one
+  // the viewer shows after convergence, not an average over frames drawn while the classes were
+  // still changing (mdstream bench; docs/rendering.md, "What accuracy costs in time").
+  bool converged_image = false;
   // After convergence, each particle of the potentially visible set is tested against the final
   // confidence pyramid with the meshlet rule (Sect. 5) and not drawn when it is class O on its
   // own (shaders/include/particle_occlusion.h; --particle-occlusion off: every particle of the
@@ -139,8 +146,8 @@ struct CullStats {
   double time_to_converge_ms = 0.0;     // wall time from render() start
   // GPU ms per frame (sum of its timestamped passes), medians: frames with a culling iteration;
   // frames after convergence (including the timing frames after a convergence past spp, which
-  // run every pass of a sampling frame but accumulate with weight 0); culling iterations
-  // without drawing.
+  // run every pass of a sampling frame but accumulate with weight 0, or the frames drawn again
+  // for RenderSettings::converged_image); culling iterations without drawing.
   double frame_ms_during_culling = 0.0;
   double frame_ms_after_convergence = 0.0;
   std::map<std::string, double> pass_ms_after_convergence;  // per pass, median over those frames

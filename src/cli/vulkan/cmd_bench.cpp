@@ -1,7 +1,11 @@
 // `mdstream bench STORE [options]`: what accuracy costs in time, for one view of a store. The
-// view is rendered in memory at each of --spp-list samples per pixel, every particle drawn
-// ("all") and with the probabilistic occlusion culling of paper 000 ("culled"), and each image is
-// compared with a reference: every particle at --reference-spp samples (render/image_compare.h).
+// view is rendered in memory at each of --spp-list samples per pixel: every particle drawn
+// ("all"), with the probabilistic occlusion culling of paper 000 by meshlet ("culled"), and with
+// the particle occlusion test after convergence on top ("culled+particles", the default of
+// render and view; not with --particle-occlusion off). Culled images are those of the converged
+// classes (RenderSettings::converged_image: what the viewer shows once the loop has settled).
+// Each image is compared with a reference: every particle at --reference-spp samples
+// (render/image_compare.h).
 // Per row: the renderer's CPU wall time for the image (render() of RenderStats::wall_ms: all
 // passes and the read-back, not the upload), GPU ms per frame (timestamps), for culled rows the
 // time to converge and the culled fraction, and the error: RMSE and PSNR of the linear RGB, and
@@ -45,7 +49,7 @@ struct BenchOptions {
 };
 
 struct BenchRow {
-  std::string mode;  // "all" | "culled"
+  std::string mode;  // "all" | "culled" | "culled+particles"
   uint32_t spp = 0;
   double wall_ms = 0, gpu_frame_ms = 0;
   double converge_ms = 0, culled_fraction = 0;  // culled rows
@@ -64,15 +68,18 @@ Status run_bench(const BenchOptions& o) {
   copt.device_index = o.device;
   MDS_ASSIGN_OR_RETURN(auto ctx, vk::Context::create(copt));
 
-  render::RenderSettings culled;
+  render::RenderSettings particles;  // culled, with the particle occlusion test as asked for
   CullingOptions co = o.cull;
   co.no_cull = false;
-  MDS_TRY(apply_culling_options(co, culled));
-  culled.width = o.width;
-  culled.height = o.height;
+  MDS_TRY(apply_culling_options(co, particles));
+  particles.width = o.width;
+  particles.height = o.height;
+  particles.converged_image = true;
   MDS_ASSIGN_OR_RETURN(render::culling::DensityVolume vol, render::culling::density_from_store(*reader, scene));
-  culled.density = std::make_shared<const render::culling::DensityVolume>(std::move(vol));
-  render::RenderSettings all = culled;
+  particles.density = std::make_shared<const render::culling::DensityVolume>(std::move(vol));
+  render::RenderSettings culled = particles;  // meshlets only
+  culled.particle_occlusion = false;
+  render::RenderSettings all = particles;
   all.cull = false;
   all.density.reset();
 
@@ -89,13 +96,20 @@ Status run_bench(const BenchOptions& o) {
   if (!o.reference_image.empty()) MDS_TRY(render::write_image(o.reference_image, reference));
 
   std::vector<BenchRow> rows;
-  for (const bool cull : {false, true}) {
-    if (cull && o.cull.no_cull) continue;
+  struct Mode {
+    const char* name;
+    const render::RenderSettings* settings;
+  };
+  std::vector<Mode> modes = {{"all", &all}};
+  if (!o.cull.no_cull) modes.push_back({"culled", &culled});
+  if (!o.cull.no_cull && particles.particle_occlusion) modes.push_back({"culled+particles", &particles});
+  for (const Mode& mode : modes) {
+    const bool cull = mode.settings->cull;
     for (const uint32_t spp : o.spp_list) {
       render::RenderStats st;
-      MDS_ASSIGN_OR_RETURN(render::FrameImage image, render_once(cull ? culled : all, spp, st));
+      MDS_ASSIGN_OR_RETURN(render::FrameImage image, render_once(*mode.settings, spp, st));
       BenchRow r;
-      r.mode = cull ? "culled" : "all";
+      r.mode = mode.name;
       r.spp = spp;
       r.wall_ms = st.wall_ms;
       r.gpu_frame_ms = cull ? st.cull.frame_ms_after_convergence : st.frame_ms_median;
@@ -114,12 +128,12 @@ Status run_bench(const BenchOptions& o) {
   const auto psnr = [](double v) { return std::isfinite(v) ? fmt::format("{:.2f}", v) : std::string("inf"); };
   std::printf("%s, view %d, %ux%u, reference: every particle at %u spp (%.1f ms), %s\n", o.store.c_str(), o.view,
               o.width, o.height, o.reference_spp, ref_stats.wall_ms, ref_stats.device.c_str());
-  std::printf("%-7s %6s %10s %12s %12s %8s %10s %9s %10s\n", "mode", "spp", "wall ms", "GPU ms/frame", "converge ms",
+  std::printf("%-16s %6s %10s %12s %12s %8s %10s %9s %10s\n", "mode", "spp", "wall ms", "GPU ms/frame", "converge ms",
               "culled", "RMSE", "PSNR dB", "pixels>0.1");
   for (const BenchRow& r : rows)
-    std::printf("%-7s %6u %10.1f %12.2f %12s %8s %10.5f %9s %9.3f%%\n", r.mode.c_str(), r.spp, r.wall_ms,
-                r.gpu_frame_ms, r.mode == "culled" ? fmt::format("{:.1f}{}", r.converge_ms, r.converged ? "" : "*").c_str() : "-",
-                r.mode == "culled" ? fmt::format("{:.1f}%", 100.0 * r.culled_fraction).c_str() : "-", r.error.rmse,
+    std::printf("%-16s %6u %10.1f %12.2f %12s %8s %10.5f %9s %9.3f%%\n", r.mode.c_str(), r.spp, r.wall_ms,
+                r.gpu_frame_ms, r.mode != "all" ? fmt::format("{:.1f}{}", r.converge_ms, r.converged ? "" : "*").c_str() : "-",
+                r.mode != "all" ? fmt::format("{:.1f}%", 100.0 * r.culled_fraction).c_str() : "-", r.error.rmse,
                 psnr(r.error.psnr_db).c_str(), 100.0 * r.error.differing_fraction);
   if (!o.csv.empty()) {
     std::string s =
@@ -150,7 +164,7 @@ Status run_bench(const BenchOptions& o) {
                           {"differing_pixels", r.error.differing_pixels},
                           {"differing_fraction", r.error.differing_fraction}};
       e["psnr_db"] = std::isfinite(r.error.psnr_db) ? nlohmann::json(r.error.psnr_db) : nlohmann::json(nullptr);
-      if (r.mode == "culled") {
+      if (r.mode != "all") {
         e["time_to_converge_ms"] = r.converge_ms;
         e["converged"] = r.converged;
         e["culled_fraction"] = r.culled_fraction;
