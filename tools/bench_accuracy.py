@@ -3,7 +3,8 @@
 
 For each scene it makes a store (`mdstream synth` + `convert`, reused in the work dir) and runs
 `mdstream bench STORE --view V --spp-list ... --reference-spp R --json` for each view: every row is
-one image, every particle drawn ("all") or with occlusion culling ("culled"), at one spp, compared
+one image, every particle drawn ("all"), with occlusion culling by meshlet ("culled") or with the
+particle occlusion test on top ("culled+particles"), at one spp, compared
 with the reference (every particle at R spp). Writes docs/results/accuracy.md (tables),
 accuracy.csv and accuracy.png (RMSE against the renderer's wall time per image, one line per
 mode and view). Times are one run's, on a shared machine: compare rows of one table.
@@ -77,7 +78,7 @@ def main():
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(1, len(results), figsize=(4.2 * len(results), 3.6), squeeze=False)
     for ax, (scene, view, j) in zip(axes[0], results):
-        for mode, style in (("all", "o-"), ("culled", "s--")):
+        for mode, style in (("all", "o-"), ("culled", "s--"), ("culled+particles", "^:")):
             rs = [r for r in j["rows"] if r["mode"] == mode]
             if rs:
                 ax.plot([r["wall_ms"] / 1000 for r in rs], [r["rmse"] for r in rs], style, label=mode)
@@ -101,8 +102,10 @@ def main():
           f"{args.particles} particles per scene (`mdstream synth`, `convert` with the defaults), "
           f"{args.width}x{args.height} pixels. For each view `mdstream bench` renders the reference, every particle at "
           f"{args.reference_spp} samples per pixel, then one image per row: every particle (`all`) or with the "
-          "probabilistic occlusion culling of Ibrahim et al. (`culled`, default parameters), at the row's spp. "
-          "*wall* = the renderer's CPU wall time for the image (all passes and the read-back; not the upload), "
+          "probabilistic occlusion culling of Ibrahim et al. (default parameters), at the row's spp. "
+          "`culled` images are those of the converged meshlet classes (what the viewer shows once the loop has "
+          "settled), `culled+particles` adds the particle occlusion test after convergence (the default of `render` "
+          "and `view`). *wall* = the renderer's CPU wall time for the image (all passes and the read-back; not the upload), "
           "*GPU/frame* = timestamps of one frame (culled: after convergence), *converge* = time until the culling "
           "converged, *RMSE* and *PSNR* of the linear RGB against the reference, *>0.1* = pixels with a channel more "
           "than 0.1 away (the renderer's tolerance: culled renders may have at most 1 % such pixels in the tests). "
@@ -114,7 +117,7 @@ def main():
                "| mode | spp | wall [s] | GPU/frame [ms] | converge [s] | culled | RMSE | PSNR [dB] | >0.1 |",
                "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
         for r in j["rows"]:
-            culled = r["mode"] == "culled"
+            culled = r["mode"] != "all"
             psnr = f"{r['psnr_db']:.2f}" if r["psnr_db"] is not None else "inf"
             md.append(f"| {r['mode']} | {r['spp']} | {r['wall_ms'] / 1000:.2f} | {r['gpu_frame_ms']:.1f} | "
                       f"{r['time_to_converge_ms'] / 1000:.2f} | {100 * r['culled_fraction']:.1f} % | " if culled else
