@@ -14,6 +14,7 @@
 
 #include <glm/glm.hpp>
 
+#include "render/image_compare.h"
 #include "render/renderer.h"
 #include "vk/context.h"
 
@@ -51,14 +52,10 @@ class VulkanSuite : public ::testing::Test {
 
 // Pixels whose colour differs by more than `tol` in some channel. 0.1 is the renderer's own
 // tolerance for culled vs. unculled renders (test_cull_render.cpp: at most 1 % of the pixels).
-inline size_t differing_pixels(const render::FrameImage& a, const render::FrameImage& b, float tol = 0.1f) {
-  size_t n = 0;
-  for (uint32_t y = 0; y < a.height; ++y)
-    for (uint32_t x = 0; x < a.width; ++x) {
-      const glm::vec4 p = a.at(x, y), q = b.at(x, y);
-      if (std::max({std::abs(p.r - q.r), std::abs(p.g - q.g), std::abs(p.b - q.b)}) > tol) ++n;
-    }
-  return n;
+// The count of render/image_compare.h, which `mdstream bench` reports (images of one size).
+inline size_t differing_pixels(const render::FrameImage& a, const render::FrameImage& b,
+                               float tol = render::kPixelTolerance) {
+  return size_t(render::compare_images(a, b, tol).value().differing_pixels);
 }
 
 // Positions of a dense block: n spheres uniformly in a 20^3 cube (packing fraction ~0.4 at n =
