@@ -69,6 +69,7 @@ void main() {
   hist_range[pix] = vec2(z0, z1);
 
   float focal = cull.camera.x, pixel_area = cull.camera.y;
+  float radius = cull.thresholds.z;  // the footprint grown by the smallest particle radius
   float inv_cell_volume = cull.grid_cell.w;
   // DDA state: next face index and its depth per axis (3e38: the ray never crosses that axis).
   vec3 inv_rs, step_dir, face, znext;
@@ -111,7 +112,8 @@ void main() {
       }
       int count = max(volume_counts[c.x + dims.x * (c.y + dims.y * c.z)], 0);
       if (count > 0)
-        bin_acc += mds_footprint_count(float(count) * inv_cell_volume, z, zn, !ortho, focal, pixel_area);
+        bin_acc += mds_footprint_count(float(count) * inv_cell_volume, z, zn, !ortho, focal, pixel_area,
+                                       radius);
     }
     // Advance every event at zn (cell faces of the crossed axes, the bin edge).
     for (int a = 0; a < 3; ++a) {

@@ -53,7 +53,7 @@ void sample_pixel(int x, int y, vec4 center_radius, uint zmin_bits, vec2 jitter)
   vec2 ndc = (vec2(x, y) + 0.5) * frame.viewport.zw * 2.0 - 1.0 - jitter;
   float depth;
   vec2 v;
-  if (!mds_cull_sample(ndc, center_radius, depth, v) || !(depth < 1.0)) return;
+  if (!mds_cull_sample(ndc, vec2(x, y), center_radius, depth, v) || !(depth < 1.0)) return;
   uint64_t key = (uint64_t(floatBitsToUint(max(v.x, 0.0))) << 32) | uint64_t(floatBitsToUint(v.y));
   atomicMin(samples[pix], key);
 }

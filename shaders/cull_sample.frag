@@ -19,7 +19,7 @@ void main() {
   vec2 ndc = gl_FragCoord.xy * frame.viewport.zw * 2.0 - 1.0 - vec2(push.jitter_x, push.jitter_y);
   float depth;
   vec2 s;
-  if (!mds_cull_sample(ndc, v_center_radius, depth, s)) discard;
+  if (!mds_cull_sample(ndc, floor(gl_FragCoord.xy), v_center_radius, depth, s)) discard;
   gl_FragDepth = depth;
   o_sample = s;
 }

@@ -29,6 +29,7 @@
 // ---- the GLSL mirror, compiled as C++ float code ------------------------------------------------
 namespace glslf {
 using std::acos;
+using std::asin;
 using std::ceil;
 using std::exp;
 using std::floor;
@@ -213,6 +214,69 @@ TEST(EffectiveArea, ClosedFormMatchesMonteCarloAndLimits) {
     const double mc = static_cast<double>(hits) / n;
     const double sigma = std::sqrt(mc * (1 - mc) / n);
     EXPECT_NEAR(effective_particle_area(r), mc, 5 * sigma + 1e-6) << "r=" << r;
+  }
+}
+
+TEST(DiskPixelCoverage, KnownAreasAndLimits) {
+  const double pi = std::numbers::pi;
+  EXPECT_EQ(disk_pixel_coverage(0.5, 0.5, 0.0), 0.0);
+  EXPECT_EQ(disk_pixel_coverage(0.5, 0.5, -1.0), 0.0);
+  EXPECT_EQ(disk_pixel_coverage(0.5, 0.5, std::sqrt(0.5)), 1.0);  // the corners on the circle
+  EXPECT_EQ(disk_pixel_coverage(-3.0, 0.5, 5.0), 1.0);
+  EXPECT_EQ(disk_pixel_coverage(3.0, 0.5, 1.0), 0.0);              // the disk beside the pixel
+  EXPECT_EQ(disk_pixel_coverage(2.0, 0.5, 1.0), 0.0);              // touching its edge
+  EXPECT_NEAR(disk_pixel_coverage(0.5, 0.5, 0.25), pi / 16, 1e-15);  // inside the pixel
+  EXPECT_NEAR(disk_pixel_coverage(0.5, 0.5, 0.5), pi / 4, 1e-15);    // inscribed
+  EXPECT_NEAR(disk_pixel_coverage(0.0, 0.0, 1.0), pi / 4, 1e-14);    // a quarter disk
+  EXPECT_NEAR(disk_pixel_coverage(0.0, 0.5, 0.3), pi * 0.09 / 2, 1e-14);  // a half disk
+  EXPECT_NEAR(disk_pixel_coverage(1.0, 1.0, 1e-4), pi * 1e-8 / 4, 1e-20);  // tiny, at a corner
+  // Mirror symmetry: the pixels left and right of a disk centred on their common edge.
+  EXPECT_NEAR(disk_pixel_coverage(1.0, 0.5, 0.8), disk_pixel_coverage(0.0, 0.5, 0.8), 1e-15);
+  // A circular segment: the disk (0.5, -0.5 + h) of radius 0.5 reaches h into the pixel; its
+  // area above y = 0 is r^2 acos(1 - h/r) - (r - h) sqrt(2 r h - h^2).
+  for (double h : {0.05, 0.2, 0.5, 0.8}) {
+    const double r = 0.5, d = r - h;
+    const double seg = r * r * std::acos(d / r) - d * std::sqrt(r * r - d * d);
+    EXPECT_NEAR(disk_pixel_coverage(0.5, -0.5 + h, r), seg, 1e-14) << h;
+  }
+}
+
+TEST(DiskPixelCoverage, PartitionOfUnityOverThePlane) {
+  // The pixels of the plane tile it, so the coverages of one disk sum to its area pi r^2, for
+  // every centre and radius: the sum over the pixels around the disk (centre in pixel units).
+  std::mt19937_64 rng(42);
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  double worst = 0.0;
+  for (int t = 0; t < 400; ++t) {
+    const double r = std::exp(-5.0 + 7.0 * U(rng));  // 0.007 .. 7.4 px
+    const double cx = 100.0 * U(rng), cy = 100.0 * U(rng);
+    double sum = 0.0;
+    for (int py = int(std::floor(cy - r)) - 1; py <= int(std::floor(cy + r)) + 1; ++py)
+      for (int px = int(std::floor(cx - r)) - 1; px <= int(std::floor(cx + r)) + 1; ++px) {
+        const double a = disk_pixel_coverage(cx - px, cy - py, r);
+        ASSERT_GE(a, 0.0);
+        ASSERT_LE(a, std::min(std::numbers::pi * r * r, 1.0));
+        sum += a;
+      }
+    worst = std::max(worst, std::abs(sum / (std::numbers::pi * r * r) - 1.0));
+  }
+  EXPECT_LT(worst, 1e-11);
+}
+
+TEST(DiskPixelCoverage, MatchesMonteCarlo) {
+  // The definition: the fraction of uniform points of the pixel inside the disk.
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  const int n = 200000;
+  for (int t = 0; t < 12; ++t) {
+    const double r = 0.1 + 1.5 * U(rng), cx = -r + (1.0 + 2.0 * r) * U(rng), cy = -r + (1.0 + 2.0 * r) * U(rng);
+    int hits = 0;
+    for (int i = 0; i < n; ++i) {
+      const double dx = U(rng) - cx, dy = U(rng) - cy;
+      hits += dx * dx + dy * dy < r * r;
+    }
+    const double mc = double(hits) / n, sigma = std::sqrt(mc * (1.0 - mc) / n);
+    EXPECT_NEAR(disk_pixel_coverage(cx, cy, r), mc, 5.0 * sigma + 1e-6) << cx << " " << cy << " " << r;
   }
 }
 
@@ -517,7 +581,20 @@ TEST(RayCast, OrthographicAndPerspectiveMatchClosedForms) {
     const double z0 = h.d_min + i * w, z1 = z0 + w;
     EXPECT_NEAR(h.counts[i], rho * (z1 * z1 * z1 - z0 * z0 * z0) / (3 * f * f), 1e-12);
   }
-  EXPECT_NEAR(footprint_area(2.0, true, f, 0), 4.0 / (f * f), 1e-18);
+  EXPECT_NEAR(footprint_area(2.0, true, f, 0, 0.0), 4.0 / (f * f), 1e-18);
+  // The footprint grown by a particle radius R (Minkowski sum with the disk): footprint_count
+  // integrates footprint_area exactly (Simpson is exact for the quadratic in z).
+  for (bool persp : {true, false}) {
+    const double R = 0.03, za = 2.5, zb = 4.0, A = 0.0004;
+    const double simpson = (zb - za) / 6.0 *
+                           (footprint_area(za, persp, f, A, R) + 4.0 * footprint_area(0.5 * (za + zb), persp, f, A, R) +
+                            footprint_area(zb, persp, f, A, R));
+    EXPECT_NEAR(footprint_count(rho, za, zb, persp, f, A, R), rho * simpson, 1e-12 * rho * simpson);
+    const double width = persp ? 3.0 / f : 0.02;
+    EXPECT_NEAR(footprint_area(3.0, persp, f, A, R), width * width + 4 * width * R + std::numbers::pi * R * R, 1e-15);
+    EXPECT_NEAR(footprint_count(rho, za, zb, persp, f, A, 0.0),
+                rho * (persp ? (zb * zb * zb - za * za * za) / (3 * f * f) : A * (zb - za)), 1e-12);
+  }
   // A ray that misses: empty pixel.
   o.origin = {10.0, 0.0, 0.0};
   EXPECT_EQ(cast_density_histogram(g, o, 8).bins, 0);
@@ -563,7 +640,7 @@ TEST(Algorithm1, InvariantsOnRandomSampleStreams) {
         double op_cull = 0.0, d_prev = px.d;
         for (int s = 0; s < 600; ++s) {
           const double d_s = sample_depth(h, U(rng));
-          const double alpha = effective_particle_area(r_px * (0.5 + U(rng)));
+          const double alpha = disk_pixel_coverage(U(rng), U(rng), r_px * (0.5 + U(rng)));
           const double u = 1.0 - U(rng);  // (0, 1]
           const auto before = px;
           update_depth_and_confidence(px, hist, d_s, alpha, u, {mode, 64});
@@ -597,7 +674,7 @@ TEST(Algorithm1, ProbabilisticAcceptanceOccludesMoreThanRandom) {
     const double r_px = 0.3 + U(rng);
     for (int s = 0; s < 256; ++s) {
       const double d_s = sample_depth(h, U(rng));
-      const double alpha = effective_particle_area(r_px);
+      const double alpha = disk_pixel_coverage(U(rng), U(rng), r_px);
       const double u = 1.0 - U(rng);
       update_depth_and_confidence(a, h, d_s, alpha, u, {MDS_CULL_ACCEPT_NORMAL, 64});
       update_depth_and_confidence(b, h, d_s, alpha, u, {MDS_CULL_ACCEPT_RANDOM, 64});
@@ -854,11 +931,21 @@ TEST(Glsl, FloatMirrorMatchesDoubleReference) {
   }
   EXPECT_LT(e_E, 2e-6);
   EXPECT_LT(e_C, 2e-6);
+  std::mt19937_64 rng_alpha(3);
+  std::uniform_real_distribution<double> U_alpha(-1.5, 2.5);
+  for (int i = 0; i <= 1000; ++i) {
+    const double r = 2.0 * i / 1000;
+    for (int j = 0; j < 8; ++j) {
+      const float cx = float(U_alpha(rng_alpha)), cy = float(U_alpha(rng_alpha));
+      e_alpha = std::max(e_alpha, std::abs(glslf::mds_disk_pixel_coverage(cx, cy, float(r)) -
+                                           disk_pixel_coverage(cx, cy, float(r))));
+    }
+    const double z = -4.0 + 8.0 * i / 1000;
+    e_cdf = std::max(e_cdf, std::abs(glslf::mds_normal_cdf_lookup(float(z)) - normal_cdf_lookup(float(z))));
+  }
   for (int i = 0; i <= 1000; ++i) {
     const double r = 2.0 * i / 1000;
     e_alpha = std::max(e_alpha, std::abs(glslf::mds_effective_particle_area(float(r)) - effective_particle_area(float(r))));
-    const double z = -4.0 + 8.0 * i / 1000;
-    e_cdf = std::max(e_cdf, std::abs(glslf::mds_normal_cdf_lookup(float(z)) - normal_cdf_lookup(float(z))));
   }
   EXPECT_LT(e_alpha, 2e-6);
   EXPECT_LT(e_cdf, 1e-6);

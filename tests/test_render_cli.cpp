@@ -267,40 +267,54 @@ TEST_F(RenderCli, RenderWithoutItsModuleFailsCleanly) {
 // --reference-spp). The row with the reference's settings reproduces it exactly, fewer samples
 // do not, and on the close-up, where culling removes most meshlets, the image of the converged
 // meshlet classes at the reference's spp stays within the renderer's own tolerance (at most 1 %
-// of the pixels beyond 0.1, as test_cull_render.cpp requires of culled renders); at 1 spp it
-// differs from the reference about as much as the unculled one. The rows with the particle
-// occlusion test are measured, not bounded (docs/rendering.md, "What accuracy costs in time").
+// of the pixels beyond 0.1, as test_cull_render.cpp requires of culled renders) with either
+// sample-area model; at 1 spp it differs from the reference about as much as the unculled one.
+// Exact coverage culls less than the paper's expected area and loses no more pixels; with it the
+// particle occlusion test stays within the tolerance too (with the expected area it is measured,
+// not bounded: docs/rendering.md, "What accuracy costs in time").
 TEST_F(RenderCli, BenchComparesEveryRowWithTheReference) {
   const fs::path csv = dir_ / "bench.csv";
-  ASSERT_EQ(run("bench " + store() + " --view 2 --width 64 --height 48 --spp-list 1,4 --reference-spp 4 --csv " +
-                csv.string() + " > /dev/null"),
+  ASSERT_EQ(run("bench " + store() + " --view 2 --width 64 --height 48 --spp-list 1,4 --reference-spp 4 " +
+                "--particle-occlusion on --csv " + csv.string() + " > /dev/null"),
             0)
       << last_stderr();
   std::ifstream f(csv);
   std::string line;
   std::getline(f, line);
-  ASSERT_EQ(line.rfind("mode,spp,wall_ms,gpu_frame_ms,", 0), 0u) << line;
-  std::map<std::string, std::vector<std::string>> rows;
+  ASSERT_EQ(line.rfind("mode,coverage,spp,wall_ms,gpu_frame_ms,", 0), 0u) << line;
+  std::map<std::string, std::vector<std::string>> rows;  // "mode@coverage/spp"
   while (std::getline(f, line)) {
     std::vector<std::string> cells;
     std::stringstream ss(line);
     std::string c;
     while (std::getline(ss, c, ',')) cells.push_back(c);
-    ASSERT_EQ(cells.size(), 12u) << line;
-    rows[cells[0] + "/" + cells[1]] = cells;
+    if (line.back() == ',') cells.push_back("");
+    ASSERT_EQ(cells.size(), 13u) << line;
+    rows[cells[0] + (cells[1].empty() ? "" : "@" + cells[1]) + "/" + cells[2]] = cells;
   }
-  ASSERT_EQ(rows.size(), 6u);
-  const auto rmse = [&](const std::string& k) { return std::stod(rows.at(k)[7]); };
-  const auto beyond = [&](const std::string& k) { return std::stod(rows.at(k)[11]); };
+  ASSERT_EQ(rows.size(), 10u);
+  const auto rmse = [&](const std::string& k) { return std::stod(rows.at(k)[8]); };
+  const auto beyond = [&](const std::string& k) { return std::stod(rows.at(k)[12]); };
+  const auto culled = [&](const std::string& k) { return std::stod(rows.at(k)[7]); };
   EXPECT_EQ(rmse("all/4"), 0.0);
-  EXPECT_EQ(rows.at("all/4")[8], "inf");
+  EXPECT_EQ(rows.at("all/4")[9], "inf");
   EXPECT_GT(rmse("all/1"), 0.0);
-  EXPECT_LE(beyond("culled/4"), 0.01);
-  EXPECT_LE(beyond("culled/1"), beyond("all/1") + 0.01);
-  for (const char* k : {"culled/1", "culled/4", "culled+particles/1", "culled+particles/4"}) {
-    EXPECT_EQ(rows.at(k)[5], "1") << k << ": converged";
-    EXPECT_GT(std::stod(rows.at(k)[6]), 0.5) << k << ": culled fraction";
+  for (const std::string cov : {"expected", "exact"}) {
+    EXPECT_LE(beyond("culled@" + cov + "/4"), 0.01) << cov;
+    EXPECT_LE(beyond("culled@" + cov + "/1"), beyond("all/1") + 0.01) << cov;
+    for (const std::string mode : {"culled", "culled+particles"})
+      for (const char* spp : {"/1", "/4"}) {
+        const std::string k = mode + "@" + cov + spp;
+        EXPECT_EQ(rows.at(k)[6], "1") << k << ": converged";
+        EXPECT_GT(culled(k), 0.2) << k << ": culled fraction";
+      }
   }
+  EXPECT_GT(culled("culled@expected/4"), culled("culled@exact/4"));
+  EXPECT_LE(beyond("culled@exact/4"), beyond("culled@expected/4"));
+  EXPECT_LE(beyond("culled+particles@exact/4"), beyond("culled+particles@expected/4"));
+  // With exact coverage the particle occlusion test also stays within the tolerance (the
+  // expected area lets it drop visible particles: 5 % of this image's pixels, docs/rendering.md).
+  EXPECT_LE(beyond("culled+particles@exact/4"), 0.01);
   // Bad values are usage errors.
   EXPECT_EQ(run("bench " + store() + " --spp-list 0"), 2);
   EXPECT_NE(run("bench " + (dir_ / "missing.mds").string()), 0);

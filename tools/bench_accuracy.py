@@ -2,9 +2,10 @@
 """What accuracy costs in time: `mdstream bench` over the porous and ablation scenes.
 
 For each scene it makes a store (`mdstream synth` + `convert`, reused in the work dir) and runs
-`mdstream bench STORE --view V --spp-list ... --reference-spp R --json` for each view: every row is
-one image, every particle drawn ("all"), with occlusion culling by meshlet ("culled") or with the
-particle occlusion test on top ("culled+particles"), at one spp, compared
+`mdstream bench STORE --view V --spp-list ... --reference-spp R --particle-occlusion on --json` for
+each view: every row is one image, every particle drawn ("all"), with occlusion culling by meshlet
+("culled") or with the particle occlusion test on top ("culled+particles"), the culled modes with
+the paper's expected sample area and with exact clipping (--coverage), at one spp, compared
 with the reference (every particle at R spp). Writes docs/results/accuracy.md (tables),
 accuracy.csv and accuracy.png (RMSE against the renderer's wall time per image, one line per
 mode and view). Times are one run's, on a shared machine: compare rows of one table.
@@ -54,7 +55,8 @@ def main():
             out = os.path.join(work, f"{scene}_v{view}.json")
             print(f"bench_accuracy: {scene} view {view}", file=sys.stderr)
             sh([mds, "bench", store, "--view", str(view), "--width", str(args.width), "--height", str(args.height),
-                "--spp-list", args.spp_list, "--reference-spp", str(args.reference_spp), "--json", out], log)
+                "--spp-list", args.spp_list, "--reference-spp", str(args.reference_spp), "--particle-occlusion", "on",
+                "--coverage", "expected,exact", "--json", out], log)
             with open(out) as f:
                 results.append((scene, view, json.load(f)))
     load1 = os.getloadavg()
@@ -62,7 +64,8 @@ def main():
     rows = []
     for scene, view, j in results:
         for r in j["rows"]:
-            rows.append({"scene": scene, "particles": n, "view": view, "mode": r["mode"], "spp": r["spp"],
+            rows.append({"scene": scene, "particles": n, "view": view, "mode": r["mode"],
+                         "coverage": r.get("coverage", ""), "spp": r["spp"],
                          "wall_ms": r["wall_ms"], "gpu_frame_ms": r["gpu_frame_ms"],
                          "time_to_converge_ms": r.get("time_to_converge_ms", ""),
                          "culled_fraction": r.get("culled_fraction", ""), "rmse": r["rmse"],
@@ -78,10 +81,12 @@ def main():
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(1, len(results), figsize=(4.2 * len(results), 3.6), squeeze=False)
     for ax, (scene, view, j) in zip(axes[0], results):
-        for mode, style in (("all", "o-"), ("culled", "s--"), ("culled+particles", "^:")):
-            rs = [r for r in j["rows"] if r["mode"] == mode]
+        for mode, cov, style in (("all", "", "o-"), ("culled", "expected", "s--"), ("culled+particles", "expected", "^:"),
+                                 ("culled", "exact", "s-"), ("culled+particles", "exact", "^-")):
+            rs = [r for r in j["rows"] if r["mode"] == mode and r.get("coverage", "") == cov]
             if rs:
-                ax.plot([r["wall_ms"] / 1000 for r in rs], [r["rmse"] for r in rs], style, label=mode)
+                ax.plot([r["wall_ms"] / 1000 for r in rs], [r["rmse"] for r in rs], style,
+                        label=mode + (f" ({cov})" if cov else ""))
                 for r in rs:
                     ax.annotate(f"{r['spp']}", (r["wall_ms"] / 1000, r["rmse"]), fontsize=7)
         ax.set_xscale("log")
@@ -104,8 +109,10 @@ def main():
           f"{args.reference_spp} samples per pixel, then one image per row: every particle (`all`) or with the "
           "probabilistic occlusion culling of Ibrahim et al. (default parameters), at the row's spp. "
           "`culled` images are those of the converged meshlet classes (what the viewer shows once the loop has "
-          "settled), `culled+particles` adds the particle occlusion test after convergence (the default of `render` "
-          "and `view`). *wall* = the renderer's CPU wall time for the image (all passes and the read-back; not the upload), "
+          "settled), `culled+particles` adds the particle occlusion test after convergence (`--particle-occlusion`). "
+          "*coverage*: the area alpha_s of an occlusion sample's particle in its pixel (Sect. 4.1), `expected` = the "
+          "paper's expected area (the default), `exact` = the particle clipped against the pixel, with histograms "
+          "counting every particle that can reach the pixel (`--coverage exact`, docs/culling-math.md). *wall* = the renderer's CPU wall time for the image (all passes and the read-back; not the upload), "
           "*GPU/frame* = timestamps of one frame (culled: after convergence), *converge* = time until the culling "
           "converged, *RMSE* and *PSNR* of the linear RGB against the reference, *>0.1* = pixels with a channel more "
           "than 0.1 away (the renderer's tolerance: culled renders may have at most 1 % such pixels in the tests). "
@@ -114,14 +121,15 @@ def main():
         ref = j["reference"]
         md += [f"### {scene}, view {view}", "",
                f"Reference: {ref['spp']} spp, {ref['wall_ms'] / 1000:.2f} s.", "",
-               "| mode | spp | wall [s] | GPU/frame [ms] | converge [s] | culled | RMSE | PSNR [dB] | >0.1 |",
-               "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+               "| mode | coverage | spp | wall [s] | GPU/frame [ms] | converge [s] | culled | RMSE | PSNR [dB] | >0.1 |",
+               "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
         for r in j["rows"]:
             culled = r["mode"] != "all"
             psnr = f"{r['psnr_db']:.2f}" if r["psnr_db"] is not None else "inf"
-            md.append(f"| {r['mode']} | {r['spp']} | {r['wall_ms'] / 1000:.2f} | {r['gpu_frame_ms']:.1f} | "
+            cov = r.get("coverage", "") or "-"
+            md.append(f"| {r['mode']} | {cov} | {r['spp']} | {r['wall_ms'] / 1000:.2f} | {r['gpu_frame_ms']:.1f} | "
                       f"{r['time_to_converge_ms'] / 1000:.2f} | {100 * r['culled_fraction']:.1f} % | " if culled else
-                      f"| {r['mode']} | {r['spp']} | {r['wall_ms'] / 1000:.2f} | {r['gpu_frame_ms']:.1f} | - | - | ")
+                      f"| {r['mode']} | {cov} | {r['spp']} | {r['wall_ms'] / 1000:.2f} | {r['gpu_frame_ms']:.1f} | - | - | ")
             md[-1] += f"{r['rmse']:.5f} | {psnr} | {100 * r['differing_fraction']:.3f} % |"
         md.append("")
     md += ["Raw numbers: [`accuracy.csv`](accuracy.csv); plot: [`accuracy.png`](accuracy.png).", "",

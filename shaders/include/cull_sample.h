@@ -1,7 +1,7 @@
 // GLSL-only: one occlusion sample of a sphere (paper 000, Sect. 3.2 and 4.1), shared by the two
 // routes of the occlusion sampling pass: the rasterized billboards (cull_sample.vert/.frag) and
 // the compute rasterization (cull_sample.comp). Needs bindings.h (frame uniforms), culling_math.glsl
-// (mds_effective_particle_area) and sphere_shading.h (ray_sphere_ndc, the renderer's ray test)
+// (mds_effective_particle_area, mds_disk_pixel_coverage) and sphere_shading.h (ray_sphere_ndc, the renderer's ray test)
 // included first.
 #ifndef MDS_CULL_SAMPLE_H
 #define MDS_CULL_SAMPLE_H
@@ -10,10 +10,13 @@
 // The exact ray-sphere hit on the ray through `ndc` (the jittered sub-pixel sample position,
 // unjittered projection): false when the ray misses the sphere or hits it in front of the near
 // plane. Otherwise ndc_depth = the hit's depth-buffer value and sample = (view depth of the hit,
-// alpha_s), alpha_s the effective sub-pixel area of the particle (Sect. 4.1 "Particle sizes":
-// mds_effective_particle_area of the projected radius in pixels; perspective: r f / z_centre with
-// f the focal length in pixels, orthographic: r / pixel size).
-bool mds_cull_sample(vec2 ndc, vec4 center_radius, out float ndc_depth, out vec2 sample_value) {
+// alpha_s), alpha_s the particle's area inside the sample's pixel (Sect. 4.1 "Particle sizes")
+// for the projected disk of radius r_px = r f / z_centre pixels (f the focal length in pixels;
+// orthographic: r / pixel size): the paper's expected area mds_effective_particle_area(r_px),
+// or with kFrameExactCoverage exact clipping, mds_disk_pixel_coverage of the disk around the
+// projected sphere centre against `pixel`, the lower corner (integers, unjittered framebuffer
+// coordinates) of the pixel the sample belongs to (the jitter keeps a pixel's samples inside it).
+bool mds_cull_sample(vec2 ndc, vec2 pixel, vec4 center_radius, out float ndc_depth, out vec2 sample_value) {
   vec3 p, n, d;
   sample_value = vec2(0.0);
   if (!ray_sphere_ndc(ndc, center_radius, p, n, d, ndc_depth)) return false;
@@ -23,7 +26,15 @@ bool mds_cull_sample(vec2 ndc, vec4 center_radius, out float ndc_depth, out vec2
   // proj[1][1] = -g (perspective, g = 1/tan(fov/2)) or -1/half height (ortho).
   float px_per_unit = 0.5 * frame.viewport.y * abs(frame.proj[1][1]);
   float r_px = ortho ? r * px_per_unit : r * px_per_unit / max(-c.z, 1e-30);
-  sample_value = vec2(-p.z, mds_effective_particle_area(r_px));
+  float alpha;
+  if ((frame.counts.z & kFrameExactCoverage) != 0u) {
+    vec4 cc = frame.proj * vec4(c, 1.0);
+    vec2 rel = (cc.xy / cc.w * 0.5 + 0.5) * frame.viewport.xy - pixel;  // the disk's centre in the pixel's frame
+    alpha = mds_disk_pixel_coverage(rel.x, rel.y, r_px);
+  } else {
+    alpha = mds_effective_particle_area(r_px);
+  }
+  sample_value = vec2(-p.z, alpha);
   return true;
 }
 

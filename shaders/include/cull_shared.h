@@ -62,7 +62,7 @@ MDS_STRUCT(CullUniforms) {
   vec4 grid_origin;  // density volume box min (relative to the scene origin), w: 0
   vec4 grid_cell;    // cell size xyz, w: 1 / cell volume
   uvec4 grid_dims;   // cells x, y, z; w: histogram bins (1..64)
-  vec4 thresholds;   // C_occ, C_medium, -, -
+  vec4 thresholds;   // C_occ, C_medium, R (smallest particle radius, world: the pixel footprint's growth), -
   uvec4 params;      // acceptance mode, N_budget, occluder budget (meshlets per sampling pass), flags
   uvec4 counts;      // meshlet count, node count, iteration (classification), random seed
   uvec4 pyramid;     // number of levels; histogram stride s (pixels per block side), blocks per row, per column

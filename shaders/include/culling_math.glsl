@@ -150,6 +150,34 @@ float mds_effective_particle_area(float r) {  // Sect. 4.1 "Particle sizes"
   return mds_clamp01(v);
 }
 
+// Sect. 4.1 "Particle sizes", exact clipping (culling_math.h disk_pixel_coverage).
+float mds_chord_integral(float x, float h, float r) {
+  float t = clamp(x / r, -1.0f, 1.0f);
+  return 0.5f * (x * r * sqrt(max(1.0f - t * t, 0.0f)) + r * r * asin(t)) - h * x;
+}
+float mds_disk_area_above(float x0, float x1, float h, float r) {
+  if (!(h < r)) return 0.0f;
+  float s = sqrt(r * r - h * h);
+  return mds_chord_integral(clamp(x1, -s, s), h, r) - mds_chord_integral(clamp(x0, -s, s), h, r);
+}
+float mds_disk_pixel_coverage(float cx, float cy, float r) {
+  if (!(r > 0.0f)) return 0.0f;
+  float x0 = -cx, x1 = 1.0f - cx, y0 = -cy, y1 = 1.0f - cy;
+  if (x1 <= -r || x0 >= r || y1 <= -r || y0 >= r) return 0.0f;
+  float fx = max(-x0, x1), fy = max(-y0, y1);
+  if (fx * fx + fy * fy <= r * r) return 1.0f;
+  if (x0 <= -r && x1 >= r && y0 <= -r && y1 >= r) return MDS_PI * r * r;
+  float a;
+  if (y0 >= 0.0f)
+    a = mds_disk_area_above(x0, x1, y0, r) - mds_disk_area_above(x0, x1, y1, r);
+  else if (y1 <= 0.0f)
+    a = mds_disk_area_above(x0, x1, -y1, r) - mds_disk_area_above(x0, x1, -y0, r);
+  else
+    a = 2.0f * mds_disk_area_above(x0, x1, 0.0f, r) - mds_disk_area_above(x0, x1, -y0, r) -
+        mds_disk_area_above(x0, x1, y1, r);
+  return clamp(a, 0.0f, min(MDS_PI * r * r, 1.0f));
+}
+
 // ---- Sect. 4.5 ----------------------------------------------------------------------------------
 
 float mds_occluded_particles(float B, float C) { return B * C; }  // Eq. 12
@@ -290,17 +318,19 @@ float mds_ray_box_entry(float ox, float oy, float oz, float dx, float dy, float 
 
 // ---- Sect. 4.4, Eq. 9-11 ------------------------------------------------------------------------
 
-float mds_footprint_area(float z, bool perspective, float focal_px, float ortho_pixel_area) {
-  if (!perspective) return ortho_pixel_area;
-  float w = z / focal_px;
-  return w * w;
+float mds_footprint_area(float z, bool perspective, float focal_px, float ortho_pixel_area, float radius) {
+  float w = perspective ? z / focal_px : sqrt(ortho_pixel_area);
+  return w * w + 4.0f * w * radius + MDS_PI * radius * radius;
 }
 
 float mds_footprint_count(float rho, float z_a, float z_b, bool perspective, float focal_px,
-                          float ortho_pixel_area) {
+                          float ortho_pixel_area, float radius) {
   float dz = z_b - z_a;
-  if (!perspective) return rho * ortho_pixel_area * dz;
-  return rho * dz * (z_b * z_b + z_a * z_b + z_a * z_a) / (3.0f * focal_px * focal_px);
+  float disk = MDS_PI * radius * radius;
+  if (!perspective) return rho * dz * (ortho_pixel_area + 4.0f * sqrt(ortho_pixel_area) * radius + disk);
+  return rho * dz *
+         ((z_b * z_b + z_a * z_b + z_a * z_a) / (3.0f * focal_px * focal_px) + 2.0f * radius * (z_a + z_b) / focal_px +
+          disk);
 }
 
 float mds_hist_coord(float d, float d_min, float d_max, int bins) {

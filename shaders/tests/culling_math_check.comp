@@ -24,6 +24,7 @@ void main() {
   out_values[o++] = mds_confidence_constant_size(a, k, N);
   out_values[o++] = mds_accumulate_confidence(C, a, k, N);
   out_values[o++] = mds_effective_particle_area(r);
+  out_values[o++] = mds_disk_pixel_coverage(z, p, r);
   out_values[o++] = mds_occluded_particles(N, C);
   float nn = mds_unique_particles_needed(n, N, C, a);
   out_values[o++] = nn;
@@ -42,8 +43,8 @@ void main() {
   out_values[o++] = mds_pyramid_confidence(a, n, k, N, a > 0.5, n > 0.5);
   out_values[o++] = float(mds_classify_occlusion(int(k), C > 0.0, C, MDS_CULL_C_OCC_DEFAULT,
                                                  MDS_CULL_C_MEDIUM_DEFAULT));
-  out_values[o++] = mds_footprint_area(z, a > 0.5, N, p);
-  out_values[o++] = mds_footprint_count(C, z, z + 1.0, a > 0.5, N, p);
+  out_values[o++] = mds_footprint_area(z, a > 0.5, N, p, r);
+  out_values[o++] = mds_footprint_count(C, z, z + 1.0, a > 0.5, N, p, r);
 
   float counts[MDS_CULL_HISTOGRAM_BINS];
   for (int i = 0; i < MDS_CULL_HISTOGRAM_BINS; ++i) counts[i] = in_values[8 + i];

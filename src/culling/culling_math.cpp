@@ -99,6 +99,41 @@ double effective_particle_area(double r) {
   return clamp01(v);
 }
 
+namespace {
+// Integral of sqrt(r^2 - x^2) - h dx (the disk's upper half above the line y = h), an
+// antiderivative on [-r, r].
+double chord_integral(double x, double h, double r) {
+  const double t = std::clamp(x / r, -1.0, 1.0);
+  return 0.5 * (x * r * std::sqrt(std::max(1.0 - t * t, 0.0)) + r * r * std::asin(t)) - h * x;
+}
+// Area of the disk (origin, r) inside x0 <= x <= x1, y >= h, for h >= 0.
+double disk_area_above(double x0, double x1, double h, double r) {
+  if (!(h < r)) return 0.0;
+  const double s = std::sqrt(r * r - h * h);  // the line y = h cuts the disk at x = +-s
+  return chord_integral(std::clamp(x1, -s, s), h, r) - chord_integral(std::clamp(x0, -s, s), h, r);
+}
+}  // namespace
+
+double disk_pixel_coverage(double cx, double cy, double r) {
+  if (!(r > 0.0)) return 0.0;
+  const double x0 = -cx, x1 = 1.0 - cx, y0 = -cy, y1 = 1.0 - cy;  // the pixel around the disk's centre
+  if (x1 <= -r || x0 >= r || y1 <= -r || y0 >= r) return 0.0;  // the disk's box misses the pixel
+  // The pixel inside the disk (its farthest corner within r): covered.
+  const double fx = std::max(-x0, x1), fy = std::max(-y0, y1);
+  if (fx * fx + fy * fy <= r * r) return 1.0;
+  // The disk inside the pixel: its whole area.
+  if (x0 <= -r && x1 >= r && y0 <= -r && y1 >= r) return std::numbers::pi * r * r;
+  // Strips above y0 minus above y1, with the part below the x axis mirrored above it.
+  double a;
+  if (y0 >= 0.0)
+    a = disk_area_above(x0, x1, y0, r) - disk_area_above(x0, x1, y1, r);
+  else if (y1 <= 0.0)
+    a = disk_area_above(x0, x1, -y1, r) - disk_area_above(x0, x1, -y0, r);
+  else
+    a = 2.0 * disk_area_above(x0, x1, 0.0, r) - disk_area_above(x0, x1, -y0, r) - disk_area_above(x0, x1, y1, r);
+  return std::clamp(a, 0.0, std::min(std::numbers::pi * r * r, 1.0));
+}
+
 // ---- Sect. 4.5 ----------------------------------------------------------------------------------
 
 double occluded_particles(double B, double C) { return B * C; }  // Eq. 12
@@ -248,18 +283,21 @@ double ray_box_entry(const double o[3], const double dir[3], const double lo[3],
 
 // ---- Sect. 4.4 ----------------------------------------------------------------------------------
 
-double footprint_area(double z, bool perspective, double focal_px, double ortho_pixel_area) {
-  if (!perspective) return ortho_pixel_area;
-  const double w = z / focal_px;  // pixel width at depth z
-  return w * w;
+double footprint_area(double z, bool perspective, double focal_px, double ortho_pixel_area, double radius) {
+  const double w = perspective ? z / focal_px : std::sqrt(ortho_pixel_area);  // pixel width at depth z
+  return w * w + 4.0 * w * radius + std::numbers::pi * radius * radius;
 }
 
 double footprint_count(double rho, double z_a, double z_b, bool perspective, double focal_px,
-                       double ortho_pixel_area) {
+                       double ortho_pixel_area, double radius) {
   const double dz = z_b - z_a;
-  if (!perspective) return rho * ortho_pixel_area * dz;
-  // (z_b^3 - z_a^3) = dz (z_b^2 + z_a z_b + z_a^2): no cancellation for thin segments.
-  return rho * dz * (z_b * z_b + z_a * z_b + z_a * z_a) / (3.0 * focal_px * focal_px);
+  const double disk = std::numbers::pi * radius * radius;
+  if (!perspective) return rho * dz * (ortho_pixel_area + 4.0 * std::sqrt(ortho_pixel_area) * radius + disk);
+  // (z_b^3 - z_a^3) = dz (z_b^2 + z_a z_b + z_a^2) and (z_b^2 - z_a^2) = dz (z_a + z_b): no
+  // cancellation for thin segments.
+  return rho * dz *
+         ((z_b * z_b + z_a * z_b + z_a * z_a) / (3.0 * focal_px * focal_px) + 2.0 * radius * (z_a + z_b) / focal_px +
+          disk);
 }
 
 }  // namespace mds::culling

@@ -72,6 +72,18 @@ double accumulate_confidence(double C, double alpha_s, double k, double N);
 // alpha(0) = 0, alpha ~ pi r^2 for tiny r, monotone, alpha <= min(pi r^2, 1).
 double effective_particle_area(double radius_px);
 
+// Sect. 4.1 "Particle sizes", exact clipping (CullSettings::exact_coverage): the area of the disk of radius r centred at
+// (cx, cy) inside the pixel [0, 1]^2 (pixel units: the pixel is the unit square, coordinates
+// relative to its lower corner). The paper clips "probabilistically" with an expected area
+// (effective_particle_area) and notes that exact clipping differs negligibly for its sub-pixel
+// particles; at about a pixel per particle it does not (docs/culling-math.md, "Particle
+// sizes"): a sample hits any particle whose disk overlaps the pixel, and most of those have
+// their centre outside it, so the expected area over centres inside the pixel overstates what
+// one sample covers (radius 1 px: 0.975 against a mean of 0.39 over overlapping disks). Summed over
+// all pixels of the plane the coverage is pi r^2 for every centre. Result in [0, min(pi r^2, 1)];
+// 0 for r <= 0 or a disk that misses the pixel. Pre: finite arguments.
+double disk_pixel_coverage(double cx, double cy, double r);
+
 // ---- Sect. 4.5: estimating and improving occlusion ---------------------------------------------
 
 // Eq. 12: OP(d, C) = B(d) C, with B(d) from Eq. 11 (see density_histogram.h).
@@ -171,14 +183,22 @@ double ray_box_entry(const double o[3], const double dir[3], const double lo[3],
 // ---- Sect. 4.4, Eq. 9-10: pixel footprint ------------------------------------------------------
 // The histogram depth is the view depth z (distance along the optical axis, linear). For a
 // pinhole camera with focal length f (pixels) the pixel footprint in the plane z = const has area
-// (z / f)^2; a slab [z, z + dz] of the pixel frustum holds rho (z / f)^2 dz particles, which is
-// exactly Eq. 9-10 (footprint perpendicular to the ray, integrated along the ray). Orthographic:
-// the constant world-space pixel area.
-double footprint_area(double z, bool perspective, double focal_px, double ortho_pixel_area);
+// (z / f)^2; a slab [z, z + dz] of the pixel frustum holds rho (z / f)^2 dz particle centres,
+// which is exactly Eq. 9-10 (footprint perpendicular to the ray, integrated along the ray).
+// Orthographic: the constant world-space pixel area.
+// The counts are those of the particles that can be hit in the pixel: a particle of radius R
+// reaches it when its centre lies within R of the footprint, so the footprint is grown by R
+// (Minkowski sum of the square of side w and the disk: w^2 + 4 w R + pi R^2). With the exact
+// clipping of disk_pixel_coverage these are the particles whose samples the pixel receives
+// (Eq. 4's N); R = 0 counts centres only, as the paper's Eq. 9 (with effective_particle_area,
+// whose expectation is over centres inside the pixel). R: the scene's smallest particle radius
+// (world units), so that N is not overestimated.
+double footprint_area(double z, bool perspective, double focal_px, double ortho_pixel_area, double radius);
 
 // Eq. 10 for constant density rho on [z_a, z_b]: rho * integral of footprint_area dz
-// = rho (z_b^3 - z_a^3) / (3 f^2) (perspective) or rho A (z_b - z_a) (orthographic).
+// = rho [(z_b^3 - z_a^3) / (3 f^2) + 2 R (z_b^2 - z_a^2) / f + pi R^2 (z_b - z_a)] (perspective)
+// or rho (A + 4 sqrt(A) R + pi R^2) (z_b - z_a) (orthographic, A the pixel's world area).
 double footprint_count(double rho, double z_a, double z_b, bool perspective, double focal_px,
-                       double ortho_pixel_area);
+                       double ortho_pixel_area, double radius);
 
 }  // namespace mds::culling

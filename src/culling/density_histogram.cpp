@@ -121,7 +121,7 @@ DensityHistogram cast_density_histogram(const DensityGrid& grid, const PixelRay&
     const int b = std::clamp(static_cast<int>(std::floor((zm - z0) / (z1 - z0) * bins)), 0,
                              bins - 1);
     h.counts[b] += footprint_count(grid.density(c[0], c[1], c[2]), za, zb, ray.perspective,
-                                   ray.focal_px, ray.ortho_pixel_area);
+                                   ray.focal_px, ray.ortho_pixel_area, ray.particle_radius);
   }
   return h;
 }

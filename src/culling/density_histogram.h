@@ -54,6 +54,7 @@ struct PixelRay {
   bool perspective = true;
   double focal_px = 1.0;          // perspective: focal length in pixels
   double ortho_pixel_area = 1.0;  // orthographic: world area of one pixel
+  double particle_radius = 0.0;   // the footprint grown by this radius (footprint_count)
 };
 
 // Pinhole camera helper: ray through the centre of pixel (px, py) (0-based, y down) of a

@@ -95,6 +95,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create_streaming(vk::Context& ctx, c
     cs.per_particle_radius = ppr;
     cs.radius_min = h.radius_min;
     cs.radius_max = h.radius_max;
+    cs.footprint_radius = smallest_radius(dir);
     cs.node_density = true;  // issue 4: O updates subtract whole nodes, resident or not
     cs.node_extent = culling::kNodeExtentStreaming;  // node classes decide the reads
     cs.voxel_first = m.cache->voxel_first();

@@ -22,6 +22,13 @@ float linear_to_srgb(float c) {
   return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
 }
 
+float smallest_radius(const SceneData& s) {
+  if (s.per_particle_radius) return s.radius_min;
+  float r = 0.0f;
+  for (size_t i = 0; i < s.types.size(); ++i) r = i == 0 ? s.types[i].radius : std::min(r, s.types[i].radius);
+  return r;
+}
+
 SceneData begin_scene(const glm::dvec3& bounds_min, const glm::dvec3& bounds_max, std::span<const float> type_radius,
                       bool per_particle_radius, float radius_min, float radius_max) {
   SceneData s;

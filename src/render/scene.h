@@ -45,6 +45,10 @@ inline uint64_t occupancy(const gpu::GpuNode& g) { return uint64_t(g.occupancy_l
 // Stores the fine level (and the coarse mask it implies).
 void set_fine_occupancy(gpu::GpuNode& g, std::span<const uint8_t, 64> fine);  // culling::FineOccupancy
 
+// The smallest particle radius of the scene (world units): radius_min with per-particle radii,
+// else the smallest of the type table's radii (0 for an empty table).
+float smallest_radius(const SceneData& scene);
+
 // Distinct per-type colour (Tableau 10 qualitative palette, cycled), as sRGB in [0, 1].
 glm::vec3 type_color_srgb(uint32_t type_index);
 float srgb_to_linear(float c);

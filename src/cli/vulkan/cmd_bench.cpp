@@ -1,8 +1,9 @@
 // `mdstream bench STORE [options]`: what accuracy costs in time, for one view of a store. The
 // view is rendered in memory at each of --spp-list samples per pixel: every particle drawn
 // ("all"), with the probabilistic occlusion culling of paper 000 by meshlet ("culled"), and with
-// the particle occlusion test after convergence on top ("culled+particles", the default of
-// render and view; not with --particle-occlusion off). Culled images are those of the converged
+// the particle occlusion test after convergence on top ("culled+particles"; not with
+// --particle-occlusion off), the culled modes once per sample-area model of --coverage
+// (expected, exact: CullSettings::exact_coverage). Culled images are those of the converged
 // classes (RenderSettings::converged_image: what the viewer shows once the loop has settled).
 // Each image is compared with a reference: every particle at --reference-spp samples
 // (render/image_compare.h).
@@ -42,14 +43,17 @@ struct BenchOptions {
   uint32_t width = 480, height = 270;
   double fov = 40.0;
   std::vector<uint32_t> spp_list = {1, 4, 16};
+  std::vector<std::string> coverages = {"expected", "exact"};
   uint32_t reference_spp = 64;
   CullingOptions cull;  // --no-cull: the "all" rows only
   int device = -1;
   std::string csv, json, reference_image;
+  std::string images;  // --images DIR: each row's image as DIR/<mode>_<spp>spp.png
 };
 
 struct BenchRow {
   std::string mode;  // "all" | "culled" | "culled+particles"
+  std::string coverage;  // culled modes: "expected" | "exact"
   uint32_t spp = 0;
   double wall_ms = 0, gpu_frame_ms = 0;
   double converge_ms = 0, culled_fraction = 0;  // culled rows
@@ -68,20 +72,38 @@ Status run_bench(const BenchOptions& o) {
   copt.device_index = o.device;
   MDS_ASSIGN_OR_RETURN(auto ctx, vk::Context::create(copt));
 
-  render::RenderSettings particles;  // culled, with the particle occlusion test as asked for
+  render::RenderSettings all;  // every particle
   CullingOptions co = o.cull;
-  co.no_cull = false;
-  MDS_TRY(apply_culling_options(co, particles));
-  particles.width = o.width;
-  particles.height = o.height;
-  particles.converged_image = true;
-  MDS_ASSIGN_OR_RETURN(render::culling::DensityVolume vol, render::culling::density_from_store(*reader, scene));
-  particles.density = std::make_shared<const render::culling::DensityVolume>(std::move(vol));
-  render::RenderSettings culled = particles;  // meshlets only
-  culled.particle_occlusion = false;
-  render::RenderSettings all = particles;
-  all.cull = false;
-  all.density.reset();
+  co.no_cull = true;
+  MDS_TRY(apply_culling_options(co, all));
+  all.width = o.width;
+  all.height = o.height;
+  // Culled modes per coverage: meshlets only, and with the particle occlusion test unless it is off.
+  std::vector<render::RenderSettings> culled;
+  std::vector<std::string> culled_names, culled_coverage;
+  if (!o.cull.no_cull) {
+    MDS_ASSIGN_OR_RETURN(render::culling::DensityVolume vol, render::culling::density_from_store(*reader, scene));
+    auto density = std::make_shared<const render::culling::DensityVolume>(std::move(vol));
+    for (const std::string& coverage : o.coverages) {
+      co = o.cull;
+      co.no_cull = false;
+      co.coverage = coverage;
+      render::RenderSettings rs = all;
+      MDS_TRY(apply_culling_options(co, rs));
+      rs.converged_image = true;
+      rs.density = density;
+      rs.particle_occlusion = false;
+      culled.push_back(rs);
+      culled_names.push_back("culled");
+      culled_coverage.push_back(coverage);
+      if (o.cull.particle_occlusion != "off") {
+        rs.particle_occlusion = true;
+        culled.push_back(rs);
+        culled_names.push_back("culled+particles");
+        culled_coverage.push_back(coverage);
+      }
+    }
+  }
 
   auto render_once = [&](const render::RenderSettings& base, uint32_t spp, render::RenderStats& st)
       -> Result<render::FrameImage> {
@@ -97,12 +119,11 @@ Status run_bench(const BenchOptions& o) {
 
   std::vector<BenchRow> rows;
   struct Mode {
-    const char* name;
+    std::string name, coverage;
     const render::RenderSettings* settings;
   };
-  std::vector<Mode> modes = {{"all", &all}};
-  if (!o.cull.no_cull) modes.push_back({"culled", &culled});
-  if (!o.cull.no_cull && particles.particle_occlusion) modes.push_back({"culled+particles", &particles});
+  std::vector<Mode> modes = {{"all", "", &all}};
+  for (size_t i = 0; i < culled.size(); ++i) modes.push_back({culled_names[i], culled_coverage[i], &culled[i]});
   for (const Mode& mode : modes) {
     const bool cull = mode.settings->cull;
     for (const uint32_t spp : o.spp_list) {
@@ -110,6 +131,7 @@ Status run_bench(const BenchOptions& o) {
       MDS_ASSIGN_OR_RETURN(render::FrameImage image, render_once(*mode.settings, spp, st));
       BenchRow r;
       r.mode = mode.name;
+      r.coverage = mode.coverage;
       r.spp = spp;
       r.wall_ms = st.wall_ms;
       r.gpu_frame_ms = cull ? st.cull.frame_ms_after_convergence : st.frame_ms_median;
@@ -119,28 +141,33 @@ Status run_bench(const BenchOptions& o) {
         r.converged = st.cull.converged;
       }
       MDS_ASSIGN_OR_RETURN(r.error, render::compare_images(image, reference));
+      if (!o.images.empty())
+        MDS_TRY(render::write_image(
+            fmt::format("{}/{}{}_{}spp.png", o.images, r.mode, r.coverage.empty() ? "" : "_" + r.coverage, spp), image));
       rows.push_back(r);
-      std::fprintf(stderr, "mdstream bench: %s %u spp: %.1f ms, RMSE %.5f\n", r.mode.c_str(), spp, r.wall_ms,
-                   r.error.rmse);
+      std::fprintf(stderr, "mdstream bench: %s%s %u spp: %.1f ms, RMSE %.5f\n", r.mode.c_str(),
+                   r.coverage.empty() ? "" : (" (" + r.coverage + ")").c_str(), spp, r.wall_ms, r.error.rmse);
     }
   }
 
   const auto psnr = [](double v) { return std::isfinite(v) ? fmt::format("{:.2f}", v) : std::string("inf"); };
   std::printf("%s, view %d, %ux%u, reference: every particle at %u spp (%.1f ms), %s\n", o.store.c_str(), o.view,
               o.width, o.height, o.reference_spp, ref_stats.wall_ms, ref_stats.device.c_str());
-  std::printf("%-16s %6s %10s %12s %12s %8s %10s %9s %10s\n", "mode", "spp", "wall ms", "GPU ms/frame", "converge ms",
-              "culled", "RMSE", "PSNR dB", "pixels>0.1");
+  std::printf("%-16s %-8s %6s %10s %12s %12s %8s %10s %9s %10s\n", "mode", "coverage", "spp", "wall ms",
+              "GPU ms/frame", "converge ms", "culled", "RMSE", "PSNR dB", "pixels>0.1");
   for (const BenchRow& r : rows)
-    std::printf("%-16s %6u %10.1f %12.2f %12s %8s %10.5f %9s %9.3f%%\n", r.mode.c_str(), r.spp, r.wall_ms,
+    std::printf("%-16s %-8s %6u %10.1f %12.2f %12s %8s %10.5f %9s %9.3f%%\n", r.mode.c_str(),
+                r.coverage.empty() ? "-" : r.coverage.c_str(), r.spp, r.wall_ms,
                 r.gpu_frame_ms, r.mode != "all" ? fmt::format("{:.1f}{}", r.converge_ms, r.converged ? "" : "*").c_str() : "-",
                 r.mode != "all" ? fmt::format("{:.1f}%", 100.0 * r.culled_fraction).c_str() : "-", r.error.rmse,
                 psnr(r.error.psnr_db).c_str(), 100.0 * r.error.differing_fraction);
   if (!o.csv.empty()) {
     std::string s =
-        "mode,spp,wall_ms,gpu_frame_ms,time_to_converge_ms,converged,culled_fraction,rmse,psnr_db,max_abs,"
+        "mode,coverage,spp,wall_ms,gpu_frame_ms,time_to_converge_ms,converged,culled_fraction,rmse,psnr_db,max_abs,"
         "differing_pixels,differing_fraction\n";
     for (const BenchRow& r : rows)
-      s += fmt::format("{},{},{:.3f},{:.4f},{:.3f},{},{:.6f},{:.8f},{},{:.6f},{},{:.6f}\n", r.mode, r.spp, r.wall_ms,
+      s += fmt::format("{},{},{},{:.3f},{:.4f},{:.3f},{},{:.6f},{:.8f},{},{:.6f},{},{:.6f}\n", r.mode, r.coverage, r.spp,
+                       r.wall_ms,
                        r.gpu_frame_ms, r.converge_ms, r.converged ? 1 : 0, r.culled_fraction, r.error.rmse,
                        psnr(r.error.psnr_db), r.error.max_abs, r.error.differing_pixels, r.error.differing_fraction);
     MDS_TRY(write_text_atomically(o.csv, s));
@@ -156,6 +183,7 @@ Status run_bench(const BenchOptions& o) {
     j["rows"] = nlohmann::json::array();
     for (const BenchRow& r : rows) {
       nlohmann::json e = {{"mode", r.mode},
+                          {"coverage", r.coverage},
                           {"spp", r.spp},
                           {"wall_ms", r.wall_ms},
                           {"gpu_frame_ms", r.gpu_frame_ms},
@@ -192,11 +220,18 @@ void setup_bench(CLI::App& sub, int& exit_code) {
   sub.add_option("--reference-spp", opt->reference_spp, "Samples per pixel of the reference (every particle)")
       ->check(CLI::Range(1u, 65536u))
       ->capture_default_str();
-  add_culling_options(sub, opt->cull, "Measure only the rows that draw every particle");
+  add_culling_options(sub, opt->cull, "Measure only the rows that draw every particle", false);
+  sub.add_option("--coverage", opt->coverages,
+                 "Sample-area models of the culled rows (docs/culling-math.md, \"Particle sizes\"): expected, exact")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"expected", "exact"}))
+      ->capture_default_str();
   sub.add_option("--device", opt->device, "Vulkan device index (default: automatic, discrete GPU first)");
   sub.add_option("--csv", opt->csv, "Write the rows as CSV");
   sub.add_option("--json", opt->json, "Write the rows and the reference as JSON");
   sub.add_option("--reference-image", opt->reference_image, "Also write the reference image (.png or .exr)");
+  sub.add_option("--images", opt->images, "Also write each row's image into this existing folder as <mode>_<spp>spp.png")
+      ->check(CLI::ExistingDirectory);
   sub.callback([opt, &exit_code] {
     Status st = run_bench(*opt);
     exit_code = st.ok() ? 0 : report("bench", st.error());

@@ -3,7 +3,7 @@
 
 namespace mds::cli {
 
-void add_culling_options(CLI::App& sub, CullingOptions& o, const std::string& no_cull_help) {
+void add_culling_options(CLI::App& sub, CullingOptions& o, const std::string& no_cull_help, bool coverage_option) {
   sub.add_flag("--no-cull", o.no_cull, no_cull_help);
   sub.add_option("--acceptance", o.acceptance,
                  "Sample acceptance of Algorithm 1: normal (Eq. 21, normal approximation) or random (50:50 coin)")
@@ -42,10 +42,17 @@ void add_culling_options(CLI::App& sub, CullingOptions& o, const std::string& no
                  "Sprite path: auto (task/mesh shaders where the device has VK_EXT_mesh_shader, else compute + "
                  "indirect draws), on (require them), off (compute + indirect draws); docs/rendering.md")
       ->capture_default_str();
+  if (coverage_option)
+    sub.add_option("--coverage", o.coverage,
+                   "Area of an occlusion sample's particle in its pixel (Sect. 4.1): expected (the paper's expected "
+                   "area) or exact (clipped against the pixel: fewer visible particles lost where particles are about "
+                   "a pixel wide, less culling); docs/culling-math.md")
+        ->capture_default_str();
   sub.add_option("--particle-occlusion", o.particle_occlusion,
                  "After convergence also test each particle of the potentially visible set against the confidence "
-                 "pyramid with the meshlet rule and skip those in class O: on, or off (draw whole meshlets, as the "
-                 "paper); docs/rendering.md")
+                 "pyramid with the meshlet rule and skip those in class O: on, off (draw whole meshlets, as the "
+                 "paper), or auto (on with --coverage exact only: with the expected area it drops visible "
+                 "particles); docs/rendering.md")
       ->capture_default_str();
 }
 
@@ -54,9 +61,13 @@ Status apply_culling_options(const CullingOptions& o, render::RenderSettings& rs
     return make_error(Errc::invalid_argument, "--acceptance '{}': expected normal or random", o.acceptance);
   if (!(o.cocc > 0.0 && o.cocc < 1.0)) return make_error(Errc::invalid_argument, "--cocc {}: expected (0, 1)", o.cocc);
   MDS_ASSIGN_OR_RETURN(rs.mesh_shaders, render::parse_mesh_shader_mode(o.mesh_shaders));
-  if (o.particle_occlusion != "on" && o.particle_occlusion != "off")
-    return make_error(Errc::invalid_argument, "--particle-occlusion '{}': expected on or off", o.particle_occlusion);
-  rs.particle_occlusion = o.particle_occlusion == "on";
+  if (o.coverage != "expected" && o.coverage != "exact")
+    return make_error(Errc::invalid_argument, "--coverage '{}': expected expected or exact", o.coverage);
+  if (o.particle_occlusion != "on" && o.particle_occlusion != "off" && o.particle_occlusion != "auto")
+    return make_error(Errc::invalid_argument, "--particle-occlusion '{}': expected auto, on or off",
+                      o.particle_occlusion);
+  const bool exact = o.coverage == "exact";
+  rs.particle_occlusion = o.particle_occlusion == "on" || (o.particle_occlusion == "auto" && exact);
   rs.cull = !o.no_cull;
   auto& c = rs.cull_settings;
   c.c_occ = o.cocc;
@@ -69,6 +80,7 @@ Status apply_culling_options(const CullingOptions& o, render::RenderSettings& rs
   c.histogram_stride = o.histogram_stride;
   c.n_budget = o.n_budget;
   c.seed = o.seed;
+  c.exact_coverage = exact;
   return {};
 }
 

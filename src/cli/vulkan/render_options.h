@@ -26,11 +26,14 @@ struct CullingOptions {
   uint32_t n_budget = MDS_CULL_N_BUDGET_DEFAULT;
   uint32_t seed = 1;
   std::string mesh_shaders = "auto";
-  std::string particle_occlusion = "on";  // on | off (RenderSettings::particle_occlusion)
+  std::string coverage = "expected";       // expected | exact (CullSettings::exact_coverage)
+  std::string particle_occlusion = "auto";  // auto | on | off (RenderSettings::particle_occlusion; auto: on with exact)
 };
 
-// Adds --no-cull (with this command's help text) and the culling and sprite-path options.
-void add_culling_options(CLI::App& sub, CullingOptions& o, const std::string& no_cull_help);
+// Adds --no-cull (with this command's help text) and the culling and sprite-path options;
+// --coverage only with coverage_option (bench has its own list of coverages).
+void add_culling_options(CLI::App& sub, CullingOptions& o, const std::string& no_cull_help,
+                         bool coverage_option = true);
 // Sets rs.cull, rs.cull_settings and rs.mesh_shaders; Errc::invalid_argument naming the option
 // for a bad value.
 Status apply_culling_options(const CullingOptions& o, render::RenderSettings& rs);

@@ -43,6 +43,7 @@ CullScene cull_scene(const SceneData& s, const DensityVolume& vol) {
   c.per_particle_radius = s.per_particle_radius;
   c.radius_min = s.radius_min;
   c.radius_max = s.radius_max;
+  c.footprint_radius = smallest_radius(s);
   MeshletVoxels mv = meshlet_voxels(s, vol);
   c.voxel_first = std::move(mv.first);
   c.voxel_refs = std::move(mv.refs);
@@ -108,7 +109,8 @@ Status CullLoop::Impl::create_buffers(const CullScene& s, const DensityVolume& v
   u.grid_cell = glm::vec4(glm::vec3(vol.cell), float(1.0 / (vol.cell.x * vol.cell.y * vol.cell.z)));
   u.grid_dims = glm::uvec4(uint32_t(vol.dims.x), uint32_t(vol.dims.y), uint32_t(vol.dims.z), bins);
   set_pixel_uniforms();
-  u.thresholds = glm::vec4(float(settings.c_occ), float(settings.c_medium), 0.0f, 0.0f);
+  u.thresholds = glm::vec4(float(settings.c_occ), float(settings.c_medium),
+                           settings.exact_coverage ? s.footprint_radius : 0.0f, 0.0f);
   u.params = glm::uvec4(uint32_t(settings.acceptance), settings.n_budget, budget, 0u);
   node_flags = node_density ? gpu::kCullNodeDensity : 0u;
   u.counts = glm::uvec4(meshlet_count, node_count, 0u, settings.seed);
@@ -433,7 +435,8 @@ Result<std::unique_ptr<CullLoop>> CullLoop::create(vk::Context& ctx, const CullS
   m.meshlet_class = buffers.meshlet_class;
   m.node_density = scene.node_density;
   m.node_extent = std::clamp<uint32_t>(scene.node_extent, 1, 1024);
-  m.frame_flags = scene.per_particle_radius ? gpu::kFramePerParticleRadius : 0u;
+  m.frame_flags = (scene.per_particle_radius ? gpu::kFramePerParticleRadius : 0u) |
+                  (settings.exact_coverage ? gpu::kFrameExactCoverage : 0u);
   m.radius_min = scene.radius_min;
   m.radius_max = scene.radius_max;
   m.bins = bins_for(width, height, ctx.limits().maxStorageBufferRange, settings.bins);

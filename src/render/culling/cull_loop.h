@@ -97,6 +97,13 @@ struct CullSettings {
   // cover many pixels (~1M voxels for a whole data set), so neighbouring pixel rays cross the same
   // cells; 2 casts a quarter of the rays (docs/culling-math.md, "Histogram blocks").
   uint32_t histogram_stride = 2;
+  // Sect. 4.1 "Particle sizes": alpha_s of an occlusion sample. false: the paper's expected area
+  // of the particle in the pixel (culling_math.h effective_particle_area), histograms counting
+  // particle centres (Eq. 9). true (--coverage exact): the sample's particle clipped against its
+  // pixel (disk_pixel_coverage), histograms counting every particle that can reach the pixel
+  // (footprint grown by the smallest radius). Exact loses fewer visible particles where particles
+  // are about a pixel wide and culls less; docs/culling-math.md "Particle sizes".
+  bool exact_coverage = false;
   uint32_t seed = 1;
   // Route of the occlusion sampling pass (docs/rendering.md): rasterized billboards
   // (cull_sample.vert/.frag) or compute (cull_sample.comp, needs 64-bit buffer atomics and W*H*8
@@ -151,6 +158,9 @@ struct CullScene {
   uint32_t max_meshlet_particles = 0;
   bool per_particle_radius = false;
   float radius_min = 0.0f, radius_max = 0.0f;
+  // The density histograms count the particles whose disk can reach a pixel: the footprint grown
+  // by this radius (culling_math.h footprint_count; render/scene.h smallest_radius).
+  float footprint_radius = 0.0f;
   bool node_density = false;
   uint32_t node_extent = kNodeExtentInMemory;  // kNodeExtentStreaming when streaming
   std::vector<uint32_t> voxel_first;  // meshlet_slots + 1 (node_count + 1 with node_density)
