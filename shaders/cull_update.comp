@@ -1,5 +1,6 @@
 #version 460
-// Double-buffered depth confidence update (paper 000, Sect. 4.3, Algorithm 1) for the depth
+// Double-buffered depth confidence update (paper 000, Sect. 4.3, Algorithm 1; with kCullExtendDepth
+// the depth extension of confidence_buffer.h extend_accumulation) for the depth
 // sample of one occlusion sampling pass: per pixel with a sample (d_s, alpha_s),
 // mds_update_depth_and_confidence_fronts with the acceptance probability P(d_s) of Eq. 13-22
 // (normal approximation of supplement A, or the 50:50 coin), u uniform in (0, 1] from a hash of
@@ -62,7 +63,8 @@ void main() {
   float u = cull_uniform01(pix, push.pass, cull.counts.w);
   float d = acc.x, C = acc.y, k = acc.z, d_cull = cb.x, C_cull = cb.y, k_cull = cb.z;
   mds_update_depth_and_confidence_fronts(d, C, k, d_cull, C_cull, k_cull, F_d, F_dcull, F_ds, total,
-                                         s.x, s.y, u, int(cull.params.x), int(cull.params.y));
+                                         s.x, s.y, u, int(cull.params.x), int(cull.params.y),
+                                         (cull.params.w & kCullExtendDepth) != 0u);
   pixel_state[2u * pix] = vec4(d, C, k, 0.0);
   pixel_state[2u * pix + 1u] = vec4(d_cull, C_cull, k_cull, 0.0);
   pyramid[pix] = vec2(d_cull, C_cull);

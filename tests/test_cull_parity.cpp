@@ -283,8 +283,8 @@ TEST(CullParity, PyramidPassMatchesCpu) {
   }
 }
 
-void check_update(int mode) {
-  Fixture f = make_fixture(false, mode);
+void check_update(int mode, bool exact_coverage = false) {
+  Fixture f = make_fixture(false, mode, 1, exact_coverage);
   rc::CullLoop* loop = f.renderer->cull_loop();
   ASSERT_TRUE(loop->begin_view(f.camera).ok());
   const int bins = int(loop->bins());
@@ -310,7 +310,7 @@ void check_update(int mode) {
   }
   ASSERT_TRUE(loop->write_histograms(counts, ranges).ok());
   std::vector<cc::PixelState> cpu(np);
-  cc::AcceptanceParams params{mode, MDS_CULL_N_BUDGET_DEFAULT};
+  cc::AcceptanceParams params{mode, MDS_CULL_N_BUDGET_DEFAULT, exact_coverage};  // extension with exact
   const uint32_t seed = loop->settings().seed;
   for (uint32_t it = 0; it < 24; ++it) {
     std::vector<glm::vec2> samples(np, glm::vec2(float(MDS_CULL_DEPTH_EMPTY), 0.0f));
@@ -344,5 +344,7 @@ void check_update(int mode) {
 
 TEST(CullParity, UpdatePassMatchesCpuAlgorithm1Normal) { check_update(MDS_CULL_ACCEPT_NORMAL); }
 TEST(CullParity, UpdatePassMatchesCpuAlgorithm1Random) { check_update(MDS_CULL_ACCEPT_RANDOM); }
+// --coverage exact: Algorithm 1 with the depth extension (confidence_buffer.h extend_accumulation).
+TEST(CullParity, UpdatePassMatchesCpuAlgorithm1WithDepthExtension) { check_update(MDS_CULL_ACCEPT_NORMAL, true); }
 
 }  // namespace

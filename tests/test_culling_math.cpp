@@ -628,7 +628,8 @@ TEST(RayCast, OrthographicImageConservesParticleCount) {
 TEST(Algorithm1, InvariantsOnRandomSampleStreams) {
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> U(0.0, 1.0);
-  int accepted_total = 0, copies = 0;
+  int accepted_total = 0, copies = 0, extensions = 0;
+  for (bool extend : {false, true})
   for (int mode : {MDS_CULL_ACCEPT_NORMAL, MDS_CULL_ACCEPT_EXACT, MDS_CULL_ACCEPT_RANDOM}) {
     for (double total : {0.0, 0.4, 10.0, 1e3, 1e6, 1e9}) {
       for (int pixel = 0; pixel < 30; ++pixel) {
@@ -643,11 +644,16 @@ TEST(Algorithm1, InvariantsOnRandomSampleStreams) {
           const double alpha = disk_pixel_coverage(U(rng), U(rng), r_px * (0.5 + U(rng)));
           const double u = 1.0 - U(rng);  // (0, 1]
           const auto before = px;
-          update_depth_and_confidence(px, hist, d_s, alpha, u, {mode, 64});
+          update_depth_and_confidence(px, hist, d_s, alpha, u, {mode, 64, extend});
           ASSERT_TRUE(px.C >= 0 && px.C <= 1);
           ASSERT_TRUE(px.C_cull >= 0 && px.C_cull <= 1);
-          ASSERT_LE(px.d, d_prev);        // the accumulation depth only moves closer
-          ASSERT_LE(px.d, px.d_cull);     // accumulation is never behind the cull buffer
+          if (!extend) {
+            ASSERT_LE(px.d, d_prev);        // the accumulation depth only moves closer
+            ASSERT_LE(px.d, px.d_cull);     // accumulation is never behind the cull buffer
+          } else if (px.d > d_prev) {       // an extension: only where it occludes more
+            ++extensions;
+            ASSERT_GT(hist.occluded(px.d, px.C), hist.occluded(before.d, before.C));
+          }
           ASSERT_GE(px.k, 1.0);
           const double op = hist.occluded(px.d_cull, px.C_cull);
           ASSERT_GE(op, op_cull);         // OP(d_cull, C_cull) never decreases
@@ -659,8 +665,39 @@ TEST(Algorithm1, InvariantsOnRandomSampleStreams) {
       }
     }
   }
-  EXPECT_GT(accepted_total, 1000);  // the streams did exercise restarts and copies
+  EXPECT_GT(accepted_total, 1000);  // the streams did exercise restarts, copies and extensions
   EXPECT_GT(copies, 1000);
+  EXPECT_GT(extensions, 100);
+}
+
+TEST(Algorithm1, DepthExtensionJoinsTwoParticlesOfAPixel) {
+  // A pixel on the boundary of two large particles in front of a thick block: the nearer one
+  // covers 0.6 of it at depth 5.0, the farther one 0.4 at 5.1 (exact coverage). Nothing lies in
+  // front of 5.0; the block behind holds 1e4 particles. Samples alternate, nearer one first.
+  // Algorithm 1 keeps d = 5.0 and ignores the farther one's samples, so C stays at the nearer
+  // one's share; with the extension the pixel's representative depth moves back to 5.1, where
+  // both cover it, and C rises towards 1.
+  DensityHistogram h;
+  h.bins = 64;
+  h.d_min = 4.92;
+  h.d_max = 20.92;  // bins of 0.25: [4.92, 5.17) holds the two particles' neighbourhood
+  h.counts[0] = 4.0;
+  for (int i = 1; i < 64; ++i) h.counts[i] = 1e4 / 63;
+  for (bool extend : {false, true}) {
+    PixelState px;
+    for (int s = 0; s < 64; ++s) {
+      const bool nearer = s % 2 == 0;
+      update_depth_and_confidence(px, h, nearer ? 5.0 : 5.1, nearer ? 0.6 : 0.4, 0.5, {MDS_CULL_ACCEPT_NORMAL, 64, extend});
+    }
+    if (extend) {
+      EXPECT_EQ(px.d_cull, 5.1);
+      EXPECT_GT(px.C_cull, 0.85);  // measured 0.887: N = D(d_min, 5.1) = 2.4 particles limits E(n)
+    } else {
+      EXPECT_EQ(px.d_cull, 5.0);
+      EXPECT_LT(px.C_cull, 0.75);  // measured 0.69
+    }
+    std::printf("extension %d: d_cull %.2f, C_cull %.4f\n", int(extend), px.d_cull, px.C_cull);
+  }
 }
 
 TEST(Algorithm1, ProbabilisticAcceptanceOccludesMoreThanRandom) {
@@ -1003,9 +1040,10 @@ TEST(Glsl, FloatAlgorithm1MatchesDoubleStepByStep) {
     float d = float(px.d), C = float(px.C), k = float(px.k), dc = float(px.d_cull),
           Cc = float(px.C_cull), kc = float(px.k_cull);
     const float d_s = float(sample_depth(h, U(rng))), alpha = float(U(rng)), u = float(1 - U(rng));
-    update_depth_and_confidence(px, hf, d_s, alpha, u, {MDS_CULL_ACCEPT_NORMAL, 64});
+    const bool extend = t % 2 == 1;  // every other case with the depth extension
+    update_depth_and_confidence(px, hf, d_s, alpha, u, {MDS_CULL_ACCEPT_NORMAL, 64, extend});
     glslf::mds_update_depth_and_confidence(d, C, k, dc, Cc, kc, counts, h.bins, float(h.d_min),
-                                           float(h.d_max), d_s, alpha, u, MDS_CULL_ACCEPT_NORMAL, 64);
+                                           float(h.d_max), d_s, alpha, u, MDS_CULL_ACCEPT_NORMAL, 64, extend);
     ++n;
     if (d != float(px.d) || dc != float(px.d_cull)) { ++diverged; continue; }  // u within eps of P
     ASSERT_NEAR(C, px.C, 1e-5);

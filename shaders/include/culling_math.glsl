@@ -399,12 +399,25 @@ bool mds_update_accumulation_buffer(MDS_INOUT(float) d, MDS_INOUT(float) C, MDS_
   return false;
 }
 
+// Extension (confidence_buffer.h extend_accumulation): a sample behind d moves d back to d_s
+// when OP(d_s, C') > OP(d, C).
+bool mds_extend_accumulation(MDS_INOUT(float) d, MDS_INOUT(float) C, MDS_INOUT(float) k,
+                             float F_ds, float B_d, float B_ds, float d_s, float alpha_s) {
+  if (!(d_s > d) || !(d < float(MDS_CULL_DEPTH_EMPTY)) || !(d_s < float(MDS_CULL_DEPTH_EMPTY))) return false;
+  float Cx = mds_accumulate_confidence(C, alpha_s, k, F_ds);
+  if (!(mds_occluded_particles(B_ds, Cx) > mds_occluded_particles(B_d, C))) return false;
+  d = d_s;
+  C = Cx;
+  k += 1.0f;
+  return true;
+}
+
 void mds_update_depth_and_confidence(MDS_INOUT(float) d, MDS_INOUT(float) C, MDS_INOUT(float) k,
                                      MDS_INOUT(float) d_cull, MDS_INOUT(float) C_cull,
                                      MDS_INOUT(float) k_cull,
                                      float counts[MDS_CULL_HISTOGRAM_BINS], int bins,
                                      float d_min, float d_max, float d_s, float alpha_s,
-                                     float u, int mode, int n_budget) {
+                                     float u, int mode, int n_budget, bool extend) {
   if (d_s <= d_cull) {
     C_cull = mds_accumulate_confidence(C_cull, alpha_s, k_cull,
                                        mds_hist_front(counts, bins, d_min, d_max, d_cull));
@@ -413,6 +426,10 @@ void mds_update_depth_and_confidence(MDS_INOUT(float) d, MDS_INOUT(float) C, MDS
   if (d_s <= d)
     mds_update_accumulation_buffer(d, C, k, counts, bins, d_min, d_max, d_s, alpha_s, u, mode,
                                    n_budget);
+  else if (extend)
+    mds_extend_accumulation(d, C, k, mds_hist_front(counts, bins, d_min, d_max, d_s),
+                            mds_hist_behind(counts, bins, d_min, d_max, d),
+                            mds_hist_behind(counts, bins, d_min, d_max, d_s), d_s, alpha_s);
   if (mds_hist_occluded(counts, bins, d_min, d_max, d_cull, C_cull) <
       mds_hist_occluded(counts, bins, d_min, d_max, d, C)) {
     d_cull = d;
@@ -431,7 +448,7 @@ void mds_update_depth_and_confidence_fronts(MDS_INOUT(float) d, MDS_INOUT(float)
                                             MDS_INOUT(float) C_cull, MDS_INOUT(float) k_cull,
                                             float F_d, float F_dcull, float F_ds, float total,
                                             float d_s, float alpha_s, float u, int mode,
-                                            int n_budget) {
+                                            int n_budget, bool extend) {
   if (d_s <= d_cull) {
     C_cull = mds_accumulate_confidence(C_cull, alpha_s, k_cull, F_dcull);
     k_cull += 1.0f;
@@ -449,6 +466,9 @@ void mds_update_depth_and_confidence_fronts(MDS_INOUT(float) d, MDS_INOUT(float)
       C = mds_accumulate_confidence(C, alpha_s, k, F_d);
       k += 1.0f;
     }
+  } else if (extend && mds_extend_accumulation(d, C, k, F_ds, max(total - F_d, 0.0f), max(total - F_ds, 0.0f), d_s,
+                                               alpha_s)) {
+    F_new = F_ds;
   }
   if (mds_occluded_particles(max(total - F_dcull, 0.0f), C_cull) <
       mds_occluded_particles(max(total - F_new, 0.0f), C)) {

@@ -63,7 +63,7 @@ void main() {
     float d_s = in_values[75 + 3 * s], alpha_s = in_values[76 + 3 * s], u = in_values[77 + 3 * s];
     mds_update_depth_and_confidence(d, Ca, ka, d_cull, C_cull, k_cull, counts, bins, d_min, d_max,
                                     d_s, alpha_s, u, MDS_CULL_ACCEPT_NORMAL,
-                                    MDS_CULL_N_BUDGET_DEFAULT);
+                                    MDS_CULL_N_BUDGET_DEFAULT, u > 0.5);
   }
   out_values[o++] = d;
   out_values[o++] = Ca;

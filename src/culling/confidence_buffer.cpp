@@ -25,13 +25,26 @@ bool update_accumulation_buffer(PixelState& px, const DensityHistogram& hist, do
   return false;
 }
 
+bool extend_accumulation(PixelState& px, const DensityHistogram& hist, double d_s, double alpha_s) {
+  if (!(d_s > px.d) || !(px.d < MDS_CULL_DEPTH_EMPTY) || !(d_s < MDS_CULL_DEPTH_EMPTY)) return false;
+  const double C = accumulate_confidence(px.C, alpha_s, px.k, hist.front(d_s));
+  if (!(hist.occluded(d_s, C) > hist.occluded(px.d, px.C))) return false;
+  px.d = d_s;
+  px.C = C;
+  px.k += 1.0;
+  return true;
+}
+
 void update_depth_and_confidence(PixelState& px, const DensityHistogram& hist, double d_s,
                                  double alpha_s, double u, const AcceptanceParams& params) {
   if (d_s <= px.d_cull) {  // lines 9-11
     px.C_cull = accumulate_confidence(px.C_cull, alpha_s, px.k_cull, hist.front(px.d_cull));
     px.k_cull += 1.0;
   }
-  if (d_s <= px.d) update_accumulation_buffer(px, hist, d_s, alpha_s, u, params);  // 12-14
+  if (d_s <= px.d)
+    update_accumulation_buffer(px, hist, d_s, alpha_s, u, params);  // 12-14
+  else if (params.extend_depth)
+    extend_accumulation(px, hist, d_s, alpha_s);
   if (hist.occluded(px.d_cull, px.C_cull) < hist.occluded(px.d, px.C)) {            // 15-17
     px.d_cull = px.d;
     px.C_cull = px.C;

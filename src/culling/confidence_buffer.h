@@ -26,6 +26,9 @@ struct PixelState {
 struct AcceptanceParams {
   int mode = MDS_CULL_ACCEPT_NORMAL;  // MDS_CULL_ACCEPT_NORMAL / _EXACT / _RANDOM
   int n_budget = MDS_CULL_N_BUDGET_DEFAULT;
+  // Extension (with exact coverage, CullSettings::exact_coverage): a sample behind the
+  // accumulation depth d moves d back to d_s when that occludes more, see extend_accumulation.
+  bool extend_depth = false;
 };
 
 // Algorithm 1, lines 1-7. u: uniform random number in (0, 1] (line 2).
@@ -33,7 +36,18 @@ struct AcceptanceParams {
 bool update_accumulation_buffer(PixelState& px, const DensityHistogram& hist, double d_s,
                                 double alpha_s, double u, const AcceptanceParams& params);
 
-// Algorithm 1, lines 8-17: one depth sample (d_s, alpha_s) of a particle in this pixel.
+// Extension of Algorithm 1 (not in the paper), for a sample behind the accumulation depth
+// (d < d_s, d not empty), which lines 12-14 ignore. The representative depth is "the farthest
+// visible depth" of the covered sub-pixel area (Sect. 4.1): every area covered at <= d is
+// covered at <= d_s too, and the sample adds its particle's share of the rest, so (d_s, C') with
+// C' = accumulateConfidence(C, alpha_s, k) (N = D(d_min, d_s)) is as valid a pair as (d, C).
+// It replaces it when it occludes more, OP(d_s, C') > OP(d, C) (Eq. 12). Without it a pixel on
+// the boundary of two particles keeps the nearer one's depth and only its share of the pixel.
+// Returns true when d moved.
+bool extend_accumulation(PixelState& px, const DensityHistogram& hist, double d_s, double alpha_s);
+
+// Algorithm 1, lines 8-17: one depth sample (d_s, alpha_s) of a particle in this pixel
+// (with params.extend_depth, a sample behind d first takes extend_accumulation).
 // accumulateConfidence uses N = D(d_min, d) of the depth being accumulated (Sect. 4.1: "the
 // total number of particles with a depth <= d").
 void update_depth_and_confidence(PixelState& px, const DensityHistogram& hist, double d_s,

@@ -112,7 +112,7 @@ Status CullLoop::Impl::create_buffers(const CullScene& s, const DensityVolume& v
   u.thresholds = glm::vec4(float(settings.c_occ), float(settings.c_medium),
                            settings.exact_coverage ? s.footprint_radius : 0.0f, 0.0f);
   u.params = glm::uvec4(uint32_t(settings.acceptance), settings.n_budget, budget, 0u);
-  node_flags = node_density ? gpu::kCullNodeDensity : 0u;
+  scene_flags = (node_density ? gpu::kCullNodeDensity : 0u) | (settings.exact_coverage ? gpu::kCullExtendDepth : 0u);
   u.counts = glm::uvec4(meshlet_count, node_count, 0u, settings.seed);
   return {};
 }
@@ -522,7 +522,7 @@ Status CullLoop::begin_view(const Camera& camera, uint32_t live_meshlets) {
   const double focal_px = 0.5 * m.height * std::abs(m.proj[1][1]);
   const double pixel_w = 2.0 / (std::abs(m.proj[0][0]) * m.width), pixel_h = 2.0 / (std::abs(m.proj[1][1]) * m.height);
   u.camera = glm::vec4(float(focal_px), float(pixel_w * pixel_h), float(camera.near), float(camera.far));
-  u.params.w = (camera.ortho ? gpu::kCullOrtho : 0u) | m.node_flags;
+  u.params.w = (camera.ortho ? gpu::kCullOrtho : 0u) | m.scene_flags;
   m.write_uniforms(0);
   gpu::CullCounters c{};
   c.class_count[MDS_CULL_CLASS_P] = std::min(live_meshlets, m.meshlet_count);
