@@ -160,6 +160,16 @@ float mds_disk_area_above(float x0, float x1, float h, float r) {
   float s = sqrt(r * r - h * h);
   return mds_chord_integral(clamp(x1, -s, s), h, r) - mds_chord_integral(clamp(x0, -s, s), h, r);
 }
+const float MDS_COVERAGE_LINE_RADIUS = 32.0f;  // culling_math.h kCoverageLineRadius
+float mds_half_plane_pixel_coverage(float nx, float ny, float d) {
+  float a = max(abs(nx), abs(ny)), b = min(abs(nx), abs(ny));
+  float t = 0.5f * (a + b), u = 0.5f * (a - b);
+  if (d >= t) return 1.0f;
+  if (d <= -t) return 0.0f;
+  if (abs(d) <= u) return 0.5f + d / a;
+  float corner = (t - abs(d)) * (t - abs(d)) / (2.0f * a * b);
+  return d > 0.0f ? 1.0f - corner : corner;
+}
 float mds_disk_pixel_coverage(float cx, float cy, float r) {
   if (!(r > 0.0f)) return 0.0f;
   float x0 = -cx, x1 = 1.0f - cx, y0 = -cy, y1 = 1.0f - cy;
@@ -167,6 +177,10 @@ float mds_disk_pixel_coverage(float cx, float cy, float r) {
   float fx = max(-x0, x1), fy = max(-y0, y1);
   if (fx * fx + fy * fy <= r * r) return 1.0f;
   if (x0 <= -r && x1 >= r && y0 <= -r && y1 >= r) return MDS_PI * r * r;
+  if (r > MDS_COVERAGE_LINE_RADIUS) {  // the circle as its tangent nearest the pixel's centre
+    float dx = 0.5f - cx, dy = 0.5f - cy, l = sqrt(dx * dx + dy * dy);
+    return l > 0.0f ? mds_half_plane_pixel_coverage(dx / l, dy / l, r - l) : 1.0f;
+  }
   float a;
   if (y0 >= 0.0f)
     a = mds_disk_area_above(x0, x1, y0, r) - mds_disk_area_above(x0, x1, y1, r);

@@ -114,6 +114,16 @@ double disk_area_above(double x0, double x1, double h, double r) {
 }
 }  // namespace
 
+double half_plane_pixel_coverage(double nx, double ny, double d) {
+  const double a = std::max(std::abs(nx), std::abs(ny)), b = std::min(std::abs(nx), std::abs(ny));
+  const double t = 0.5 * (a + b), u = 0.5 * (a - b);  // the square's half extent along n; the linear part
+  if (d >= t) return 1.0;
+  if (d <= -t) return 0.0;
+  if (std::abs(d) <= u) return 0.5 + d / a;  // the line crosses two opposite edges
+  const double corner = (t - std::abs(d)) * (t - std::abs(d)) / (2.0 * a * b);  // a triangle at a corner
+  return d > 0.0 ? 1.0 - corner : corner;
+}
+
 double disk_pixel_coverage(double cx, double cy, double r) {
   if (!(r > 0.0)) return 0.0;
   const double x0 = -cx, x1 = 1.0 - cx, y0 = -cy, y1 = 1.0 - cy;  // the pixel around the disk's centre
@@ -123,6 +133,10 @@ double disk_pixel_coverage(double cx, double cy, double r) {
   if (fx * fx + fy * fy <= r * r) return 1.0;
   // The disk inside the pixel: its whole area.
   if (x0 <= -r && x1 >= r && y0 <= -r && y1 >= r) return std::numbers::pi * r * r;
+  if (r > kCoverageLineRadius) {  // the circle as its tangent nearest the pixel's centre
+    const double dx = 0.5 - cx, dy = 0.5 - cy, l = std::sqrt(dx * dx + dy * dy);
+    return l > 0.0 ? half_plane_pixel_coverage(dx / l, dy / l, r - l) : 1.0;
+  }
   // Strips above y0 minus above y1, with the part below the x axis mirrored above it.
   double a;
   if (y0 >= 0.0)
