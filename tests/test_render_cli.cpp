@@ -263,6 +263,26 @@ TEST_F(RenderCli, RenderWithoutItsModuleFailsCleanly) {
     EXPECT_NE(text.find(std::string("\n  ") + c), std::string::npos) << c << "\n" << text;
 }
 
+// --coverage auto (the default) clips the occlusion samples' particles exactly where the smallest
+// particle projects below 2 pixels at the data's nearest point, per view: the whole shell in a
+// thumbnail, not a close-up of it at 480x270; an explicit model is kept whatever the view.
+TEST_F(RenderCli, CoverageAutoFollowsTheProjectedParticleSize) {
+  const auto used = [&](const std::string& args) -> std::string {
+    const fs::path png = dir_ / "cov.png", stats = dir_ / "cov.json";
+    if (run("render " + store() + " -o " + png.string() + " --spp 1 --max-iterations 2 " + args + " --stats " +
+            stats.string()) != 0)
+      return "render failed: " + last_stderr();
+    std::ifstream f(stats);
+    const auto j = nlohmann::json::parse(f, nullptr, false);
+    if (j.is_discarded()) return "no stats";
+    return j["parameters"]["coverage"].get<std::string>() + "/" + j["parameters"]["coverage_used"].get<std::string>();
+  };
+  EXPECT_EQ(used("--view 0 --width 48 --height 32"), "auto/exact");
+  EXPECT_EQ(used("--view 2 --width 480 --height 270"), "auto/expected");
+  EXPECT_EQ(used("--view 0 --width 48 --height 32 --coverage expected"), "expected/expected");
+  EXPECT_EQ(used("--view 2 --width 480 --height 270 --coverage exact"), "exact/exact");
+}
+
 // `mdstream bench`: every row is compared with the reference (every particle at
 // --reference-spp). The row with the reference's settings reproduces it exactly, fewer samples
 // do not, and on the close-up, where culling removes most meshlets, the image of the converged

@@ -474,7 +474,7 @@ TEST_F(StressCli, HeldDefaultViewFromAColdCache) {
   held_view0("view0_nowaves", "--settle-frames 40 --wave-settle-frames 0");  // no waves
   // Waves of one node (--wave-nodes 1): the first frame with a read has read exactly one node's
   // payload.
-  const auto j1 = held_view0("view0_wave1", "--settle-frames 60 --wave-nodes 1");
+  const auto j1 = held_view0("view0_wave1", "--settle-frames 120 --wave-nodes 1");
   ASSERT_FALSE(j1.is_discarded());
   const auto& totals = j1["per_frame"]["bytes_read_total"];
   size_t first = 0;

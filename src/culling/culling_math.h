@@ -72,15 +72,16 @@ double accumulate_confidence(double C, double alpha_s, double k, double N);
 // alpha(0) = 0, alpha ~ pi r^2 for tiny r, monotone, alpha <= min(pi r^2, 1).
 double effective_particle_area(double radius_px);
 
-// Sect. 4.1 "Particle sizes", exact clipping (CullSettings::exact_coverage): the area of the disk of radius r centred at
-// (cx, cy) inside the pixel [0, 1]^2 (pixel units: the pixel is the unit square, coordinates
-// relative to its lower corner). The paper clips "probabilistically" with an expected area
-// (effective_particle_area) and notes that exact clipping differs negligibly for its sub-pixel
-// particles; at about a pixel per particle it does not (docs/culling-math.md, "Particle
-// sizes"): a sample hits any particle whose disk overlaps the pixel, and most of those have
-// their centre outside it, so the expected area over centres inside the pixel overstates what
-// one sample covers (radius 1 px: 0.975 against a mean of 0.39 over overlapping disks). Summed over
-// all pixels of the plane the coverage is pi r^2 for every centre. Result in [0, min(pi r^2, 1)];
+// Sect. 4.1 "Particle sizes", exact clipping (CullSettings::coverage): the area of the disk of
+// radius r centred at (cx, cy) inside the pixel [0, 1]^2 (pixel units: the pixel is the unit
+// square, coordinates relative to its lower corner). The paper clips "probabilistically" with
+// an expected area (effective_particle_area) and notes that exact clipping differs negligibly
+// for its sub-pixel particles; at about a pixel per particle it does not (docs/culling-math.md,
+// "Particle sizes"): a sample hits any particle whose disk overlaps the pixel, and most of
+// those have their centre outside it, so the expected area over centres inside the pixel
+// overstates what one sample covers (radius 1 px: 0.975 against a mean of 0.39 over
+// overlapping disks). Summed over all pixels of the plane the coverage is pi r^2 for every
+// centre. Result in [0, min(pi r^2, 1)];
 // 0 for r <= 0 or a disk that misses the pixel. Pre: finite arguments.
 // Exact up to r = kCoverageLineRadius; beyond, the circle is replaced inside the pixel by its
 // tangent at the point nearest the pixel's centre (half_plane_pixel_coverage), off by at most

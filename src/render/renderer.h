@@ -115,7 +115,7 @@ struct RenderSettings {
   // drawn, the paper's behaviour): with the paper's expected sample area the per-pixel confidence
   // overstates coverage where particles are about a pixel wide, and the test then drops visible
   // particles (5.9-10.4 % of the pixels beyond 0.1 on 1M views at 16 spp); with
-  // CullSettings::exact_coverage it loses <= 0.05 % (docs/rendering.md). The CLI's
+  // exact coverage (CullSettings::coverage) it loses <= 0.6 % (docs/rendering.md). The CLI's
   // --particle-occlusion auto turns it on with --coverage exact.
   bool particle_occlusion = false;
   // Sprite records the compute sprite path holds at once (48 B each, bound whole, so at most
@@ -138,6 +138,7 @@ struct CullStats {
   uint32_t iterations_to_converge = 0;  // 0 when not converged
   uint32_t samples_to_converge = 0;     // sampling passes until convergence (paper Table 4 "smp")
   uint32_t bins = 0;                    // density histogram bins per pixel
+  bool exact_coverage = false;          // the last view's sample-area model (CullSettings::coverage)
   // Occlusion sampling passes run in compute / rasterized (the loop's lifetime;
   // CullSettings::sample_route, docs/rendering.md).
   uint32_t sample_passes_compute = 0, sample_passes_raster = 0;

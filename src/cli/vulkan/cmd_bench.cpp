@@ -3,7 +3,7 @@
 // ("all"), with the probabilistic occlusion culling of paper 000 by meshlet ("culled"), and with
 // the particle occlusion test after convergence on top ("culled+particles"; not with
 // --particle-occlusion off), the culled modes once per sample-area model of --coverage
-// (expected, exact: CullSettings::exact_coverage). Culled images are those of the converged
+// (expected, exact, auto: CullSettings::coverage). Culled images are those of the converged
 // classes (RenderSettings::converged_image: what the viewer shows once the loop has settled).
 // Each image is compared with a reference: every particle at --reference-spp samples
 // (render/image_compare.h).
@@ -222,9 +222,10 @@ void setup_bench(CLI::App& sub, int& exit_code) {
       ->capture_default_str();
   add_culling_options(sub, opt->cull, "Measure only the rows that draw every particle", false);
   sub.add_option("--coverage", opt->coverages,
-                 "Sample-area models of the culled rows (docs/culling-math.md, \"Particle sizes\"): expected, exact")
+                 "Sample-area models of the culled rows (docs/culling-math.md, \"Particle sizes\"): expected, exact, "
+                 "auto")
       ->delimiter(',')
-      ->check(CLI::IsMember({"expected", "exact"}))
+      ->check(CLI::IsMember({"auto", "expected", "exact"}))
       ->capture_default_str();
   sub.add_option("--device", opt->device, "Vulkan device index (default: automatic, discrete GPU first)");
   sub.add_option("--csv", opt->csv, "Write the rows as CSV");

@@ -26,7 +26,7 @@ struct CullingOptions {
   uint32_t n_budget = MDS_CULL_N_BUDGET_DEFAULT;
   uint32_t seed = 1;
   std::string mesh_shaders = "auto";
-  std::string coverage = "expected";       // expected | exact (CullSettings::exact_coverage)
+  std::string coverage = "auto";           // auto | expected | exact (CullSettings::coverage)
   std::string particle_occlusion = "auto";  // auto | on | off (RenderSettings::particle_occlusion; auto: on with exact)
 };
 

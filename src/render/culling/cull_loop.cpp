@@ -109,10 +109,10 @@ Status CullLoop::Impl::create_buffers(const CullScene& s, const DensityVolume& v
   u.grid_cell = glm::vec4(glm::vec3(vol.cell), float(1.0 / (vol.cell.x * vol.cell.y * vol.cell.z)));
   u.grid_dims = glm::uvec4(uint32_t(vol.dims.x), uint32_t(vol.dims.y), uint32_t(vol.dims.z), bins);
   set_pixel_uniforms();
-  u.thresholds = glm::vec4(float(settings.c_occ), float(settings.c_medium),
-                           settings.exact_coverage ? s.footprint_radius : 0.0f, 0.0f);
+  u.thresholds = glm::vec4(float(settings.c_occ), float(settings.c_medium), 0.0f, 0.0f);  // .z per view
+  footprint_radius = s.footprint_radius;
   u.params = glm::uvec4(uint32_t(settings.acceptance), settings.n_budget, budget, 0u);
-  scene_flags = (node_density ? gpu::kCullNodeDensity : 0u) | (settings.exact_coverage ? gpu::kCullExtendDepth : 0u);
+  scene_flags = node_density ? gpu::kCullNodeDensity : 0u;
   u.counts = glm::uvec4(meshlet_count, node_count, 0u, settings.seed);
   return {};
 }
@@ -333,7 +333,9 @@ void CullLoop::Impl::write_frame_uniforms(uint32_t iteration) {
   fu.inv_proj = glm::mat4(glm::inverse(p));
   fu.viewport = glm::vec4(float(width), float(height), 1.0f / float(width), 1.0f / float(height));
   fu.radius_range = glm::vec4(radius_min, radius_max - radius_min, float(camera.near), float(camera.far));
-  fu.counts = glm::uvec4(meshlet_count, max_meshlet, frame_flags | (camera.ortho ? gpu::kFrameOrtho : 0u), iteration);
+  fu.counts = glm::uvec4(meshlet_count, max_meshlet,
+                         frame_flags | (camera.ortho ? gpu::kFrameOrtho : 0u) | (exact ? gpu::kFrameExactCoverage : 0u),
+                         iteration);
   std::memcpy(frame_ubo.mapped(), &fu, sizeof(fu));
   frame_ubo.flush();
 }
@@ -435,8 +437,7 @@ Result<std::unique_ptr<CullLoop>> CullLoop::create(vk::Context& ctx, const CullS
   m.meshlet_class = buffers.meshlet_class;
   m.node_density = scene.node_density;
   m.node_extent = std::clamp<uint32_t>(scene.node_extent, 1, 1024);
-  m.frame_flags = (scene.per_particle_radius ? gpu::kFramePerParticleRadius : 0u) |
-                  (settings.exact_coverage ? gpu::kFrameExactCoverage : 0u);
+  m.frame_flags = scene.per_particle_radius ? gpu::kFramePerParticleRadius : 0u;  // kFrameExactCoverage per view
   m.radius_min = scene.radius_min;
   m.radius_max = scene.radius_max;
   m.bins = bins_for(width, height, ctx.limits().maxStorageBufferRange, settings.bins);
@@ -501,6 +502,8 @@ Status CullLoop::resize(uint32_t width, uint32_t height) {
   return {};
 }
 
+bool CullLoop::exact_coverage() const { return impl_->exact; }
+
 Status CullLoop::begin_view(const Camera& camera, uint32_t live_meshlets) {
   impl_->sampled_fraction = -1.0;  // the new view probes its sampled fraction again
   Impl& m = *impl_;
@@ -522,7 +525,21 @@ Status CullLoop::begin_view(const Camera& camera, uint32_t live_meshlets) {
   const double focal_px = 0.5 * m.height * std::abs(m.proj[1][1]);
   const double pixel_w = 2.0 / (std::abs(m.proj[0][0]) * m.width), pixel_h = 2.0 / (std::abs(m.proj[1][1]) * m.height);
   u.camera = glm::vec4(float(focal_px), float(pixel_w * pixel_h), float(camera.near), float(camera.far));
-  u.params.w = (camera.ortho ? gpu::kCullOrtho : 0u) | m.scene_flags;
+  // The sample-area model of this view (CullSettings::coverage): automatic takes exact where the
+  // smallest particle projects below kAutoExactBelowPx at the nearest point of the density
+  // volume's box (or the near plane, from inside it).
+  if (m.settings.coverage == Coverage::automatic) {
+    const glm::dvec3 lo = glm::dvec3(u.grid_origin), hi = lo + glm::dvec3(u.grid_cell) * glm::dvec3(u.grid_dims);
+    const glm::dvec3 eye = glm::dvec3(glm::inverse(m.view)[3]);
+    const double dist = std::max(glm::length(glm::max(glm::max(lo - eye, eye - hi), glm::dvec3(0.0))), camera.near);
+    const double r_px =
+        camera.ortho ? m.footprint_radius / std::sqrt(pixel_w * pixel_h) : m.footprint_radius * focal_px / dist;
+    m.exact = r_px < kAutoExactBelowPx;
+  } else {
+    m.exact = m.settings.coverage == Coverage::exact;
+  }
+  u.thresholds.z = m.exact ? m.footprint_radius : 0.0f;
+  u.params.w = (camera.ortho ? gpu::kCullOrtho : 0u) | m.scene_flags | (m.exact ? gpu::kCullExtendDepth : 0u);
   m.write_uniforms(0);
   gpu::CullCounters c{};
   c.class_count[MDS_CULL_CLASS_P] = std::min(live_meshlets, m.meshlet_count);

@@ -37,7 +37,9 @@ struct CullLoop::Impl {
   uint32_t hist_blocks_x() const { return (width + hist_stride() - 1) / hist_stride(); }
   uint32_t hist_blocks_y() const { return (height + hist_stride() - 1) / hist_stride(); }
   uint64_t hist_blocks() const { return uint64_t(hist_blocks_x()) * hist_blocks_y(); }
-  uint32_t scene_flags = 0;  // kCullNodeDensity, kCullExtendDepth (CullUniforms.params.w, with kCullOrtho per view)
+  uint32_t scene_flags = 0;  // kCullNodeDensity (CullUniforms.params.w, with kCullOrtho and kCullExtendDepth per view)
+  float footprint_radius = 0.0f;  // CullScene::footprint_radius (the histograms' R with exact coverage)
+  bool exact = false;             // the current view's sample-area model (CullSettings::coverage)
   SceneBuffers scene;
   Camera camera;
   glm::dvec3 origin{0.0};
