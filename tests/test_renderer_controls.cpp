@@ -4,7 +4,8 @@
 //    device bytes of the resident nodes) after a view converged and after a camera change, and is
 //    empty in memory;
 //  - set_c_occ / set_spp change the settings in place: the cache survives, the view restarts and
-//    converges to the image of a renderer created with the new C_occ; bad values are errors.
+//    converges to the image of a renderer created with the new C_occ; bad values are errors;
+//    set_coverage restarts the view with the new sample-area model.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -134,6 +135,18 @@ TEST(RendererControls, ResidencyAndLiveSettingsOnAStreamedStore) {
   EXPECT_LE(differing_pixels(*img, *ref), img->rgba.size() / 4 / 100) << "within the renderer's 1 % tolerance";
   EXPECT_GE((*r)->stats().cache.nodes_loaded, loaded_before);
   fresh->reset();
+  // set_coverage: the same in place for the sample-area model; the view restarts with it.
+  ASSERT_TRUE((*r)->set_coverage(culling::Coverage::exact).ok());
+  EXPECT_EQ((*r)->resident_nodes().size(), before.size());
+  auto restarted = (*r)->step();
+  ASSERT_TRUE(restarted.ok()) << restarted.error().message;
+  EXPECT_TRUE(restarted->culling_active);
+  EXPECT_LE(restarted->samples, 1u) << "the accumulation restarted";
+  EXPECT_TRUE((*r)->cull_loop()->exact_coverage());
+  settle(**r, 6);
+  ASSERT_TRUE((*r)->set_coverage(culling::Coverage::expected).ok());
+  ASSERT_TRUE((*r)->step().ok());
+  EXPECT_FALSE((*r)->cull_loop()->exact_coverage());
 
   // In memory: no residency.
   auto scene = load_scene(**reader);

@@ -320,6 +320,9 @@ class Renderer {
   // stops where it is, if that is already more). Errc::invalid_argument outside those ranges.
   Status set_c_occ(double c_occ);
   Status set_spp(uint32_t spp);
+  // The sample-area model (culling::CullSettings::coverage), in place like set_c_occ: with
+  // culling, the current view restarts at the next step() with the new model.
+  Status set_coverage(culling::Coverage coverage);
   // Camera in motion (dynamic resolution, render/frame_pacer.h): one occlusion sampling pass per
   // culling iteration instead of RenderSettings' count -- a moving frame is a new view whose
   // classes never mature, so the extra passes cost time (a fixed cost per particle, not per

@@ -310,6 +310,20 @@ Status Renderer::Impl::resize(uint32_t w, uint32_t h) {
 
 Status Renderer::resize(uint32_t width, uint32_t height) { return impl_->resize(width, height); }
 
+Status Renderer::set_coverage(culling::Coverage coverage) {
+  Impl& m = *impl_;
+  if (coverage == m.settings.cull_settings.coverage) return {};
+  MDS_TRY(m.slot.wait());  // the frame in flight was recorded with the old model
+  m.settings.cull_settings.coverage = coverage;
+  if (m.cull) {
+    if (m.pending_iteration && m.cache) m.cache->set_classes(m.cull->node_classes(), false);
+    m.pending_iteration = false;
+    m.cull->set_coverage(coverage);
+    if (m.has_view) m.view_stale = true;
+  }
+  return {};
+}
+
 Status Renderer::set_c_occ(double c_occ) {
   Impl& m = *impl_;
   if (!(c_occ > 0.0 && c_occ < 1.0)) return make_error(Errc::invalid_argument, "C_occ {}: expected (0, 1)", c_occ);

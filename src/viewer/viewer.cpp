@@ -31,7 +31,7 @@ const char* key_help() {
          "R  reset the view      F/G  field of view -/+ 5 deg      O  orthographic on/off\n"
          "H  HUD on/off          1  normal view   2  occlusion classes   3  cull buffer depth   4  confidence\n"
          "B  node bounds on/off  Shift+D  density histogram of the pixel under the cursor\n"
-         "C  culling on/off      [ ]  C_occ -/+ 0.01      - =  spp /2 *2\n"
+         "C  culling on/off      [ ]  C_occ -/+ 0.01      - =  spp /2 *2      K  coverage auto/expected/exact\n"
          "P  save a screenshot (mdstream-view-<time>.png)  Esc  quit";
 }
 
@@ -189,6 +189,16 @@ void Viewer::handle_keys(const InputFrame& in, bool& recreate, bool& quit) {
         rs.cull_settings.c_occ = c;  // kept for a later re-creation (key C)
         Status st = host_->renderer() ? host_->renderer()->set_c_occ(c) : Status{};
         say(st.ok() ? fmt::format("C_occ {:.3f}", c) : st.error().message);
+        break;
+      }
+      case GLFW_KEY_K: {  // sample-area model: auto -> expected -> exact -> auto
+        using render::culling::Coverage;
+        auto& cov = rs.cull_settings.coverage;
+        cov = cov == Coverage::automatic ? Coverage::expected
+              : cov == Coverage::expected ? Coverage::exact
+                                          : Coverage::automatic;  // kept for a later re-creation (key C)
+        Status st = host_->renderer() ? host_->renderer()->set_coverage(cov) : Status{};
+        say(st.ok() ? "coverage " + render::culling::coverage_name(cov) : st.error().message);
         break;
       }
       case GLFW_KEY_MINUS:
@@ -383,6 +393,8 @@ Status Viewer::run() {
     const auto& rs = host_->settings();
     hud_.cull = rs.cull;
     hud_.c_occ = rs.cull_settings.c_occ;
+    hud_.coverage = render::culling::coverage_name(rs.cull_settings.coverage);
+    hud_.exact_coverage = r && r->cull_loop() && r->cull_loop()->exact_coverage();
     hud_.spp = rs.spp;
     hud_.ortho = cam.ortho;
     hud_.fov_y_deg = cam.fov_y_deg;

@@ -55,7 +55,8 @@ void setup_view(CLI::App& sub, int& exit_code) {
       ->capture_default_str();
   sub.add_option("--fov", opt->v.fov_y_deg, "Vertical field of view in degrees")->capture_default_str();
   sub.add_flag("--ortho", opt->v.ortho, "Start with an orthographic projection");
-  add_culling_options(sub, opt->cull, "Start with occlusion culling off (key C toggles; keys [ ] change --cocc)");
+  add_culling_options(sub, opt->cull,
+                      "Start with occlusion culling off (key C toggles; keys [ ] change --cocc, K cycles --coverage)");
   sub.add_option("--play", opt->v.play,
                  "Replay the camera keyframes of this camera path file (docs/camera-path.md), or a built-in path: "
                  "orbit, flythrough, jumps");

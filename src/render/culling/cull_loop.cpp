@@ -480,6 +480,7 @@ void CullLoop::set_c_occ(double c_occ) {
   impl_->settings.c_occ = c_occ;
   impl_->uniforms.thresholds.x = float(c_occ);
 }
+void CullLoop::set_coverage(Coverage coverage) { impl_->settings.coverage = coverage; }
 const CullSettings& CullLoop::settings() const { return impl_->settings; }
 uint32_t CullLoop::width() const { return impl_->width; }
 uint32_t CullLoop::height() const { return impl_->height; }

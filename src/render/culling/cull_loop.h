@@ -31,6 +31,7 @@
 #include <cstdint>
 #include <memory>
 #include <span>
+#include <string>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -83,6 +84,10 @@ inline constexpr double kSampleRouteClearCut = 2.0;
 int sample_route_clear_winner(std::span<const double> raster_ms, std::span<const double> compute_ms);
 
 enum class Coverage { expected, exact, automatic };
+// The CLI's names: "expected", "exact", "auto".
+inline std::string coverage_name(Coverage c) {
+  return c == Coverage::exact ? "exact" : c == Coverage::automatic ? "auto" : "expected";
+}
 // Coverage::automatic: exact below this projected radius (pixels) of the smallest particle at the
 // data's nearest point. The expected area overstates a pixel-wide particle's share (0.975 for a
 // 1-pixel radius against 0.39 on average over the disks that reach a pixel) and is 1 from 1.41 px;
@@ -248,6 +253,7 @@ class CullLoop {
   // Changes C_occ (the O threshold of Sect. 5.1) from the next recorded iteration on. Classes
   // only move upward within a view, so the caller restarts the view (begin_view()).
   void set_c_occ(double c_occ);
+  void set_coverage(Coverage coverage);  // takes effect at the next begin_view
   // Occlusion sampling passes per iteration from the next recorded iteration on, in
   // 1..settings().samples_per_iteration (the timestamp pool is sized for that many).
   void set_samples_per_iteration(uint32_t passes);
