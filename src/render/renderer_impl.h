@@ -4,6 +4,7 @@
 #pragma once
 
 #include <chrono>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -134,6 +135,7 @@ struct Renderer::Impl {
   Status create_draw_buffers(uint64_t meshlet_slots);
   Status upload_streaming(const SceneData& directory);
   Status create_cull(const culling::CullScene& cs, const culling::DensityVolume& vol);
+  Status change_culling(const std::function<void(culling::CullLoop&)>& apply);  // set_c_occ, set_coverage
   // The frame uniforms of one jittered sample of `camera` (render() and the progressive step()).
   // all_meshlets: a frame of every meshlet (no particle occlusion test).
   void write_frame_uniforms(const Camera& camera, uint32_t sample, uint32_t extra_flags = 0,

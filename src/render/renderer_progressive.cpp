@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <functional>
 
 #include "render/renderer_impl.h"
 #include "vk/staging.h"
@@ -310,17 +311,25 @@ Status Renderer::Impl::resize(uint32_t w, uint32_t h) {
 
 Status Renderer::resize(uint32_t width, uint32_t height) { return impl_->resize(width, height); }
 
+// A culling setting changed in place (set_c_occ, set_coverage): the frame in flight finishes
+// with the old one, its culling iteration still tells the cache what is occluded (as set_view
+// does), `apply` changes the loop, and the view restarts at the next step().
+Status Renderer::Impl::change_culling(const std::function<void(culling::CullLoop&)>& apply) {
+  MDS_TRY(slot.wait());
+  if (cull) {
+    if (pending_iteration && cache) cache->set_classes(cull->node_classes(), false);
+    pending_iteration = false;
+    apply(*cull);
+    if (has_view) view_stale = true;
+  }
+  return {};
+}
+
 Status Renderer::set_coverage(culling::Coverage coverage) {
   Impl& m = *impl_;
   if (coverage == m.settings.cull_settings.coverage) return {};
-  MDS_TRY(m.slot.wait());  // the frame in flight was recorded with the old model
+  MDS_TRY(m.change_culling([&](culling::CullLoop& loop) { loop.set_coverage(coverage); }));
   m.settings.cull_settings.coverage = coverage;
-  if (m.cull) {
-    if (m.pending_iteration && m.cache) m.cache->set_classes(m.cull->node_classes(), false);
-    m.pending_iteration = false;
-    m.cull->set_coverage(coverage);
-    if (m.has_view) m.view_stale = true;
-  }
   return {};
 }
 
@@ -328,15 +337,8 @@ Status Renderer::set_c_occ(double c_occ) {
   Impl& m = *impl_;
   if (!(c_occ > 0.0 && c_occ < 1.0)) return make_error(Errc::invalid_argument, "C_occ {}: expected (0, 1)", c_occ);
   if (c_occ == m.settings.cull_settings.c_occ) return {};
-  MDS_TRY(m.slot.wait());  // the frame in flight was recorded with the old threshold
+  MDS_TRY(m.change_culling([&](culling::CullLoop& loop) { loop.set_c_occ(c_occ); }));
   m.settings.cull_settings.c_occ = c_occ;
-  if (m.cull) {
-    // Its culling iteration still tells the cache what is occluded (as set_view does).
-    if (m.pending_iteration && m.cache) m.cache->set_classes(m.cull->node_classes(), false);
-    m.pending_iteration = false;
-    m.cull->set_c_occ(c_occ);
-    if (m.has_view) m.view_stale = true;
-  }
   return {};
 }
 
