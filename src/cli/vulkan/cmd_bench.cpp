@@ -78,9 +78,13 @@ Status run_bench(const BenchOptions& o) {
   MDS_TRY(apply_culling_options(co, all));
   all.width = o.width;
   all.height = o.height;
-  // Culled modes per coverage: meshlets only, and with the particle occlusion test unless it is off.
-  std::vector<render::RenderSettings> culled;
-  std::vector<std::string> culled_names, culled_coverage;
+  // The rows' modes: every particle, then per coverage meshlets only and, unless it is off, with
+  // the particle occlusion test.
+  struct Mode {
+    std::string name, coverage;
+    render::RenderSettings settings;
+  };
+  std::vector<Mode> modes = {{"all", "", all}};
   if (!o.cull.no_cull) {
     MDS_ASSIGN_OR_RETURN(render::culling::DensityVolume vol, render::culling::density_from_store(*reader, scene));
     auto density = std::make_shared<const render::culling::DensityVolume>(std::move(vol));
@@ -93,14 +97,10 @@ Status run_bench(const BenchOptions& o) {
       rs.converged_image = true;
       rs.density = density;
       rs.particle_occlusion = false;
-      culled.push_back(rs);
-      culled_names.push_back("culled");
-      culled_coverage.push_back(coverage);
+      modes.push_back({"culled", coverage, rs});
       if (o.cull.particle_occlusion != "off") {
         rs.particle_occlusion = true;
-        culled.push_back(rs);
-        culled_names.push_back("culled+particles");
-        culled_coverage.push_back(coverage);
+        modes.push_back({"culled+particles", coverage, rs});
       }
     }
   }
@@ -118,17 +118,11 @@ Status run_bench(const BenchOptions& o) {
   if (!o.reference_image.empty()) MDS_TRY(render::write_image(o.reference_image, reference));
 
   std::vector<BenchRow> rows;
-  struct Mode {
-    std::string name, coverage;
-    const render::RenderSettings* settings;
-  };
-  std::vector<Mode> modes = {{"all", "", &all}};
-  for (size_t i = 0; i < culled.size(); ++i) modes.push_back({culled_names[i], culled_coverage[i], &culled[i]});
   for (const Mode& mode : modes) {
-    const bool cull = mode.settings->cull;
+    const bool cull = mode.settings.cull;
     for (const uint32_t spp : o.spp_list) {
       render::RenderStats st;
-      MDS_ASSIGN_OR_RETURN(render::FrameImage image, render_once(*mode.settings, spp, st));
+      MDS_ASSIGN_OR_RETURN(render::FrameImage image, render_once(mode.settings, spp, st));
       BenchRow r;
       r.mode = mode.name;
       r.coverage = mode.coverage;
