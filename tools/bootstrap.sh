@@ -10,8 +10,9 @@ PACKAGES=(
   libvulkan-dev mesa-vulkan-drivers glslang-tools vulkan-tools vulkan-validationlayers
   # maths, formats, compression
   libglm-dev libhdf5-dev liblz4-dev libxxhash-dev libzstd-dev zlib1g-dev libpng-dev libtinyexr-dev
-  # meshlet construction (kd-tree / octree)
-  libpcl-dev
+  # meshlet construction (kd-tree / octree): PCL, and FLANN, the kd-tree under pcl::KdTreeFLANN,
+  # whose index the PCL builder queries one point at a time (preprocess/pcl/meshlet_pcl.cpp)
+  libpcl-dev libflann-dev
   # CLI, JSON, logging
   libcli11-dev nlohmann-json3-dev libfmt-dev libspdlog-dev
   # tests and benchmarks

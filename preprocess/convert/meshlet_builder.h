@@ -47,6 +47,8 @@ inline constexpr uint32_t kPclChunk = 256;
 // gives the same meshlets (the kd-tree answer and the exact scan agree); only the cost differs.
 // Meshlet CPU seconds, porous 2M particles, one thread, runs of 256 (16 meshlets), k = 32:
 //   4: 0.54   8: 0.44   12: 0.39   16 (no kd-tree at all): 0.19
+// With the kd-tree queried directly (meshlet_pcl.cpp, PclKdTree), porous 4M raw, meshlet CPU
+// seconds over both workers, 3 runs each: 2: 0.98-1.01  4: 0.92-0.96  8: 0.75-0.83  16: 0.37-0.38.
 // With the cheap scan a query is not faster than a scan even early in a run; the kd-tree still
 // answers the first half of each run's meshlets, as issue 2 asks for PCL neighbourhoods.
 inline constexpr uint32_t kPclScanMeshlets = 8;
