@@ -526,6 +526,13 @@ TEST(Glsl, FloatMirrorMatchesDoubleReference) {
                                        (r <= kCoverageLineRadius ? 1.0 + 2.0 * r * r : 1.0 + 2.0 * r));
     }
   }
+  // --coverage auto: the switch at kMixedExactBelowPx (the same side in float and double).
+  for (int i = 0; i <= 4000; ++i) {
+    const double r = 1.0 + 2.0 * i / 4000;
+    const float cx = float(U_alpha(rng_alpha)), cy = float(U_alpha(rng_alpha));
+    e_alpha = std::max(e_alpha, std::abs(glslf::mds_mixed_pixel_coverage(cx, cy, float(r)) -
+                                         mixed_pixel_coverage(cx, cy, float(r))));
+  }
   for (int i = 0; i <= 1000; ++i) {
     const double r = 2.0 * i / 1000;
     e_alpha = std::max(e_alpha, std::abs(glslf::mds_effective_particle_area(float(r)) - effective_particle_area(float(r))));

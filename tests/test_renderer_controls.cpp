@@ -142,11 +142,11 @@ TEST(RendererControls, ResidencyAndLiveSettingsOnAStreamedStore) {
   ASSERT_TRUE(restarted.ok()) << restarted.error().message;
   EXPECT_TRUE(restarted->culling_active);
   EXPECT_LE(restarted->samples, 1u) << "the accumulation restarted";
-  EXPECT_TRUE((*r)->cull_loop()->exact_coverage());
+  EXPECT_EQ((*r)->cull_loop()->settings().coverage, culling::Coverage::exact);
   settle(**r, 6);
   ASSERT_TRUE((*r)->set_coverage(culling::Coverage::expected).ok());
   ASSERT_TRUE((*r)->step().ok());
-  EXPECT_FALSE((*r)->cull_loop()->exact_coverage());
+  EXPECT_EQ((*r)->cull_loop()->settings().coverage, culling::Coverage::expected);
 
   // In memory: no residency.
   auto scene = load_scene(**reader);

@@ -5,7 +5,8 @@ For each scene it makes a store (`mdstream synth` + `convert`, reused in the wor
 `mdstream bench STORE --view V --spp-list ... --reference-spp R --particle-occlusion on --json` for
 each view: every row is one image, every particle drawn ("all"), with occlusion culling by meshlet
 ("culled") or with the particle occlusion test on top ("culled+particles"), the culled modes with
-the paper's expected sample area and with exact clipping (--coverage), at one spp, compared
+the paper's expected sample area, with exact clipping and with auto, the default, which clips the
+samples of particles below 2 pixels (--coverage), at one spp, compared
 with the reference (every particle at R spp). Writes docs/results/accuracy.md (tables),
 accuracy.csv and accuracy.png (RMSE against the renderer's wall time per image, one line per
 mode and view). Times are one run's, on a shared machine: compare rows of one table.
@@ -56,7 +57,7 @@ def main():
             print(f"bench_accuracy: {scene} view {view}", file=sys.stderr)
             sh([mds, "bench", store, "--view", str(view), "--width", str(args.width), "--height", str(args.height),
                 "--spp-list", args.spp_list, "--reference-spp", str(args.reference_spp), "--particle-occlusion", "on",
-                "--coverage", "expected,exact", "--json", out], log)
+                "--coverage", "expected,exact,auto", "--json", out], log)
             with open(out) as f:
                 results.append((scene, view, json.load(f)))
     load1 = os.getloadavg()
@@ -82,7 +83,8 @@ def main():
     fig, axes = plt.subplots(1, len(results), figsize=(4.2 * len(results), 3.6), squeeze=False)
     for ax, (scene, view, j) in zip(axes[0], results):
         for mode, cov, style in (("all", "", "o-"), ("culled", "expected", "s--"), ("culled+particles", "expected", "^:"),
-                                 ("culled", "exact", "s-"), ("culled+particles", "exact", "^-")):
+                                 ("culled", "exact", "s-"), ("culled+particles", "exact", "^-"),
+                                 ("culled", "auto", "d-.")):
             rs = [r for r in j["rows"] if r["mode"] == mode and r.get("coverage", "") == cov]
             if rs:
                 ax.plot([r["wall_ms"] / 1000 for r in rs], [r["rmse"] for r in rs], style,
@@ -111,8 +113,10 @@ def main():
           "`culled` images are those of the converged meshlet classes (what the viewer shows once the loop has "
           "settled), `culled+particles` adds the particle occlusion test after convergence (`--particle-occlusion`). "
           "*coverage*: the area alpha_s of an occlusion sample's particle in its pixel (Sect. 4.1), `expected` = the "
-          "paper's expected area (the default), `exact` = the particle clipped against the pixel, with histograms "
-          "counting every particle that can reach the pixel (`--coverage exact`, docs/culling-math.md). *wall* = the renderer's CPU wall time for the image (all passes and the read-back; not the upload), "
+          "paper's expected area, `exact` = the particle clipped against the pixel, with histograms "
+          "counting every particle that can reach the pixel (`--coverage exact`), `auto` = the default: exact "
+          "clipping for the samples of particles that project below 2 pixels, the expected area for larger ones, "
+          "with exact's histograms (docs/culling-math.md). *wall* = the renderer's CPU wall time for the image (all passes and the read-back; not the upload), "
           "*GPU/frame* = timestamps of one frame (culled: after convergence), *converge* = time until the culling "
           "converged, *RMSE* and *PSNR* of the linear RGB against the reference, *>0.1* = pixels with a channel more "
           "than 0.1 away (the renderer's tolerance: culled renders may have at most 1 % such pixels in the tests). "

@@ -15,7 +15,8 @@
 // orthographic: r / pixel size): the paper's expected area mds_effective_particle_area(r_px),
 // or with kFrameExactCoverage exact clipping, mds_disk_pixel_coverage of the disk around the
 // projected sphere centre against `pixel`, the lower corner (integers, unjittered framebuffer
-// coordinates) of the pixel the sample belongs to (the jitter keeps a pixel's samples inside it).
+// coordinates) of the pixel the sample belongs to (the jitter keeps a pixel's samples inside it);
+// with kFrameMixedCoverage too, exact below MDS_MIXED_EXACT_BELOW_PX (mds_mixed_pixel_coverage).
 bool mds_cull_sample(vec2 ndc, vec2 pixel, vec4 center_radius, out float ndc_depth, out vec2 sample_value) {
   vec3 p, n, d;
   sample_value = vec2(0.0);
@@ -30,7 +31,8 @@ bool mds_cull_sample(vec2 ndc, vec2 pixel, vec4 center_radius, out float ndc_dep
   if ((frame.counts.z & kFrameExactCoverage) != 0u) {
     vec4 cc = frame.proj * vec4(c, 1.0);
     vec2 rel = (cc.xy / cc.w * 0.5 + 0.5) * frame.viewport.xy - pixel;  // the disk's centre in the pixel's frame
-    alpha = mds_disk_pixel_coverage(rel.x, rel.y, r_px);
+    alpha = (frame.counts.z & kFrameMixedCoverage) != 0u ? mds_mixed_pixel_coverage(rel.x, rel.y, r_px)
+                                                          : mds_disk_pixel_coverage(rel.x, rel.y, r_px);
   } else {
     alpha = mds_effective_particle_area(r_px);
   }

@@ -42,7 +42,8 @@ MDS_CONST(uint, kMeshChunksMax, 8u);      // mesh workgroups per meshlet: ceil(2
 // FrameUniforms.flags
 MDS_CONST(uint, kFrameOrtho, 1u);
 MDS_CONST(uint, kFramePerParticleRadius, 2u);
-MDS_CONST(uint, kFrameExactCoverage, 8u);  // occlusion samples: alpha_s by exact clipping (CullSettings::exact_coverage)
+MDS_CONST(uint, kFrameExactCoverage, 8u);  // occlusion samples: alpha_s by exact clipping (CullSettings::coverage exact or automatic)
+MDS_CONST(uint, kFrameMixedCoverage, 16u);  // with kFrameExactCoverage: exact only below kMixedExactBelowPx (Coverage::automatic)
 MDS_CONST(uint, kFrameTimingOnly, 4u);  // accumulate adds 0 x colour: full cost, the image keeps its spp samples
 
 // Per-frame constants (std140 uniform block).

@@ -25,6 +25,7 @@ void main() {
   out_values[o++] = mds_accumulate_confidence(C, a, k, N);
   out_values[o++] = mds_effective_particle_area(r);
   out_values[o++] = mds_disk_pixel_coverage(z, p, r);
+  out_values[o++] = mds_mixed_pixel_coverage(z, p, r);
   out_values[o++] = mds_occluded_particles(N, C);
   float nn = mds_unique_particles_needed(n, N, C, a);
   out_values[o++] = nn;

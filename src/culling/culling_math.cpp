@@ -124,6 +124,10 @@ double half_plane_pixel_coverage(double nx, double ny, double d) {
   return d > 0.0 ? 1.0 - corner : corner;
 }
 
+double mixed_pixel_coverage(double cx, double cy, double r) {
+  return r < kMixedExactBelowPx ? disk_pixel_coverage(cx, cy, r) : effective_particle_area(r);
+}
+
 double disk_pixel_coverage(double cx, double cy, double r) {
   if (!(r > 0.0)) return 0.0;
   const double x0 = -cx, x1 = 1.0 - cx, y0 = -cy, y1 = 1.0 - cy;  // the pixel around the disk's centre

@@ -90,6 +90,17 @@ double effective_particle_area(double radius_px);
 double disk_pixel_coverage(double cx, double cy, double r);
 inline constexpr double kCoverageLineRadius = 32.0;  // px: float error <= 7e-4 below, line error <= 0.004 above
 
+// Sect. 4.1 "Particle sizes", each sample by its own particle's size (--coverage auto): exact
+// clipping (disk_pixel_coverage) for a projected radius below kMixedExactBelowPx, the expected
+// area (effective_particle_area, which is 1 there) from it on. The expected area errs at the
+// rims, where a pixel's share of the disk is below 1; below ~2 px most of a particle's pixels
+// are rim pixels, above it few are, and the expected area's 1 lets one sample settle a pixel
+// that a large particle covers (exact clipping: its rim pixels settle only with the particles
+// around it, which Eq. 1 counts as independent). Discontinuous at kMixedExactBelowPx for rim
+// pixels. Pre: finite arguments.
+double mixed_pixel_coverage(double cx, double cy, double r);
+inline constexpr double kMixedExactBelowPx = 2.0;  // px
+
 // Area of the unit pixel [0, 1]^2 on the side n . (x - (0.5, 0.5)) <= d of a line, n a unit
 // normal: 0 for d <= -(|nx| + |ny|) / 2, 1 for d >= (|nx| + |ny|) / 2, linear in between except
 // for the quadratic corner pieces. Pre: |n| = 1.

@@ -550,7 +550,6 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     cs.samples = m.cull_iteration * m.cull->samples_per_iteration();
     cs.samples_per_iteration = m.cull->samples_per_iteration();
     cs.bins = m.cull->bins();
-    cs.exact_coverage = m.cull->exact_coverage();
     cs.sample_passes_compute = m.cull->sample_route_passes(culling::SampleRoute::compute);
     cs.sample_passes_raster = m.cull->sample_route_passes(culling::SampleRoute::raster);
     cs.sample_ms_compute = m.cull->sample_route_ms(culling::SampleRoute::compute);

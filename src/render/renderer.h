@@ -138,7 +138,6 @@ struct CullStats {
   uint32_t iterations_to_converge = 0;  // 0 when not converged
   uint32_t samples_to_converge = 0;     // sampling passes until convergence (paper Table 4 "smp")
   uint32_t bins = 0;                    // density histogram bins per pixel
-  bool exact_coverage = false;          // the last view's sample-area model (CullSettings::coverage)
   // Occlusion sampling passes run in compute / rasterized (the loop's lifetime;
   // CullSettings::sample_route, docs/rendering.md).
   uint32_t sample_passes_compute = 0, sample_passes_raster = 0;

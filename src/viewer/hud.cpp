@@ -26,9 +26,8 @@ std::vector<std::string> hud_lines(const HudState& s) {
     l.push_back(fmt::format("render {}x{}  fixed resolution", s.render_width, s.render_height));
   const uint64_t total = uint64_t(r.class_counts[0]) + r.class_counts[1] + r.class_counts[2] + r.class_counts[3];
   if (s.cull)
-    l.push_back(fmt::format("culled {:.1f}% of {} meshlets  C_occ {:.3f}  coverage {}{}",
-                            total ? 100.0 * r.class_counts[3] / double(total) : 0.0, total, s.c_occ, s.coverage,
-                            s.coverage == "auto" ? (s.exact_coverage ? " (exact)" : " (expected)") : ""));
+    l.push_back(fmt::format("culled {:.1f}% of {} meshlets  C_occ {:.3f}  coverage {}",
+                            total ? 100.0 * r.class_counts[3] / double(total) : 0.0, total, s.c_occ, s.coverage));
   else
     l.push_back("culling off (C toggles)");
   l.push_back(fmt::format("meshlets P {} L {} M {} O {}", r.class_counts[0], r.class_counts[1], r.class_counts[2],

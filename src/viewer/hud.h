@@ -17,7 +17,6 @@ struct HudState {
   bool cull = true;
   double c_occ = 0.0;
   std::string coverage;       // sample-area model: "auto" | "expected" | "exact" (key K)
-  bool exact_coverage = false;  // the current view's model
   uint32_t spp = 0;
   bool ortho = false;
   double fov_y_deg = 0.0;

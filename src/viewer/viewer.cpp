@@ -394,7 +394,6 @@ Status Viewer::run() {
     hud_.cull = rs.cull;
     hud_.c_occ = rs.cull_settings.c_occ;
     hud_.coverage = render::culling::coverage_name(rs.cull_settings.coverage);
-    hud_.exact_coverage = r && r->cull_loop() && r->cull_loop()->exact_coverage();
     hud_.spp = rs.spp;
     hud_.ortho = cam.ortho;
     hud_.fov_y_deg = cam.fov_y_deg;

@@ -258,7 +258,6 @@ Status run_render(const RenderOptions& o) {
                          {"seed", o.cull.seed},
                          {"mesh_shaders", o.cull.mesh_shaders},
                          {"coverage", o.cull.coverage},
-                         {"coverage_used", c.exact_coverage ? "exact" : "expected"},
                          {"particle_occlusion", rs.particle_occlusion ? "on" : "off"},
                          {"spp", stats.spp},
                          {"width", stats.width},

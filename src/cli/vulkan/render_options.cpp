@@ -46,8 +46,8 @@ void add_culling_options(CLI::App& sub, CullingOptions& o, const std::string& no
     sub.add_option("--coverage", o.coverage,
                    "Area of an occlusion sample's particle in its pixel (Sect. 4.1): expected (the paper's expected "
                    "area), exact (clipped against the pixel: fewer visible particles lost where particles are about "
-                   "a pixel wide, less culling where they are large), or auto (exact where the smallest particle "
-                   "projects below 2 pixels at the data's nearest point, per view); docs/culling-math.md")
+                   "a pixel wide, less culling where they are large), or auto (per sample: exact where its particle "
+                   "projects below 2 pixels, expected above); docs/culling-math.md")
         ->capture_default_str();
   sub.add_option("--particle-occlusion", o.particle_occlusion,
                  "After convergence also test each particle of the potentially visible set against the confidence "
@@ -62,7 +62,8 @@ Status apply_culling_options(const CullingOptions& o, render::RenderSettings& rs
     return make_error(Errc::invalid_argument, "--acceptance '{}': expected normal or random", o.acceptance);
   if (!(o.cocc > 0.0 && o.cocc < 1.0)) return make_error(Errc::invalid_argument, "--cocc {}: expected (0, 1)", o.cocc);
   MDS_ASSIGN_OR_RETURN(rs.mesh_shaders, render::parse_mesh_shader_mode(o.mesh_shaders));
-  if (o.coverage != "expected" && o.coverage != "exact" && o.coverage != "auto")
+  const auto coverage = render::culling::parse_coverage(o.coverage);
+  if (!coverage)
     return make_error(Errc::invalid_argument, "--coverage '{}': expected auto, expected or exact", o.coverage);
   if (o.particle_occlusion != "on" && o.particle_occlusion != "off" && o.particle_occlusion != "auto")
     return make_error(Errc::invalid_argument, "--particle-occlusion '{}': expected auto, on or off",
@@ -81,9 +82,7 @@ Status apply_culling_options(const CullingOptions& o, render::RenderSettings& rs
   c.histogram_stride = o.histogram_stride;
   c.n_budget = o.n_budget;
   c.seed = o.seed;
-  c.coverage = exact ? render::culling::Coverage::exact
-                     : o.coverage == "auto" ? render::culling::Coverage::automatic
-                                            : render::culling::Coverage::expected;
+  c.coverage = *coverage;
   return {};
 }
 

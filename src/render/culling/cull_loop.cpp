@@ -334,7 +334,9 @@ void CullLoop::Impl::write_frame_uniforms(uint32_t iteration) {
   fu.viewport = glm::vec4(float(width), float(height), 1.0f / float(width), 1.0f / float(height));
   fu.radius_range = glm::vec4(radius_min, radius_max - radius_min, float(camera.near), float(camera.far));
   fu.counts = glm::uvec4(meshlet_count, max_meshlet,
-                         frame_flags | (camera.ortho ? gpu::kFrameOrtho : 0u) | (exact ? gpu::kFrameExactCoverage : 0u),
+                         frame_flags | (camera.ortho ? gpu::kFrameOrtho : 0u) |
+                             (settings.coverage != Coverage::expected ? gpu::kFrameExactCoverage : 0u) |
+                             (settings.coverage == Coverage::automatic ? gpu::kFrameMixedCoverage : 0u),
                          iteration);
   std::memcpy(frame_ubo.mapped(), &fu, sizeof(fu));
   frame_ubo.flush();
@@ -503,7 +505,6 @@ Status CullLoop::resize(uint32_t width, uint32_t height) {
   return {};
 }
 
-bool CullLoop::exact_coverage() const { return impl_->exact; }
 
 Status CullLoop::begin_view(const Camera& camera, uint32_t live_meshlets) {
   impl_->sampled_fraction = -1.0;  // the new view probes its sampled fraction again
@@ -526,21 +527,12 @@ Status CullLoop::begin_view(const Camera& camera, uint32_t live_meshlets) {
   const double focal_px = 0.5 * m.height * std::abs(m.proj[1][1]);
   const double pixel_w = 2.0 / (std::abs(m.proj[0][0]) * m.width), pixel_h = 2.0 / (std::abs(m.proj[1][1]) * m.height);
   u.camera = glm::vec4(float(focal_px), float(pixel_w * pixel_h), float(camera.near), float(camera.far));
-  // The sample-area model of this view (CullSettings::coverage): automatic takes exact where the
-  // smallest particle projects below kAutoExactBelowPx at the nearest point of the density
-  // volume's box (or the near plane, from inside it).
-  if (m.settings.coverage == Coverage::automatic) {
-    const glm::dvec3 lo = glm::dvec3(u.grid_origin), hi = lo + glm::dvec3(u.grid_cell) * glm::dvec3(u.grid_dims);
-    const glm::dvec3 eye = glm::dvec3(glm::inverse(m.view)[3]);
-    const double dist = std::max(glm::length(glm::max(glm::max(lo - eye, eye - hi), glm::dvec3(0.0))), camera.near);
-    const double r_px =
-        camera.ortho ? m.footprint_radius / std::sqrt(pixel_w * pixel_h) : m.footprint_radius * focal_px / dist;
-    m.exact = r_px < kAutoExactBelowPx;
-  } else {
-    m.exact = m.settings.coverage == Coverage::exact;
-  }
-  u.thresholds.z = m.exact ? m.footprint_radius : 0.0f;
-  u.params.w = (camera.ortho ? gpu::kCullOrtho : 0u) | m.scene_flags | (m.exact ? gpu::kCullExtendDepth : 0u);
+  // Exact and automatic clip samples against their pixels (automatic: those of particles below
+  // kMixedExactBelowPx): the histograms count every particle that can reach a pixel, and
+  // Algorithm 1 may move the representative depth back.
+  const bool clipped = m.settings.coverage != Coverage::expected;
+  u.thresholds.z = clipped ? m.footprint_radius : 0.0f;
+  u.params.w = (camera.ortho ? gpu::kCullOrtho : 0u) | m.scene_flags | (clipped ? gpu::kCullExtendDepth : 0u);
   m.write_uniforms(0);
   gpu::CullCounters c{};
   c.class_count[MDS_CULL_CLASS_P] = std::min(live_meshlets, m.meshlet_count);

@@ -30,6 +30,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -88,12 +89,11 @@ enum class Coverage { expected, exact, automatic };
 inline std::string coverage_name(Coverage c) {
   return c == Coverage::exact ? "exact" : c == Coverage::automatic ? "auto" : "expected";
 }
-// Coverage::automatic: exact below this projected radius (pixels) of the smallest particle at the
-// data's nearest point. The expected area overstates a pixel-wide particle's share (0.975 for a
-// 1-pixel radius against 0.39 on average over the disks that reach a pixel) and is 1 from 1.41 px;
-// at 2 px and more the rims are a small part of a particle's pixels (results/accuracy.md: the
-// close-ups lose <= 0.02 % with it).
-inline constexpr double kAutoExactBelowPx = 2.0;
+inline std::optional<Coverage> parse_coverage(const std::string& name) {
+  for (Coverage c : {Coverage::expected, Coverage::exact, Coverage::automatic})
+    if (coverage_name(c) == name) return c;
+  return std::nullopt;
+}
 
 struct CullSettings {
   double c_occ = MDS_CULL_C_OCC_DEFAULT;        // --cocc
@@ -116,9 +116,10 @@ struct CullSettings {
   // against its pixel (disk_pixel_coverage), histograms counting every particle that can reach
   // the pixel (footprint grown by the smallest radius), and Algorithm 1 with the depth extension
   // (confidence_buffer.h extend_accumulation). Exact loses fewer visible particles where
-  // particles are about a pixel wide and culls less where they are large; automatic chooses per
-  // view: exact where the smallest particle projects below kAutoExactBelowPx at the data's
-  // nearest point (begin_view). docs/culling-math.md "Particle sizes".
+  // particles are about a pixel wide and culls less where they are large. automatic (--coverage
+  // auto, the CLI's default): each sample by its own particle's projected size, exact clipping
+  // below kMixedExactBelowPx and the expected area above (mixed_pixel_coverage), with exact's
+  // histograms and extension. docs/culling-math.md "Particle sizes".
   Coverage coverage = Coverage::expected;
   uint32_t seed = 1;
   // Route of the occlusion sampling pass (docs/rendering.md): rasterized billboards
@@ -238,9 +239,6 @@ class CullLoop {
   // particle occlusion test reads it after convergence. Replaced by resize().
   VkBuffer pyramid_buffer() const;
   const CullSettings& settings() const;
-  // The sample-area model of the current view (CullSettings::coverage; automatic decides in
-  // begin_view): true = exact.
-  bool exact_coverage() const;
   uint32_t width() const;
   uint32_t height() const;
 

@@ -39,7 +39,6 @@ struct CullLoop::Impl {
   uint64_t hist_blocks() const { return uint64_t(hist_blocks_x()) * hist_blocks_y(); }
   uint32_t scene_flags = 0;  // kCullNodeDensity (CullUniforms.params.w, with kCullOrtho and kCullExtendDepth per view)
   float footprint_radius = 0.0f;  // CullScene::footprint_radius (the histograms' R with exact coverage)
-  bool exact = false;             // the current view's sample-area model (CullSettings::coverage)
   SceneBuffers scene;
   Camera camera;
   glm::dvec3 origin{0.0};
