@@ -47,13 +47,13 @@ const int kCooperativePixels = 256;
 #endif
 
 // The sample of one glyph at pixel (x, y), if it is nearer than the pixel's (see the file comment).
-void sample_pixel(int x, int y, vec4 center_radius, uint zmin_bits, vec2 jitter) {
+void sample_pixel(int x, int y, vec4 center_radius, vec3 disk, uint zmin_bits, vec2 jitter) {
   uint pix = uint(y) * uint(frame.viewport.x) + uint(x);
   if (zmin_bits > uint(samples[pix] >> 32)) return;
   vec2 ndc = (vec2(x, y) + 0.5) * frame.viewport.zw * 2.0 - 1.0 - jitter;
   float depth;
   vec2 v;
-  if (!mds_cull_sample(ndc, vec2(x, y), center_radius, depth, v) || !(depth < 1.0)) return;
+  if (!mds_cull_sample(ndc, vec2(x, y), center_radius, disk, depth, v) || !(depth < 1.0)) return;
   uint64_t key = (uint64_t(floatBitsToUint(max(v.x, 0.0))) << 32) | uint64_t(floatBitsToUint(v.y));
   atomicMin(samples[pix], key);
 }
@@ -86,7 +86,9 @@ void main() {
   vec2 jitter = vec2(push.jitter_x, push.jitter_y);
   ivec2 p0 = ivec2(0), p1 = ivec2(-1);
   uint zmin_bits = 0u;
+  vec3 disk = vec3(0.0);
   if (valid) {
+    disk = mds_cull_sample_disk(s.center_radius);
     // The quad as the rasterizer places it (rect + jitter, framebuffer coordinates); pixel
     // centres x + 0.5 inside [lo, hi).
     vec2 lo = (s.rect.xy + jitter + 1.0) * 0.5 * size;
@@ -106,7 +108,7 @@ void main() {
 #endif
   if (area > 0 && !cooperative)
     for (int y = p0.y; y <= p1.y; ++y)
-      for (int x = p0.x; x <= p1.x; ++x) sample_pixel(x, y, s.center_radius, zmin_bits, jitter);
+      for (int x = p0.x; x <= p1.x; ++x) sample_pixel(x, y, s.center_radius, disk, zmin_bits, jitter);
 #ifdef MDS_COOPERATIVE_GLYPHS
   // The lanes whose glyph still waits for the subgroup; the lowest one leads each round.
   uvec4 waiting = subgroupBallot(cooperative);
@@ -115,9 +117,10 @@ void main() {
     ivec2 q0 = subgroupShuffle(p0, leader);
     int qw = subgroupShuffle(w, leader), qa = subgroupShuffle(area, leader);
     vec4 cr = subgroupShuffle(valid ? s.center_radius : vec4(0.0), leader);
+    vec3 qd = subgroupShuffle(disk, leader);
     uint zb = subgroupShuffle(zmin_bits, leader);
     for (int i = int(gl_SubgroupInvocationID); i < qa; i += int(gl_SubgroupSize))
-      sample_pixel(q0.x + i % qw, q0.y + i / qw, cr, zb, jitter);
+      sample_pixel(q0.x + i % qw, q0.y + i / qw, cr, qd, zb, jitter);
     waiting[leader / 32u] &= ~(1u << (leader % 32u));  // its glyph is done
   }
 #endif

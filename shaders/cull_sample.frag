@@ -12,6 +12,7 @@
 layout(push_constant) uniform PushBlock { CullPush push; };  // jitter (NDC), see cull_sample.vert
 
 layout(location = 0) flat in vec4 v_center_radius;
+layout(location = 1) flat in vec3 v_disk;
 layout(location = 0) out vec2 o_sample;
 layout(depth_greater) out float gl_FragDepth;
 
@@ -19,7 +20,7 @@ void main() {
   vec2 ndc = gl_FragCoord.xy * frame.viewport.zw * 2.0 - 1.0 - vec2(push.jitter_x, push.jitter_y);
   float depth;
   vec2 s;
-  if (!mds_cull_sample(ndc, floor(gl_FragCoord.xy), v_center_radius, depth, s)) discard;
+  if (!mds_cull_sample(ndc, floor(gl_FragCoord.xy), v_center_radius, v_disk, depth, s)) discard;
   gl_FragDepth = depth;
   o_sample = s;
 }
