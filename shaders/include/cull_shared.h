@@ -41,7 +41,7 @@ MDS_CONST(uint, kCullOrtho, 1u);
 // node reaches O; without it the CSR is per meshlet and applied when a meshlet reaches O.
 MDS_CONST(uint, kCullNodeDensity, 2u);
 // Algorithm 1 with the depth extension (confidence_buffer.h extend_accumulation), set with
-// exact coverage (CullSettings::exact_coverage).
+// exact or automatic coverage (CullSettings::coverage).
 MDS_CONST(uint, kCullExtendDepth, 4u);
 
 // Push constant of the culling passes. mode: cull_classify 0 nodes, 1 meshlets; cull_pyramid the

@@ -26,7 +26,7 @@ struct PixelState {
 struct AcceptanceParams {
   int mode = MDS_CULL_ACCEPT_NORMAL;  // MDS_CULL_ACCEPT_NORMAL / _EXACT / _RANDOM
   int n_budget = MDS_CULL_N_BUDGET_DEFAULT;
-  // Extension (with exact coverage, CullSettings::coverage): a sample behind the
+  // Extension (with exact or automatic coverage, CullSettings::coverage): a sample behind the
   // accumulation depth d moves d back to d_s when that occludes more, see extend_accumulation.
   bool extend_depth = false;
 };
