@@ -278,6 +278,11 @@ class CullLoop {
   // Sets the sample image (view depth, alpha_s) and runs only the update pass as sampling pass
   // number `iteration` (its random numbers).
   Status run_update_only(const std::vector<glm::vec2>& samples, uint32_t iteration);
+  // Runs one occlusion sampling pass, number `pass` (its jitter and occluder selection), on the
+  // current classes, by the route CullSettings::sample_route forces (automatic: raster), and
+  // returns its samples: W*H (view depth of the nearest hit, alpha_s), (MDS_CULL_DEPTH_EMPTY, 0)
+  // where no particle was hit.
+  Result<std::vector<glm::vec2>> run_sampling_pass_only(uint32_t pass);
   Status run_pyramid_only();
   Status run_histogram_only();
 

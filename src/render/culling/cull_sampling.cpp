@@ -259,4 +259,44 @@ Status CullLoop::run_update_only(const std::vector<glm::vec2>& samples, uint32_t
   });
 }
 
+Result<std::vector<glm::vec2>> CullLoop::run_sampling_pass_only(uint32_t pass) {
+  Impl& m = *impl_;
+  m.sample_compute = m.compute_available && m.forced_route() == SampleRoute::compute;
+  m.write_uniforms(pass);
+  m.write_frame_uniforms(pass);
+  const size_t px = size_t(m.width) * m.height;
+  if (m.sample_compute) {
+    MDS_TRY(m.ctx->submit_and_wait([&](VkCommandBuffer cmd) { m.record_sampling_pass(cmd, nullptr, pass); }));
+    // Per pixel (alpha_s bits, view depth bits) as two words; all ones: no sample.
+    MDS_ASSIGN_OR_RETURN(auto words, m.read<glm::uvec2>(m.sample_buf, px));
+    std::vector<glm::vec2> out(px, glm::vec2(float(MDS_CULL_DEPTH_EMPTY), 0.0f));
+    for (size_t p = 0; p < px; ++p) {
+      if (words[p].x == ~0u && words[p].y == ~0u) continue;
+      std::memcpy(&out[p].y, &words[p].x, 4);
+      std::memcpy(&out[p].x, &words[p].y, 4);
+    }
+    return out;
+  }
+  MDS_ASSIGN_OR_RETURN(vk::Buffer host, vk::Buffer::create(m.ctx->allocator(), px * sizeof(glm::vec2),
+                                                           VK_BUFFER_USAGE_TRANSFER_DST_BIT, vk::MemoryIntent::readback,
+                                                           "test samples read-back"));
+  MDS_TRY(m.ctx->submit_and_wait([&](VkCommandBuffer cmd) {
+    m.record_sampling_pass(cmd, nullptr, pass);
+    vk::image_barrier(cmd, m.sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_GENERAL,
+                      VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                      VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT,
+                      VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
+    VkBufferImageCopy r{};
+    r.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    r.imageExtent = {m.width, m.height, 1};
+    vkCmdCopyImageToBuffer(cmd, m.sample_image.get(), VK_IMAGE_LAYOUT_GENERAL, host.get(), 1, &r);
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+  }));
+  host.invalidate();
+  std::vector<glm::vec2> out(px);
+  std::memcpy(out.data(), host.mapped(), px * sizeof(glm::vec2));
+  return out;
+}
+
 }  // namespace mds::render::culling
