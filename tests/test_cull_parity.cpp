@@ -352,10 +352,14 @@ TEST(CullParity, UpdatePassMatchesCpuAlgorithm1WithDepthExtension) { check_updat
 // CPU reference of its samples: per pixel the nearest ray-sphere hit on the pass's jittered
 // sample ray, and alpha_s of that particle's projected disk in the pixel by the sample-area
 // model (culling_math.h effective_particle_area / disk_pixel_coverage / mixed_pixel_coverage),
-// the disk from the camera's own matrices in double. Spheres of about 0.2-4.7 px radius, some
-// overlapping, so both sides of --coverage auto's 2 px switch take samples. The GPU positions are
-// quantized (node frame of ~13 units: 2e-4), which moves a disk by ~1e-3 px; a pixel whose ray
-// grazes a silhouette may hit on one side only, hence 99 % agreement rather than all pixels.
+// the disk from the camera's own matrices in double and the positions quantized as the GPU holds
+// them. Spheres of about 0.2-6.8 px radius, some overlapping. A pixel whose ray grazes a
+// silhouette may hit on one side only, hence 99 % agreement rather than all pixels. alpha_s to
+// 1e-2: on lavapipe the exact strips of disks of 6.5 px differ from the double reference by up
+// to 6e-3 at their rims (below 3e-3 for the disks below 4 px), while the C++ float mirror of the
+// same code stays below 2e-4 there (test_culling_algorithm.cpp): the strips take differences of
+// terms of size r^2 (r^2 asin(x / r)), so the device's coarser float asin/sqrt are magnified by
+// r^2 (the likely cause; not isolated further).
 void check_sampling(rc::Coverage coverage, rc::SampleRoute route) {
   auto c = vk::Context::create(vk::ContextOptions::from_env());
   ASSERT_TRUE(c.ok()) << c.error().message;
@@ -366,9 +370,16 @@ void check_sampling(rc::Coverage coverage, rc::SampleRoute route) {
   for (int j = 0; j < 6; ++j)
     for (int i = 0; i < 8; ++i) {
       pos.push_back({1.6 * i + 0.3 * u(rng), 1.6 * j + 0.3 * u(rng), u(rng)});
-      types.push_back(uint8_t((i + j) % 4));
+      types.push_back(uint8_t((i + j) % 5));
     }
-  const float radius[4] = {0.05f, 0.3f, 0.45f, 1.0f};
+  const float radius[5] = {0.05f, 0.3f, 0.45f, 1.0f, 2.0f};
+  // The positions as the GPU holds them: quantized to 16 bits in the (single) node's frame.
+  std::vector<glm::dvec3> held = pos;
+  for (int a = 0; a < 3; ++a) {
+    double lo = INFINITY, hi = -INFINITY;
+    for (const auto& p : pos) lo = std::min(lo, p[a]), hi = std::max(hi, p[a]);
+    for (auto& p : held) p[a] = lo + std::round((p[a] - lo) / (hi - lo) * 65535.0) * ((hi - lo) / 65535.0);
+  }
   auto scene = scene_from_particles(pos, types, radius, 4096, 16);
   ASSERT_TRUE(scene.ok()) << scene.error().message;
   RenderSettings rs;
@@ -405,7 +416,7 @@ void check_sampling(rc::Coverage coverage, rc::SampleRoute route) {
       const glm::dvec3 o = unproject(ndc, 0.0), d = glm::normalize(unproject(ndc, 1.0) - o);
       double best_t = INFINITY, alpha = 0.0;
       for (size_t i = 0; i < pos.size(); ++i) {
-        const glm::dvec3 vc = glm::dvec3(view * glm::dvec4(pos[i] - scene->origin, 1.0));
+        const glm::dvec3 vc = glm::dvec3(view * glm::dvec4(held[i] - scene->origin, 1.0));
         const double rad = radius[types[i]];
         const glm::dvec3 oc = o - vc;
         const double b = glm::dot(oc, d), disc = rad * rad - glm::dot(oc - b * d, oc - b * d);
@@ -428,11 +439,13 @@ void check_sampling(rc::Coverage coverage, rc::SampleRoute route) {
       ++hits;
       clipped += alpha > 0.0 && alpha < 0.999;
       const double depth = -(o + best_t * d).z;
-      if (gpu_hit && std::abs(g.x - depth) <= 1e-3 * depth && std::abs(g.y - alpha) <= 3e-3) ++agree;
+      if (gpu_hit && std::abs(g.x - depth) <= 1e-4 * depth && std::abs(g.y - alpha) <= 1e-2) ++agree;
     }
   EXPECT_GE(agree, size_t(0.99 * kW * kH)) << "agreeing pixels " << agree << " of " << kW * kH;
   EXPECT_GE(hits, size_t(kW * kH / 4)) << "pixels with a sample";
-  if (coverage != rc::Coverage::expected) EXPECT_GE(clipped, size_t(50)) << "pixels a sample covers in part";
+  if (coverage != rc::Coverage::expected) {
+    EXPECT_GE(clipped, size_t(50)) << "pixels a sample covers in part";
+  }
 }
 
 TEST(CullParity, SamplePassMatchesCpuExpectedArea) {

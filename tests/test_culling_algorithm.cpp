@@ -528,7 +528,7 @@ TEST(Glsl, FloatMirrorMatchesDoubleReference) {
   }
   // --coverage auto: the switch at kMixedExactBelowPx (the same side in float and double).
   for (int i = 0; i <= 4000; ++i) {
-    const double r = 1.0 + 2.0 * i / 4000;
+    const double r = kMixedExactBelowPx * (0.5 + 1.0 * i / 4000);
     const float cx = float(U_alpha(rng_alpha)), cy = float(U_alpha(rng_alpha));
     e_alpha = std::max(e_alpha, std::abs(glslf::mds_mixed_pixel_coverage(cx, cy, float(r)) -
                                          mixed_pixel_coverage(cx, cy, float(r))));

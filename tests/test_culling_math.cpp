@@ -278,19 +278,19 @@ TEST(DiskPixelCoverage, LargeDisksByTheirTangentStayWithinTheBound) {
 
 // --coverage auto: exact clipping below kMixedExactBelowPx, the expected area (1 there) from it
 // on; the switch is where a pixel at a disk's rim jumps to 1.
-TEST(DiskPixelCoverage, MixedSwitchesToTheExpectedAreaAtTwoPixels) {
+TEST(DiskPixelCoverage, MixedSwitchesToTheExpectedAreaAtTheSwitchRadius) {
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> U(-3.0, 4.0);
   for (int i = 0; i < 2000; ++i) {
-    const double cx = U(rng), cy = U(rng), r = 0.01 + 4.0 * (i + 0.5) / 2000;
+    const double cx = U(rng), cy = U(rng), r = 0.01 + 2.0 * kMixedExactBelowPx * (i + 0.5) / 2000;
     const double want = r < kMixedExactBelowPx ? disk_pixel_coverage(cx, cy, r) : effective_particle_area(r);
     ASSERT_EQ(mixed_pixel_coverage(cx, cy, r), want) << cx << " " << cy << " " << r;
   }
   EXPECT_EQ(effective_particle_area(kMixedExactBelowPx), 1.0);
-  const double below = std::nextafter(kMixedExactBelowPx, 0.0);
-  EXPECT_NEAR(mixed_pixel_coverage(2.5, 0.5, below), 0.5, 0.03);  // the rim through the pixel's middle
-  EXPECT_EQ(mixed_pixel_coverage(2.5, 0.5, kMixedExactBelowPx), 1.0);
-  EXPECT_EQ(mixed_pixel_coverage(9.0, 0.5, kMixedExactBelowPx), 1.0);  // the expected area: any pixel
+  const double T = kMixedExactBelowPx, below = std::nextafter(T, 0.0);
+  EXPECT_NEAR(mixed_pixel_coverage(0.5 + T, 0.5, below), 0.5, 0.03);  // the rim through the pixel's middle
+  EXPECT_EQ(mixed_pixel_coverage(0.5 + T, 0.5, T), 1.0);
+  EXPECT_EQ(mixed_pixel_coverage(2.0 + 2.0 * T, 0.5, T), 1.0);  // the expected area: any pixel
   EXPECT_EQ(mixed_pixel_coverage(0.5, 0.5, 0.0), 0.0);
 }
 
