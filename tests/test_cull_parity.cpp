@@ -353,7 +353,8 @@ TEST(CullParity, UpdatePassMatchesCpuAlgorithm1WithDepthExtension) { check_updat
 // sample ray, and alpha_s of that particle's projected disk in the pixel by the sample-area
 // model (culling_math.h effective_particle_area / disk_pixel_coverage / mixed_pixel_coverage),
 // the disk from the camera's own matrices in double and the positions quantized as the GPU holds
-// them. Spheres of about 0.2-6.8 px radius, some overlapping. A pixel whose ray grazes a
+// them. Spheres of about 0.2-6.8 px radius, some overlapping, on both sides of --coverage auto's
+// 2 px switch. A pixel whose ray grazes a
 // silhouette may hit on one side only, hence 99 % agreement rather than all pixels. alpha_s to
 // 1e-2: on lavapipe the exact strips of disks of 6.5 px differ from the double reference by up
 // to 6e-3 at their rims (below 3e-3 for the disks below 4 px), while the C++ float mirror of the

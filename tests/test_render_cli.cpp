@@ -264,12 +264,12 @@ TEST_F(RenderCli, RenderWithoutItsModuleFailsCleanly) {
 }
 
 // --coverage auto (the default) takes each occlusion sample's area by its own particle's
-// projected size: exact clipping below 8 pixels, the expected area above. In a thumbnail of the
-// shell every particle is below 8 pixels, and auto's classes are exact's; in a narrow (10 degree)
+// projected size: exact clipping below 2 pixels, the expected area above. In a thumbnail of the
+// shell every particle is below 2 pixels, and auto's classes are exact's; in a narrow (10 degree)
 // close-up at 480x270 the particles that take the samples are larger, and auto's classes are the
 // expected area's. The two models classify differently in both views, so the equalities are not
 // trivial.
-TEST_F(RenderCli, CoverageAutoClipsOnlyParticlesBelowEightPixels) {
+TEST_F(RenderCli, CoverageAutoClipsOnlyParticlesBelowTwoPixels) {
   const auto classes = [&](const std::string& args) -> std::string {
     const fs::path png = dir_ / "cov.png", stats = dir_ / "cov.json";
     if (run("render " + store() + " -o " + png.string() + " --spp 1 --max-iterations 2 " + args + " --stats " +

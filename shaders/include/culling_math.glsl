@@ -191,7 +191,7 @@ float mds_disk_pixel_coverage(float cx, float cy, float r) {
         mds_disk_area_above(x0, x1, y1, r);
   return clamp(a, 0.0f, min(MDS_PI * r * r, 1.0f));
 }
-const float MDS_MIXED_EXACT_BELOW_PX = 8.0f;  // culling_math.h kMixedExactBelowPx
+const float MDS_MIXED_EXACT_BELOW_PX = 2.0f;  // culling_math.h kMixedExactBelowPx
 float mds_mixed_pixel_coverage(float cx, float cy, float r) {  // culling_math.h mixed_pixel_coverage
   return r < MDS_MIXED_EXACT_BELOW_PX ? mds_disk_pixel_coverage(cx, cy, r) : mds_effective_particle_area(r);
 }

@@ -99,11 +99,13 @@ inline constexpr double kCoverageLineRadius = 32.0;  // px: float error <= 7e-4 
 // only with the particles around it, which Eq. 1 counts as independent). Discontinuous at
 // kMixedExactBelowPx for rim pixels. Pre: finite arguments.
 double mixed_pixel_coverage(double cx, double cy, double r);
-// px. Measured (docs/culling-math.md, 1M views at 480x270, 16 spp, pixels beyond 0.1 with the
-// particle occlusion test, ablation close-up): 2 px 3.99 %, 4 px 1.16 %, 8 px 0.68 % (exact
-// 0.62 %), while the porous close-up kept the expected area's speed (2.0 / 2.0 / 2.6 s to
-// converge against exact's 7.6 s; streamed at 160x120 through 1/8 of the store: 2 nodes read).
-inline constexpr double kMixedExactBelowPx = 8.0;
+// px. Measured (docs/culling-math.md, "`--coverage auto`"): a larger switch brings the particle
+// occlusion test close to exact's accuracy (ablation 1M close-up at 480x270: 3.99 % of the
+// pixels beyond 0.1 at 2 px, 0.68 % at 8 px, exact 0.62 %), but a streamed close-up of particles
+// of 2-8 px then reads what exact reads (porous 1M at 320x180 through 1/8 of the store: 6.0x the
+// bytes of the nodes with a visible pixel at 8 px, 1.00x at 2 px). 2 px keeps the streaming, and
+// the particle test stays off with auto.
+inline constexpr double kMixedExactBelowPx = 2.0;
 
 // Area of the unit pixel [0, 1]^2 on the side n . (x - (0.5, 0.5)) <= d of a line, n a unit
 // normal: 0 for d <= -(|nx| + |ny|) / 2, 1 for d >= (|nx| + |ny|) / 2, linear in between except

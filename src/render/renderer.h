@@ -115,8 +115,8 @@ struct RenderSettings {
   // drawn, the paper's behaviour): with the paper's expected sample area the per-pixel confidence
   // overstates coverage where particles are about a pixel wide, and the test then drops visible
   // particles (5.9-10.4 % of the pixels beyond 0.1 on 1M views at 16 spp); with
-  // exact or automatic coverage (CullSettings::coverage) it loses <= 0.7 % (docs/rendering.md).
-  // The CLI's --particle-occlusion auto turns it on with --coverage auto or exact.
+  // exact coverage (CullSettings::coverage) it loses <= 0.6 %, with automatic up to 4 %
+  // (docs/rendering.md). The CLI's --particle-occlusion auto turns it on with --coverage exact.
   bool particle_occlusion = false;
   // Sprite records the compute sprite path holds at once (48 B each, bound whole, so at most
   // maxStorageBufferRange / 48: 2.8 M on lavapipe). A draw list with more particles is turned

@@ -47,13 +47,13 @@ void add_culling_options(CLI::App& sub, CullingOptions& o, const std::string& no
                    "Area of an occlusion sample's particle in its pixel (Sect. 4.1): expected (the paper's expected "
                    "area), exact (clipped against the pixel: fewer visible particles lost where particles are about "
                    "a pixel wide, less culling where they are large), or auto (per sample: exact where its particle "
-                   "projects below 8 pixels, expected above); docs/culling-math.md")
+                   "projects below 2 pixels, expected above); docs/culling-math.md")
         ->capture_default_str();
   sub.add_option("--particle-occlusion", o.particle_occlusion,
                  "After convergence also test each particle of the potentially visible set against the confidence "
                  "pyramid with the meshlet rule and skip those in class O: on, off (draw whole meshlets, as the "
-                 "paper), or auto (on with --coverage auto or exact, off with expected: with the expected area "
-                 "it drops visible particles); docs/rendering.md")
+                 "paper), or auto (on with --coverage exact only: with the expected area, also that of --coverage "
+                 "auto's larger particles, it drops visible particles); docs/rendering.md")
       ->capture_default_str();
 }
 
@@ -68,7 +68,7 @@ Status apply_culling_options(const CullingOptions& o, render::RenderSettings& rs
   if (o.particle_occlusion != "on" && o.particle_occlusion != "off" && o.particle_occlusion != "auto")
     return make_error(Errc::invalid_argument, "--particle-occlusion '{}': expected auto, on or off",
                       o.particle_occlusion);
-  rs.particle_occlusion = o.particle_occlusion == "on" || (o.particle_occlusion == "auto" && o.coverage != "expected");
+  rs.particle_occlusion = o.particle_occlusion == "on" || (o.particle_occlusion == "auto" && o.coverage == "exact");
   rs.cull = !o.no_cull;
   auto& c = rs.cull_settings;
   c.c_occ = o.cocc;
