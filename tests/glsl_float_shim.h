@@ -15,6 +15,7 @@ using std::floor;
 using std::log;
 using std::sqrt;
 inline float abs(float x) { return std::fabs(x); }
+inline float atan(float y, float x) { return std::atan2(y, x); }
 inline float min(float a, float b) { return std::min(a, b); }
 inline int min(int a, int b) { return std::min(a, b); }
 inline float max(float a, float b) { return std::max(a, b); }
