@@ -48,6 +48,17 @@ struct Fixture {
   bool exact_coverage = false;
 };
 
+// The settings every parity test renders with: kW x kH, one sample per pixel, culling on.
+RenderSettings parity_settings(rc::Coverage coverage) {
+  RenderSettings rs;
+  rs.width = kW;
+  rs.height = kH;
+  rs.spp = 1;
+  rs.cull = true;
+  rs.cull_settings.coverage = coverage;
+  return rs;
+}
+
 Fixture make_fixture(bool ortho, int acceptance = MDS_CULL_ACCEPT_NORMAL, uint32_t histogram_stride = 1,
                      bool exact_coverage = false) {
   Fixture f;
@@ -62,14 +73,9 @@ Fixture make_fixture(bool ortho, int acceptance = MDS_CULL_ACCEPT_NORMAL, uint32
   const float radius[1] = {0.2f};
   f.scene = scene_from_particles(pos, types, radius, 2000, 16).value();
   f.volume = std::make_shared<rc::DensityVolume>(rc::density_from_scene(f.scene, 24));
-  RenderSettings rs;
-  rs.width = kW;
-  rs.height = kH;
-  rs.spp = 1;
-  rs.cull = true;
+  RenderSettings rs = parity_settings(exact_coverage ? rc::Coverage::exact : rc::Coverage::expected);
   rs.cull_settings.acceptance = acceptance;
   rs.cull_settings.histogram_stride = histogram_stride;
-  rs.cull_settings.coverage = exact_coverage ? rc::Coverage::exact : rc::Coverage::expected;
   f.exact_coverage = exact_coverage;
   rs.density = f.volume;
   auto r = Renderer::create(*f.ctx, f.scene, rs);
@@ -381,12 +387,7 @@ void check_sampling(rc::Coverage coverage, rc::SampleRoute route) {
   }
   auto scene = scene_from_particles(pos, types, radius, 4096, 16);
   ASSERT_TRUE(scene.ok()) << scene.error().message;
-  RenderSettings rs;
-  rs.width = kW;
-  rs.height = kH;
-  rs.spp = 1;
-  rs.cull = true;
-  rs.cull_settings.coverage = coverage;
+  RenderSettings rs = parity_settings(coverage);
   rs.cull_settings.sample_route = route;
   rs.cull_settings.budget = 1u << 20;  // every meshlet is an occluder in every pass
   rs.density = std::make_shared<rc::DensityVolume>(rc::density_from_scene(*scene, 16));

@@ -156,7 +156,8 @@ Status CullLoop::Impl::create_pixel_buffers() {
   MDS_ASSIGN_OR_RETURN(sample_image, vk::Image::create_2d(alloc, iw, ih, kSampleFormat,
                                                           VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT |
                                                               VK_IMAGE_USAGE_STORAGE_BIT |
-                                                              VK_IMAGE_USAGE_TRANSFER_DST_BIT,
+                                                              VK_IMAGE_USAGE_TRANSFER_DST_BIT |
+                                                              VK_IMAGE_USAGE_TRANSFER_SRC_BIT,  // test read-back
                                                           VK_IMAGE_ASPECT_COLOR_BIT, "occlusion sample image"));
   MDS_ASSIGN_OR_RETURN(depth, vk::Image::create_2d(alloc, iw, ih, kDepthFormat,
                                                    VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,

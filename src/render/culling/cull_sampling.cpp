@@ -277,25 +277,10 @@ Result<std::vector<glm::vec2>> CullLoop::run_sampling_pass_only(uint32_t pass) {
     }
     return out;
   }
-  MDS_ASSIGN_OR_RETURN(vk::Buffer host, vk::Buffer::create(m.ctx->allocator(), px * sizeof(glm::vec2),
-                                                           VK_BUFFER_USAGE_TRANSFER_DST_BIT, vk::MemoryIntent::readback,
-                                                           "test samples read-back"));
-  MDS_TRY(m.ctx->submit_and_wait([&](VkCommandBuffer cmd) {
-    m.record_sampling_pass(cmd, nullptr, pass);
-    vk::image_barrier(cmd, m.sample_image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_GENERAL,
-                      VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                      VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT,
-                      VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
-    VkBufferImageCopy r{};
-    r.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-    r.imageExtent = {m.width, m.height, 1};
-    vkCmdCopyImageToBuffer(cmd, m.sample_image.get(), VK_IMAGE_LAYOUT_GENERAL, host.get(), 1, &r);
-    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                       VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
-  }));
-  host.invalidate();
+  MDS_TRY(m.ctx->submit_and_wait([&](VkCommandBuffer cmd) { m.record_sampling_pass(cmd, nullptr, pass); }));
+  MDS_ASSIGN_OR_RETURN(auto raw, vk::read_image(*m.ctx, m.sample_image, VK_IMAGE_LAYOUT_GENERAL, sizeof(glm::vec2)));
   std::vector<glm::vec2> out(px);
-  std::memcpy(out.data(), host.mapped(), px * sizeof(glm::vec2));
+  std::memcpy(out.data(), raw.data(), px * sizeof(glm::vec2));
   return out;
 }
 
