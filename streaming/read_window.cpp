@@ -2,8 +2,14 @@
 #include "streaming/read_window.h"
 
 #include <algorithm>
+#include <numbers>
 
 namespace mds::streaming {
+
+double screen_share(double projected_size, double aspect) {
+  if (!(projected_size > 0.0) || !(aspect > 0.0)) return 0.0;
+  return std::min(1.0, std::numbers::pi * projected_size * projected_size / (4.0 * aspect));
+}
 
 ReadWindow::ReadWindow(ReadWindowSettings settings) : s_(settings) {
   s_.cap = std::max(1u, s_.cap);

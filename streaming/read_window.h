@@ -25,6 +25,12 @@ struct ReadWindowSettings {
   uint32_t cap = 64;         // largest window (--max-outstanding)
 };
 
+// Share of the image that a node's bounding sphere covers: a disk of radius `projected_size` (in
+// half image heights, ResidencyTable's projected_size) on an image `aspect` = width / height wide,
+// pi p^2 / (4 aspect), at most 1 (a node around the eye covers the image once). The size of a
+// wave at rest (StreamSettings::wave_coverage) is counted in these shares.
+double screen_share(double projected_size, double aspect);
+
 class ReadWindow {
  public:
   explicit ReadWindow(ReadWindowSettings settings = {});

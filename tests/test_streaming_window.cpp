@@ -1,6 +1,9 @@
 // Tests of the adaptive read window of the streaming cache (streaming/read_window.h): additive
 // increase / multiplicative decrease at rest, an opened window kept across views while the
 // camera moves.
+#include <cmath>
+#include <numbers>
+
 #include <gtest/gtest.h>
 
 #include "streaming/read_window.h"
@@ -9,6 +12,7 @@ namespace {
 
 using mds::streaming::ReadWindow;
 using mds::streaming::ReadWindowSettings;
+using mds::streaming::screen_share;
 
 // Runs `frames` frames of a view in which every frame has arrivals and no waste.
 void calm(ReadWindow& w, int frames) {
@@ -97,3 +101,21 @@ TEST(StreamingWindow, TheCapBoundsEverything) {
 }
 
 }  // namespace
+
+// A wave's size at rest in images: the bounding disk of radius p half image heights on an image
+// `aspect` wide covers pi p^2 / (4 aspect) of it, at most all of it.
+TEST(StreamingWindow, ScreenShareOfABoundingDisk) {
+  // A disk of radius half the image height on a square image: pi / 4 of it.
+  EXPECT_NEAR(screen_share(1.0, 1.0), std::numbers::pi / 4.0, 1e-12);
+  // Quadratic in the radius, inverse in the width.
+  EXPECT_NEAR(screen_share(0.1, 16.0 / 9.0), std::numbers::pi * 0.01 / (4.0 * 16.0 / 9.0), 1e-15);
+  EXPECT_NEAR(screen_share(0.2, 2.0) / screen_share(0.1, 2.0), 4.0, 1e-12);
+  // A node around the eye covers the image once, not more.
+  EXPECT_EQ(screen_share(50.0, 16.0 / 9.0), 1.0);
+  EXPECT_EQ(screen_share(1e300, 1.0), 1.0);
+  // Nothing on screen, and degenerate inputs.
+  EXPECT_EQ(screen_share(0.0, 1.0), 0.0);
+  EXPECT_EQ(screen_share(-1.0, 1.0), 0.0);
+  EXPECT_EQ(screen_share(1.0, 0.0), 0.0);
+  EXPECT_EQ(screen_share(std::nan(""), 1.0), 0.0);
+}

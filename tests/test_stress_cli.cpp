@@ -472,20 +472,33 @@ TEST_F(StressCli, HeldDefaultViewFromAColdCache) {
     return rep;
   };
   held_view0("view0_nowaves", "--settle-frames 40 --wave-settle-frames 0");  // no waves
-  // Waves of one node (--wave-nodes 1): the first frame with a read has read exactly one node's
-  // payload.
-  const auto j1 = held_view0("view0_wave1", "--settle-frames 120 --wave-nodes 1");
-  ASSERT_FALSE(j1.is_discarded());
-  const auto& totals = j1["per_frame"]["bytes_read_total"];
-  size_t first = 0;
-  while (first < totals.size() && totals[first].get<uint64_t>() == 0) ++first;
-  ASSERT_LT(first, totals.size());
   auto reader = mds::store::StoreReader::open(store());
   ASSERT_TRUE(reader.ok());
-  const uint64_t got = totals[first].get<uint64_t>();
-  bool one_node = false;
-  for (const auto& e : reader.value()->nodes()) one_node = one_node || e.payload_bytes == got;
-  EXPECT_TRUE(one_node) << got << " bytes in the first frame with a read: not the payload of one node";
+  // Bytes of the first frame that read anything (the first wave: nothing is read before it is placed).
+  auto first_wave_bytes = [](const nlohmann::json& rep) -> uint64_t {
+    for (const auto& t : rep["per_frame"]["bytes_read_total"])
+      if (t.get<uint64_t>() > 0) return t.get<uint64_t>();
+    return 0;
+  };
+  auto one_node = [&](uint64_t bytes) {
+    for (const auto& e : reader.value()->nodes())
+      if (e.payload_bytes == bytes) return true;
+    return false;
+  };
+  // Waves of one node without the coverage rule (--wave-nodes 1 --wave-coverage 0): the first
+  // frame with a read has read exactly one node's payload.
+  const auto j1 = held_view0("view0_wave1", "--settle-frames 120 --wave-nodes 1 --wave-coverage 0");
+  ASSERT_FALSE(j1.is_discarded());
+  const uint64_t got = first_wave_bytes(j1);
+  EXPECT_TRUE(one_node(got)) << got << " bytes in the first frame with a read: not the payload of one node";
+  // With the coverage rule (default --wave-coverage 1) the wide view's first wave takes the front
+  // nodes that cover the image: more than that one node, and the view converges in fewer frames.
+  const auto jc = held_view0("view0_wave1_coverage", "--settle-frames 120 --wave-nodes 1");
+  ASSERT_FALSE(jc.is_discarded());
+  const uint64_t wave = first_wave_bytes(jc);
+  EXPECT_GT(wave, got);
+  EXPECT_FALSE(one_node(wave)) << wave << " bytes: the first wave held one node";
+  EXPECT_LT(jc["final_view"]["frames_to_converge"].get<uint32_t>(), j1["final_view"]["frames_to_converge"].get<uint32_t>());
 }
 
 // The close-up (view2) of the dense block: its nearest node is large on screen and dense, so the
@@ -544,6 +557,8 @@ TEST_F(StressCli, UsageAndInputErrors) {
   EXPECT_NE(last_stderr().find("--wave-settle-frames"), std::string::npos) << last_stderr();
   EXPECT_EQ(run(base + "--gpu-budget 1MiB --path orbit --wave-nodes 0"), 2);
   EXPECT_NE(last_stderr().find("--wave-nodes"), std::string::npos) << last_stderr();
+  EXPECT_EQ(run(base + "--gpu-budget 1MiB --path orbit --wave-coverage -1"), 2);
+  EXPECT_NE(last_stderr().find("--wave-coverage"), std::string::npos) << last_stderr();
   EXPECT_EQ(run(base + "--gpu-budget 1MiB --path orbit --policy mru"), 2);
   EXPECT_NE(last_stderr().find("mru"), std::string::npos) << last_stderr();
   EXPECT_EQ(run(base + "--gpu-budget 1MiB --path orbit --io-bandwidth fast"), 2);

@@ -284,7 +284,12 @@ def write_md(rows, dense_rows, args, mds, scenes, seconds, variants):
                  "soonest. The online cache knows only the present view: it learns that the camera moves at "
                  "the second frame of a path (the first reads 4 nodes) and fills the pool front to back. That "
                  "costs most on a fly-through from a cold cache, whose first frames want many times more nodes "
-                 "than the pool holds (per-frame demand in the JSON of `mdstream stress`).\n")
+                 "than the pool holds (per-frame demand in the JSON of `mdstream stress`). On a held view "
+                 "(jumps) each wave at rest takes the front nodes whose bounding spheres cover the image "
+                 "(`--wave-coverage`, default 1), so the pool fills within the view's first frames; a wide "
+                 "view wants more nodes than the pool holds, and later waves replace resident nodes that "
+                 "turned M or L by P nodes behind them: the occlusion policy reads more bytes there than "
+                 "the class-blind LRU / FIFO (column *bytes read*; docs/streaming.md, \"Wave coverage\").\n")
     L.append("## Dense view: bytes read to converge, and 8x more data\n")
     L.append(f"Default {args.dense_view} held from a cold cache with the occlusion policy. *Wanted bytes* = "
              "compressed payload bytes of the nodes the converged view still wants (in the frustum and not in "

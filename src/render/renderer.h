@@ -69,6 +69,13 @@ struct StreamSettings {
   // (docs/streaming.md, "Wave size": without front_node_alone, 1 reads 0.89x the bytes of 2 on
   // four close-ups, in 1.3x the frames; wide views read the same bytes in 1.3-1.4x the frames).
   uint32_t wave_nodes = 2;
+  // A wave at rest also takes, front to back, the nodes whose bounding spheres cover this many
+  // images (streaming::screen_share summed; at least the window's nodes, at most
+  // max_outstanding): one layer of occluders over the whole image, sampled before what lies
+  // behind it is chosen. A wide view's front is dozens of small nodes, which waves of
+  // wave_nodes read a few at a time over many frames (docs/streaming.md, "Wave coverage"). 0:
+  // the window alone.
+  double wave_coverage = 1.0;
   // At rest, a wave whose first node is large on screen (bounding-sphere radius >= a quarter of
   // the image height) and dense (its spheres fill >= 10 % of its box) holds that node alone: it
   // may hide most of what the window would read with it (docs/streaming.md, "Wave size").

@@ -33,6 +33,12 @@ void add_stream_options(CLI::App& sub, StreamOptions& o, bool budget_required) {
                  "waves; docs/streaming.md, \"Wave size\")")
       ->check(CLI::Range(1u, 100000u))
       ->capture_default_str();
+  sub.add_option("--wave-coverage", o.wave_coverage,
+                 "A wave at rest also reads, front to back, nodes until their bounding spheres cover this many "
+                 "images (at least --wave-nodes, at most --max-outstanding); 0: --wave-nodes and the window alone "
+                 "(docs/streaming.md, \"Wave coverage\")")
+      ->check(CLI::Range(0.0, 1000.0))
+      ->capture_default_str();
   sub.add_option("--front-node-alone", o.front_node_alone,
                  "At rest, a wave whose first node is large on screen and dense reads it alone (true/false; "
                  "docs/streaming.md, \"Wave size\")")
@@ -61,6 +67,7 @@ Result<render::StreamSettings> stream_settings(const StreamOptions& o) {
   ss.max_outstanding = o.max_outstanding;
   ss.wave_settle_frames = o.wave_settle_frames;
   ss.wave_nodes = o.wave_nodes;
+  ss.wave_coverage = o.wave_coverage;
   ss.front_node_alone = o.front_node_alone;
   return ss;
 }

@@ -24,6 +24,7 @@ struct StreamOptions {
   uint32_t max_outstanding = 64;
   uint32_t wave_settle_frames = 2;  // render::StreamSettings::wave_settle_frames
   uint32_t wave_nodes = 2;          // render::StreamSettings::wave_nodes
+  double wave_coverage = 1.0;       // render::StreamSettings::wave_coverage
   bool front_node_alone = true;     // render::StreamSettings::front_node_alone
 };
 

@@ -139,6 +139,7 @@ void StreamCache::set_view(const Camera& camera, double aspect) {
   const double ortho_half_height = std::max(
       camera.ortho_half_height > 0.0 ? camera.ortho_half_height : glm::length(camera.target - camera.eye) * tan_half,
       1e-12);
+  aspect_ = aspect;
   window_.new_view();  // restarts at rest, keeps its state while the camera moves (read_window.h)
   // Look-ahead while the camera moves: the views of the next frames if the motion of the last
   // one goes on (eye and target linearly; the near/far planes of this view).
@@ -345,6 +346,7 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
   } else if (requested_.size() < window) {
     const auto order_next = table_->prefetch_order();
     uint64_t planned = 0;
+    double coverage = 0.0;  // images covered by this wave's bounding spheres (screen_share)
     double rank = 0.0;  // this frame's order (a re-submitted queued node gets its new rank)
     for (uint32_t i : order_next) {
       // Room: free pages plus what this node may displace (never a node fetched before it).
@@ -353,7 +355,9 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
         exhausted_ = true;
         break;
       }
-      if (requested_.size() >= window) {
+      // A wave at rest is full with the window's nodes and wave_coverage images of them.
+      const bool full = requested_.size() >= window && !(waves && coverage < settings_.wave_coverage);
+      if (full || requested_.size() >= window_.settings().cap) {
         pending = true;
         break;
       }
@@ -362,6 +366,7 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
       planned += node_bytes_[i];
       MDS_TRY(table_->mark_requested(i));
       requested_.push_back(i);
+      if (waves) coverage += mds::streaming::screen_share(table_->node(i).projected_size, aspect_);
       if (waves && settings_.front_node_alone && rank == 1.0 && dense_[i] &&
           table_->node(i).projected_size >= kLoneFrontProjected) {
         pending = true;  // a large dense node first: alone in its wave (StreamSettings::front_node_alone)

@@ -127,6 +127,7 @@ class StreamCache {
   bool exhausted_ = false;
   bool has_view_ = false;
   Camera last_camera_;  // of the previous set_view (look-ahead extrapolation)
+  double aspect_ = 1.0;  // width / height of the view (screen_share of the wave coverage)
   std::vector<uint64_t> placed_frame_;  // frame of each node's last placement (waves at rest)
   mds::streaming::ReadWindow window_;  // reads queued or in flight at a time (step 4)
 };
