@@ -45,7 +45,8 @@ MDS_CONST(uint, kCullNodeDensity, 2u);
 MDS_CONST(uint, kCullExtendDepth, 4u);
 
 // Push constant of the culling passes. mode: cull_classify 0 nodes, 1 meshlets; cull_pyramid the
-// destination level; cull_histogram 1 = recompute unconditionally. pass: index of the occlusion
+// destination level; cull_histogram 1 = recompute unconditionally; cull_select the occluder
+// budget's divisor (0, 1: the whole budget). pass: index of the occlusion
 // sampling pass within the view (random numbers of cull_select and cull_update). jitter: the
 // sampling pass's sub-pixel offset in NDC (cull_sample.vert/.frag; frame.proj is unjittered).
 MDS_STRUCT(CullPush) {

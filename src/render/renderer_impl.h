@@ -103,9 +103,10 @@ struct Renderer::Impl {
   uint32_t cull_iteration = 0;
   std::function<void(uint32_t)> iteration_hook;
 
-  // Named passes per frame: 3 per occlusion sampling pass, pyramid/classify/histogram, 4 drawing.
+  // Named passes per frame: 3 per occlusion sampling pass and 2 of a route probe (select, sample;
+  // cull_loop.h kSampleRouteProbeShare), pyramid/classify/histogram, 4 drawing.
   uint32_t timestamp_capacity() const {
-    return 20 + 3 * std::max(1u, settings.cull_settings.samples_per_iteration);
+    return 22 + 3 * std::max(1u, settings.cull_settings.samples_per_iteration);
   }
 
   // Out-of-core (create_streaming): the cache; null in memory.

@@ -453,7 +453,8 @@ Result<std::unique_ptr<CullLoop>> CullLoop::create(vk::Context& ctx, const CullS
   MDS_TRY(m.create_sets());
   MDS_TRY(m.create_pipelines());
   // Two timestamps per sampling pass of one iteration (the automatic route choice).
-  MDS_ASSIGN_OR_RETURN(m.route_ts, vk::TimestampPool::create(ctx, std::max(1u, settings.samples_per_iteration)));
+  // The sampling passes of one iteration and a probe (cull_sampling.cpp).
+  MDS_ASSIGN_OR_RETURN(m.route_ts, vk::TimestampPool::create(ctx, std::max(1u, settings.samples_per_iteration) + 1));
   return loop;
 }
 
@@ -603,6 +604,13 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
   }
   const uint32_t passes = m.passes;
   m.begin_route_choice(cmd, passes);
+  if (m.probing && m.route_ts.enabled()) {
+    // The probe of the other route (cull_loop.h kSampleRouteProbeShare): measured, not applied.
+    m.sample_compute = m.best_route != 1;
+    m.route_ts.begin(cmd, m.sample_compute ? "compute_probe" : "raster_probe");
+    m.record_sampling_pass(cmd, ts, iteration * passes, m.probe_share());
+    m.route_ts.end(cmd);
+  }
   for (uint32_t p = 0; p < passes; ++p) {
     m.sample_compute = m.choose_compute_route(p, passes);
     ++m.route_passes[m.sample_compute ? 1 : 0];

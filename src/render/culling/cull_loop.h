@@ -79,6 +79,15 @@ inline constexpr uint32_t kSampleRouteCompare = 4;
 // not paid. Two passes per route is one iteration of 4 passes.
 inline constexpr uint32_t kSampleRouteEarly = 2;
 inline constexpr double kSampleRouteClearCut = 2.0;
+// The probe of a repeat comparison is an extra pass on the other route that only measures: it
+// selects 1/kSampleRouteProbeShare of the occluder budget, samples them, and its samples are
+// dropped (no update), while the iteration's passes all run on the winner; its time counts
+// kSampleRouteProbeShare times (a pass's cost grows with its occluders: one glyph setup or
+// invocation each, and their pixels). So the loop's state never depends on the timings (both
+// routes give the same samples, and the probe gives none), and the probe costs a quarter of the
+// slower route's pass instead of a whole one: on lavapipe up to 220 ms on the cache benchmark's
+// views, where the running route's took 30-60, the frames that paid for it a path's p99.
+inline constexpr uint32_t kSampleRouteProbeShare = 4;
 // The clear-cut rule: 0 (raster) or 1 (compute) when every timed pass of the other route took at
 // least kSampleRouteClearCut times the winner's slowest pass; -1 otherwise (or when either
 // route has no pass yet).

@@ -59,7 +59,7 @@ struct CullLoop::Impl {
   // Automatic route choice (cull_sampling.cpp): index 0 rasterized, 1 compute.
   int best_route = -1;              // winner of the last comparison (-1: none yet)
   bool comparing = false;           // the iterations being recorded time both routes
-  bool probing = false;             // comparing, first iteration of a repeat: one pass of the other route
+  bool probing = false;             // comparing, first iteration of a repeat: a probe of the other route
   std::vector<double> compare_ms[2];     // GPU ms per pass of the comparison so far
   double compared_ms[2] = {-1.0, -1.0};  // the last finished comparison: median ms per pass
   uint32_t since_compare = 0;       // iterations since the last comparison started
@@ -97,12 +97,16 @@ struct CullLoop::Impl {
   SampleRoute forced_route() const;
   // The route of sampling pass p (of pass_count) of the iteration being recorded.
   bool choose_compute_route(uint32_t p, uint32_t pass_count);
+  // kSampleRouteProbeShare, or MDSTREAM_CULL_PROBE_SHARE=N (A/B runs; 1: a whole pass).
+  uint32_t probe_share() const;
   void begin_route_choice(VkCommandBuffer cmd, uint32_t pass_count);
   void bind(VkCommandBuffer cmd, VkPipelineBindPoint bp, VkPipeline pipe, const vk::DescriptorSet& s0) const;
   void push(VkCommandBuffer cmd, uint32_t mode, uint32_t pass = 0, glm::vec2 jitter = glm::vec2(0.0f)) const;
   void write_uniforms(uint32_t iteration);
   void write_frame_uniforms(uint32_t iteration);
-  void record_sampling_pass(VkCommandBuffer cmd, vk::TimestampPool* ts, uint32_t pass);
+  // probe_share > 0: a probe (cull_loop.h kSampleRouteProbeShare) -- 1 / probe_share of the
+  // occluder budget, sampled and not applied (no update).
+  void record_sampling_pass(VkCommandBuffer cmd, vk::TimestampPool* ts, uint32_t pass, uint32_t probe_share = 0);
   void record_update(VkCommandBuffer cmd, uint32_t pass);
   void record_pyramid(VkCommandBuffer cmd);
   void record_histogram(VkCommandBuffer cmd, uint32_t mode);

@@ -35,11 +35,13 @@ bool CullLoop::Impl::sampled_list_wanted() const {
 // change as it converges). A clear-cut gap ends a comparison after kSampleRouteEarly passes per
 // route, and a clear-cut repeat of the same winner doubles the interval (cull_loop.h).
 // A repeat comparison (a winner exists) with several passes per iteration starts as a probe:
-// one pass of the other route, the rest on the winner, all timed; when the probe pass took at
-// least kSampleRouteClearCut times the winner's slowest, the winner stays, and that iteration
-// paid for one pass of the slower route instead of half of its passes (on lavapipe's close-ups
-// the slower route's pass takes up to 8x the other's: 100-210 ms frames at every repeat).
-// Otherwise the comparison goes on alternating as above.
+// the iteration's passes on the winner, timed, and before them one extra pass of the other route
+// over a quarter of the budget whose samples are dropped (kSampleRouteProbeShare, its time
+// counted four times); when it took at least kSampleRouteClearCut times the winner's slowest,
+// the winner stays, and that iteration paid for a quarter pass of the slower route instead of
+// half of its passes (on lavapipe's close-ups the slower route's pass takes up to 8x the
+// other's: 100-210 ms frames at every repeat). Otherwise the comparison goes on alternating as
+// above (whole passes: both routes give the same samples).
 void CullLoop::Impl::begin_route_choice(VkCommandBuffer cmd, uint32_t pass_count) {
   if (!compute_available || forced_route() != SampleRoute::automatic) {
     comparing = false;
@@ -63,11 +65,19 @@ bool CullLoop::Impl::choose_compute_route(uint32_t p, uint32_t pass_count) {
   if (forced != SampleRoute::automatic) return forced == SampleRoute::compute;
   if (!route_ts.enabled()) return true;  // no timestamps on this queue: compute, unmeasured
   if (comparing) {
-    if (probing) return (p == 0 ? 1 - best_route : best_route) == 1;
+    if (probing) return best_route == 1;  // the probe of the other route is an extra pass
     if (pass_count >= 2) return p % 2 == 0;
     return compare_ms[1].size() <= compare_ms[0].size();  // one pass per iteration: alternate
   }
   return best_route != 0;
+}
+
+uint32_t CullLoop::Impl::probe_share() const {
+  if (const char* e = std::getenv("MDSTREAM_CULL_PROBE_SHARE")) {
+    const int v = std::atoi(e);
+    if (v >= 1) return uint32_t(v);
+  }
+  return kSampleRouteProbeShare;
 }
 
 uint32_t CullLoop::sample_route_passes(SampleRoute route) const {
@@ -96,8 +106,10 @@ Status CullLoop::collect_route_timings() {
   for (const auto& [name, v] : m.route_ts.samples()) before[name] = v.size();
   MDS_TRY(m.route_ts.collect());
   for (const auto& [name, v] : m.route_ts.samples()) {
-    const int r = name == "compute" ? 1 : 0;
-    for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i) m.compare_ms[r].push_back(v[i]);
+    // "compute" / "raster", "_probe" for a probe (its time counts probe_share() times).
+    const int r = name.rfind("compute", 0) == 0 ? 1 : 0;
+    const double scale = name.ends_with("_probe") ? double(m.probe_share()) : 1.0;
+    for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i) m.compare_ms[r].push_back(scale * v[i]);
   }
   if (m.probing) {
     m.probing = false;
@@ -125,7 +137,8 @@ Status CullLoop::collect_route_timings() {
   return {};
 }
 
-void CullLoop::Impl::record_sampling_pass(VkCommandBuffer cmd, vk::TimestampPool* ts, uint32_t pass) {
+void CullLoop::Impl::record_sampling_pass(VkCommandBuffer cmd, vk::TimestampPool* ts, uint32_t pass,
+                                          uint32_t probe_share) {
   auto begin = [&](const char* name) {
     if (ts) ts->begin(cmd, name);
   };
@@ -148,7 +161,7 @@ void CullLoop::Impl::record_sampling_pass(VkCommandBuffer cmd, vk::TimestampPool
   vkCmdFillBuffer(cmd, counters.get(), offsetof(gpu::CullCounters, selected), 4, 0);
   compute_barrier(cmd);
   bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, select_pipe, set0_sample);
-  push(cmd, 0, pass);
+  push(cmd, probe_share, pass);  // cull_select.comp: mode = the budget's divisor (0: the whole budget)
   vkCmdDispatch(cmd, (meshlet_count + 63) / 64, 1, 1);
   vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT,
@@ -213,6 +226,7 @@ void CullLoop::Impl::record_sampling_pass(VkCommandBuffer cmd, vk::TimestampPool
   }
   end();
 
+  if (probe_share > 0) return;  // a probe measures only: its samples are not applied
   begin("update");  // Algorithm 1
   record_update(cmd, pass);
   end();
