@@ -22,7 +22,7 @@ void main() {
   uint cls = meshlet_class[m];
   if (cls != uint(MDS_CULL_CLASS_P) && cls != uint(MDS_CULL_CLASS_L)) return;
   if (meshlets[m].particle_count == 0u) return;  // empty slot of the streaming pool
-  // push.mode: the budget's divisor, > 1 for a partial pass of a sampling-route comparison
+  // push.mode: the budget's divisor, > 1 for the probe of a sampling-route comparison
   // (cull_loop.h kSampleRouteProbeShare); 0 and 1: the whole budget.
   float budget = float(cull.params.z) / float(max(push.mode, 1u));
   float nP = float(counters.class_count[MDS_CULL_CLASS_P]);
