@@ -54,8 +54,10 @@ struct RenderRun {
 RenderRun render_scene(vk::Context& ctx, const SceneData& scene, bool cull, int acceptance, uint32_t spp,
                  bool record_classes = false, uint32_t samples_per_iteration = 0, uint32_t paired_frames = 0,
                  culling::SampleRoute sample_route = culling::SampleRoute::automatic, double closer = 1.0,
-                 bool particle_occlusion = true, bool sampled_pixel_list = true) {
+                 bool particle_occlusion = true, bool sampled_pixel_list = true,
+                 MeshShaderMode mesh_shaders = MeshShaderMode::automatic) {
   RenderSettings rs;
+  rs.mesh_shaders = mesh_shaders;
   rs.particle_occlusion = particle_occlusion;
   rs.cull_settings.sampled_pixel_list = sampled_pixel_list;
   rs.cull_settings.sample_route = sample_route;
@@ -261,10 +263,11 @@ TEST_F(CullRender, ParticleOcclusionHidesParticlesNotPixels) {
   const uint32_t spp = 24;
   for (double closer : {1.0, 0.3}) {
     SCOPED_TRACE(closer == 1.0 ? "default view" : "close-up");
+    // The particle test runs in the compute path's sprite pre-pass (not on the task/mesh path).
     RenderRun on = render_scene(*ctx_, *scene_, true, MDS_CULL_ACCEPT_NORMAL, spp, false, 0, 0,
-                                culling::SampleRoute::automatic, closer, true);
+                                culling::SampleRoute::automatic, closer, true, true, MeshShaderMode::off);
     RenderRun off = render_scene(*ctx_, *scene_, true, MDS_CULL_ACCEPT_NORMAL, spp, false, 0, 0,
-                                 culling::SampleRoute::automatic, closer, false);
+                                 culling::SampleRoute::automatic, closer, false, true, MeshShaderMode::off);
     ASSERT_TRUE(on.stats.cull.converged);
     ASSERT_TRUE(off.stats.cull.converged);
     // The particle test runs after convergence only: the meshlet classes are the same.

@@ -1,7 +1,8 @@
 // The task/mesh shader sprite path (render/mesh_sprites.h): mode parsing, run-time selection
 // from the device, and -- on a device with VK_EXT_mesh_shader -- image parity with the compute
-// + indirect draw path. Lavapipe has no mesh shaders: there the parity test is skipped and the
-// checks are that `auto` falls back and `on` is a clear error.
+// + indirect draw path. Debian 12's lavapipe (Mesa 22.3) has no mesh shaders: there the parity
+// test is skipped and the checks are that `auto` falls back and `on` is a clear error. Lavapipe
+// of Mesa 25 (bookworm-backports) has them: tools/mesh_lavapipe.sh runs these tests there.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -116,7 +117,7 @@ TEST_F(MeshSpritesTest, MeshPathMatchesComputePath) {
         if (d > 2.0f / 255.0f) ++differ;
         if (comp->rgba[i + 3] > 0.0f) ++covered;
       }
-      EXPECT_GT(covered, mesh->rgba.size() / 8);  // the view is not empty
+      EXPECT_GT(covered, mesh->rgba.size() / 4 / 8);  // the view is not empty: over 1/8 of the pixels
       EXPECT_LE(differ, mesh->rgba.size() / 4 / 200) << differ << " pixels differ";  // <= 0.5 %
     }
   }

@@ -94,12 +94,16 @@ class StreamingRender : public ::testing::Test {
     out.img = std::move(img.value());
     return out;
   }
+  // sprite_capacity > 0: sprite records for that many sprites, drawn in chunks -- records exist
+  // on the compute + indirect draw path only, so that path is chosen (the task/mesh path makes
+  // its sprites in place).
   static Result<Image> streamed(const store::StoreReader& reader, bool cull, int view_index, uint64_t budget,
-                                uint64_t sprite_capacity = 0) {
+                                uint64_t sprite_capacity = 0, MeshShaderMode mesh = MeshShaderMode::automatic) {
     StreamSettings ss;
     ss.gpu_budget = budget;
     RenderSettings rs = settings(cull);
     rs.sprite_capacity = sprite_capacity;
+    rs.mesh_shaders = sprite_capacity > 0 ? MeshShaderMode::off : mesh;
     MDS_ASSIGN_OR_RETURN(auto r, Renderer::create_streaming(*ctx_, reader, rs, ss));
     Image out;
     MDS_ASSIGN_OR_RETURN(out.img, r->render(view(reader, view_index), &out.stats));
@@ -124,7 +128,7 @@ TEST_F(StreamingRender, PoolLargerThanTheSpriteRecordsDrawsInChunks) {
   auto reader = store::StoreReader::open(store_path());
   ASSERT_TRUE(reader.ok()) << reader.error().message;
   const uint64_t budget = 4 * file_size();  // the pool holds the view
-  auto whole = streamed(*reader.value(), false, 2, budget);
+  auto whole = streamed(*reader.value(), false, 2, budget, 0, MeshShaderMode::off);  // the same path
   auto chunks = streamed(*reader.value(), false, 2, budget, 16384);
   ASSERT_TRUE(whole.ok()) << whole.error().message;
   ASSERT_TRUE(chunks.ok()) << chunks.error().message;
@@ -236,6 +240,9 @@ TEST_F(StreamingRender, WithoutCullingAnAmpleBudgetIsPixelIdentical) {
   EXPECT_LE(c.gpu_peak_bytes, c.gpu_budget_bytes);
   EXPECT_EQ(c.nodes_never_loaded, 0u);  // the whole block is in view and nothing is culled
   // The sprite pre-pass of the last frame is reported as in memory (it read zeros when streaming).
+  // The task/mesh path has no pre-pass and no sprite counts (docs/rendering.md).
+  EXPECT_EQ(s.value().stats.mesh_sprites, mem.stats.mesh_sprites);
+  if (mem.stats.mesh_sprites) return;
   EXPECT_EQ(s.value().stats.sprites_listed, mem.stats.sprites_listed);
   EXPECT_EQ(s.value().stats.sprites_offscreen, mem.stats.sprites_offscreen);
   EXPECT_EQ(s.value().stats.sprites_small, mem.stats.sprites_small);
