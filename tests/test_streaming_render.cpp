@@ -160,6 +160,15 @@ TEST_F(StreamingRender, EighthOfTheStoreMatchesInMemoryOnADenseView) {
   EXPECT_LT(c.bytes_read, c.store_payload_bytes / 4) << c.bytes_read << " of " << c.store_payload_bytes;
   EXPECT_GT(c.nodes_loaded, 0u);
   EXPECT_TRUE(s.value().stats.cull.converged);
+  // "After convergence" are frames that recorded no culling iteration with every wanted node
+  // resident: they draw (a draw list, sprites) and run no pass of the culling loop. (The frame
+  // time used to be the median of the last spp frames, culling frames among them.)
+  const CullStats& cs = s.value().stats.cull;
+  EXPECT_GT(cs.frame_ms_after_convergence, 0.0);
+  EXPECT_GT(cs.frame_ms_during_culling, 0.0);
+  EXPECT_EQ(cs.pass_ms_after_convergence.count("draw_list"), 1u);
+  for (const char* pass : {"select", "sample", "update", "pyramid", "classify", "histogram"})
+    EXPECT_EQ(cs.pass_ms_after_convergence.count(pass), 0u) << pass;
 
   Image mem = in_memory(*reader.value(), true, 2);
   const size_t diff = differing_pixels(mem.img, s.value().img);

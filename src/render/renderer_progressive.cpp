@@ -8,6 +8,8 @@
 #include <cmath>
 #include <cstring>
 #include <functional>
+#include <map>
+#include <vector>
 
 #include "render/renderer_impl.h"
 #include "vk/staging.h"
@@ -446,22 +448,40 @@ bool Renderer::streaming() const { return impl_->cache != nullptr; }
 
 // Headless render with a budget: frames until the view has converged with every wanted node
 // resident (culling converged or capped, cache complete), then spp samples of that state (an
-// upload restarts the accumulation, so the image never mixes incomplete frames).
+// upload restarts the accumulation, so the image never mixes incomplete frames), and at least
+// kTimingFrames frames that recorded no culling iteration with the cache complete: the frames
+// "after convergence" of the stats (past spp they draw with weight 0, so the image keeps its spp
+// samples). A frame's GPU time is collected when the next frame begins (or after the loop).
 Result<FrameImage> Renderer::render_streaming(const Camera& camera, RenderStats* stats) {
   Impl& m = *impl_;
   const auto t0 = std::chrono::steady_clock::now();
   m.has_view = false;  // always a fresh view
   MDS_TRY(set_view(camera));
   constexpr uint64_t kMaxFrames = 1000000;  // a guard against a cache that never completes
+  std::vector<double> during, after;
+  std::map<std::string, std::vector<double>> after_passes;
+  bool have_prev = false, prev_after = false;  // the frame whose GPU time comes next
+  auto attribute = [&](double ms) {
+    if (!have_prev || ms <= 0.0) return;
+    (prev_after ? after : during).push_back(ms);
+    if (prev_after)
+      for (const auto& [name, v] : m.last_gpu.passes) after_passes[name].push_back(v);
+  };
+  uint32_t settled_run = 0;  // consecutive frames of the settled state
   for (uint64_t f = 0;; ++f) {
     MDS_ASSIGN_OR_RETURN(FrameReport rep, step());
+    if (f > 0) attribute(rep.gpu_ms);  // the previous frame's (the first step's is the old view's)
+    prev_after = !rep.culling_active && rep.complete && rep.nodes_uploaded == 0;
+    have_prev = true;
+    settled_run = prev_after ? settled_run + 1 : 0;
     const bool settled = rep.complete && !m.cull_active && !m.pending_iteration;
-    if (settled && rep.samples >= m.settings.spp) break;
+    if (settled && rep.samples >= m.settings.spp && (!m.cull || settled_run >= kTimingFrames)) break;
     if (f >= kMaxFrames) return make_error(Errc::internal, "streaming render did not settle in {} frames", kMaxFrames);
   }
   MDS_TRY(m.slot.wait());
   MDS_ASSIGN_OR_RETURN(double last_ms, m.collect_frame_ms());
   if (last_ms > 0.0) m.frame_gpu_ms.push_back(last_ms);
+  attribute(last_ms);
   MDS_ASSIGN_OR_RETURN(FrameImage img, read_image());
   m.rendered = true;
   if (stats) {
@@ -470,13 +490,10 @@ Result<FrameImage> Renderer::render_streaming(const Camera& camera, RenderStats*
     stats->wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     stats->frames = uint32_t(m.frame_wall_ms.size());
     if (m.cull) {
-      stats->cull.frame_ms_after_convergence = vk::median(m.frame_gpu_ms);  // refined below
-      const size_t n = m.frame_gpu_ms.size();
-      const size_t tail = std::min<size_t>(n, m.settings.spp);  // the accumulation frames of the settled view
-      std::vector<double> after(m.frame_gpu_ms.end() - std::ptrdiff_t(tail), m.frame_gpu_ms.end());
-      std::vector<double> during(m.frame_gpu_ms.begin(), m.frame_gpu_ms.end() - std::ptrdiff_t(tail));
       stats->cull.frame_ms_after_convergence = vk::median(after);
       stats->cull.frame_ms_during_culling = vk::median(during);
+      stats->cull.pass_ms_after_convergence.clear();
+      for (const auto& [name, v] : after_passes) stats->cull.pass_ms_after_convergence[name] = vk::median(v);
     }
   }
   return img;
