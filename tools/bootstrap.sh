@@ -1,7 +1,24 @@
 #!/usr/bin/env bash
 # Installs every Debian package mdstream needs to build, test and run.
 # Idempotent: when everything is present it only checks (a few seconds) and exits.
+#   --mesh-lavapipe  also fetch Mesa 25's lavapipe (bookworm-backports), which has mesh shaders,
+#                    into build/mesa-lavapipe without installing it (tools/mesh_lavapipe.sh): the
+#                    test suite then also runs the task/mesh sprite path. Best effort: a failed
+#                    fetch is a warning, and those tests report themselves skipped.
 set -euo pipefail
+mesh_lavapipe=0
+for arg in "$@"; do
+  case "$arg" in
+    --mesh-lavapipe) mesh_lavapipe=1 ;;
+    *) echo "bootstrap: unknown option $arg (expected --mesh-lavapipe)" >&2; exit 2 ;;
+  esac
+done
+fetch_mesh_lavapipe() {
+  [ "$mesh_lavapipe" = 1 ] || return 0
+  if ! bash "$(dirname "$0")/mesh_lavapipe.sh" --fetch; then
+    echo "bootstrap: warning: could not fetch Mesa 25's lavapipe; the mesh-path tests will be skipped" >&2
+  fi
+}
 
 PACKAGES=(
   # toolchain
@@ -32,6 +49,7 @@ done
 
 if [ ${#missing[@]} -eq 0 ]; then
   echo "bootstrap: all ${#PACKAGES[@]} packages present"
+  fetch_mesh_lavapipe
   exit 0
 fi
 
@@ -41,4 +59,5 @@ echo "bootstrap: installing ${#missing[@]} packages: ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
 $SUDO apt-get install -y --no-install-recommends -qq "${missing[@]}"
+fetch_mesh_lavapipe
 echo "bootstrap: done"

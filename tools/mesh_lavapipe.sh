@@ -9,6 +9,8 @@
 #
 #   bash tools/mesh_lavapipe.sh                       # the test suite of build/ on the mesh path
 #   bash tools/mesh_lavapipe.sh ./build/mdstream render out/porous.mds -o m.png --mesh-shaders on
+#   bash tools/mesh_lavapipe.sh --fetch               # only fetch (tools/bootstrap.sh --mesh-lavapipe)
+#   bash tools/mesh_lavapipe.sh --if-present CMD...   # exit 77 (CTest: skipped) when not fetched
 #
 # MESH_LAVAPIPE_DIR (default build/mesa-lavapipe) holds the unpacked driver; it is reused.
 set -euo pipefail
@@ -18,6 +20,16 @@ arch=$(dpkg --print-architecture)
 multiarch=$(dpkg-architecture -qDEB_HOST_MULTIARCH 2>/dev/null || echo x86_64-linux-gnu)
 icd=$dir/lvp_icd.json
 lib=$dir/root/usr/lib/$multiarch
+
+mode=run
+case "${1:-}" in
+  --fetch) mode=fetch; shift ;;
+  --if-present) mode=if-present; shift ;;
+esac
+if [ "$mode" = if-present ] && [ ! -f "$icd" ]; then
+  echo "mesh_lavapipe.sh: Mesa 25's lavapipe is not in $dir (bash tools/bootstrap.sh --mesh-lavapipe fetches it): skipped" >&2
+  exit 77
+fi
 
 if [ ! -f "$icd" ]; then
   . /etc/os-release
@@ -54,7 +66,9 @@ EOF
   echo "mesh_lavapipe.sh: $(ls "$dir"/debs | tr '\n' ' ')-> $dir" >&2
 fi
 
+[ "$mode" = fetch ] && exit 0
 export VK_ICD_FILENAMES=$icd
+export MDSTREAM_REQUIRE_MESH_SHADERS=1  # tests/test_mesh_sprites.cpp fails if the driver has none
 export LD_LIBRARY_PATH=$lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
 if [ $# -eq 0 ]; then
   exec ctest --test-dir "$repo/build" --output-on-failure -j2
