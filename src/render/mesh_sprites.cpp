@@ -33,7 +33,7 @@ Result<bool> use_mesh_sprites(const vk::Context& ctx, MeshShaderMode mode) {
 }
 
 Result<MeshSprites> MeshSprites::create(const vk::Context& ctx, VkPipelineLayout layout, VkFormat color_format,
-                                        VkFormat depth_format) {
+                                        VkFormat depth_format, bool particle_occlusion) {
   if (!ctx.mesh_shaders())
     return make_error(Errc::unsupported, "mesh sprite path: VK_EXT_mesh_shader is not enabled on '{}'",
                       ctx.info().name);
@@ -51,11 +51,18 @@ Result<MeshSprites> MeshSprites::create(const vk::Context& ctx, VkPipelineLayout
   g.color_formats = {color_format};
   g.depth_format = depth_format;
   MDS_ASSIGN_OR_RETURN(m.pipe_, vk::create_graphics_pipeline(ctx.device(), layout, g));
+  if (particle_occlusion) {  // specialization constant 0 of sphere.mesh: kParticleOcclusion
+    vk::SpecConstants spec;
+    spec.add(0u, VkBool32(true));
+    g.vertex_spec = &spec;  // the mesh stage's
+    MDS_ASSIGN_OR_RETURN(m.occ_pipe_, vk::create_graphics_pipeline(ctx.device(), layout, g));
+  }
   return m;
 }
 
-void MeshSprites::record_draw(VkCommandBuffer cmd, VkDescriptorSet set, VkBuffer args, VkDeviceSize offset) const {
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipe_);
+void MeshSprites::record_draw(VkCommandBuffer cmd, VkDescriptorSet set, VkBuffer args, VkDeviceSize offset,
+                              bool particle_test) const {
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, particle_test && occ_pipe_ ? occ_pipe_ : pipe_);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout_, 0, 1, &set, 0, nullptr);
   draw_indirect_(cmd, args, offset, 1, sizeof(VkDrawMeshTasksIndirectCommandEXT));
 }

@@ -4,8 +4,9 @@
 // per particle of the draw list, then points/quads are pulled by the vertex stage. On a device
 // with task and mesh stages the same draw list instead feeds sphere.task (one invocation per
 // listed meshlet: frustum test, then ceil(particles / 32) mesh workgroups) and sphere.mesh (the
-// glyphs of include/sprite_make.h, four vertices and two triangles each), with sphere.frag as
-// the fragment stage: no per-particle records in memory and no pre-pass.
+// glyphs of include/sprite_make.h, four vertices and two triangles each, after the particle
+// occlusion test where the frame runs it), with sphere.frag as the fragment stage: no
+// per-particle records in memory and no pre-pass.
 #pragma once
 
 #include <string_view>
@@ -40,18 +41,25 @@ class MeshSprites {
 
   // Precondition: ctx.mesh_shaders(). `layout` is the renderer's pipeline layout (set 0 of
   // include/bindings.h, all stages); the formats are those of its colour and depth targets.
+  // particle_occlusion: also the pipeline with the particle occlusion test compiled in
+  // (sphere.mesh specialization constant 0; RenderSettings::particle_occlusion).
   static Result<MeshSprites> create(const vk::Context& ctx, VkPipelineLayout layout, VkFormat color_format,
-                                    VkFormat depth_format);
+                                    VkFormat depth_format, bool particle_occlusion);
   MeshSprites() = default;
 
   // Inside the rendering scope of the draw, with viewport and scissor set: one indirect mesh
   // task draw of `args` (VkDrawMeshTasksIndirectCommandEXT at `offset`: sprite_args.comp's
   // dispatch_x/y/z = ceil(draw list / kMeshTaskMeshlets), 1, 1). Precondition: the draw list
-  // and `args` written by compute are visible to kReadStages and DRAW_INDIRECT.
-  void record_draw(VkCommandBuffer cmd, VkDescriptorSet set, VkBuffer args, VkDeviceSize offset) const;
+  // and `args` written by compute are visible to kReadStages and DRAW_INDIRECT, and the sprite
+  // draw header's counters (zeroed by sprite_args.comp) to kReadStages' atomics.
+  // particle_test: the frame runs the particle occlusion test (the frame uniforms carry the
+  // pyramid levels); precondition: created with particle_occlusion.
+  void record_draw(VkCommandBuffer cmd, VkDescriptorSet set, VkBuffer args, VkDeviceSize offset,
+                   bool particle_test) const;
 
  private:
   vk::UniquePipeline pipe_;
+  vk::UniquePipeline occ_pipe_;  // with the particle occlusion test (when created with it)
   VkPipelineLayout layout_ = VK_NULL_HANDLE;
   PFN_vkCmdDrawMeshTasksIndirectEXT draw_indirect_ = nullptr;
 };

@@ -315,7 +315,8 @@ Status Renderer::Impl::create_pipelines() {
   // compute rasterization, no points (the attachment route); sprite_args.comp still sizes the
   // task launch.
   if (mesh_path) {  // decided at creation (use_mesh_sprites), before the draw buffers
-    MDS_ASSIGN_OR_RETURN(mesh, MeshSprites::create(*ctx, layout, kColorFormat, kDepthFormat));
+    MDS_ASSIGN_OR_RETURN(mesh, MeshSprites::create(*ctx, layout, kColorFormat, kDepthFormat,
+                                                   settings.cull && settings.particle_occlusion));
     point_sprites = false;
     sprite_read_stages = MeshSprites::kReadStages;
   }
@@ -585,7 +586,7 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     auto last_drawn = std::find_if(frame_kind.rbegin(), frame_kind.rend(),
                                    [](FrameKind k) { return k != FrameKind::cull_only; });
     if (last_drawn != frame_kind.rend() && *last_drawn != FrameKind::during_culling &&
-        *last_drawn != FrameKind::paired_all && !m.mesh_path) {
+        *last_drawn != FrameKind::paired_all) {  // the pre-pass or the task/mesh stages count
       MDS_ASSIGN_OR_RETURN(auto raw, vk::read_buffer(*m.ctx, m.sprite_draw, 0, sizeof(gpu::SpriteDrawHeader)));
       gpu::SpriteDrawHeader head;
       std::memcpy(&head, raw.data(), sizeof(head));

@@ -24,9 +24,15 @@ static void zero_chunk_counter(VkCommandBuffer cmd, VkBuffer sprite_draw) {
 void Renderer::Impl::record_sprite_prepass(VkCommandBuffer cmd, uint32_t chunk) {
   VkDescriptorSet ds = set.set();
   if (mesh_path) {  // only the launch size: ceil(list / kMeshTaskMeshlets) task workgroups
-    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                       VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT,
-                       VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
+    // The previous frame's launch and its counters (task/mesh atomics on the header) are done
+    // before the header is rewritten.
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT |
+                                sprite_read_stages,
+                       VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
+                           VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_TRANSFER_WRITE_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
+                           VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
     zero_chunk_counter(cmd, sprite_draw.get());
     vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                        VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
@@ -34,9 +40,11 @@ void Renderer::Impl::record_sprite_prepass(VkCommandBuffer cmd, uint32_t chunk) 
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, sprite_args_pipe);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &ds, 0, nullptr);
     vkCmdDispatch(cmd, 1, 1, 1);
+    // The launch size, and the zeroed counters the task/mesh stages add to.
     vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                        VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | sprite_read_stages,
-                       VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+                       VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
+                           VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
     return;
   }
   // The previous chunk's or frame's reads of the sprites and commands (draw, raster, resolve) are
@@ -108,7 +116,7 @@ void Renderer::Impl::record_small_raster(VkCommandBuffer cmd) {
 void Renderer::Impl::record_sprite_draws(VkCommandBuffer cmd) {
   VkDescriptorSet ds = set.set();
   if (mesh_path) {
-    mesh.record_draw(cmd, ds, sprite_draw.get(), offsetof(gpu::SpriteDrawHeader, dispatch_x));
+    mesh.record_draw(cmd, ds, sprite_draw.get(), offsetof(gpu::SpriteDrawHeader, dispatch_x), particle_test);
     return;
   }
   if (point_sprites) {
