@@ -26,6 +26,7 @@
 // Empty slots of the streaming pool (particle_count 0) are skipped and not counted.
 #extension GL_GOOGLE_include_directive : require
 #include "bindings.h"
+#include "dispatch_rows.h"
 #include "culling_math.glsl"
 #include "cull_bindings.h"
 
@@ -252,7 +253,7 @@ void subtract_voxels(uint i) {  // Sect. 4.4: remove meshlet/node i's particles 
 }
 
 void main() {
-  uint i = gl_GlobalInvocationID.x;
+  uint i = mds_flat_id();
   bool node_density = (cull.params.w & kCullNodeDensity) != 0u;
   if (push.mode == 0u) {
     if (i >= cull.counts.y) return;

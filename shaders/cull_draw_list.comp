@@ -4,13 +4,14 @@
 #extension GL_GOOGLE_include_directive : require
 #define MDS_DRAW_LIST_WRITABLE
 #include "bindings.h"
+#include "dispatch_rows.h"
 #include "culling_math.glsl"
 #include "cull_bindings.h"
 
 layout(local_size_x = 64) in;
 
 void main() {
-  uint m = gl_GlobalInvocationID.x;
+  uint m = mds_flat_id();
   if (m >= cull.counts.x) return;
   if (meshlet_class[m] == uint(MDS_CULL_CLASS_O)) return;
   if (meshlets[m].particle_count == 0u) return;  // empty slot of the streaming pool

@@ -26,6 +26,7 @@
 #endif
 #define MDS_DRAW_LIST_WRITABLE
 #include "bindings.h"
+#include "dispatch_rows.h"
 #include "culling_math.glsl"
 #include "cull_shared.h"
 #include "sprite_make.h"
@@ -62,14 +63,15 @@ void main() {
   uint per = max(frame.counts.y, 1u);  // max particles per meshlet
   if (push.mode == 1u) {
     if (gl_GlobalInvocationID.x == 0u) {
-      draw_header.dispatch_x = (draw_header.instance_count * per + 63u) / 64u;
-      draw_header.dispatch_y = 1u;
-      draw_header.dispatch_z = 1u;
+      uvec3 rows = mds_dispatch_rows((draw_header.instance_count * per + 63u) / 64u);
+      draw_header.dispatch_x = rows.x;
+      draw_header.dispatch_y = rows.y;
+      draw_header.dispatch_z = rows.z;
     }
     return;
   }
   // No early return below: every lane takes part in the subgroup's cooperative glyphs.
-  uint t = gl_GlobalInvocationID.x;
+  uint t = mds_flat_id();
   uint e = t / per, local = t % per;
   bool valid = e < draw_header.instance_count;
   GpuMeshlet m;

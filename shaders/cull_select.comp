@@ -13,11 +13,12 @@
 #include "bindings.h"
 #include "culling_math.glsl"
 #include "cull_bindings.h"
+#include "dispatch_rows.h"
 
 layout(local_size_x = 64) in;
 
 void main() {
-  uint m = gl_GlobalInvocationID.x;
+  uint m = mds_flat_id();
   if (m >= cull.counts.x) return;
   uint cls = meshlet_class[m];
   if (cls != uint(MDS_CULL_CLASS_P) && cls != uint(MDS_CULL_CLASS_L)) return;

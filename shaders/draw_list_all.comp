@@ -4,11 +4,12 @@
 #extension GL_GOOGLE_include_directive : require
 #define MDS_DRAW_LIST_WRITABLE
 #include "bindings.h"
+#include "dispatch_rows.h"
 
 layout(local_size_x = 64) in;
 
 void main() {
-  uint m = gl_GlobalInvocationID.x;
+  uint m = mds_flat_id();
   if (m >= frame.counts.x) return;
   if (meshlets[m].particle_count == 0u) return;  // empty slot of the streaming pool
   uint slot = atomicAdd(draw_header.instance_count, 1u);

@@ -20,6 +20,7 @@
 #include "sprite_make.h"
 #include "culling_math.glsl"
 #include "particle_occlusion.h"
+#include "dispatch_rows.h"
 
 layout(local_size_x = 64) in;
 layout(constant_id = 0) const bool kPoints = false;
@@ -35,8 +36,9 @@ layout(constant_id = 3) const bool kParticleOcclusion = false;
 layout(constant_id = 4) const bool kChunkedIds = false;
 
 void main() {
-  if (gl_GlobalInvocationID.x >= sprite_draw.chunk_count) return;
-  uint e = sprite_draw.chunk_first + gl_GlobalInvocationID.x;
+  uint t = mds_flat_id();
+  if (t >= sprite_draw.chunk_count) return;
+  uint e = sprite_draw.chunk_first + t;
   GpuMeshlet m = meshlets[draw_ids[e]];
   GpuNode node = nodes[m.node];
   uint count = m.particle_count;

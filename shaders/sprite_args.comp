@@ -8,6 +8,7 @@
 #extension GL_GOOGLE_include_directive : require
 #define MDS_SPRITES_WRITABLE
 #include "bindings.h"
+#include "dispatch_rows.h"
 
 layout(local_size_x = 1) in;
 
@@ -36,7 +37,8 @@ void main() {
   sprite_draw.raster_x = 0u;
   sprite_draw.raster_y = 1u;
   sprite_draw.raster_z = 1u;
-  sprite_draw.dispatch_x = (count + 63u) / 64u;
-  sprite_draw.dispatch_y = 1u;
-  sprite_draw.dispatch_z = 1u;
+  uvec3 rows = mds_dispatch_rows((count + 63u) / 64u);  // the pre-pass's 64 / the task stage's kMeshTaskMeshlets
+  sprite_draw.dispatch_x = rows.x;
+  sprite_draw.dispatch_y = rows.y;
+  sprite_draw.dispatch_z = rows.z;
 }

@@ -34,6 +34,14 @@ MDS_CONST(uint, kSpriteHidden, 0x100u);  // nothing to draw (behind the near pla
 MDS_CONST(uint, kSpriteQuad, 0x200u);    // drawn as a quad (point path: too large or centre off screen)
 MDS_CONST(uint, kSpriteSmall, 0x400u);   // rasterized in compute into the visibility buffer
 
+// Long 1D dispatches (one invocation per meshlet, node, list entry or occluder particle) run in
+// rows of kDispatchRow workgroups: (min(g, kDispatchRow), ceil(g / kDispatchRow), 1), so that
+// 64 x 65535 workgroups fit the 65535 per dimension Vulkan guarantees (maxComputeWorkGroupCount,
+// maxTaskWorkGroupCount): 268 M invocations of 64 instead of 4.2 M, i.e. 4.2 M meshlets, which
+// a GPU's pool passes at about 67 M particles. Shaders take their index from
+// include/dispatch_rows.h (mds_flat_id); the host records them with vk::dispatch_rows.
+MDS_CONST(uint, kDispatchRow, 64u);
+
 // Mesh sprite path (sphere.task / sphere.mesh, where VK_EXT_mesh_shader exists).
 MDS_CONST(uint, kMeshTaskMeshlets, 64u);  // draw-list entries per task workgroup (= sprite_args' dispatch_x unit)
 MDS_CONST(uint, kMeshParticles, 32u);     // particles per mesh workgroup: 128 vertices, 64 triangles (<= 256 each on every vendor)

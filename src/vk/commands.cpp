@@ -1,5 +1,6 @@
 #include "vk/commands.h"
 
+#include <algorithm>
 #include <memory>
 
 #include "vk/context.h"
@@ -106,6 +107,10 @@ void DeferredDestroyer::collect(uint64_t completed_frame) {
     }
   }
   pending_ = std::move(keep);
+}
+
+void dispatch_rows(VkCommandBuffer cmd, uint32_t groups, uint32_t row) {
+  vkCmdDispatch(cmd, std::min(groups, row), (groups + row - 1) / row, 1);
 }
 
 }  // namespace mds::vk

@@ -42,6 +42,11 @@ class FrameSlot {
 // Global memory dependency (synchronization2).
 void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
                     VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access);
+// vkCmdDispatch of `groups` workgroups in rows of `row` (min(groups, row), ceil(groups / row), 1):
+// a long 1D dispatch within the 65535 workgroups per dimension Vulkan guarantees, up to
+// row x 65535 (gpu_types.h kDispatchRow; the shader's index: include/dispatch_rows.h).
+// Precondition: 1 <= row <= 65535, ceil(groups / row) <= 65535.
+void dispatch_rows(VkCommandBuffer cmd, uint32_t groups, uint32_t row);
 // Image layout transition + dependency on the whole image.
 void image_barrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkImageLayout old_layout,
                    VkImageLayout new_layout, VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,

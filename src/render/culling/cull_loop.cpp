@@ -631,10 +631,10 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
   m.bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
          m.moving && m.classify_coarse_pipe ? m.classify_coarse_pipe.get() : m.classify_pipe.get(), m.set0_sample);
   m.push(cmd, 0);
-  vkCmdDispatch(cmd, (m.node_count + 63) / 64, 1, 1);
+  vk::dispatch_rows(cmd, (m.node_count + 63) / 64, gpu::kDispatchRow);
   compute_barrier(cmd);
   m.push(cmd, 1);
-  vkCmdDispatch(cmd, (m.meshlet_count + 63) / 64, 1, 1);
+  vk::dispatch_rows(cmd, (m.meshlet_count + 63) / 64, gpu::kDispatchRow);
   compute_barrier(cmd);
   end();
 
@@ -651,7 +651,7 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
 void CullLoop::record_draw_list(VkCommandBuffer cmd) {
   Impl& m = *impl_;
   m.bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, m.draw_list_pipe, m.set0_draw);
-  vkCmdDispatch(cmd, (m.meshlet_count + 63) / 64, 1, 1);
+  vk::dispatch_rows(cmd, (m.meshlet_count + 63) / 64, gpu::kDispatchRow);
 }
 
 gpu::CullCounters CullLoop::counters() const {

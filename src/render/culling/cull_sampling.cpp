@@ -162,7 +162,7 @@ void CullLoop::Impl::record_sampling_pass(VkCommandBuffer cmd, vk::TimestampPool
   compute_barrier(cmd);
   bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, select_pipe, set0_sample);
   push(cmd, probe_share, pass);  // cull_select.comp: mode = the budget's divisor (0: the whole budget)
-  vkCmdDispatch(cmd, (meshlet_count + 63) / 64, 1, 1);
+  vk::dispatch_rows(cmd, (meshlet_count + 63) / 64, gpu::kDispatchRow);
   vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT,
                      VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
