@@ -16,6 +16,12 @@
 uvec3 mds_dispatch_rows(uint groups) {
   return uvec3(min(groups, kDispatchRow), (groups + kDispatchRow - 1u) / kDispatchRow, 1u);
 }
+// The same in rows of 65535 workgroups (the guaranteed maximum), for counts that can pass
+// 64 x 65535 workgroups (cull_sample: occluder meshlets x max meshlet size); mds_flat_id reads
+// the row width from gl_NumWorkGroups.x.
+uvec3 mds_dispatch_rows_wide(uint groups) {
+  return uvec3(min(groups, 65535u), (groups + 65534u) / 65535u, 1u);
+}
 
 #endif
 #endif  // MDS_DISPATCH_ROWS_H

@@ -186,9 +186,10 @@ MDS_STRUCT(SpriteDrawHeader) {
 // as a shaded one; docs/rendering.md). After the header: pixel coordinates x | y << 16 [W * H]
 // (1920x1080: 8.3 MB). The resolve's VkDispatchIndirectCommand is (kCoveredGroupsX, groups_y, 1)
 // of 64 threads: groups_y = ceil(count / (64 * kCoveredGroupsX)), counted up by the compaction,
-// so that even 16.7 M covered pixels (128 MiB of visibility buffer) stay below the 65535
-// workgroups per dimension that Vulkan guarantees.
-MDS_CONST(uint, kCoveredGroupsX, 16u);  // workgroups per row of the resolve dispatch (1024 threads)
+// so that 536 M listed pixels (a fully covered 16384 x 16384 image: 268 M, 2 GiB of visibility
+// buffer on a GPU) stay below the 65535 workgroups per dimension that Vulkan guarantees (16 per
+// row, before: 67 M pixels, enough for lavapipe's 128 MiB buffers only).
+MDS_CONST(uint, kCoveredGroupsX, 128u);  // workgroups per row of the resolve dispatch (8192 threads)
 MDS_STRUCT(CoveredPixelsHeader) {
   uint dispatch_x;  // kCoveredGroupsX (written by the host each frame)
   uint dispatch_y;  // ceil(count / (64 * kCoveredGroupsX)) (atomicMax)

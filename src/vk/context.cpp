@@ -1,5 +1,6 @@
 #include "vk/context.h"
 
+#include <algorithm>
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
@@ -211,9 +212,19 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
   vkGetPhysicalDeviceProperties(c->physical_, &c->props_);
   {  // subgroup ballots in compute (Vulkan 1.1 core properties): the renderer's pixel compaction
     VkPhysicalDeviceSubgroupProperties sg{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES};
+    VkPhysicalDeviceMaintenance3Properties m3{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES};
+    VkPhysicalDeviceMaintenance4Properties m4{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_4_PROPERTIES};
     VkPhysicalDeviceProperties2 p2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
     p2.pNext = &sg;
+    sg.pNext = &m3;
+    m3.pNext = &m4;  // Vulkan 1.3 core, which the device selection requires
     vkGetPhysicalDeviceProperties2(c->physical_, &p2);
+    // A buffer bound whole is also allocated in one piece: the range the renderer sizes its
+    // buffers by is the device's, lowered to the largest allocation and buffer (context.h).
+    c->device_storage_range_ = c->props_.limits.maxStorageBufferRange;
+    const uint64_t one_piece = std::min<uint64_t>(m3.maxMemoryAllocationSize, m4.maxBufferSize);
+    if (one_piece > 0 && one_piece < c->props_.limits.maxStorageBufferRange)
+      c->props_.limits.maxStorageBufferRange = uint32_t(one_piece);
     c->compute_ballot_ = (sg.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) != 0 &&
                          (sg.supportedOperations & VK_SUBGROUP_FEATURE_BALLOT_BIT) != 0;
     c->compute_shuffle_ = c->compute_ballot_ && (sg.supportedOperations & VK_SUBGROUP_FEATURE_SHUFFLE_BIT) != 0;

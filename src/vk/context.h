@@ -67,7 +67,12 @@ class Context {
   uint32_t queue_family() const { return queue_family_; }
   const DeviceInfo& info() const { return info_; }
   const VkPhysicalDeviceProperties& properties() const { return props_; }
+  // The device's limits, except maxStorageBufferRange: lowered to maxMemoryAllocationSize and
+  // maxBufferSize where those are smaller, since every buffer the renderer binds whole is one
+  // allocation (a GPU reporting a 4 GiB range may allocate less in one piece; lavapipe: 128 MiB,
+  // unchanged). device_storage_range() is the device's own figure.
   const VkPhysicalDeviceLimits& limits() const { return props_.limits; }
+  uint32_t device_storage_range() const { return device_storage_range_; }
   bool timestamps() const { return timestamp_valid_bits_ > 0; }
   double timestamp_period_ns() const { return props_.limits.timestampPeriod; }
   bool validation_enabled() const { return validation_; }
@@ -108,6 +113,7 @@ class Context {
   bool compute_shuffle_ = false;
   DeviceInfo info_;
   VkPhysicalDeviceProperties props_{};
+  uint32_t device_storage_range_ = 0;  // props_.limits.maxStorageBufferRange before the clamp above
   std::unique_ptr<Allocator> allocator_;
   VkCommandPool pool_ = VK_NULL_HANDLE;
   VkFence fence_ = VK_NULL_HANDLE;
