@@ -92,8 +92,9 @@ Status Renderer::Impl::create_draw_buffers(uint64_t meshlet_slots) {
                                                 std::min(max_range / sizeof(gpu::GpuSprite), max_range / 8));
   // The compute rasterization runs one invocation per small sprite in one row of workgroups
   // (the pre-pass counts raster_x up per 64): at most maxComputeWorkGroupCount[0] x 64 sprites
-  // a chunk (65535 x 64 = 4.2 M, 201 MB of records, on every device; a GPU whose buffer range
-  // allows more draws its lists in chunks of that).
+  // a chunk (4.2 M, 201 MB of records, where a device reports the minimum 65535; a larger list
+  // is drawn in chunks). The records' bytes are bounded by the range above, which the context
+  // lowers to the largest single allocation (vk/context.h).
   sprite_capacity = std::min<uint64_t>(sprite_capacity, uint64_t(ctx->limits().maxComputeWorkGroupCount[0]) * 64);
   if (settings.sprite_capacity > 0) sprite_capacity = std::min(sprite_capacity, settings.sprite_capacity);
   sprite_capacity = std::max(sprite_capacity, max_meshlet_slots);  // a chunk holds one meshlet at least
