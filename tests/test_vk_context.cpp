@@ -8,6 +8,7 @@
 #include <random>
 #include <vector>
 
+#include "gpu_types.h"
 #include "vk/commands.h"
 #include "vk/context.h"
 #include "vk/embedded_shaders.h"
@@ -175,6 +176,52 @@ TEST(VkContext, ComputeDispatchWithSpecConstantAndTimestamps) {
   std::vector<float> got(n);
   std::memcpy(got.data(), back->data(), n * 4);
   for (uint32_t i = 0; i < n; ++i) ASSERT_FLOAT_EQ(got[i], a * x[i] + y[i]) << "element " << i;
+  EXPECT_EQ(ctx->validation_messages(), 0u);
+}
+
+// vk::dispatch_rows + mds_flat_id (include/dispatch_rows.h): a long 1D dispatch in rows of
+// workgroups reaches every index below n exactly once, whatever the row width (the shader reads
+// it from gl_NumWorkGroups.x): rows of kDispatchRow (64), of 7, and a single row.
+TEST(VkContext, DispatchRowsReachEveryIndexOnce) {
+  auto ctx = make_context();
+  ASSERT_TRUE(ctx);
+  const uint32_t n = 64 * 64 * 3 + 17;  // 193 workgroups of 64: 4 rows of 64, the last one partial
+  const uint32_t groups = (n + 63) / 64;
+  const VkBufferUsageFlags usage =
+      VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+  auto set = DescriptorSet::create(ctx->device(), {{0, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_ALL, nullptr}});
+  ASSERT_TRUE(set.ok());
+  auto layout = create_pipeline_layout(ctx->device(), set->layout(), 4);
+  ASSERT_TRUE(layout.ok());
+  auto pipe = create_compute_pipeline(ctx->device(), *layout, "test_flat_id.comp");
+  ASSERT_TRUE(pipe.ok()) << pipe.error().message;
+  for (const uint32_t row : {gpu::kDispatchRow, 7u, groups}) {
+    SCOPED_TRACE(::testing::Message() << "row " << row);
+    auto buf = Buffer::create(ctx->allocator(), (n + 64) * 4, usage, MemoryIntent::device_local, "v");
+    ASSERT_TRUE(buf.ok());
+    set->write_buffer(0, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, buf->get());
+    auto slot = FrameSlot::create(*ctx);
+    ASSERT_TRUE(slot.ok());
+    auto cmd = slot->begin();
+    ASSERT_TRUE(cmd.ok());
+    vkCmdFillBuffer(*cmd, buf->get(), 0, VK_WHOLE_SIZE, 0u);
+    memory_barrier(*cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                   VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                   VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+    VkDescriptorSet ds = set->set();
+    vkCmdBindPipeline(*cmd, VK_PIPELINE_BIND_POINT_COMPUTE, *pipe);
+    vkCmdBindDescriptorSets(*cmd, VK_PIPELINE_BIND_POINT_COMPUTE, *layout, 0, 1, &ds, 0, nullptr);
+    vkCmdPushConstants(*cmd, *layout, VK_SHADER_STAGE_ALL, 0, 4, &n);
+    dispatch_rows(*cmd, groups, row);
+    ASSERT_TRUE(slot->submit(ctx->queue()).ok());
+    ASSERT_TRUE(slot->wait().ok());
+    auto back = read_buffer(*ctx, *buf, 0, (n + 64) * 4);
+    ASSERT_TRUE(back.ok());
+    std::vector<uint32_t> v(n + 64);
+    std::memcpy(v.data(), back->data(), v.size() * 4);
+    for (uint32_t i = 0; i < n; ++i) ASSERT_EQ(v[i], i + 1) << "index " << i;
+    for (uint32_t i = n; i < n + 64; ++i) ASSERT_EQ(v[i], 0u) << "index " << i << " past n";
+  }
   EXPECT_EQ(ctx->validation_messages(), 0u);
 }
 
