@@ -1,6 +1,7 @@
 // The task/mesh shader sprite path (issue 3: "a task/mesh shader path where VK_EXT_mesh_shader
-// exists, selected at run time"). The default path -- and the only one on lavapipe, which has
-// no mesh shaders -- is compute + indirect draws: sphere_prepass.comp writes one glyph record
+// exists, selected at run time"). The default path -- and the only one on Debian 12's lavapipe
+// (Mesa 22.3), which has no mesh shaders; Mesa 25's has them, tools/mesh_lavapipe.sh -- is
+// compute + indirect draws: sphere_prepass.comp writes one glyph record
 // per particle of the draw list, then points/quads are pulled by the vertex stage. On a device
 // with task and mesh stages the same draw list instead feeds sphere.task (one invocation per
 // listed meshlet: frustum test, then ceil(particles / 32) mesh workgroups) and sphere.mesh (the
