@@ -63,7 +63,7 @@ void main() {
   uint per = max(frame.counts.y, 1u);  // max particles per meshlet
   if (push.mode == 1u) {
     if (gl_GlobalInvocationID.x == 0u) {
-      uvec3 rows = mds_dispatch_rows_wide((draw_header.instance_count * per + 63u) / 64u);
+      uvec3 rows = mds_dispatch_rows((draw_header.instance_count * per + 63u) / 64u, 65535u);
       draw_header.dispatch_x = rows.x;
       draw_header.dispatch_y = rows.y;
       draw_header.dispatch_z = rows.z;

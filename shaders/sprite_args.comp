@@ -37,7 +37,7 @@ void main() {
   sprite_draw.raster_x = 0u;
   sprite_draw.raster_y = 1u;
   sprite_draw.raster_z = 1u;
-  uvec3 rows = mds_dispatch_rows((count + 63u) / 64u);  // the pre-pass's 64 / the task stage's kMeshTaskMeshlets
+  uvec3 rows = mds_dispatch_rows((count + 63u) / 64u, kDispatchRow);  // the pre-pass's 64 / the task stage's kMeshTaskMeshlets
   sprite_draw.dispatch_x = rows.x;
   sprite_draw.dispatch_y = rows.y;
   sprite_draw.dispatch_z = rows.z;

@@ -11,16 +11,12 @@
 #define mds_flat_id() \
   ((gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * gl_WorkGroupSize.x + gl_LocalInvocationID.x)
 
-// (x, y, z) workgroups for `groups` workgroups in rows (VkDispatchIndirectCommand,
-// VkDrawMeshTasksIndirectCommandEXT).
-uvec3 mds_dispatch_rows(uint groups) {
-  return uvec3(min(groups, kDispatchRow), (groups + kDispatchRow - 1u) / kDispatchRow, 1u);
-}
-// The same in rows of 65535 workgroups (the guaranteed maximum), for counts that can pass
-// 64 x 65535 workgroups (cull_sample: occluder meshlets x max meshlet size); mds_flat_id reads
-// the row width from gl_NumWorkGroups.x.
-uvec3 mds_dispatch_rows_wide(uint groups) {
-  return uvec3(min(groups, 65535u), (groups + 65534u) / 65535u, 1u);
+// (x, y, z) workgroups for `groups` workgroups in rows of `row` (VkDispatchIndirectCommand,
+// VkDrawMeshTasksIndirectCommandEXT): kDispatchRow, or 65535 (the guaranteed maximum) for
+// counts that can pass 64 x 65535 workgroups (cull_sample: occluder meshlets x max meshlet
+// size); mds_flat_id reads the row width from gl_NumWorkGroups.x.
+uvec3 mds_dispatch_rows(uint groups, uint row) {
+  return uvec3(min(groups, row), (groups + row - 1u) / row, 1u);
 }
 
 #endif
