@@ -9,9 +9,11 @@
 #   tests  the bundled GoogleTest suites (Vulkan ones), 4 at a time, the mesh path where the device
 #          has VK_EXT_mesh_shader (`--mesh-shaders auto`)
 #   mesh   tools/bench_mesh_path.py (task/mesh path against compute + indirect draws, 1M particles)
-#   render tools/bench_render.py at 1920x1080, 32 spp, paired frames (issue 3's Tables 3 and 4)
-#   cache  tools/bench_cache.py, porous, fly-through and orbit, occlusion and LRU policies
 #   big    tools/bench_mesh_path.py on 32M particles (porous) at 1920x1080
+#   render tools/bench_render.py at 1920x1080, 32 spp, paired frames (issue 3's Tables 3 and 4),
+#          the sprite path `--mesh-shaders auto` picks
+#   render_off  the same with `--mesh-shaders off` (compute + indirect draws)
+#   cache  tools/bench_cache.py, porous, fly-through and orbit, occlusion and LRU policies
 # OUT gets log.txt (everything) and results.tar (each step's files, appended as the step ends, so
 # a run cut off still returns the steps before). GPU_CHECK_STEPS="smoke tests" picks steps;
 # GPU_CHECK_QUICK=1 makes every step small (a dry run of this script on lavapipe); PYTHON picks
@@ -20,7 +22,7 @@ set -uo pipefail
 bundle=$(cd "${1:?usage: gpu_check.sh BUNDLE OUT [SECONDS]}" && pwd)
 out=${2:?usage: gpu_check.sh BUNDLE OUT [SECONDS]}
 budget=${3:-500}
-steps=${GPU_CHECK_STEPS:-smoke tests mesh render cache big}
+steps=${GPU_CHECK_STEPS:-smoke tests mesh big render render_off cache}
 quick=${GPU_CHECK_QUICK:-0}
 repo=$(cd "$(dirname "$0")/.." && pwd)
 t0=$(date +%s)
@@ -84,6 +86,11 @@ render() {
   local q=(--spp 32 --paired-frames 8); [ "$quick" = 1 ] && q=(--quick)
   "$py" "$repo/tools/bench_render.py" "${q[@]}" --out-dir "$work/render" --work-dir /tmp/gc_render
 }
+render_off() {
+  local q=(--spp 32 --paired-frames 8); [ "$quick" = 1 ] && q=(--quick)
+  "$py" "$repo/tools/bench_render.py" "${q[@]}" --render-args "--mesh-shaders off" --out-dir "$work/render_off" \
+    --work-dir /tmp/gc_render
+}
 cache() {
   local q=(); [ "$quick" = 1 ] && q=(--quick)
   "$py" "$repo/tools/bench_cache.py" "${q[@]}" --scenes porous --paths flythrough,orbit --policies occlusion,lru \
@@ -95,7 +102,7 @@ big() {
 }
 
 export work repo mds py quick
-export -f smoke tests mesh render cache big
+export -f smoke tests mesh render render_off cache big
 for s in $steps; do
   case $s in
     smoke) step smoke 90 smoke || { echo "smoke failed: no further steps"; ldd "$mds" "$repo/build/libmdstream_vulkan.so" | grep -i "not found"; break; } ;;

@@ -1,6 +1,8 @@
 // The task/mesh shader sprite path; see mesh_sprites.h.
 #include "render/mesh_sprites.h"
 
+#include <algorithm>
+
 #include "vk/context.h"
 #include "vk/pipeline.h"
 
@@ -33,7 +35,7 @@ Result<bool> use_mesh_sprites(const vk::Context& ctx, MeshShaderMode mode) {
 }
 
 Result<MeshSprites> MeshSprites::create(const vk::Context& ctx, VkPipelineLayout layout, VkFormat color_format,
-                                        VkFormat depth_format, bool particle_occlusion) {
+                                        VkFormat depth_format, float small_px, bool particle_occlusion) {
   if (!ctx.mesh_shaders())
     return make_error(Errc::unsupported, "mesh sprite path: VK_EXT_mesh_shader is not enabled on '{}'",
                       ctx.info().name);
@@ -44,17 +46,29 @@ Result<MeshSprites> MeshSprites::create(const vk::Context& ctx, VkPipelineLayout
   if (!m.draw_indirect_)
     return make_error(Errc::unsupported, "mesh sprite path: '{}' exposes no vkCmdDrawMeshTasksIndirectEXT",
                       ctx.info().name);
+  const bool vis = small_px >= 0.0f;
   vk::GraphicsPipelineDesc g;
   g.task_shader = "sphere.task";
-  g.mesh_shader = "sphere.mesh";
-  g.fragment_shader = "sphere.frag";
-  g.color_formats = {color_format};
-  g.depth_format = depth_format;
+  if (vis) {  // no attachments: the mesh stage and the fragments write the visibility buffer
+    g.mesh_shader = "sphere_vis.mesh";
+    g.fragment_shader = "sphere_vis.frag";
+    g.depth_test = false;
+    g.depth_write = false;
+  } else {
+    g.mesh_shader = "sphere.mesh";
+    g.fragment_shader = "sphere.frag";
+    g.color_formats = {color_format};
+    g.depth_format = depth_format;
+  }
+  // The mesh stage's specialization constants: 0 kParticleOcclusion, 1 kSmallPx.
+  vk::SpecConstants spec;
+  spec.add(0u, VkBool32(false)).add(1u, std::max(small_px, 0.0f));
+  g.vertex_spec = &spec;
   MDS_ASSIGN_OR_RETURN(m.pipe_, vk::create_graphics_pipeline(ctx.device(), layout, g));
-  if (particle_occlusion) {  // specialization constant 0 of sphere.mesh: kParticleOcclusion
-    vk::SpecConstants spec;
-    spec.add(0u, VkBool32(true));
-    g.vertex_spec = &spec;  // the mesh stage's
+  if (particle_occlusion) {
+    vk::SpecConstants occ;
+    occ.add(0u, VkBool32(true)).add(1u, std::max(small_px, 0.0f));
+    g.vertex_spec = &occ;
     MDS_ASSIGN_OR_RETURN(m.occ_pipe_, vk::create_graphics_pipeline(ctx.device(), layout, g));
   }
   return m;

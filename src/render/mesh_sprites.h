@@ -40,12 +40,21 @@ class MeshSprites {
   static constexpr VkPipelineStageFlags2 kReadStages =
       VK_PIPELINE_STAGE_2_TASK_SHADER_BIT_EXT | VK_PIPELINE_STAGE_2_MESH_SHADER_BIT_EXT;
 
+  // Stages that write the visibility buffer on the visibility route (the mesh stage's small
+  // glyphs, the fragments of the others).
+  static constexpr VkPipelineStageFlags2 kVisibilityWriteStages =
+      VK_PIPELINE_STAGE_2_MESH_SHADER_BIT_EXT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+
   // Precondition: ctx.mesh_shaders(). `layout` is the renderer's pipeline layout (set 0 of
-  // include/bindings.h, all stages); the formats are those of its colour and depth targets.
+  // include/bindings.h, all stages).
+  // Attachment route (small_px < 0): the formats are those of the renderer's colour and depth
+  // targets. Visibility route (small_px >= 0; precondition: the device has 64-bit buffer
+  // atomics): no attachments, sphere_vis.mesh + sphere_vis.frag write the visibility buffer, and
+  // glyphs of at most small_px pixels (0: none) are ray cast in the mesh stage.
   // particle_occlusion: also the pipeline with the particle occlusion test compiled in
   // (sphere.mesh specialization constant 0; RenderSettings::particle_occlusion).
   static Result<MeshSprites> create(const vk::Context& ctx, VkPipelineLayout layout, VkFormat color_format,
-                                    VkFormat depth_format, bool particle_occlusion);
+                                    VkFormat depth_format, float small_px, bool particle_occlusion);
   MeshSprites() = default;
 
   // Inside the rendering scope of the draw, with viewport and scissor set: one indirect mesh

@@ -99,6 +99,9 @@ Status Renderer::Impl::create_draw_buffers(uint64_t meshlet_slots) {
   if (settings.sprite_capacity > 0) sprite_capacity = std::min(sprite_capacity, settings.sprite_capacity);
   sprite_capacity = std::max(sprite_capacity, max_meshlet_slots);  // a chunk holds one meshlet at least
   if (mesh_path) {  // no records: the task/mesh path makes its sprites in place, in one launch
+    // The task payload names a draw-list entry x kMeshChunksMax + chunk in 32 bits.
+    if (uint64_t(meshlet_slots) * gpu::kMeshChunksMax > 0xffffffffull)
+      return make_error(Errc::budget, "{} meshlet slots exceed the task payload's 32-bit entries", meshlet_slots);
     sprite_capacity = 1;
     chunk_meshlets = 0xffffffffu;
     sprite_chunks = 1;
@@ -159,7 +162,7 @@ Status Renderer::Impl::create_targets() {
   const uint64_t vis_bytes = 8ull * w * h;  // one uint64 per pixel: depth bits << 32 | sprite index
   const bool vis_fits = vis_bytes <= ctx->limits().maxStorageBufferRange;
   if (!targets_created) {
-    vis_route = settings.visibility_route && !mesh_path && ctx->int64_atomics() && vis_fits;
+    vis_route = settings.visibility_route && ctx->int64_atomics() && vis_fits;
     // MDSTREAM_ACCUM=image forces the image accumulation (A/B measurements).
     if (const char* e = std::getenv("MDSTREAM_ACCUM")) settings.accumulation_buffer = std::string(e) != "image";
     targets_created = true;
@@ -229,7 +232,7 @@ Status Renderer::Impl::create_accumulate_pipeline() {
     vk::SpecConstants spec;
     spec.add(0u, VkBool32(accum_in_buffer));  // accumulation.h: kAccumBuffer
     if (vis_route)
-      spec.add(1u, VkBool32(list)).add(2u, list ? 64u : 16u).add(3u, list ? 1u : 16u).add(4u, VkBool32(sprite_chunks > 1));
+      spec.add(1u, VkBool32(list)).add(2u, list ? 64u : 16u).add(3u, list ? 1u : 16u).add(4u, VkBool32(chunked_ids()));
     return vk::create_compute_pipeline(ctx->device(), layout.get(), shader, &spec);
   };
   if (vis_route) {
@@ -318,10 +321,12 @@ Status Renderer::Impl::create_pipelines() {
   if (const char* e = std::getenv("MDSTREAM_SMALL_PX")) small_px = vis_route ? float(std::atof(e)) : 0.0f;
   MDS_ASSIGN_OR_RETURN(sprite_args_pipe, vk::create_compute_pipeline(dev, layout, "sprite_args.comp"));
   // Task/mesh sprites where the device has them (--mesh-shaders): no pre-pass records, no
-  // compute rasterization, no points (the attachment route); sprite_args.comp still sizes the
-  // task launch.
+  // points; on the visibility route the mesh stage ray casts the small glyphs itself (the
+  // compute rasterization's threshold) and the resolve rebuilds spheres from the particles'
+  // frame-wide ids (chunked_ids); sprite_args.comp still sizes the task launch.
   if (mesh_path) {  // decided at creation (use_mesh_sprites), before the draw buffers
     MDS_ASSIGN_OR_RETURN(mesh, MeshSprites::create(*ctx, layout, kColorFormat, kDepthFormat,
+                                                   vis_route ? small_px : -1.0f,
                                                    settings.cull && settings.particle_occlusion));
     point_sprites = false;
     sprite_read_stages = MeshSprites::kReadStages;
@@ -333,14 +338,14 @@ Status Renderer::Impl::create_pipelines() {
   auto prepass = [&](bool particle_occlusion) {  // specialization constant 3: kParticleOcclusion
     vk::SpecConstants spec;
     spec.add(0u, VkBool32(point_sprites)).add(1u, max_point).add(2u, small_px).add(3u, VkBool32(particle_occlusion));
-    spec.add(4u, VkBool32(sprite_chunks > 1));  // kChunkedIds: visibility ids by particle, not by record
+    spec.add(4u, VkBool32(chunked_ids()));  // kChunkedIds: visibility ids by particle, not by record
     return vk::create_compute_pipeline(dev, layout, "sphere_prepass.comp", &spec);
   };
   MDS_ASSIGN_OR_RETURN(prepass_pipe, prepass(false));
   if (settings.cull && settings.particle_occlusion) {
     MDS_ASSIGN_OR_RETURN(prepass_occ_pipe, prepass(true));
   }
-  if (small_px > 0.0f) {  // shaderInt64 + 64-bit atomics: only on the visibility route
+  if (small_px > 0.0f && !mesh_path) {  // shaderInt64 + 64-bit atomics: only on the visibility route
     MDS_ASSIGN_OR_RETURN(raster_pipe, vk::create_compute_pipeline(dev, layout, "sprite_raster.comp"));
   }
   vk::SpecConstants quad_spec;

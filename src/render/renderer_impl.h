@@ -41,6 +41,9 @@ struct Renderer::Impl {
   // The draw list is made into sprites and drawn sprite_chunks times per frame, chunk_meshlets
   // entries each (RenderSettings::sprite_capacity; gpu_types.h SpriteDrawHeader, "Chunks").
   uint32_t sprite_chunks = 1;
+  // Visibility ids name particles (draw-list entry x max meshlet particles + local), not sprite
+  // records: records reused chunk by chunk, or none (the task/mesh path).
+  bool chunked_ids() const { return sprite_chunks > 1 || mesh_path; }
   uint32_t chunk_meshlets = 0;
   // The visibility route (RenderSettings::visibility_route, where the device has 64-bit buffer
   // atomics, the buffer fits maxStorageBufferRange and the mesh path is off): every sprite --

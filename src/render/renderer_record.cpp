@@ -34,6 +34,20 @@ void Renderer::Impl::record_sprite_prepass(VkCommandBuffer cmd, uint32_t chunk) 
                        VK_ACCESS_2_TRANSFER_WRITE_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
                            VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
     zero_chunk_counter(cmd, sprite_draw.get());
+    if (vis_route) {  // an empty visibility buffer and covered-pixel list, after the last frame's
+                      // mesh-stage and fragment atomics and its resolve
+      vk::memory_barrier(cmd, MeshSprites::kVisibilityWriteStages | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                         VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                         VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
+      vkCmdFillBuffer(cmd, visibility.get(), 0, VK_WHOLE_SIZE, gpu::kVisEmpty);
+      if (covered_list) {
+        const gpu::CoveredPixelsHeader head{gpu::kCoveredGroupsX, 0u, 1u, 0u};
+        vkCmdUpdateBuffer(cmd, covered.get(), 0, sizeof(head), &head);
+      }
+      vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                         MeshSprites::kVisibilityWriteStages | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                         VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+    }
     vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                        VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                        VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
@@ -267,7 +281,9 @@ void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first, bool accumulat
   //    Attachment route: "accumulate" adds the colour attachment.
   timestamps.begin(cmd, vis_route ? "resolve" : "accumulate");
   if (vis_route) {
-    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+    const VkPipelineStageFlags2 writers = mesh_path ? MeshSprites::kVisibilityWriteStages
+                                                    : VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+    vk::memory_barrier(cmd, writers | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                        VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                        VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
   } else {
