@@ -8,12 +8,15 @@
 #   smoke  synth + convert + render of 100k particles; stops the run when the GPU is not the device
 #   tests  the bundled GoogleTest suites (Vulkan ones), 4 at a time, the mesh path where the device
 #          has VK_EXT_mesh_shader (`--mesh-shaders auto`)
+#   tests_mesh  the same suites with MDSTREAM_PREFER_MESH=1 (`auto` takes the mesh path)
 #   mesh   tools/bench_mesh_path.py (task/mesh path against compute + indirect draws, 1M particles)
 #   big    tools/bench_mesh_path.py on 32M particles (porous) at 1920x1080
 #   render tools/bench_render.py at 1920x1080, 32 spp, paired frames (issue 3's Tables 3 and 4),
 #          the sprite path `--mesh-shaders auto` picks
 #   render_off  the same with `--mesh-shaders off` (compute + indirect draws)
 #   cache  tools/bench_cache.py, porous, fly-through and orbit, occlusion and LRU policies
+#   sweep  tools/bench_mesh_path.py (1M) at 640x360 and 1920x1080 under the pixel-route settings
+#          MDSTREAM_PIXEL_ROUTE=attachments, MDSTREAM_SMALL_PX=0, =2 and the defaults (sweep/<cfg>_<w>)
 # OUT gets log.txt (everything) and results.tar (each step's files, appended as the step ends, so
 # a run cut off still returns the steps before). GPU_CHECK_STEPS="smoke tests" picks steps;
 # GPU_CHECK_QUICK=1 makes every step small (a dry run of this script on lavapipe); PYTHON picks
@@ -22,7 +25,7 @@ set -uo pipefail
 bundle=$(cd "${1:?usage: gpu_check.sh BUNDLE OUT [SECONDS]}" && pwd)
 out=${2:?usage: gpu_check.sh BUNDLE OUT [SECONDS]}
 budget=${3:-500}
-steps=${GPU_CHECK_STEPS:-smoke tests mesh big render render_off cache}
+steps=${GPU_CHECK_STEPS:-smoke tests tests_mesh mesh big render render_off cache sweep}
 quick=${GPU_CHECK_QUICK:-0}
 repo=$(cd "$(dirname "$0")/.." && pwd)
 t0=$(date +%s)
@@ -38,7 +41,7 @@ step() {
   mkdir -p "$work/$name"
   echo "== $name (limit ${limit} s, $(date -u +%T))"
   local s; s=$(date +%s)
-  timeout -k 5 "$limit" bash -c '"$@"' _ "$@"; local rc=$?
+  STEP=$name timeout -k 5 "$limit" bash -c '"$@"' _ "$@"; local rc=$?
   echo "== $name: rc $rc, $(( $(date +%s) - s )) s"
   tar rf "$out/results.tar" -C "$work" "$name" 2>/dev/null
   return $rc
@@ -73,10 +76,31 @@ smoke() {
   return 0
 }
 tests() {
-  cd "$work/tests" || return 1
+  cd "$work/$STEP" || return 1
   ls "$repo"/build/tests/ | xargs -P 4 -I{} sh -c \
     'timeout -k 5 '"$1"' "$0/build/tests/{}" --gtest_brief=1 > "{}.log" 2>&1; echo "{} rc $?"' "$repo"
   grep -h -e "^\[  FAILED" -e "^\[  PASSED" -e "SKIPPED \]" *.log | sort | uniq -c
+}
+tests_mesh() {
+  MDSTREAM_PREFER_MESH=1 tests "$@"
+}
+sweep() {
+  local cfg res
+  for res in 640x360 1920x1080; do
+    for cfg in attachments small0 small2 default; do
+      [ "$quick" = 1 ] && [ "$cfg" != small2 ] && continue
+      local env=()
+      case $cfg in
+        attachments) env=(MDSTREAM_PIXEL_ROUTE=attachments) ;;
+        small0) env=(MDSTREAM_SMALL_PX=0) ;;
+        small2) env=(MDSTREAM_SMALL_PX=2) ;;
+      esac
+      [ "$cfg" = default ] && [ "$res" = 640x360 ] && continue  # step mesh
+      echo "sweep $cfg $res"
+      env "${env[@]}" "$py" "$repo/tools/bench_mesh_path.py" $([ "$quick" = 1 ] && echo --quick) \
+        --width "${res%x*}" --height "${res#*x}" --out "$work/sweep/${cfg}_${res%x*}" --work /tmp/gc_sweep || return 1
+    done
+  done
 }
 mesh() {
   local q=(); [ "$quick" = 1 ] && q=(--quick)
@@ -102,11 +126,12 @@ big() {
 }
 
 export work repo mds py quick
-export -f smoke tests mesh render render_off cache big
+export -f smoke tests tests_mesh mesh render render_off cache big sweep
 for s in $steps; do
   case $s in
     smoke) step smoke 90 smoke || { echo "smoke failed: no further steps"; ldd "$mds" "$repo/build/libmdstream_vulkan.so" | grep -i "not found"; break; } ;;
-    tests) step tests 150 tests 140 ;;
+    tests|tests_mesh) step "$s" 150 "$s" 140 ;;
+    sweep) step sweep 300 sweep ;;
     *) step "$s" 200 "$s" ;;
   esac
 done

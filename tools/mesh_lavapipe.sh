@@ -69,6 +69,7 @@ fi
 [ "$mode" = fetch ] && exit 0
 export VK_ICD_FILENAMES=$icd
 export MDSTREAM_REQUIRE_MESH_SHADERS=1  # tests/test_mesh_sprites.cpp fails if the driver has none
+export MDSTREAM_PREFER_MESH=1  # --mesh-shaders auto takes the mesh path (render/mesh_sprites.h)
 export LD_LIBRARY_PATH=$lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
 if [ $# -eq 0 ]; then
   exec ctest --test-dir "$repo/build" --output-on-failure -j2

@@ -2,6 +2,7 @@
 #include "render/mesh_sprites.h"
 
 #include <algorithm>
+#include <cstdlib>
 
 #include "vk/context.h"
 #include "vk/pipeline.h"
@@ -24,8 +25,14 @@ const char* mesh_shader_mode_name(MeshShaderMode mode) {
   return "?";
 }
 
+bool prefer_mesh_sprites() {
+  const char* e = std::getenv("MDSTREAM_PREFER_MESH");
+  return e && std::string_view(e) == "1";
+}
+
 Result<bool> use_mesh_sprites(const vk::Context& ctx, MeshShaderMode mode) {
   if (mode == MeshShaderMode::off) return false;
+  if (mode == MeshShaderMode::automatic) return ctx.mesh_shaders() && prefer_mesh_sprites();
   if (mode == MeshShaderMode::on && !ctx.mesh_shaders())
     return make_error(Errc::unsupported,
                       "--mesh-shaders on: device '{}' has no VK_EXT_mesh_shader with task and mesh stages "

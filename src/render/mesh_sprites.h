@@ -23,10 +23,16 @@ class Context;
 
 namespace mds::render {
 
-// --mesh-shaders: auto = the mesh path where the context enabled VK_EXT_mesh_shader
-// (vk::Context::mesh_shaders()), else compute + indirect draws; on = the mesh path or an error;
-// off = compute + indirect draws.
+// --mesh-shaders: auto = compute + indirect draws, or the mesh path where the context enabled
+// VK_EXT_mesh_shader (vk::Context::mesh_shaders()) and MDSTREAM_PREFER_MESH=1 is set
+// (prefer_mesh_sprites(); tools/mesh_lavapipe.sh sets it so that the suites run the mesh path);
+// on = the mesh path or an error; off = compute + indirect draws.
+// Why auto is compute: on an NVIDIA H200 the compute path's frames were 4-40x faster than the
+// mesh path's on 13 of 14 benchmark views (docs/results/gpu-h200/mesh-path.md): its compute
+// rasterization of glyphs of a few pixels beats two triangles per glyph through the mesh stage.
 enum class MeshShaderMode { automatic, off, on };
+// MDSTREAM_PREFER_MESH is set to 1: `auto` takes the mesh path where the device has it.
+bool prefer_mesh_sprites();
 Result<MeshShaderMode> parse_mesh_shader_mode(std::string_view text);
 const char* mesh_shader_mode_name(MeshShaderMode mode);
 // Whether the renderer takes the mesh path on `ctx`; `on` without device support is an error

@@ -162,9 +162,11 @@ Status Renderer::Impl::create_targets() {
   const uint64_t vis_bytes = 8ull * w * h;  // one uint64 per pixel: depth bits << 32 | sprite index
   const bool vis_fits = vis_bytes <= ctx->limits().maxStorageBufferRange;
   if (!targets_created) {
-    vis_route = settings.visibility_route && ctx->int64_atomics() && vis_fits;
+    // MDSTREAM_PIXEL_ROUTE=attachments forces the attachment route (A/B measurements).
+    if (const char* e = std::getenv("MDSTREAM_PIXEL_ROUTE")) settings.visibility_route = std::string(e) != "attachments";
     // MDSTREAM_ACCUM=image forces the image accumulation (A/B measurements).
     if (const char* e = std::getenv("MDSTREAM_ACCUM")) settings.accumulation_buffer = std::string(e) != "image";
+    vis_route = settings.visibility_route && ctx->int64_atomics() && vis_fits;
     targets_created = true;
   } else if (vis_route && !vis_fits) {
     return make_error(Errc::budget, "{}x{}: the visibility buffer ({} bytes) exceeds maxStorageBufferRange ({})", w,

@@ -39,8 +39,9 @@ void add_culling_options(CLI::App& sub, CullingOptions& o, const std::string& no
       ->capture_default_str();
   sub.add_option("--seed", o.seed, "Random seed of occluder selection and sample acceptance")->capture_default_str();
   sub.add_option("--mesh-shaders", o.mesh_shaders,
-                 "Sprite path: auto (task/mesh shaders where the device has VK_EXT_mesh_shader, else compute + "
-                 "indirect draws), on (require them), off (compute + indirect draws); docs/rendering.md")
+                 "Sprite path: auto (compute + indirect draws, measured faster on a GPU; task/mesh shaders "
+                 "where the device has VK_EXT_mesh_shader and MDSTREAM_PREFER_MESH=1), on (task/mesh shaders, "
+                 "or an error), off (compute + indirect draws); docs/rendering.md")
       ->capture_default_str();
   if (coverage_option)
     sub.add_option("--coverage", o.coverage,
