@@ -211,7 +211,11 @@ TEST_F(CullRender, ComputeAndRasterizedSamplingAgree) {
 
 // The compute route's update over the list of sampled pixels (cull_sample_compact.comp) and the
 // update over every pixel apply Algorithm 1 to the same pixels with the same random numbers: the
-// same classes in every iteration and the same image, bit for bit.
+// same classes in every iteration, and the same image up to exact depth ties. The image is bit
+// for bit the same on lavapipe; on an NVIDIA H200 4-5 pixels of the close-up differed (15 of
+// 43200 floats) with identical classes: the visibility buffer breaks a tie between two spheres
+// by the smaller id, and the ids (sprite record or draw-list slot) are handed out by atomics,
+// whose order a GPU does not fix (include/sprite_raster.h).
 TEST_F(CullRender, SampledPixelListUpdatesLikeTheFullScreenUpdate) {
   if (!ctx_->int64_atomics()) GTEST_SKIP() << "no 64-bit buffer atomics: no compute sampling route";
   if (!ctx_->compute_ballot()) GTEST_SKIP() << "no subgroup ballots in compute: no sampled-pixel list";
@@ -226,8 +230,12 @@ TEST_F(CullRender, SampledPixelListUpdatesLikeTheFullScreenUpdate) {
     EXPECT_GT(culled_fraction(list), 0.2);
     ASSERT_EQ(list.image.rgba.size(), full.image.rgba.size());
     size_t differ = 0;
-    for (size_t i = 0; i < list.image.rgba.size(); ++i) differ += list.image.rgba[i] != full.image.rgba[i];
-    EXPECT_EQ(differ, 0u) << "of " << list.image.rgba.size() << " floats";
+    for (uint32_t y = 0; y < kH; ++y)
+      for (uint32_t x = 0; x < kW; ++x) differ += list.image.at(x, y) != full.image.at(x, y);
+    EXPECT_LE(differ, size_t(kW * kH / 1000)) << "pixels differ (of " << kW * kH << ")";
+    if (ctx_->info().type == VK_PHYSICAL_DEVICE_TYPE_CPU) {
+      EXPECT_EQ(differ, 0u) << "on " << ctx_->info().name;
+    }
   }
 }
 
@@ -272,7 +280,7 @@ TEST_F(CullRender, ParticleOcclusionHidesParticlesNotPixels) {
                                 culling::SampleRoute::automatic, closer, true);
     RenderRun off = render_scene(*ctx_, *scene_, true, MDS_CULL_ACCEPT_NORMAL, spp, false, 0, 0,
                                  culling::SampleRoute::automatic, closer, false);
-    EXPECT_EQ(on.stats.mesh_sprites, ctx_->mesh_shaders());
+    EXPECT_EQ(on.stats.mesh_sprites, ctx_->mesh_shaders() && render::prefer_mesh_sprites());
     ASSERT_TRUE(on.stats.cull.converged);
     ASSERT_TRUE(off.stats.cull.converged);
     // The particle test runs after convergence only: the meshlet classes are the same.

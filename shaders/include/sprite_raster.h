@@ -1,10 +1,14 @@
 // GLSL-only: the visibility buffer's depth test (visibility_write), used by the rasterized
-// sprites (sphere.frag built with MDS_VISIBILITY_ROUTE) and by the compute rasterization of one
-// small sprite (raster_small_sprite, sphere_prepass.comp built with MDS_COMPUTE_RASTER).
+// sprites (sphere.frag and sphere.mesh built with MDS_VISIBILITY_ROUTE) and by the compute
+// rasterization of one small sprite (raster_small_sprite: sprite_raster.comp, sphere_vis.mesh).
 // Per pixel a 64-bit atomicMin of (depth's float bits << 32 | the sprite's vis_id, gpu_types.h):
 // non-negative floats order like their bits, so the nearest depth wins and, at equal depths, the
-// smaller id (deterministic whatever the order of the threads and the chunks). Depths >= 1 are dropped, as the depth test
-// against a depth buffer cleared to 1.0 would. Needs bindings.h with MDS_VISIBILITY defined,
+// smaller id, whatever the order of the threads and the chunks. The ids themselves (sprite record
+// index, or draw-list slot x max meshlet + local) are handed out by atomics (sphere_prepass.comp,
+// cull_draw_list.comp), in an order a GPU does not fix: a pixel where two spheres' depths are
+// exactly equal can go to either from run to run (4-5 pixels of a 160x90 close-up on an NVIDIA
+// H200; none on lavapipe). Depths >= 1 are dropped, as the depth test against a depth buffer
+// cleared to 1.0 would. Needs bindings.h with MDS_VISIBILITY defined,
 // and sphere_shading.h.
 #ifndef MDS_SPRITE_RASTER_H
 #define MDS_SPRITE_RASTER_H

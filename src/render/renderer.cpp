@@ -312,14 +312,19 @@ Status Renderer::Impl::create_pipelines() {
   // rasterized into colour + depth attachments and accumulate.comp adds the colour.
   // MDSTREAM_SPRITES=quads|points overrides the default, MDSTREAM_SMALL_PX=<pixels> the compute
   // threshold (0: every sprite rasterized).
+  // The task/mesh path ray casts only glyphs of at most kMeshSmallSpritePx pixels in its mesh
+  // stage (sphere.mesh): on an NVIDIA H200 (docs/results/gpu-h200/mesh-path.md) loops over up to
+  // 16x16 pixels there made its 1920x1080 frames 3-40x slower than with 2 pixels, while the
+  // compute path's sprite_raster.comp is fastest at 16.
   constexpr float kSmallSpritePx = 16.0f;
+  constexpr float kMeshSmallSpritePx = 2.0f;
   const float max_point = ctx->limits().pointSizeRange[1];
   VkPhysicalDeviceFeatures features{};
   vkGetPhysicalDeviceFeatures(ctx->physical(), &features);
   const bool points_ok = features.largePoints == VK_TRUE && max_point >= 8.0f;
   point_sprites = points_ok;
   if (const char* e = std::getenv("MDSTREAM_SPRITES")) point_sprites = points_ok && std::string(e) == "points";
-  small_px = vis_route ? kSmallSpritePx : 0.0f;
+  small_px = vis_route ? (mesh_path ? kMeshSmallSpritePx : kSmallSpritePx) : 0.0f;
   if (const char* e = std::getenv("MDSTREAM_SMALL_PX")) small_px = vis_route ? float(std::atof(e)) : 0.0f;
   MDS_ASSIGN_OR_RETURN(sprite_args_pipe, vk::create_compute_pipeline(dev, layout, "sprite_args.comp"));
   // Task/mesh sprites where the device has them (--mesh-shaders): no pre-pass records, no
