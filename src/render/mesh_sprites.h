@@ -27,9 +27,10 @@ namespace mds::render {
 // VK_EXT_mesh_shader (vk::Context::mesh_shaders()) and MDSTREAM_PREFER_MESH=1 is set
 // (prefer_mesh_sprites(); tools/mesh_lavapipe.sh sets it so that the suites run the mesh path);
 // on = the mesh path or an error; off = compute + indirect draws.
-// Why auto is compute: on an NVIDIA H200 the compute path's frames were 4-40x faster than the
-// mesh path's on 13 of 14 benchmark views (docs/results/gpu-h200/mesh-path.md): its compute
-// rasterization of glyphs of a few pixels beats two triangles per glyph through the mesh stage.
+// Why auto is compute: on an NVIDIA H200 the compute path had the fastest frame on 23 of 28
+// benchmark cases (1M particles, 640x360 and 1920x1080, culled and not; often 5-10x), the mesh
+// path only on the porous close-up (docs/results/gpu-h200.md): compute rasterization of glyphs
+// of a few pixels beats two triangles per glyph through the mesh stage.
 enum class MeshShaderMode { automatic, off, on };
 // MDSTREAM_PREFER_MESH is set to 1: `auto` takes the mesh path where the device has it.
 bool prefer_mesh_sprites();

@@ -313,9 +313,9 @@ Status Renderer::Impl::create_pipelines() {
   // MDSTREAM_SPRITES=quads|points overrides the default, MDSTREAM_SMALL_PX=<pixels> the compute
   // threshold (0: every sprite rasterized).
   // The task/mesh path ray casts only glyphs of at most kMeshSmallSpritePx pixels in its mesh
-  // stage (sphere.mesh): on an NVIDIA H200 (docs/results/gpu-h200/mesh-path.md) loops over up to
-  // 16x16 pixels there made its 1920x1080 frames 3-40x slower than with 2 pixels, while the
-  // compute path's sprite_raster.comp is fastest at 16.
+  // stage (sphere.mesh): on an NVIDIA H200 (docs/results/gpu-h200.md) loops over up to 16x16
+  // pixels there made its 1920x1080 frames up to 5.4x slower than with 2 pixels (median 3.2x),
+  // while the compute path's sprite_raster.comp is fastest at 16.
   constexpr float kSmallSpritePx = 16.0f;
   constexpr float kMeshSmallSpritePx = 2.0f;
   const float max_point = ctx->limits().pointSizeRange[1];
