@@ -312,19 +312,21 @@ Status Renderer::Impl::create_pipelines() {
   // rasterized into colour + depth attachments and accumulate.comp adds the colour.
   // MDSTREAM_SPRITES=quads|points overrides the default, MDSTREAM_SMALL_PX=<pixels> the compute
   // threshold (0: every sprite rasterized).
-  // The task/mesh path ray casts only glyphs of at most kMeshSmallSpritePx pixels in its mesh
-  // stage (sphere.mesh): on an NVIDIA H200 (docs/results/gpu-h200.md) loops over up to 16x16
-  // pixels there made its 1920x1080 frames up to 5.4x slower than with 2 pixels (median 3.2x),
-  // while the compute path's sprite_raster.comp is fastest at 16.
+  // The task/mesh path ray casts glyphs in its mesh stage (sphere.mesh) up to 16 pixels on a CPU
+  // device and up to 2 on a GPU. On an NVIDIA H200 (docs/results/gpu-h200.md) loops over up to
+  // 16x16 pixels there made its 1920x1080 frames up to 5.4x slower than with 2 pixels (median
+  // 3.2x), while the compute path's sprite_raster.comp is fastest at 16. On lavapipe, whose
+  // primitive setup runs on one thread, 2 pixels made converged 640x360 frames of 1M particles
+  // 1.6-11x the compute path's (docs/results/mesh-path.md has the 16-pixel run).
   constexpr float kSmallSpritePx = 16.0f;
-  constexpr float kMeshSmallSpritePx = 2.0f;
+  const float mesh_small_px = ctx->info().type == VK_PHYSICAL_DEVICE_TYPE_CPU ? 16.0f : 2.0f;
   const float max_point = ctx->limits().pointSizeRange[1];
   VkPhysicalDeviceFeatures features{};
   vkGetPhysicalDeviceFeatures(ctx->physical(), &features);
   const bool points_ok = features.largePoints == VK_TRUE && max_point >= 8.0f;
   point_sprites = points_ok;
   if (const char* e = std::getenv("MDSTREAM_SPRITES")) point_sprites = points_ok && std::string(e) == "points";
-  small_px = vis_route ? (mesh_path ? kMeshSmallSpritePx : kSmallSpritePx) : 0.0f;
+  small_px = vis_route ? (mesh_path ? mesh_small_px : kSmallSpritePx) : 0.0f;
   if (const char* e = std::getenv("MDSTREAM_SMALL_PX")) small_px = vis_route ? float(std::atof(e)) : 0.0f;
   MDS_ASSIGN_OR_RETURN(sprite_args_pipe, vk::create_compute_pipeline(dev, layout, "sprite_args.comp"));
   // Task/mesh sprites where the device has them (--mesh-shaders): no pre-pass records, no
