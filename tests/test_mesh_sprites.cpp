@@ -42,8 +42,10 @@ class MeshSpritesTest : public mds::testing::VulkanSuite {
     return std::move(s).value();
   }
 
-  static Result<FrameImage> render(const SceneData& scene, MeshShaderMode mode, bool cull, RenderStats* stats) {
+  static Result<FrameImage> render(const SceneData& scene, MeshShaderMode mode, bool cull, RenderStats* stats,
+                                   bool visibility_route = true) {
     RenderSettings rs;
+    rs.visibility_route = visibility_route;
     rs.width = 96;
     rs.height = 72;
     rs.spp = 4;
@@ -104,28 +106,33 @@ TEST_F(MeshSpritesTest, RendererReportsThePathItTook) {
 }
 
 // Same glyphs (include/sprite_make.h), same fragment shader: the two paths agree up to the
-// order in which equal-depth fragments land, i.e. in a few pixels at most.
+// order in which equal-depth fragments land, i.e. in a few pixels at most; on the visibility
+// route (the mesh stage ray casting small glyphs) and on the attachment route alike.
 TEST_F(MeshSpritesTest, MeshPathMatchesComputePath) {
   if (!ctx_->mesh_shaders()) GTEST_SKIP() << ctx_->info().name << " has no VK_EXT_mesh_shader";
-  for (uint32_t meshlet_size : {16u, 40u}) {
-    for (bool cull : {false, true}) {
-      SCOPED_TRACE(::testing::Message() << "meshlet size " << meshlet_size << ", cull " << cull);
-      SceneData scene = block(meshlet_size);
-      RenderStats sm, sc;
-      auto mesh = render(scene, MeshShaderMode::on, cull, &sm);
-      auto comp = render(scene, MeshShaderMode::off, cull, &sc);
-      ASSERT_TRUE(mesh.ok()) << mesh.error().message;
-      ASSERT_TRUE(comp.ok()) << comp.error().message;
-      EXPECT_TRUE(sm.mesh_sprites);
-      size_t differ = 0, covered = 0;
-      for (size_t i = 0; i < mesh->rgba.size(); i += 4) {
-        float d = 0.0f;
-        for (int c = 0; c < 4; ++c) d = std::max(d, std::abs(mesh->rgba[i + c] - comp->rgba[i + c]));
-        if (d > 2.0f / 255.0f) ++differ;
-        if (comp->rgba[i + 3] > 0.0f) ++covered;
+  for (bool vis : {true, false}) {
+    for (uint32_t meshlet_size : {16u, 40u}) {
+      for (bool cull : {false, true}) {
+        SCOPED_TRACE(::testing::Message() << "meshlet size " << meshlet_size << ", cull " << cull << ", visibility "
+                                          << vis);
+        SceneData scene = block(meshlet_size);
+        RenderStats sm, sc;
+        auto mesh = render(scene, MeshShaderMode::on, cull, &sm, vis);
+        auto comp = render(scene, MeshShaderMode::off, cull, &sc);
+        ASSERT_TRUE(mesh.ok()) << mesh.error().message;
+        ASSERT_TRUE(comp.ok()) << comp.error().message;
+        EXPECT_TRUE(sm.mesh_sprites);
+        EXPECT_EQ(sm.visibility_route, vis && ctx_->int64_atomics());
+        size_t differ = 0, covered = 0;
+        for (size_t i = 0; i < mesh->rgba.size(); i += 4) {
+          float d = 0.0f;
+          for (int c = 0; c < 4; ++c) d = std::max(d, std::abs(mesh->rgba[i + c] - comp->rgba[i + c]));
+          if (d > 2.0f / 255.0f) ++differ;
+          if (comp->rgba[i + 3] > 0.0f) ++covered;
+        }
+        EXPECT_GT(covered, mesh->rgba.size() / 4 / 8);  // the view is not empty: over 1/8 of the pixels
+        EXPECT_LE(differ, mesh->rgba.size() / 4 / 200) << differ << " pixels differ";  // <= 0.5 %
       }
-      EXPECT_GT(covered, mesh->rgba.size() / 4 / 8);  // the view is not empty: over 1/8 of the pixels
-      EXPECT_LE(differ, mesh->rgba.size() / 4 / 200) << differ << " pixels differ";  // <= 0.5 %
     }
   }
 }

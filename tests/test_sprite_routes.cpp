@@ -2,7 +2,7 @@
 // the visibility route (one uint64 of depth bits and sprite index per pixel, written by the
 // compute rasterization of small sprites and by the rasterized ones, each pixel shaded once by
 // visibility_resolve.comp) and the attachment route (colour + depth attachments, the route of
-// the mesh path and of devices without 64-bit buffer atomics). Within the visibility route the
+// devices without 64-bit buffer atomics; tests/test_mesh_sprites.cpp covers the mesh path's). Within the visibility route the
 // small-sprite threshold (MDSTREAM_SMALL_PX) only moves sprites between compute and the
 // rasterizer, so every threshold must give the same image too. Where the samples are summed
 // (a storage buffer, or the storage image used where the buffer exceeds maxStorageBufferRange)

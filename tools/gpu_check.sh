@@ -12,8 +12,8 @@
 #   mesh   tools/bench_mesh_path.py (task/mesh path against compute + indirect draws, 1M particles)
 #   big    tools/bench_mesh_path.py on 32M particles (porous) at 1920x1080
 #   render tools/bench_render.py at 1920x1080, 32 spp, paired frames (issue 3's Tables 3 and 4),
-#          the sprite path `--mesh-shaders auto` picks
-#   render_off  the same with `--mesh-shaders off` (compute + indirect draws)
+#          the sprite path `--mesh-shaders auto` picks (compute + indirect draws)
+#   render_mesh  the same with `--mesh-shaders on` (task/mesh path; fails without mesh shaders)
 #   cache  tools/bench_cache.py, porous, fly-through and orbit, occlusion and LRU policies
 #   sweep  tools/bench_mesh_path.py (1M) at 640x360 and 1920x1080 under the pixel-route settings
 #          MDSTREAM_PIXEL_ROUTE=attachments, MDSTREAM_SMALL_PX=0, =2 and the defaults (sweep/<cfg>_<w>)
@@ -22,10 +22,10 @@
 # GPU_CHECK_QUICK=1 makes every step small (a dry run of this script on lavapipe); PYTHON picks
 # the interpreter.
 set -uo pipefail
-bundle=$(cd "${1:?usage: gpu_check.sh BUNDLE OUT [SECONDS]}" && pwd)
+bundle=$(cd "${1:?usage: gpu_check.sh BUNDLE OUT [SECONDS]}" && pwd) || { echo "gpu_check: no bundle folder '$1'" >&2; exit 2; }
 out=${2:?usage: gpu_check.sh BUNDLE OUT [SECONDS]}
 budget=${3:-500}
-steps=${GPU_CHECK_STEPS:-smoke tests tests_mesh mesh big render render_off cache sweep}
+steps=${GPU_CHECK_STEPS:-smoke tests tests_mesh mesh big render render_mesh cache sweep}
 quick=${GPU_CHECK_QUICK:-0}
 repo=$(cd "$(dirname "$0")/.." && pwd)
 t0=$(date +%s)
@@ -110,9 +110,9 @@ render() {
   local q=(--spp 32 --paired-frames 8); [ "$quick" = 1 ] && q=(--quick)
   "$py" "$repo/tools/bench_render.py" "${q[@]}" --out-dir "$work/render" --work-dir /tmp/gc_render
 }
-render_off() {
+render_mesh() {
   local q=(--spp 32 --paired-frames 8); [ "$quick" = 1 ] && q=(--quick)
-  "$py" "$repo/tools/bench_render.py" "${q[@]}" --render-args "--mesh-shaders off" --out-dir "$work/render_off" \
+  "$py" "$repo/tools/bench_render.py" "${q[@]}" --render-args "--mesh-shaders on" --out-dir "$work/render_mesh" \
     --work-dir /tmp/gc_render
 }
 cache() {
@@ -126,7 +126,7 @@ big() {
 }
 
 export work repo mds py quick
-export -f smoke tests tests_mesh mesh render render_off cache big sweep
+export -f smoke tests tests_mesh mesh render render_mesh cache big sweep
 for s in $steps; do
   case $s in
     smoke) step smoke 90 smoke || { echo "smoke failed: no further steps"; ldd "$mds" "$repo/build/libmdstream_vulkan.so" | grep -i "not found"; break; } ;;

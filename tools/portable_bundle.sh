@@ -33,7 +33,12 @@ if [ "${MDSTREAM_BUNDLE_VALIDATION:-0}" = 1 ]; then
   mkdir -p "$dir/layers"
   json=/usr/share/vulkan/explicit_layer.d/VkLayer_khronos_validation.json
   lib=$(sed -n 's/.*"library_path": *"\([^"]*\)".*/\1/p' "$json")
-  cp -L "$(ldconfig -p | awk -v l="$(basename "$lib")" '$1 == l {print $NF; exit}')" "$dir/layers/"
+  found=""
+  for d in /usr/lib/x86_64-linux-gnu /usr/lib64 /usr/lib /usr/local/lib; do
+    [ -f "$d/$(basename "$lib")" ] && { found="$d/$(basename "$lib")"; break; }
+  done
+  [ -n "$found" ] || { echo "portable_bundle: $(basename "$lib") (from $json) not found" >&2; exit 1; }
+  cp -L "$found" "$dir/layers/"
   sed 's|"library_path": *"[^"]*"|"library_path": "./'"$(basename "$lib")"'"|' "$json" > "$dir/layers/$(basename "$json")"
 fi
 # The test executables name the source folder and build/mdstream by absolute path.

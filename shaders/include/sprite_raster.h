@@ -6,7 +6,7 @@
 // smaller id, whatever the order of the threads and the chunks. The ids themselves (sprite record
 // index, or draw-list slot x max meshlet + local) are handed out by atomics (sphere_prepass.comp,
 // cull_draw_list.comp), in an order a GPU does not fix: a pixel where two spheres' depths are
-// exactly equal can go to either from run to run (4-5 pixels of a 160x90 close-up on an NVIDIA
+// exactly equal can go to either from run to run (4-5 pixels of a 120x90 close-up on an NVIDIA
 // H200; none on lavapipe). Depths >= 1 are dropped, as the depth test against a depth buffer
 // cleared to 1.0 would. Needs bindings.h with MDS_VISIBILITY defined,
 // and sphere_shading.h.

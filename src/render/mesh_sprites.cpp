@@ -42,7 +42,8 @@ Result<bool> use_mesh_sprites(const vk::Context& ctx, MeshShaderMode mode) {
 }
 
 Result<MeshSprites> MeshSprites::create(const vk::Context& ctx, VkPipelineLayout layout, VkFormat color_format,
-                                        VkFormat depth_format, float small_px, bool particle_occlusion) {
+                                        VkFormat depth_format, bool visibility, float small_px,
+                                        bool particle_occlusion) {
   if (!ctx.mesh_shaders())
     return make_error(Errc::unsupported, "mesh sprite path: VK_EXT_mesh_shader is not enabled on '{}'",
                       ctx.info().name);
@@ -53,7 +54,8 @@ Result<MeshSprites> MeshSprites::create(const vk::Context& ctx, VkPipelineLayout
   if (!m.draw_indirect_)
     return make_error(Errc::unsupported, "mesh sprite path: '{}' exposes no vkCmdDrawMeshTasksIndirectEXT",
                       ctx.info().name);
-  const bool vis = small_px >= 0.0f;
+  const bool vis = visibility;
+  small_px = small_px > 0.0f ? small_px : 0.0f;  // NaN and negatives: none
   vk::GraphicsPipelineDesc g;
   g.task_shader = "sphere.task";
   if (vis) {  // no attachments: the mesh stage and the fragments write the visibility buffer
@@ -69,12 +71,12 @@ Result<MeshSprites> MeshSprites::create(const vk::Context& ctx, VkPipelineLayout
   }
   // The mesh stage's specialization constants: 0 kParticleOcclusion, 1 kSmallPx.
   vk::SpecConstants spec;
-  spec.add(0u, VkBool32(false)).add(1u, std::max(small_px, 0.0f));
+  spec.add(0u, VkBool32(false)).add(1u, small_px);
   g.vertex_spec = &spec;
   MDS_ASSIGN_OR_RETURN(m.pipe_, vk::create_graphics_pipeline(ctx.device(), layout, g));
   if (particle_occlusion) {
     vk::SpecConstants occ;
-    occ.add(0u, VkBool32(true)).add(1u, std::max(small_px, 0.0f));
+    occ.add(0u, VkBool32(true)).add(1u, small_px);
     g.vertex_spec = &occ;
     MDS_ASSIGN_OR_RETURN(m.occ_pipe_, vk::create_graphics_pipeline(ctx.device(), layout, g));
   }

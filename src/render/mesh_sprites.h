@@ -54,14 +54,15 @@ class MeshSprites {
 
   // Precondition: ctx.mesh_shaders(). `layout` is the renderer's pipeline layout (set 0 of
   // include/bindings.h, all stages).
-  // Attachment route (small_px < 0): the formats are those of the renderer's colour and depth
-  // targets. Visibility route (small_px >= 0; precondition: the device has 64-bit buffer
-  // atomics): no attachments, sphere_vis.mesh + sphere_vis.frag write the visibility buffer, and
-  // glyphs of at most small_px pixels (0: none) are ray cast in the mesh stage.
+  // Attachment route (visibility false): the formats are those of the renderer's colour and
+  // depth targets. Visibility route (precondition: the device has 64-bit buffer atomics): no
+  // attachments, sphere_vis.mesh + sphere_vis.frag write the visibility buffer, and glyphs of at
+  // most small_px pixels (<= 0 or NaN: none) are ray cast in the mesh stage.
   // particle_occlusion: also the pipeline with the particle occlusion test compiled in
   // (sphere.mesh specialization constant 0; RenderSettings::particle_occlusion).
   static Result<MeshSprites> create(const vk::Context& ctx, VkPipelineLayout layout, VkFormat color_format,
-                                    VkFormat depth_format, float small_px, bool particle_occlusion);
+                                    VkFormat depth_format, bool visibility, float small_px,
+                                    bool particle_occlusion);
   MeshSprites() = default;
 
   // Inside the rendering scope of the draw, with viewport and scissor set: one indirect mesh

@@ -163,7 +163,8 @@ Status Renderer::Impl::create_targets() {
   const bool vis_fits = vis_bytes <= ctx->limits().maxStorageBufferRange;
   if (!targets_created) {
     // MDSTREAM_PIXEL_ROUTE=attachments forces the attachment route (A/B measurements).
-    if (const char* e = std::getenv("MDSTREAM_PIXEL_ROUTE")) settings.visibility_route = std::string(e) != "attachments";
+    if (const char* e = std::getenv("MDSTREAM_PIXEL_ROUTE"); e && std::string(e) == "attachments")
+      settings.visibility_route = false;
     // MDSTREAM_ACCUM=image forces the image accumulation (A/B measurements).
     if (const char* e = std::getenv("MDSTREAM_ACCUM")) settings.accumulation_buffer = std::string(e) != "image";
     vis_route = settings.visibility_route && ctx->int64_atomics() && vis_fits;
@@ -335,7 +336,7 @@ Status Renderer::Impl::create_pipelines() {
   // frame-wide ids (chunked_ids); sprite_args.comp still sizes the task launch.
   if (mesh_path) {  // decided at creation (use_mesh_sprites), before the draw buffers
     MDS_ASSIGN_OR_RETURN(mesh, MeshSprites::create(*ctx, layout, kColorFormat, kDepthFormat,
-                                                   vis_route ? small_px : -1.0f,
+                                                   vis_route, small_px,
                                                    settings.cull && settings.particle_occlusion));
     point_sprites = false;
     sprite_read_stages = MeshSprites::kReadStages;

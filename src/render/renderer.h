@@ -93,8 +93,8 @@ struct RenderSettings {
   std::shared_ptr<const culling::DensityVolume> density;  // from the store; null: built from the scene
   MeshShaderMode mesh_shaders = MeshShaderMode::automatic;  // sprite path (render/mesh_sprites.h)
   // Visibility route (one uint64 of depth and sprite index per pixel, each pixel shaded once)
-  // where the device has 64-bit buffer atomics and the mesh path is off; false: colour + depth
-  // attachments (the route of the mesh path and of devices without those atomics).
+  // where the device has 64-bit buffer atomics, on either sprite path; false: colour + depth
+  // attachments (the route of devices without those atomics).
   bool visibility_route = true;
   // Accumulate into a storage buffer where 16 bytes per pixel fit maxStorageBufferRange; false:
   // always into an rgba32f storage image (the fallback for larger images). Same image either way.

@@ -46,8 +46,9 @@ struct Renderer::Impl {
   bool chunked_ids() const { return sprite_chunks > 1 || mesh_path; }
   uint32_t chunk_meshlets = 0;
   // The visibility route (RenderSettings::visibility_route, where the device has 64-bit buffer
-  // atomics, the buffer fits maxStorageBufferRange and the mesh path is off): every sprite --
-  // small ones rasterized by the pre-pass, the others by points/quads -- writes depth bits and
+  // atomics and the buffer fits maxStorageBufferRange; either sprite path): every sprite --
+  // small ones rasterized in compute or in the mesh stage, the others by points/quads/mesh
+  // triangles -- writes depth bits and
   // its index into one uint64 per pixel, and visibility_resolve.comp shades each pixel once and
   // accumulates. Otherwise the attachment route: colour + depth attachments, accumulate.comp.
   vk::Buffer visibility;
