@@ -18,8 +18,8 @@ ReadWindow::ReadWindow(ReadWindowSettings settings) : s_(settings) {
   window_ = s_.min;
 }
 
-void ReadWindow::new_view() {
-  const bool moving = has_view_ && view_frames_ <= 1;
+void ReadWindow::new_view(bool known_moving) {
+  const bool moving = known_moving || (has_view_ && view_frames_ <= 1);
   if (!moving) {
     window_ = s_.min;
     calm_ = 0;

@@ -36,8 +36,10 @@ class ReadWindow {
   explicit ReadWindow(ReadWindowSettings settings = {});
 
   // A new view begins (camera change or restart). Decides from the length of the previous view
-  // whether the camera moves.
-  void new_view();
+  // whether the camera moves, or takes `known_moving` from a caller that knows the camera's
+  // next views (a camera path replay: the view is moving from its first frame, so a path that
+  // starts cold opens the window at its first frame instead of its second).
+  void new_view(bool known_moving = false);
   // The end of a frame's placement: `arrived` reads finished, `wasted` of them for nodes found
   // occluded meanwhile. Call once per frame.
   void end_frame(uint32_t arrived, uint32_t wasted);

@@ -87,6 +87,27 @@ TEST(StreamingWindow, AMovingCameraOpensTheWindowAndKeepsItAcrossViews) {
   EXPECT_EQ(w.size(), 40u);
 }
 
+// A caller that knows the camera's next views (a path replay) says the first view moves: the
+// window opens at the path's first frame, not at its second.
+TEST(StreamingWindow, AKnownMotionOpensTheWindowAtTheFirstView) {
+  ReadWindow w(ReadWindowSettings{.min = 4, .calm_frames = 3, .cap = 40});
+  w.new_view(/*known_moving=*/true);
+  EXPECT_TRUE(w.moving());
+  EXPECT_EQ(w.size(), 40u);
+  w.end_frame(10, 3);
+  EXPECT_EQ(w.size(), 20u);
+  w.new_view(true);  // still moving: the state is kept
+  EXPECT_EQ(w.size(), 20u);
+  // The path holds its camera: a view of several frames, then a known rest.
+  w.new_view(false);
+  EXPECT_TRUE(w.moving());  // the previous view ran one frame (the rule without a hint)
+  w.end_frame(0, 0);
+  w.end_frame(0, 0);
+  w.new_view(false);
+  EXPECT_FALSE(w.moving());
+  EXPECT_EQ(w.size(), 4u);
+}
+
 TEST(StreamingWindow, TheCapBoundsEverything) {
   ReadWindow w(ReadWindowSettings{.min = 4, .calm_frames = 1, .cap = 2});
   EXPECT_EQ(w.size(), 2u);

@@ -349,6 +349,37 @@ TEST_F(StressCli, ContinuousPathsSettleTheFinalViewAndAcceptSlowDiskOptions) {
   }
 }
 
+// A replayed path tells the cache its next views (--known-path, the default): the fly-through's
+// first frame is already a moving view, so its prefetch opens the read window at once (up to the
+// pool's room) instead of the few nodes of one wave at rest; without the path the cache learns
+// the motion at the second frame.
+TEST_F(StressCli, AKnownPathOpensTheReadWindowAtTheFirstFrame) {
+  const uint64_t budget = fs::file_size(store()) / 4;
+  nlohmann::json j[2];
+  for (int known = 0; known < 2; ++known) {
+    SCOPED_TRACE(known);
+    const fs::path js = dir_ / ("known" + std::to_string(known) + ".json");
+    ASSERT_EQ(run("stress " + store() + " --gpu-budget " + std::to_string(budget) +
+                  " --path flythrough --frames 8 --settle-frames 40 --known-path " + (known ? "true" : "false") +
+                  " --json " + js.string() + small()),
+              0)
+        << last_stderr();
+    std::ifstream f(js);
+    j[known] = nlohmann::json::parse(f);
+    check_report(j[known], budget);
+    EXPECT_EQ(j[known]["known_path"].get<bool>(), known == 1);
+    const auto& reads = j[known]["per_frame"]["reads_requested"];
+    ASSERT_EQ(reads.size(), j[known]["frames_total"].get<size_t>());
+    uint64_t total = 0;
+    for (const auto& r : reads) total += r.get<uint64_t>();
+    EXPECT_GE(total, j[known]["nodes_loaded"].get<uint64_t>());  // every load was requested
+  }
+  const uint32_t first_learned = j[0]["per_frame"]["reads_requested"][0];
+  const uint32_t first_known = j[1]["per_frame"]["reads_requested"][0];
+  EXPECT_GE(first_learned, 1u);  // a wave at rest
+  EXPECT_GT(first_known, first_learned);
+}
+
 TEST_F(StressCli, DynamicResolutionScalesOnlyMovingFrames) {
   // An unreachable target (1 us: an NVIDIA H200 renders these frames in under 1 ms, so 1 ms was
   // reachable there) drives every moving frame after the first to --min-scale; the held final

@@ -27,7 +27,7 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def stress(mds, store, budget, path, policy, args, work, log, extra=()):
-    tag = "dyn" if "--dynamic-resolution" in extra else "fixed"
+    tag = ("dyn" if "--dynamic-resolution" in extra else "fixed") + ("-learned" if "--known-path" in extra else "")
     out = os.path.join(work, f"{os.path.basename(store)}.{path}.{policy}.{tag}.{budget}.json")
     cmd = [mds, "stress", store, "--gpu-budget", str(budget), "--path", path, "--policy", policy,
            "--width", str(args.width), "--height", str(args.height), "--settle-frames", str(args.settle_frames),
@@ -59,6 +59,9 @@ def main():
     ap.add_argument("--policies", default="occlusion,lru,fifo")
     ap.add_argument("--dynamic-paths", default="flythrough",
                     help="paths also run with --dynamic-resolution (occlusion policy); 'all', or '' for none")
+    ap.add_argument("--learned-paths", default="flythrough",
+                    help="paths also run with `stress --known-path false` (occlusion policy, fixed resolution): the "
+                         "cache learns the motion from the views, as under a user's hand; 'all', or '' for none")
     ap.add_argument("--no-scale", action="store_true", help="skip the 8x-data converged-frame measurement")
     ap.add_argument("--dense-view", default="view2", help="held view of the dense-view measurement (view0|view1|view2)")
     ap.add_argument("--dense-variants", default=",--front-node-alone false",
@@ -84,6 +87,7 @@ def main():
     paths = args.paths.split(",")
     policies = args.policies.split(",")
     dyn_paths = paths if args.dynamic_paths == "all" else [p for p in args.dynamic_paths.split(",") if p]
+    learned_paths = paths if args.learned_paths == "all" else [p for p in args.learned_paths.split(",") if p]
     rows, runs, dense = [], {}, {}
     variants = [v.strip() for v in args.dense_variants.split(",")]
     for scene in scenes:
@@ -91,19 +95,24 @@ def main():
         store_bytes = os.path.getsize(store)
         budget = int(store_bytes / args.ratio)
         for path in paths:
-            modes = [(policy, False) for policy in policies]
+            modes = [(policy, False, True) for policy in policies]
             if path in dyn_paths:
-                modes.append(("occlusion", True))
-            for policy, dynamic in modes:
+                modes.append(("occlusion", True, True))
+            if path in learned_paths and path in ("orbit", "flythrough", "jumps"):
+                modes.append(("occlusion", False, False))
+            for policy, dynamic, known in modes:
                 res = "dynamic" if dynamic else "fixed"
-                print(f"  {scene} {path} {policy} {res} ...", file=sys.stderr, flush=True)
+                print(f"  {scene} {path} {policy} {res}{'' if known else ' motion learned'} ...", file=sys.stderr,
+                      flush=True)
                 j = stress(mds, store, budget, path, policy, args, work, log,
-                           ["--dynamic-resolution"] if dynamic else [])
-                runs[(scene, path, policy, res)] = j
+                           (["--dynamic-resolution"] if dynamic else []) + ([] if known else ["--known-path", "false"]))
+                if known:
+                    runs[(scene, path, policy, res)] = j
                 ev = j["evictions"]
                 b = j["bound"]
                 rows.append({
                     "scene": scene, "particles": j["particles"], "path": path, "policy": policy, "resolution": res,
+                    "path_known": known,
                     "scale_p50": j.get("scale_p50", 1.0), "scale_min": j.get("scale_min", 1.0),
                     "frame_ms_target": j.get("frame_ms_target", 0.0),
                     "frames": j["frames"], "store_bytes": store_bytes, "gpu_budget_bytes": j["gpu_budget_bytes"],
@@ -183,7 +192,7 @@ def plot(rows, runs, scenes, paths, policies, out, dyn_paths=()):
     x = np.arange(len(groups))
     colors = {"occlusion": "tab:blue", "lru": "tab:orange", "fifo": "tab:green"}
     for i, pol in enumerate(policies):
-        fixed = [r for r in rows if r["resolution"] == "fixed"]
+        fixed = [r for r in rows if r["resolution"] == "fixed" and r["path_known"]]
         hr = [next((r["hit_rate"] for r in fixed if (r["scene"], r["path"], r["policy"]) == (s, p, pol)), 0)
               for s, p in groups]
         bel = [next((r["belady_hit_rate"] for r in fixed if (r["scene"], r["path"], r["policy"]) == (s, p, pol)), 0)
@@ -244,12 +253,17 @@ def write_md(rows, dense_rows, args, mds, scenes, seconds, variants):
              "strong reference, not a proven bound). Frame times are CPU wall time of `Renderer::step()` on the "
              "path frames.\n")
     L.append("## Policies over paths\n")
-    L.append("| scene | path | policy | resolution | hit rate | Belady | LRU sim | bytes read | read / store "
+    L.append("*Path known* = the cache is told the path's next views (`stress --known-path`, default): a moving "
+             "view opens the read window from the path's first frame and looks ahead along the path; *no* = it "
+             "learns the motion from the views (the second frame of a path) and extrapolates it, as in the "
+             "viewer under a user's hand.\n")
+    L.append("| scene | path | policy | resolution | path known | hit rate | Belady | LRU sim | bytes read | read / store "
              "| evictions O/M/L/P | p50 ms | p99 ms | p99/p50 | streaming p50/p99 ms | convergence |")
-    L.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    L.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         res = r["resolution"] if r["resolution"] == "fixed" else f"dynamic (scale p50 {r['scale_p50']:.2f})"
-        L.append(f"| {r['scene']} | {r['path']} | {r['policy']} | {res} | {r['hit_rate']:.3f} | {r['belady_hit_rate']:.3f} "
+        kn = "yes" if r["path_known"] else "no"
+        L.append(f"| {r['scene']} | {r['path']} | {r['policy']} | {res} | {kn} | {r['hit_rate']:.3f} | {r['belady_hit_rate']:.3f} "
                  f"| {r['lru_sim_hit_rate']:.3f} | {fmt_bytes(r['bytes_read'])} | {r['bytes_read_over_store']:.2f} "
                  f"| {r['evictions_O']}/{r['evictions_M']}/{r['evictions_L']}/{r['evictions_P']} "
                  f"| {r['frame_ms_p50']:.1f} | {r['frame_ms_p99']:.1f} | {r['p99_over_p50']:.2f} "
@@ -261,12 +275,13 @@ def write_md(rows, dense_rows, args, mds, scenes, seconds, variants):
     L.append("Targets of issue 4: hit rate within 5 % of Belady; p99 frame time <= 2x the median while streaming.\n")
     occ = [r for r in rows if r["policy"] == "occlusion"]
     if occ:
-        L.append("| scene | path | resolution | occlusion hit rate / Belady | p99/p50 (path) | hit rate target | p99 target |")
-        L.append("|---|---|---|---|---|---|---|")
+        L.append("| scene | path | resolution | path known | occlusion hit rate / Belady | p99/p50 (path) | hit rate target | p99 target |")
+        L.append("|---|---|---|---|---|---|---|---|")
         for r in occ:
             rel = r["hit_rate"] / r["belady_hit_rate"] if r["belady_hit_rate"] > 0 else float("nan")
             ok = lambda c: "met" if c else "**not met**"
-            L.append(f"| {r['scene']} | {r['path']} | {r['resolution']} | {rel:.3f} | {r['p99_over_p50']:.2f} "
+            kn = "yes" if r["path_known"] else "no"
+            L.append(f"| {r['scene']} | {r['path']} | {r['resolution']} | {kn} | {rel:.3f} | {r['p99_over_p50']:.2f} "
                      f"| {ok(rel >= 0.95)} | {ok(r['p99_over_p50'] <= 2.0)} |")
         L.append("")
         for r in occ:
@@ -281,10 +296,12 @@ def write_md(rows, dense_rows, args, mds, scenes, seconds, variants):
         if L[-1]:
             L.append("")
         L.append("Belady replays the demand trace offline: of the wanted nodes it keeps those wanted again "
-                 "soonest. The online cache knows only the present view: it learns that the camera moves at "
-                 "the second frame of a path (the first reads 4 nodes) and fills the pool front to back. That "
-                 "costs most on a fly-through from a cold cache, whose first frames want many times more nodes "
-                 "than the pool holds (per-frame demand in the JSON of `mdstream stress`). On a held view "
+                 "soonest. The online cache knows the present view and, on a known path, the next "
+                 f"{3} views: a moving view fills the pool front to back from the path's first frame. Without "
+                 "the path it learns that the camera moves at the second frame (the first reads a wave of a "
+                 "few nodes). That costs most on a fly-through from a cold cache, whose first frames want many "
+                 "times more nodes than the pool holds (per-frame demand in the JSON of `mdstream stress`): "
+                 "Belady's pool is full of them at the second frame. On a held view "
                  "(jumps) each wave at rest takes the front nodes whose bounding spheres cover the image "
                  "(`--wave-coverage`, default 1), so the pool fills within the view's first frames; a wide "
                  "view wants more nodes than the pool holds, and later waves replace resident nodes that "

@@ -27,6 +27,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -55,8 +56,10 @@ struct StreamSettings {
   // Reads queued or in flight at a time: a window that starts at 4 per view, grows by 4 after 3
   // frames whose finished reads were all still wanted and halves when reads arrived for nodes the
   // culling loop had meanwhile found occluded (reading ahead of the classification wastes I/O;
-  // too few reads slow convergence). This is its cap.
-  uint32_t max_outstanding = 64;
+  // too few reads slow convergence). This is its cap, and the window a moving camera opens to:
+  // 128 reads fill a pool of 128 nodes at once (the benchmark's 1/8-store pool holds ~70 nodes
+  // of 1000 particles, ~11.5 KiB each on the device; 64 left its first moving frame short of it).
+  uint32_t max_outstanding = 128;
   // Reads in waves at rest (occlusion policy): the window's reads go out, then none until all of
   // them are placed and have been resident for this many frames, so that the culling loop has
   // sampled them as occluders and classified what lies behind before the next wave is chosen
@@ -237,6 +240,7 @@ struct FrameReport {
   uint32_t nodes_uploaded = 0;    // this frame
   uint64_t bytes_uploaded = 0;    // this frame
   uint32_t frame_hits = 0, frame_misses = 0;  // this frame's wanted nodes resident / not
+  uint32_t reads_requested = 0;   // node reads this frame's prefetch submitted
   bool upload_stall = false;
   bool budget_exhausted = false;  // streaming: this frame wanted more nodes than the pool holds
   std::vector<uint32_t> wanted;   // StreamSettings::record_trace: this frame's wanted nodes
@@ -298,6 +302,13 @@ class Renderer {
   // frame: streaming update, a culling iteration while culling is active, draw, accumulate.
   // Accumulation restarts on a new view and, when streaming, on any frame that uploaded nodes.
   Status set_view(const Camera& camera);
+  // Streaming, camera path replays (stress, a viewer playing a path): the views that follow the
+  // next set_view()'s camera, when the caller knows them (the first
+  // StreamCache::kLookaheadFrames are used). The cache then treats a view whose next views
+  // differ as moving from its first frame and looks ahead along the path instead of
+  // extrapolating (StreamCache::set_view). Kept until the next call; empty (the default): not known.
+  void set_path_next(std::span<const Camera> next);
+  static constexpr uint32_t kPathNextViews = 3;  // views set_path_next uses (StreamCache::kLookaheadFrames)
   Result<FrameReport> step();
   // Waits until the frame in flight (the last step()) has finished on the device, and collects
   // its GPU timestamps (last_frame_gpu()).

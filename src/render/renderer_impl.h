@@ -119,6 +119,7 @@ struct Renderer::Impl {
 
   // Progressive state (set_view / step).
   Camera view_camera;
+  std::vector<Camera> path_next;  // set_path_next(): the camera's next views, near/far fitted
   bool has_view = false;
   bool view_stale = false;     // resize(), set_c_occ(): the view restarts at the next set_view()/step()
   uint32_t samples = 0;        // accumulated in the current image

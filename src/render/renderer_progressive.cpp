@@ -211,7 +211,7 @@ Status Renderer::set_view(const Camera& camera_in) {
   m.frame_wall_ms.clear();
   m.view_t0 = std::chrono::steady_clock::now();
   m.view_first_frame = m.frame_index;
-  if (m.cache) m.cache->set_view(camera, double(m.settings.width) / double(m.settings.height));
+  if (m.cache) m.cache->set_view(camera, double(m.settings.width) / double(m.settings.height), m.path_next);
   m.complete = !m.cache;
   if (m.cull) {
     const uint32_t live = m.cache ? uint32_t(m.cache->live_meshlets()) : m.meshlet_count;
@@ -244,6 +244,7 @@ Result<FrameReport> Renderer::step() {
     rep.bytes_uploaded = cf.bytes_uploaded;
     rep.frame_hits = cf.hits;
     rep.frame_misses = cf.misses;
+    rep.reads_requested = cf.reads_requested;
     rep.upload_stall = cf.upload_stall;
     rep.budget_exhausted = cf.exhausted;
     rep.wanted = std::move(cf.wanted);
@@ -360,6 +361,14 @@ Status Renderer::finish() {
 }
 
 FrameGpu Renderer::last_frame_gpu() const { return impl_->last_gpu; }
+
+static_assert(Renderer::kPathNextViews == uint32_t(streaming_gpu::StreamCache::kLookaheadFrames));
+
+void Renderer::set_path_next(std::span<const Camera> next) {
+  Impl& m = *impl_;
+  m.path_next.assign(next.begin(), next.end());
+  for (Camera& c : m.path_next) fit_clip_planes(c, m.bounds);
+}
 
 void Renderer::set_motion(bool moving) {
   Impl& m = *impl_;

@@ -357,6 +357,13 @@ Status Viewer::run() {
       have_view_ = true;
       idle_ = false;
       if (!render_error_) {
+        // A playing path tells the cache where the camera goes next (Renderer::set_path_next);
+        // under the user's hand the cache learns the motion from the views.
+        std::vector<render::Camera> next;
+        if (playing)
+          for (uint32_t k = 1; k <= render::Renderer::kPathNextViews; ++k)
+            next.push_back(play_->at(std::min<uint32_t>(frame + k, play_->frame_count() - 1)));
+        r->set_path_next(next);
         Status st = r->set_view(cam);
         if (!st.ok()) render_error_ = st.error();
       }

@@ -15,6 +15,7 @@
 #include <fstream>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -48,6 +49,7 @@ struct StressOptions {
   uint32_t frames = 0;  // 0: 240 for built-in paths, the file's frame count for a file
   uint32_t settle_frames = 200;
   uint32_t converged_frames = 8;
+  bool known_path = true;  // the cache is told the path's next views (Renderer::set_path_next)
   uint32_t width = 640, height = 360;
   double fov = 40.0;
   std::string csv, json;
@@ -142,7 +144,17 @@ Status run_stress(const StressOptions& o) {
   std::vector<uint64_t> device_bytes = renderer->node_device_bytes();
   uint32_t view = 0;
   render::Camera prev_cam;
-  auto one_frame = [&](const render::Camera& cam, bool first, bool settle, bool after) -> Result<stress::FrameRecord> {
+  // The views after frame f of the replay: the path's next frames, then its final camera held
+  // (the settle frames). Handed to the cache with --known-path (Renderer::set_path_next).
+  const render::Camera final_cam = path.at(path_frames ? path_frames - 1 : 0);
+  auto next_views = [&](uint32_t f) {
+    std::vector<render::Camera> next;
+    for (uint32_t k = 1; k <= render::Renderer::kPathNextViews; ++k)
+      next.push_back(f + k < path_frames ? path.at(f + k) : final_cam);
+    return next;
+  };
+  auto one_frame = [&](const render::Camera& cam, bool first, bool settle, bool after,
+                       std::span<const render::Camera> next) -> Result<stress::FrameRecord> {
     const bool moving = first || !render::identical_cameras(cam, prev_cam);
     if (!first && moving) ++view;
     prev_cam = cam;
@@ -159,6 +171,7 @@ Status run_stress(const StressOptions& o) {
       MDS_TRY(renderer->resize(sw, sh));
     }
     renderer->set_motion(moving);  // one occlusion sampling pass per iteration while moving
+    if (o.known_path) renderer->set_path_next(next);
     MDS_TRY(renderer->set_view(cam));
     MDS_ASSIGN_OR_RETURN(render::FrameReport fr, renderer->step());
     MDS_TRY(renderer->finish());
@@ -179,6 +192,7 @@ Status run_stress(const StressOptions& o) {
     r.upload_stall = fr.upload_stall;
     r.hits = fr.frame_hits;
     r.misses = fr.frame_misses;
+    r.reads_requested = fr.reads_requested;
     r.bytes_uploaded = fr.bytes_uploaded;
     r.bytes_read_total = renderer->stats().cache.bytes_read;
     r.wanted_nodes = uint32_t(fr.wanted.size());
@@ -191,18 +205,18 @@ Status run_stress(const StressOptions& o) {
   };
   const bool progress = !o.quiet && stderr_is_tty();
   for (uint32_t f = 0; f < path_frames; ++f) {
-    MDS_ASSIGN_OR_RETURN(stress::FrameRecord r, one_frame(path.at(f), f == 0, false, false));
+    MDS_ASSIGN_OR_RETURN(stress::FrameRecord r, one_frame(path.at(f), f == 0, false, false, next_views(f)));
     frames.push_back(r);
     if (progress && (f % 10 == 0 || f + 1 == path_frames))
       std::fprintf(stderr, "\rmdstream stress: frame %u/%u", f + 1, path_frames);
   }
   if (progress) std::fprintf(stderr, "\n");
   // Hold the final camera until its view has converged (at most --settle-frames more frames).
-  const render::Camera final_cam = path.at(path_frames ? path_frames - 1 : 0);
+  const std::vector<render::Camera> held = next_views(path_frames);
   uint32_t settle_run = 0;
   bool final_converged = !frames.empty() && frames.back().converged;
   while (!final_converged && settle_run < o.settle_frames) {
-    MDS_ASSIGN_OR_RETURN(stress::FrameRecord r, one_frame(final_cam, frames.empty(), true, false));
+    MDS_ASSIGN_OR_RETURN(stress::FrameRecord r, one_frame(final_cam, frames.empty(), true, false, held));
     frames.push_back(r);
     ++settle_run;
     final_converged = r.converged;
@@ -212,7 +226,7 @@ Status run_stress(const StressOptions& o) {
   std::vector<double> conv_wall, conv_gpu;
   if (final_converged) {
     for (; converged_run < o.converged_frames; ++converged_run) {
-      MDS_ASSIGN_OR_RETURN(stress::FrameRecord r, one_frame(final_cam, false, true, true));
+      MDS_ASSIGN_OR_RETURN(stress::FrameRecord r, one_frame(final_cam, false, true, true, held));
       frames.push_back(r);
       conv_wall.push_back(r.wall_ms);
       conv_gpu.push_back(r.gpu_ms);
@@ -272,6 +286,7 @@ Status run_stress(const StressOptions& o) {
   j["width"] = o.width;
   j["height"] = o.height;
   j["frames"] = path_frames;
+  j["known_path"] = o.known_path;
   {
     std::vector<double> path_scales;
     for (const auto& f : frames)
@@ -352,6 +367,7 @@ Status run_stress(const StressOptions& o) {
                                {"view", nlohmann::ordered_json::array()},    {"settle", nlohmann::ordered_json::array()},
                                {"complete", nlohmann::ordered_json::array()}, {"converged", nlohmann::ordered_json::array()},
                                {"hits", nlohmann::ordered_json::array()},    {"misses", nlohmann::ordered_json::array()},
+                               {"reads_requested", nlohmann::ordered_json::array()},
                                {"bytes_read_total", nlohmann::ordered_json::array()},
                                {"scale", nlohmann::ordered_json::array()},
                                {"gpu_passes", nlohmann::ordered_json::array()}};
@@ -364,6 +380,7 @@ Status run_stress(const StressOptions& o) {
     pf["converged"].push_back(f.converged);
     pf["hits"].push_back(f.hits);
     pf["misses"].push_back(f.misses);
+    pf["reads_requested"].push_back(f.reads_requested);
     pf["bytes_read_total"].push_back(f.bytes_read_total);
     pf["scale"].push_back(f.scale);
     pf["gpu_passes"].push_back(f.gpu_passes);  // pass -> GPU ms of this frame (summed over repeats)
@@ -431,6 +448,10 @@ void setup_stress(CLI::App& sub, int& exit_code) {
   sub.add_option("--converged-frames", opt->converged_frames,
                  "Frames rendered after the final view converged (converged-frame cost)")
       ->check(CLI::Range(0u, 100000u))
+      ->capture_default_str();
+  sub.add_option("--known-path", opt->known_path,
+                 "Tell the cache the path's next views: a moving view opens the read window from its first frame "
+                 "and looks ahead along the path (false: the cache learns the motion from the views, as in the viewer)")
       ->capture_default_str();
   sub.add_option("--width", opt->width, "Image width")->check(CLI::Range(1u, 16384u))->capture_default_str();
   sub.add_option("--height", opt->height, "Image height")->check(CLI::Range(1u, 16384u))->capture_default_str();

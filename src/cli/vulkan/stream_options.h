@@ -21,7 +21,7 @@ struct StreamOptions {
   double io_latency_ms = 0.0;
   std::string io_bandwidth;  // empty: unlimited
   std::string upload_per_frame = "32MiB";
-  uint32_t max_outstanding = 64;
+  uint32_t max_outstanding = 128;
   uint32_t wave_settle_frames = 2;  // render::StreamSettings::wave_settle_frames
   uint32_t wave_nodes = 2;          // render::StreamSettings::wave_nodes
   double wave_coverage = 1.0;       // render::StreamSettings::wave_coverage

@@ -128,7 +128,7 @@ bool box_in_frustum(const glm::dmat4& clip_from_world, const glm::dvec3& lo, con
 }
 }  // namespace
 
-void StreamCache::set_view(const Camera& camera, double aspect) {
+void StreamCache::set_view(const Camera& camera, double aspect, std::span<const Camera> next) {
   // Node boxes are relative to the scene origin: build the matrices relative to it too.
   const glm::dvec3 origin = glm::dvec3(reader_->header().bounds_min[0], reader_->header().bounds_min[1],
                                        reader_->header().bounds_min[2]);
@@ -140,11 +140,20 @@ void StreamCache::set_view(const Camera& camera, double aspect) {
       camera.ortho_half_height > 0.0 ? camera.ortho_half_height : glm::length(camera.target - camera.eye) * tan_half,
       1e-12);
   aspect_ = aspect;
-  window_.new_view();  // restarts at rest, keeps its state while the camera moves (read_window.h)
-  // Look-ahead while the camera moves: the views of the next frames if the motion of the last
-  // one goes on (eye and target linearly; the near/far planes of this view).
+  if (next.size() > size_t(kLookaheadFrames)) next = next.first(size_t(kLookaheadFrames));
+  const bool known_moving =
+      std::any_of(next.begin(), next.end(), [&](const Camera& c) { return !identical_cameras(c, camera); });
+  // Restarts at rest, keeps its state while the camera moves (read_window.h).
+  window_.new_view(known_moving);
+  // Look-ahead while the camera moves: the known next views, else the views of the next frames
+  // if the motion of the last one goes on (eye and target linearly; the near/far planes of this view).
   std::vector<glm::dmat4> ahead;
-  if (has_view_ && window_.moving()) {
+  if (known_moving) {
+    for (const Camera& c : next)
+      if (glm::length(c.target - c.eye) > 0.0) ahead.push_back(projection_matrix(c, aspect) * view_matrix(c, origin));
+  } else if (!next.empty()) {
+    // The path holds this camera: nothing to look ahead to.
+  } else if (has_view_ && window_.moving()) {
     const glm::dvec3 d_eye = camera.eye - last_camera_.eye, d_target = camera.target - last_camera_.target;
     if (glm::length(d_eye) + glm::length(d_target) > 0.0) {
       for (int k = 1; k <= kLookaheadFrames; ++k) {
@@ -362,6 +371,7 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
         break;
       }
       if (!io_->submit(i, rank)) continue;
+      ++out.reads_requested;
       rank += 1.0;
       planned += node_bytes_[i];
       MDS_TRY(table_->mark_requested(i));

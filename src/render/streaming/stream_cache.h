@@ -54,6 +54,7 @@ struct CacheFrame {
   uint32_t nodes_uploaded = 0;
   uint64_t bytes_uploaded = 0;
   uint32_t hits = 0, misses = 0;
+  uint32_t reads_requested = 0;  // node reads submitted by this frame's prefetch (step 4)
   bool upload_stall = false;
   bool exhausted = false;      // wanted nodes do not fit the pool
   bool complete = false;       // every wanted node resident (or failed / beyond the budget), nothing in flight
@@ -87,7 +88,12 @@ class StreamCache {
   // extrapolated linearly from the last two (eye and target), it lies (ResidencyTable::set_ahead):
   // nodes that stay in view are fetched first and evicted last, and nodes outside the frustum
   // that the motion brings in are read after every wanted node, into spare room (residency.h).
-  void set_view(const Camera& camera, double aspect);
+  // `next`: the camera's next views when the caller knows them (a camera path replay, at most
+  // kLookaheadFrames are used, near/far fitted). When one of them differs from `camera` the view
+  // is moving from its first frame (the read window opens at once, ReadWindow::new_view) and the
+  // look-ahead takes these views instead of the extrapolation; when all equal `camera` the path
+  // holds it. Empty: unknown (a viewer under a user's hand), the rules above.
+  void set_view(const Camera& camera, double aspect, std::span<const Camera> next = {});
   static constexpr int kLookaheadFrames = 3;
   // A node is dense when its spheres fill at least this share of its culling box (a bound from
   // the directory: count x the volume of a sphere of max_radius / box volume). Dense-block nodes
