@@ -310,6 +310,52 @@ TEST_F(StreamingRender, CameraChangeEvictsTheOldViewFirstAndConvergesAgain) {
   EXPECT_LE(differing_pixels(ref.value(), img.value()), size_t(kW * kH / 100));
 }
 
+// A whole-store view wants more nodes than a small pool holds: the cache fills the pool with the
+// nearest wanted nodes and stops (budget_exhausted). Its prefetch plan is then kept while nothing
+// changes (StreamCache::plan_stale_): later frames request no read, read nothing and stay
+// exhausted and complete; a new view makes a new plan, which reads again.
+TEST_F(StreamingRender, AnExhaustedViewStopsReadingUntilTheViewChanges) {
+  auto reader = store::StoreReader::open(store_path());
+  ASSERT_TRUE(reader.ok());
+  StreamSettings ss;
+  ss.gpu_budget = file_size() / 16;
+  auto r = Renderer::create_streaming(*ctx_, *reader.value(), settings(true), ss);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const Camera wide = view(*reader.value(), 0);
+  ASSERT_TRUE(r.value()->set_view(wide).ok());
+  bool done = false;
+  for (int f = 0; f < 400 && !done; ++f) {
+    auto rep = r.value()->step();
+    ASSERT_TRUE(rep.ok()) << rep.error().message;
+    done = rep.value().converged && rep.value().budget_exhausted;
+  }
+  ASSERT_TRUE(done) << "the wide view should fill the pool and converge on what it holds";
+  const uint64_t read = r.value()->stats().cache.bytes_read;
+  for (int f = 0; f < 5; ++f) {
+    auto rep = r.value()->step();
+    ASSERT_TRUE(rep.ok());
+    EXPECT_EQ(rep.value().reads_requested, 0u) << "frame " << f;
+    EXPECT_TRUE(rep.value().budget_exhausted) << "frame " << f;
+    EXPECT_TRUE(rep.value().converged) << "frame " << f;
+    EXPECT_GT(rep.value().frame_misses, 0u);  // wanted, not resident: the pool is full
+  }
+  EXPECT_EQ(r.value()->stats().cache.bytes_read, read);
+  // A close-up of the far corner: a new plan, new reads.
+  Camera b = view(*reader.value(), 2);
+  const glm::dvec3 c0 = load_directory_bounds(*reader.value()).center();
+  b.eye = 2.0 * c0 - b.eye;
+  b.target = 2.0 * c0 - b.target;
+  ASSERT_TRUE(r.value()->set_view(b).ok());
+  uint32_t requested = 0;
+  for (int f = 0; f < 10; ++f) {
+    auto rep = r.value()->step();
+    ASSERT_TRUE(rep.ok());
+    requested += rep.value().reads_requested;
+  }
+  EXPECT_GT(requested, 0u);
+  EXPECT_LE(r.value()->stats().cache.gpu_peak_bytes, ss.gpu_budget);
+}
+
 TEST_F(StreamingRender, ResizeKeepsTheCacheAndReturnsToTheSameImage) {
   // Renderer::resize (window resize, dynamic resolution) rebuilds only the size-dependent
   // resources: the nodes resident before stay resident, and after returning to the full size the

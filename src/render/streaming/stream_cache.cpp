@@ -186,6 +186,7 @@ void StreamCache::set_view(const Camera& camera, double aspect, std::span<const 
   }
   last_camera_ = camera;
   has_view_ = true;
+  plan_stale_ = true;
   exhausted_ = false;
 }
 
@@ -195,7 +196,9 @@ void StreamCache::set_classes(std::span<const uint32_t> classes, bool mature) {
     if (!table_->node(i).in_frustum) continue;  // stays O
     const uint8_t g = uint8_t(std::min<uint32_t>(classes[i], MDS_CULL_CLASS_O));
     const uint8_t c = table_->node(i).cls;
-    table_->set_class(i, mature ? g : std::max(c, g));
+    const uint8_t next = mature ? g : std::max(c, g);
+    if (next != c) plan_stale_ = true;
+    table_->set_class(i, next);
   }
 }
 
@@ -229,6 +232,7 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
 
   // Finished reads.
   while (auto done = io_->try_pop()) {
+    plan_stale_ = true;
     const uint32_t i = done->node;
     stats_.bytes_read += done->compressed_bytes;
     if (!done->status.ok()) {
@@ -320,6 +324,7 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
   stats_.nodes_loaded += out.nodes_uploaded;
   stats_.bytes_uploaded += out.bytes_uploaded;
 
+  if (out.nodes_uploaded > 0 || !ready_.empty()) plan_stale_ = true;
   // Cancel queued reads of nodes no longer wanted.
   for (size_t k = 0; k < requested_.size();) {
     const uint32_t i = requested_[k];
@@ -352,7 +357,10 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
   const size_t window = window_.size();
   if (wave_open) {
     pending = true;  // the next wave waits for the classes that saw this one
+  } else if (!plan_stale_ && plan_idle_ && requested_.empty() && ready_.empty()) {
+    exhausted_ = plan_exhausted_;  // nothing changed since a plan that requested nothing
   } else if (requested_.size() < window) {
+    plan_stale_ = false;
     const auto order_next = table_->prefetch_order();
     uint64_t planned = 0;
     double coverage = 0.0;  // images covered by this wave's bounding spheres (screen_share)
@@ -385,6 +393,12 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
     }
   } else {
     pending = true;
+  }
+  if (!plan_stale_ && !pending && !wave_open) {
+    plan_idle_ = out.reads_requested == 0;
+    plan_exhausted_ = exhausted_;
+  } else {
+    plan_idle_ = false;
   }
   stats_.budget_exhausted = exhausted_;
   out.exhausted = exhausted_;

@@ -136,6 +136,14 @@ class StreamCache {
   double aspect_ = 1.0;  // width / height of the view (screen_share of the wave coverage)
   std::vector<uint64_t> placed_frame_;  // frame of each node's last placement (waves at rest)
   mds::streaming::ReadWindow window_;  // reads queued or in flight at a time (step 4)
+  // Step 4's plan is kept while nothing it depends on changed: a plan that requested nothing
+  // (no room for the first node in the order, or nothing to fetch) is not made again until a
+  // view, a class, a read or a placement changes. A converged view whose wanted nodes exceed the
+  // pool otherwise sorted every wanted node each frame (ablation close-up at 8M particles:
+  // 5000 wanted nodes, ~0.7 ms of CPU per converged frame).
+  bool plan_stale_ = true;
+  bool plan_idle_ = false;       // the last plan requested nothing
+  bool plan_exhausted_ = false;  // ... because the pool had no room for its first node
 };
 
 }  // namespace mds::render::streaming_gpu
