@@ -380,6 +380,36 @@ TEST_F(StressCli, AKnownPathOpensTheReadWindowAtTheFirstFrame) {
   EXPECT_GT(first_known, first_learned);
 }
 
+// A camera that flies into the dense block keeps wanting the nodes around and ahead of it.
+// While the camera moves, the cache keeps a node the culling loop found occluded (one iteration
+// per moving view is noisy), but only until no iteration has confirmed it for
+// --occluded-hold-frames frames: kept for good (before 2026-11-26), the nodes behind the
+// block's first layer stayed O after the camera had passed that layer, and from then on
+// nothing was wanted (so nothing was read or drawn) until the camera came to rest.
+TEST_F(StressCli, FlyingIntoTheBlockKeepsWantingTheNodesAhead) {
+  const fs::path cam = dir_ / "fly_in.cam", js = dir_ / "fly_in.json";
+  {
+    std::ofstream f(cam);  // from 30 units above the +z face to the block's centre, looking -z
+    f << "0  25.3 25.2 80  25.3 25.2 20   0 1 0  40 0\n"
+         "23 25.3 25.2 24  25.3 25.2 -36  0 1 0  40 0\n";
+  }
+  const uint64_t budget = fs::file_size(store()) / 4;
+  ASSERT_EQ(run("stress " + store() + " --gpu-budget " + std::to_string(budget) + " --path " + cam.string() +
+                " --settle-frames 40 --json " + js.string() + small()),
+            0)
+      << last_stderr();
+  std::ifstream f(js);
+  const auto j = nlohmann::json::parse(f);
+  check_report(j, budget);
+  ASSERT_EQ(j["frames"].get<uint32_t>(), 24u);
+  const auto& hits = j["per_frame"]["hits"];
+  const auto& misses = j["per_frame"]["misses"];
+  uint64_t last = 0;  // demand of the last 4 path frames: the eye inside the block, moving
+  for (size_t k = 20; k < 24; ++k) last += hits[k].get<uint64_t>() + misses[k].get<uint64_t>();
+  EXPECT_GT(last, 0u);
+  EXPECT_TRUE(j["final_view"]["converged"].get<bool>());
+}
+
 TEST_F(StressCli, DynamicResolutionScalesOnlyMovingFrames) {
   // An unreachable target (1 us: an NVIDIA H200 renders these frames in under 1 ms, so 1 ms was
   // reachable there) drives every moving frame after the first to --min-scale; the held final

@@ -12,6 +12,7 @@ namespace {
 struct Frame {
   glm::dmat4 view, proj, inv_proj;
   uint32_t w = 0, h = 0;
+  double near = 0.0;  // the camera's near plane (view distance)
   bool ortho = false;
 
   // Pixel coordinates (x right, y down, pixel centres at +0.5) and z_ndc of a view-space point;
@@ -77,6 +78,11 @@ void view_box(const glm::dmat4& view, const glm::dvec3& lo, const glm::dvec3& hi
 
 // Whether the sphere (view-space centre c, radius r) is visible at some pixel of the frame.
 bool sphere_visible(const Frame& f, std::span<const float> depth, const glm::dvec3& c, double r) {
+  // Wholly on the eye's side of the near plane: clipped, as the renderer hides it
+  // (sprite_make.h). Its box has corners behind the eye, so screen_rect would give the whole
+  // screen: a camera inside the data used to test every such particle against every pixel
+  // (a fly-in to the block's centre, 100k particles at 160x120: 107 s).
+  if (c.z - r >= -f.near) return false;
   int x0, x1, y0, y1;
   double zmin;
   if (!screen_rect(f, c - r, c + r, x0, x1, y0, y1, zmin)) return false;
@@ -119,6 +125,7 @@ Result<VisibleSet> visible_set(const store::StoreReader& reader, const Camera& c
   Frame f;
   f.w = width;
   f.h = height;
+  f.near = camera.near;
   f.view = view_matrix(camera, glm::dvec3(0.0));
   f.proj = projection_matrix(camera, double(width) / double(height));
   f.inv_proj = glm::inverse(f.proj);

@@ -92,6 +92,7 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
       {.min = settings.wave_settle_frames > 0 ? std::max(1u, settings.wave_nodes) : 4u, .calm_frames = 3,
        .cap = settings.max_outstanding});
   c->placed_frame_.assign(nodes.size(), 0);
+  c->o_confirmed_.assign(nodes.size(), 0);
 
   CacheStats& s = c->stats_;
   s.enabled = true;
@@ -196,7 +197,12 @@ void StreamCache::set_classes(std::span<const uint32_t> classes, bool mature) {
     if (!table_->node(i).in_frustum) continue;  // stays O
     const uint8_t g = uint8_t(std::min<uint32_t>(classes[i], MDS_CULL_CLASS_O));
     const uint8_t c = table_->node(i).cls;
-    const uint8_t next = mature ? g : std::max(c, g);
+    uint8_t next = mature ? g : std::max(c, g);
+    if (g == MDS_CULL_CLASS_O) {
+      o_confirmed_[i] = frame_;
+    } else if (!mature && c == MDS_CULL_CLASS_O && frame_ > o_confirmed_[i] + settings_.occluded_hold_frames) {
+      next = g;  // an O no iteration confirmed for occluded_hold_frames frames expires
+    }
     if (next != c) plan_stale_ = true;
     table_->set_class(i, next);
   }
@@ -227,6 +233,7 @@ Status StreamCache::evict_for(VkCommandBuffer cmd, uint32_t incoming, uint64_t f
 
 Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
   CacheFrame out;
+  frame_ = frame;
   const uint32_t n_nodes = uint32_t(directory_.size());
   exhausted_ = false;  // recomputed every frame: the pool cannot hold what this frame wants
 

@@ -102,7 +102,13 @@ class StreamCache {
   // Node classes of a culling iteration (MDS_CULL_CLASS_*, one per node). `mature`: the view
   // has run enough iterations for its classes to replace the cache's; before that only new O
   // (confident occlusion) and upward moves are taken, so a camera in motion, whose views never
-  // mature, keeps the classes of the last view that did, and never re-reads what it knew occluded.
+  // mature, keeps the classes of the last view that did, and does not re-read what it knew
+  // occluded. An O expires, though: a node whose O no iteration has confirmed for more than
+  // StreamSettings::occluded_hold_frames frames takes the iteration's class. Its occluders have left the view
+  // (a fly-through passes them) or are no longer resident; kept for good, the nodes behind a
+  // fly-through's first layer stayed O after the camera had passed it, nothing was wanted or
+  // drawn for the rest of the path (porous 1M: from frame 19 of 48), and the demand trace, so
+  // the hit rates and the Belady bound, described an empty view.
   void set_classes(std::span<const uint32_t> classes, bool mature);
   // One frame (see the file comment); transfers are recorded into cmd.
   Result<CacheFrame> update(VkCommandBuffer cmd, uint64_t frame);
@@ -135,6 +141,8 @@ class StreamCache {
   Camera last_camera_;  // of the previous set_view (look-ahead extrapolation)
   double aspect_ = 1.0;  // width / height of the view (screen_share of the wave coverage)
   std::vector<uint64_t> placed_frame_;  // frame of each node's last placement (waves at rest)
+  std::vector<uint64_t> o_confirmed_;   // frame a culling iteration last classified the node O
+  uint64_t frame_ = 0;                  // the frame of the last update()
   mds::streaming::ReadWindow window_;  // reads queued or in flight at a time (step 4)
   // Step 4's plan is kept while nothing it depends on changed: a plan that requested nothing
   // (no room for the first node in the order, or nothing to fetch) is not made again until a
