@@ -60,8 +60,8 @@ struct StreamSettings {
   // 128 reads fill a pool of 128 nodes at once (the benchmark's 1/8-store pool holds ~70 nodes
   // of 1000 particles, ~11.5 KiB each on the device; 64 left its first moving frame short of it).
   uint32_t max_outstanding = 128;
-  // While the camera moves, a node the culling loop classified O stays O in the cache until no
-  // iteration has confirmed it for this many frames (StreamCache::set_classes): one iteration of
+  // Before a view matures (every view while the camera moves), a node the culling loop
+  // classified O stays O in the cache until no iteration has confirmed it for this many frames (StreamCache::set_classes): one iteration of
   // a moving view is noisy (a node flips between O and P from frame to frame), and a node known
   // occluded should not be read for one such flip; but an O kept for good outlives its
   // occluders (a fly-through passes them, and the view behind was never read). Measured on the
