@@ -24,7 +24,19 @@
 // reaches O subtracts its voxel contributions from the density volume (Sect. 4.4); with
 // kCullNodeDensity (streaming) a node reaching O subtracts the whole node instead, resident or not.
 // Empty slots of the streaming pool (particle_count 0) are skipped and not counted.
+// Built as cull_classify_coop.comp with MDS_COOPERATIVE_BOXES where the device has subgroup
+// ballot, shuffle and arithmetic in compute: a box whose test covers more than
+// kCooperativeTexels texels is then tested by its whole subgroup (each lane a share of the
+// texels, the early "in front" exit and the confidence sums reduced over the subgroup), one
+// box after the other. One thread walking the up to 128 x 128 texels of a node close to the eye
+// held its subgroup's other lanes idle (docs/results/gpu-h200.md, "Where the slow frames go").
+// The classes are those of one thread per box up to the summation order of the mean confidence.
 #extension GL_GOOGLE_include_directive : require
+#ifdef MDS_COOPERATIVE_BOXES
+#extension GL_KHR_shader_subgroup_ballot : require
+#extension GL_KHR_shader_subgroup_shuffle : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
+#endif
 #include "bindings.h"
 #include "dispatch_rows.h"
 #include "culling_math.glsl"
@@ -54,14 +66,61 @@ void project_rect(vec3 bmin, vec3 bmax, out vec2 lo, out vec2 hi) {
   }
 }
 
+// One texel of the shared texels_in_front (the same test as its one-thread loop): 0 the box does
+// not reach the texel's centre ray, 1 the box lies behind d_cull there (its C_cull in c), 2 the
+// box lies in front (the depth test passes).
+int texel_test(int x, int y, vec3 bmin, vec3 bmax, uint level, float grow, out float c) {
+  c = 0.0;
+  bool ortho = (cull.params.w & kCullOrtho) != 0u;
+  vec2 ndc = (vec2(x, y) + 0.5) * float(1u << level) * cull.viewport.zw * 2.0 - 1.0;
+  vec3 o, dir;
+  if (ortho) {
+    o = (cull.inv_view * vec4(ndc.x / cull.proj[0][0], ndc.y / cull.proj[1][1], 0.0, 1.0)).xyz;
+    dir = mat3(cull.inv_view) * vec3(0.0, 0.0, -1.0);
+  } else {
+    o = (cull.inv_view * vec4(0.0, 0.0, 0.0, 1.0)).xyz;
+    dir = mat3(cull.inv_view) * vec3(ndc.x / cull.proj[0][0], ndc.y / cull.proj[1][1], -1.0);
+  }
+  float t_entry = mds_ray_box_entry(o.x, o.y, o.z, dir.x, dir.y, dir.z, bmin.x, bmin.y, bmin.z,
+                                    bmax.x, bmax.y, bmax.z, grow, cull.camera.z);
+  if (!(t_entry < float(MDS_CULL_DEPTH_EMPTY))) return 0;
+  vec2 dc = pyramid[cull_level_offset(level) + uint(y) * cull_level_size(level).x + uint(x)];
+  if (!(t_entry >= dc.x)) return 2;
+  c = dc.y;
+  return 1;
+}
+
 // The depth/confidence test of the box over the pyramid texels [t0, t1] of `level`: per texel
 // the box's conservative entry depth on the texel's centre ray (the box grown by `grow`, the
 // texel's half diagonal at the far side, culling_math.h ray_box_entry); texels the box does not
 // reach take no part. True when the box lies in front of d_cull on one texel (the depth test
 // passes: P whatever the confidence); otherwise C_cull of the reached texels is summed into
-// csum and their number into n.
+// csum and their number into n. coop (MDS_COOPERATIVE_BOXES only): every lane of the subgroup
+// calls with the same box; in rounds, lane l tests texel round * gl_SubgroupSize + l, and the
+// first round with a texel in front ends the test on every lane (a box in front stops as early
+// as one thread's test would); the result and the sums are the subgroup's, the same on every lane.
 bool texels_in_front(vec3 bmin, vec3 bmax, uint level, ivec2 t0, ivec2 t1, float grow, inout float csum,
-                     inout float n) {
+                     inout float n, bool coop) {
+  float c;
+#ifdef MDS_COOPERATIVE_BOXES
+  if (coop) {
+    int w = t1.x - t0.x + 1;
+    int count = (w > 0 && t1.y >= t0.y) ? w * (t1.y - t0.y + 1) : 0;
+    float cs = 0.0, cn = 0.0;
+    for (int base = 0; base < count; base += int(gl_SubgroupSize)) {
+      int k = base + int(gl_SubgroupInvocationID);
+      int r = k < count ? texel_test(t0.x + k % w, t0.y + k / w, bmin, bmax, level, grow, c) : 0;
+      if (subgroupBallot(r == 2) != uvec4(0u)) return true;
+      if (r == 1) {
+        cs += c;
+        cn += 1.0;
+      }
+    }
+    csum += subgroupAdd(cs);
+    n += subgroupAdd(cn);
+    return false;
+  }
+#endif
   uvec2 ls = cull_level_size(level);
   uint lo_off = cull_level_offset(level);
   bool ortho = (cull.params.w & kCullOrtho) != 0u;
@@ -117,8 +176,22 @@ uint fine_cell_bits(uint i, int c) {
   return (nodes[i].occupancy_fine[c / 16][(c / 4) % 4] >> (8 * (c % 4))) & 0xffu;
 }
 
-// node: the node whose occupancy is passed (its fine level is read from nodes[]), -1 for meshlets.
-int classify_box(vec3 bmin, vec3 bmax, int max_extent, uvec2 occupancy, int node) {
+// The texel test of a box (box_setup -> box_test): the box's texel rectangle at level 0, the
+// pyramid level of the test and the ray grow of that level.
+struct BoxTest {
+  ivec2 t0, t1;
+  uint level;
+  float grow;
+};
+const int kBoxTexelTest = -2;  // box_setup: the class needs box_test
+
+// The projection part of classify_box: returns the class decided without a texel test (-1:
+// outside the image, P: the box reaches the near plane) or kBoxTexelTest with b filled in.
+int box_setup(vec3 bmin, vec3 bmax, int max_extent, out BoxTest b) {
+  b.t0 = ivec2(0);
+  b.t1 = ivec2(-1);
+  b.level = 0u;
+  b.grow = 0.0;
   float W = cull.viewport.x, H = cull.viewport.y;
   vec2 lo = vec2(3.0e38), hi = vec2(-3.0e38);
   float znear = 3.0e38, zfar = 0.0;
@@ -165,7 +238,26 @@ int classify_box(vec3 bmin, vec3 bmax, int max_extent, uvec2 occupancy, int node
     extent = max((t1.x >> level) - (t0.x >> level), (t1.y >> level) - (t0.y >> level)) + 1;
   }
   bool ortho = (cull.params.w & kCullOrtho) != 0u;
-  float grow = 1.001 * mds_texel_half_diagonal(float(1u << level), zfar, !ortho, cull.camera.x, cull.camera.y);
+  b.t0 = t0;
+  b.t1 = t1;
+  b.level = level;
+  b.grow = 1.001 * mds_texel_half_diagonal(float(1u << level), zfar, !ortho, cull.camera.x, cull.camera.y);
+  return kBoxTexelTest;
+}
+
+// Texels of the whole box's test (the work of box_test when the node is full or occluded).
+int box_texels(BoxTest b) {
+  ivec2 e = (b.t1 >> int(b.level)) - (b.t0 >> int(b.level)) + 1;
+  return e.x * e.y;
+}
+
+// The texel part of classify_box, for a box box_setup returned kBoxTexelTest for.
+// node: the node whose occupancy is passed (its fine level is read from nodes[]), -1 for meshlets.
+// coop: see texels_in_front (every lane calls with the same box; the result is the subgroup's).
+int box_test(vec3 bmin, vec3 bmax, BoxTest b, uvec2 occupancy, int node, bool coop) {
+  uint level = b.level;
+  ivec2 t0 = b.t0, t1 = b.t1;
+  float grow = b.grow;
   float csum = 0.0, n = 0.0;
   bool fine = false;  // the node has a fine level that is not all set
   if (node >= 0) {
@@ -178,12 +270,12 @@ int classify_box(vec3 bmin, vec3 bmax, int max_extent, uvec2 occupancy, int node
   }
   bool full = occupancy == uvec2(0u) || (occupancy == uvec2(0xffffffffu) && !fine);
   if (full) {
-    if (texels_in_front(bmin, bmax, level, t0 >> int(level), t1 >> int(level), grow, csum, n))
+    if (texels_in_front(bmin, bmax, level, t0 >> int(level), t1 >> int(level), grow, csum, n, coop))
       return MDS_CULL_CLASS_P;
     // No texel's ray reaches the box: it covers no pixel of the image (its rectangle only
     // overlaps the image's border, the box itself lies beyond it), so it is frustum culled.
     if (n == 0.0) return -1;
-  } else if (!texels_in_front(bmin, bmax, level, t0 >> int(level), t1 >> int(level), grow, csum, n) && n > 0.0) {
+  } else if (!texels_in_front(bmin, bmax, level, t0 >> int(level), t1 >> int(level), grow, csum, n, coop) && n > 0.0) {
     // The whole box lies behind d_cull on every texel it reaches, so every cell does too: the
     // box's mean confidence decides, as for a full mask (one test instead of one per cell).
   } else {
@@ -199,32 +291,50 @@ int classify_box(vec3 bmin, vec3 bmax, int max_extent, uvec2 occupancy, int node
                              : 0.5 * (bmin + bmax) - (cull.inv_view * vec4(0.0, 0.0, 0.0, 1.0)).xyz;
     bvec3 flip = lessThan(toward, vec3(0.0));
     int sub_flip = (flip.x ? 1 : 0) | (flip.y ? 2 : 0) | (flip.z ? 4 : 0);
-    for (int j = 0; j < kCells * kCells * kCells; ++j) {
+    // coop: the subgroup shares the cells in rounds (lane l takes cell round * gl_SubgroupSize
+    // + l of the front-to-back order, tested by its lane alone); the first round in which a lane
+    // finds its cell in front ends the loop on every lane: the node is P.
+    int cells = kCells * kCells * kCells;
+    int lane = 0, step = 1;
+#ifdef MDS_COOPERATIVE_BOXES
+    if (coop) {
+      lane = int(gl_SubgroupInvocationID);
+      step = int(gl_SubgroupSize);
+    }
+#endif
+    bool front = false;
+    for (int base = 0; base < cells; base += step) {
+      int j = base + lane;
+      bool mine = j < cells;
       ivec3 ci = ivec3(j % kCells, (j / kCells) % kCells, j / (kCells * kCells));
       ci = mix(ci, ivec3(kCells - 1) - ci, flip);
       int c = ci.x + kCells * (ci.y + kCells * ci.z);
       uint bits = c < 32 ? occupancy.x : occupancy.y;
-      if (((bits >> (c & 31)) & 1u) == 0u) continue;
-      {
-        vec3 cmin = bmin + cell * vec3(ci);
-        vec3 cmax = mix(bmin + cell * vec3(ci + 1), bmax, equal(ci, ivec3(kCells - 1)));
+      mine = mine && ((bits >> (c & 31)) & 1u) != 0u;
+      vec3 cmin = bmin + cell * vec3(ci);
+      vec3 cmax = mix(bmin + cell * vec3(ci + 1), bmax, equal(ci, ivec3(kCells - 1)));
+      ivec2 c0, c1;
+      if (mine) {
         vec2 clo, chi;
         project_rect(cmin, cmax, clo, chi);
-        ivec2 c0, c1;
-        if (!texel_rect(clo, chi, level, c0, c1)) continue;
+        mine = texel_rect(clo, chi, level, c0, c1);
+      }
+      float cs = 0.0, cn = 0.0;
+      if (mine) {
         in_image = true;
-        float cs = 0.0, cn = 0.0;
-        if (!texels_in_front(cmin, cmax, level, c0, c1, grow, cs, cn)) {
+        if (!texels_in_front(cmin, cmax, level, c0, c1, grow, cs, cn, false)) {
           csum += cs;
           n += cn;
-          continue;
+          mine = false;
         }
+      }
+      if (mine) {
         // The cell lies in front somewhere: its occupied sub-cells decide (P when one of them
         // lies in front on one texel; else their texels' confidence counts instead of the cell's).
         uint sub = fine ? fine_cell_bits(uint(node), c) : 0u;
-        if (sub == 0u) return MDS_CULL_CLASS_P;
+        front = sub == 0u;
         vec3 half_cell = (cmax - cmin) * 0.5;
-        for (int t = 0; t < 8; ++t) {
+        for (int t = 0; t < 8 && !front; ++t) {
           int s = t ^ sub_flip;
           if (((sub >> s) & 1u) == 0u) continue;
           bvec3 upper = bvec3((s & 1) != 0, (s & 2) != 0, (s & 4) != 0);
@@ -234,10 +344,22 @@ int classify_box(vec3 bmin, vec3 bmax, int max_extent, uvec2 occupancy, int node
           project_rect(smin, smax, slo, shi);
           ivec2 s0, s1;
           if (!texel_rect(slo, shi, level, s0, s1)) continue;
-          if (texels_in_front(smin, smax, level, s0, s1, grow, csum, n)) return MDS_CULL_CLASS_P;
+          front = texels_in_front(smin, smax, level, s0, s1, grow, csum, n, false);
         }
       }
+#ifdef MDS_COOPERATIVE_BOXES
+      if (coop) front = subgroupBallot(front) != uvec4(0u);
+#endif
+      if (front) break;
     }
+#ifdef MDS_COOPERATIVE_BOXES
+    if (coop) {
+      in_image = subgroupBallot(in_image) != uvec4(0u);
+      csum = subgroupAdd(csum);
+      n = subgroupAdd(n);
+    }
+#endif
+    if (front) return MDS_CULL_CLASS_P;
     // No occupied cell projects into the image, or none covers a pixel of it (a cell's
     // rectangle overlaps the image's border only): frustum culled.
     if (!in_image || n == 0.0) return -1;
@@ -252,16 +374,63 @@ void subtract_voxels(uint i) {  // Sect. 4.4: remove meshlet/node i's particles 
   counters.volume_dirty = 1u;
 }
 
+// Texels of a box test above which its subgroup shares it (MDS_COOPERATIVE_BOXES; default a
+// 16 x 16 rectangle of texels; a node's test covers up to kNodeExtent^2, a meshlet's up to
+// kMeshletExtent^2).
+layout(constant_id = 1) const int kCooperativeTexels = 256;
+
+// The class of box `index` (node: mode 0, meshlet: mode 1) without the upward rule, in `c` of
+// the lanes with `test`; -1: outside the image. Every lane of the subgroup calls this (no early
+// return before it): boxes of more than kCooperativeTexels texels are tested by the subgroup.
+int box_class(uint index, bool test) {
+  bool nodes_mode = push.mode == 0u;
+  int max_extent = nodes_mode ? kNodeExtent : kMeshletExtent;
+  int c = -1;
+  bool cooperative = false;
+  if (test) {
+    vec3 bmin = nodes_mode ? nodes[index].aabb_min : meshlets[index].aabb_min;
+    vec3 bmax = nodes_mode ? nodes[index].aabb_max : meshlets[index].aabb_max;
+    BoxTest b;
+    c = box_setup(bmin, bmax, max_extent, b);
+    if (c == kBoxTexelTest) {
+#ifdef MDS_COOPERATIVE_BOXES
+      cooperative = box_texels(b) > kCooperativeTexels;
+#endif
+      if (!cooperative)
+        c = nodes_mode ? box_test(bmin, bmax, b, uvec2(nodes[index].occupancy_lo, nodes[index].occupancy_hi),
+                                  int(index), false)
+                       : box_test(bmin, bmax, b, uvec2(0u), -1, false);
+    }
+  }
+#ifdef MDS_COOPERATIVE_BOXES
+  // The lanes whose box still waits for the subgroup; the lowest one leads each round.
+  uvec4 waiting = subgroupBallot(cooperative);
+  while (subgroupBallotBitCount(waiting) > 0u) {
+    uint leader = subgroupBallotFindLSB(waiting);
+    uint j = subgroupShuffle(index, leader);
+    vec3 bmin = nodes_mode ? nodes[j].aabb_min : meshlets[j].aabb_min;
+    vec3 bmax = nodes_mode ? nodes[j].aabb_max : meshlets[j].aabb_max;
+    BoxTest b;
+    box_setup(bmin, bmax, max_extent, b);  // the leader's
+    int r = nodes_mode ? box_test(bmin, bmax, b, uvec2(nodes[j].occupancy_lo, nodes[j].occupancy_hi), int(j), true)
+                       : box_test(bmin, bmax, b, uvec2(0u), -1, true);
+    if (gl_SubgroupInvocationID == leader) c = r;
+    waiting[leader / 32u] &= ~(1u << (leader % 32u));  // its box is done
+  }
+#endif
+  return c;
+}
+
 void main() {
   uint i = mds_flat_id();
   bool node_density = (cull.params.w & kCullNodeDensity) != 0u;
   if (push.mode == 0u) {
-    if (i >= cull.counts.y) return;
-    uint prev = node_class[i];
+    bool valid = i < cull.counts.y;
+    uint prev = valid ? node_class[i] : uint(MDS_CULL_CLASS_O);
+    int c = box_class(i, prev != uint(MDS_CULL_CLASS_O));
+    if (!valid) return;
     uint now = prev;
     if (prev != uint(MDS_CULL_CLASS_O)) {
-      int c = classify_box(nodes[i].aabb_min, nodes[i].aabb_max, kNodeExtent,
-                           uvec2(nodes[i].occupancy_lo, nodes[i].occupancy_hi), int(i));
       now = c < 0 ? uint(MDS_CULL_CLASS_O) : max(prev, uint(c));
       node_class[i] = now;
     }
@@ -272,16 +441,19 @@ void main() {
     atomicAdd(counters.node_class_count[now], 1u);
     return;
   }
-  if (i >= cull.counts.x) return;
-  GpuMeshlet m = meshlets[i];
-  if (m.particle_count == 0u) return;  // empty slot of the streaming pool
-  uint prev = meshlet_class[i];
+  bool valid = i < cull.counts.x;
+  uint count = valid ? meshlets[i].particle_count : 0u;  // 0: empty slot of the streaming pool
+  uint node = valid ? meshlets[i].node : 0u;
+  uint prev = valid ? meshlet_class[i] : uint(MDS_CULL_CLASS_O);
+  // A meshlet of a node in O is O without a test.
+  bool in_o_node = count != 0u && prev != uint(MDS_CULL_CLASS_O) && node_class[node] == uint(MDS_CULL_CLASS_O);
+  int c = box_class(i, count != 0u && prev != uint(MDS_CULL_CLASS_O) && !in_o_node);
+  if (count == 0u) return;
   uint now = prev;
   if (prev != uint(MDS_CULL_CLASS_O)) {
-    if (node_class[m.node] == uint(MDS_CULL_CLASS_O)) {
+    if (in_o_node) {
       now = uint(MDS_CULL_CLASS_O);
     } else {
-      int c = classify_box(m.aabb_min, m.aabb_max, kMeshletExtent, uvec2(0u), -1);
       now = c < 0 ? uint(MDS_CULL_CLASS_O) : max(prev, uint(c));  // classes only move upward
     }
   }

@@ -228,6 +228,8 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
     c->compute_ballot_ = (sg.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) != 0 &&
                          (sg.supportedOperations & VK_SUBGROUP_FEATURE_BALLOT_BIT) != 0;
     c->compute_shuffle_ = c->compute_ballot_ && (sg.supportedOperations & VK_SUBGROUP_FEATURE_SHUFFLE_BIT) != 0;
+    c->compute_arithmetic_ = c->compute_shuffle_ && (sg.supportedOperations & VK_SUBGROUP_FEATURE_ARITHMETIC_BIT) != 0;
+    c->subgroup_size_ = sg.subgroupSize;
   }
   {
     uint32_t nq = 0;

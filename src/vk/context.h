@@ -84,6 +84,10 @@ class Context {
   bool compute_ballot() const { return compute_ballot_; }
   // ... and shuffles (subgroupShuffle) too.
   bool compute_shuffle() const { return compute_shuffle_; }
+  // ... and arithmetic reductions (subgroupAdd) too.
+  bool compute_arithmetic() const { return compute_arithmetic_; }
+  // Invocations per subgroup (VkPhysicalDeviceSubgroupProperties::subgroupSize; lavapipe 8).
+  uint32_t subgroup_size() const { return subgroup_size_; }
   // Number of validation warnings/errors reported so far (0 without validation).
   uint64_t validation_messages() const;
   Allocator& allocator() { return *allocator_; }
@@ -111,6 +115,8 @@ class Context {
   bool int64_atomics_ = false;
   bool compute_ballot_ = false;
   bool compute_shuffle_ = false;
+  bool compute_arithmetic_ = false;
+  uint32_t subgroup_size_ = 0;
   DeviceInfo info_;
   VkPhysicalDeviceProperties props_{};
   uint32_t device_storage_range_ = 0;  // props_.limits.maxStorageBufferRange before the clamp above

@@ -301,6 +301,7 @@ Status run_stress(const StressOptions& o) {
   j["converged_frames_run"] = converged_run;
   j["frames_total"] = frames.size();
   j["device"] = st.device;
+  j["cull_shared_box_tests"] = st.cull.shared_box_tests;  // cull_classify_coop.comp
   j["io"] = {{"threads", ss.io.threads}, {"latency_ms", ss.io.io_latency_ms}, {"bandwidth_bytes_per_s", bandwidth}};
   j["upload_bytes_per_frame"] = upload_budget;
   j["gpu_budget_bytes"] = c.gpu_budget_bytes ? c.gpu_budget_bytes : budget;

@@ -4,6 +4,7 @@
 #include "render/culling/cull_loop.h"
 
 #include <algorithm>
+#include <cstdlib>
 #include <cmath>
 #include <cstring>
 #include <iterator>
@@ -286,14 +287,27 @@ Status CullLoop::Impl::create_pipelines() {
   }
   MDS_ASSIGN_OR_RETURN(pyramid_pipe, vk::create_compute_pipeline(dev, layout, "cull_pyramid.comp"));
   {
+    // Box tests of many texels shared by their subgroup (cull_classify.comp) where the device
+    // has ballot, shuffle and arithmetic in compute and subgroups of at least
+    // kCooperativeBoxesMinSubgroup; MDSTREAM_CULL_COOP_BOXES=0 / 1 forces one thread per box /
+    // the shared tests (A/B runs).
+    const char* coop_env = std::getenv("MDSTREAM_CULL_COOP_BOXES");
+    const bool coop = ctx->compute_arithmetic() &&
+                      (coop_env ? std::string(coop_env) != "0" : ctx->subgroup_size() >= kCooperativeBoxesMinSubgroup);
+    shared_box_tests = coop;
+    const char* classify = coop ? "cull_classify_coop.comp" : "cull_classify.comp";
+    // kCooperativeTexels; MDSTREAM_CULL_COOP_TEXELS=N for A/B runs.
+    const char* texels_env = std::getenv("MDSTREAM_CULL_COOP_TEXELS");
+    const int32_t coop_texels = texels_env ? std::max(1, std::atoi(texels_env)) : 256;
     vk::SpecConstants spec;
     spec.add(0u, int32_t(node_extent));  // cull_classify.comp: kNodeExtent
-    MDS_ASSIGN_OR_RETURN(classify_pipe, vk::create_compute_pipeline(dev, layout, "cull_classify.comp", &spec));
+    spec.add(1u, coop_texels);
+    MDS_ASSIGN_OR_RETURN(classify_pipe, vk::create_compute_pipeline(dev, layout, classify, &spec));
     if (node_extent != kNodeExtentInMemory) {
       vk::SpecConstants coarse;
       coarse.add(0u, int32_t(kNodeExtentInMemory));
-      MDS_ASSIGN_OR_RETURN(classify_coarse_pipe,
-                           vk::create_compute_pipeline(dev, layout, "cull_classify.comp", &coarse));
+      coarse.add(1u, coop_texels);
+      MDS_ASSIGN_OR_RETURN(classify_coarse_pipe, vk::create_compute_pipeline(dev, layout, classify, &coarse));
     }
   }
   MDS_ASSIGN_OR_RETURN(draw_list_pipe, vk::create_compute_pipeline(dev, layout, "cull_draw_list.comp"));

@@ -169,6 +169,10 @@ struct SceneBuffers {
 // texels next to it: 128 (<= 16384 tests per node) read 1.10 instead of 1.18x the bytes of the
 // nodes holding a visible particle on the porous 1M view 0 at 640x360 (docs/streaming.md).
 inline constexpr uint32_t kNodeExtentInMemory = 32;
+// Smallest subgroup whose lanes share large box tests by default (cull_classify_coop.comp).
+// Lavapipe's subgroups of 8 lose with it: the ablation 1M jumps' classification 0.41 -> 0.62 s
+// over 48 frames at 320x180, and 0.50 s even with no box shared (the variant alone).
+inline constexpr uint32_t kCooperativeBoxesMinSubgroup = 32;
 // Histogram block side of a view begun while the camera moves (CullLoop::set_moving): a quarter
 // of the rays of the default 2. Porous 1M stress fly-through, 320x180: median frame 35 -> 27 ms,
 // the same bytes read and hit rate (docs/viewer.md).
@@ -237,6 +241,8 @@ class CullLoop {
   uint32_t budget() const;
   // Sampling passes recorded with the compute / rasterized route (this loop's lifetime).
   uint32_t sample_route_passes(SampleRoute route) const;
+  // The classification shares large box tests over subgroups (cull_classify_coop.comp).
+  bool shared_box_tests() const;
   // GPU ms per sampling pass of the route in the last finished comparison (-1: none).
   double sample_route_ms(SampleRoute route) const;
   // After an iteration completed on the GPU (before the next is recorded): reads the timestamps

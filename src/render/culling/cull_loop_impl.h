@@ -80,6 +80,7 @@ struct CullLoop::Impl {
   mutable double sampled_fraction = -1.0;  // -1: not measured in this view
   vk::DescriptorSet set0_sample, set0_draw, set1;
   vk::UniquePipelineLayout layout;
+  bool shared_box_tests = false;  // classify_pipe is cull_classify_coop.comp
   vk::UniquePipeline classify_coarse_pipe;  // kNodeExtentInMemory, while moving (set_moving); null when node_extent is that
   bool moving = false;
   bool histogram_pending = false;  // the last iteration's classification may have changed the volume

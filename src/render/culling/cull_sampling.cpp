@@ -80,6 +80,8 @@ uint32_t CullLoop::Impl::probe_share() const {
   return kSampleRouteProbeShare;
 }
 
+bool CullLoop::shared_box_tests() const { return impl_->shared_box_tests; }
+
 uint32_t CullLoop::sample_route_passes(SampleRoute route) const {
   return route == SampleRoute::compute ? impl_->route_passes[1]
                                        : route == SampleRoute::raster ? impl_->route_passes[0] : 0u;
