@@ -158,3 +158,51 @@ TEST(RendererControls, ResidencyAndLiveSettingsOnAStreamedStore) {
   mem->reset();
   fs::remove_all(dir);
 }
+
+// While the camera moves every frame is a new view of one sampling pass, so the automatic
+// sampling route compares by probes only (cull_loop.h kSampleRouteMovingHysteresis): the running
+// route (compute when none has won) samples, one pass of the other over a quarter of the budget
+// is timed beside it, and no whole pass of the other route is paid in a moving frame. The
+// comparison completes while moving (until 2026-11-26 a comparison begun in motion was never
+// collected, so no route was ever compared while the camera moved).
+TEST(RendererControls, AMovingCameraComparesTheSamplingRoutesByProbes) {
+  const fs::path dir = fs::temp_directory_path() / ("mds_moving_route_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string dump = (dir / "p.dump").string(), store = (dir / "p.mds").string();
+  ASSERT_EQ(run("synth --scene porous --particles 60000 -q -o " + dump), 0);
+  ASSERT_EQ(run("convert " + dump + " --node-size 1000 -q -o " + store), 0);
+  auto reader = store::StoreReader::open(store);
+  ASSERT_TRUE(reader.ok()) << reader.error().message;
+  auto ctx = vk::Context::create(vk::ContextOptions::from_env());
+  ASSERT_TRUE(ctx.ok()) << ctx.error().message;
+  if (!(*ctx)->int64_atomics()) GTEST_SKIP() << "no 64-bit buffer atomics: only the rasterized route exists";
+  auto scene = load_scene(**reader);
+  ASSERT_TRUE(scene.ok());
+  RenderSettings rs;
+  rs.width = 96;
+  rs.height = 72;
+  rs.spp = 4;
+  rs.cull = true;
+  auto r = Renderer::create(**ctx, *scene, rs);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  auto cam = default_view(0, (*r)->bounds(), 40.0, 96.0 / 72.0);
+  ASSERT_TRUE(cam.ok());
+  const glm::dvec3 step_dir = 0.02 * (cam->target - cam->eye);
+  for (int f = 0; f < 12; ++f) {
+    Camera c = *cam;
+    c.eye += double(f) * step_dir;
+    c.target += double(f) * step_dir;
+    (*r)->set_motion(true);
+    ASSERT_TRUE((*r)->set_view(c).ok());
+    auto rep = (*r)->step();
+    ASSERT_TRUE(rep.ok()) << rep.error().message;
+    ASSERT_TRUE((*r)->finish().ok());
+  }
+  const RenderStats st = (*r)->stats();
+  EXPECT_GE(st.cull.sample_passes_compute, 11u);
+  EXPECT_EQ(st.cull.sample_passes_raster, 0u) << "a whole rasterized pass in a moving frame";
+  EXPECT_GT(st.cull.sample_ms_compute, 0.0) << "no comparison completed while moving";
+  EXPECT_GT(st.cull.sample_ms_raster, 0.0) << "no probe of the rasterized route";
+  r->reset();
+  fs::remove_all(dir);
+}

@@ -194,7 +194,9 @@ Status Renderer::set_view(const Camera& camera_in) {
   // Its timestamps, before the pool is replaced: the next FrameReport reports them.
   MDS_ASSIGN_OR_RETURN(double old_view_ms, m.collect_frame_ms());
   m.unreported_gpu_ms += old_view_ms;
-  // Its culling iteration still tells the cache what is occluded (the view did not mature).
+  // Its culling iteration still tells the cache what is occluded (the view did not mature), and
+  // its sampling passes' times the route choice (a moving camera's views last one frame each).
+  if (m.pending_iteration) (void)m.cull->collect_route_timings();
   if (m.pending_iteration && m.cache) m.cache->set_classes(m.cull->node_classes(), false);
   m.pending_iteration = false;
   MDS_ASSIGN_OR_RETURN(m.timestamps, vk::TimestampPool::create(*m.ctx, m.timestamp_capacity()));

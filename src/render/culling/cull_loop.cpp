@@ -570,7 +570,7 @@ Status CullLoop::begin_view(const Camera& camera, uint32_t live_meshlets) {
 Status CullLoop::warm_up(const Camera& camera) {
   Impl& m = *impl_;
   const int best_route = m.best_route;
-  const bool comparing = m.comparing, probing = m.probing;
+  const bool comparing = m.comparing, probing = m.probing, moving_comparison = m.moving_comparison;
   const uint32_t since_compare = m.since_compare, route_passes[2] = {m.route_passes[0], m.route_passes[1]};
   const bool moving = m.moving;
   Status st;
@@ -584,6 +584,8 @@ Status CullLoop::warm_up(const Camera& camera) {
   m.best_route = best_route;
   m.comparing = comparing;
   m.probing = probing;
+  m.moving_comparison = moving_comparison;
+  m.route_trigger = false;
   m.since_compare = since_compare;
   m.route_passes[0] = route_passes[0];
   m.route_passes[1] = route_passes[1];
@@ -628,8 +630,10 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
   for (uint32_t p = 0; p < passes; ++p) {
     m.sample_compute = m.choose_compute_route(p, passes);
     ++m.route_passes[m.sample_compute ? 1 : 0];
-    const bool timed = m.comparing && m.route_ts.enabled();
-    if (timed) m.route_ts.begin(cmd, m.sample_compute ? "compute" : "raster");
+    const bool timed = (m.comparing || (m.moving && m.best_route >= 0)) && m.route_ts.enabled();
+    if (timed)
+      m.route_ts.begin(cmd, m.comparing ? (m.sample_compute ? "compute" : "raster")
+                                        : (m.sample_compute ? "run_compute" : "run_raster"));
     m.record_sampling_pass(cmd, ts, iteration * passes + p);
     if (timed) m.route_ts.end(cmd);
   }

@@ -88,6 +88,15 @@ inline constexpr double kSampleRouteClearCut = 2.0;
 // slower route's pass instead of a whole one: on lavapipe up to 220 ms on the cache benchmark's
 // views, where the running route's took 30-60, the frames that paid for it a path's p99.
 inline constexpr uint32_t kSampleRouteProbeShare = 4;
+// While the camera moves (set_moving) there are no whole passes of both routes: every view lasts
+// one frame of one pass, and a comparison that alternated routes paid the slower one's pass in
+// its frames. A moving comparison is one probe (above) next to the running route's pass, at the
+// first moving iteration without a winner (compute running) and whenever a pass of the running
+// route took more than kSampleRouteClearCut x its compared time and more than the other route's
+// compared time (the view changed: a camera entering dense data makes the compute route's
+// glyphs large). The probed route takes over when kSampleRouteMovingHysteresis x its estimate
+// is below the running route's pass.
+inline constexpr double kSampleRouteMovingHysteresis = 1.5;
 // The clear-cut rule: 0 (raster) or 1 (compute) when every timed pass of the other route took at
 // least kSampleRouteClearCut times the winner's slowest pass; -1 otherwise (or when either
 // route has no pass yet).

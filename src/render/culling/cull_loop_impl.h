@@ -65,6 +65,11 @@ struct CullLoop::Impl {
   uint32_t since_compare = 0;       // iterations since the last comparison started
   uint32_t explore_interval = kSampleRouteExplore;  // iterations from one comparison to the next
   uint32_t route_passes[2] = {0, 0};
+  // While the camera moves: the winner's passes are timed too ("run_raster" / "run_compute"), and
+  // one that slowed down past kSampleRouteClearCut x its compared time, and past the other
+  // route's compared time, sets this: the next iteration compares (cull_sampling.cpp).
+  bool route_trigger = false;
+  bool moving_comparison = false;   // comparing: begun while moving (one probe decides)
   vk::TimestampPool route_ts;       // "raster" / "compute" around the passes of a comparison
   vk::Image sample_image, depth;
   vk::Buffer sample_buf;

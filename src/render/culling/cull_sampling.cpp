@@ -48,15 +48,27 @@ void CullLoop::Impl::begin_route_choice(VkCommandBuffer cmd, uint32_t pass_count
     probing = false;
     return;
   }
-  if (!comparing && (best_route < 0 || since_compare >= explore_interval)) {
+  if (!comparing && moving && (best_route < 0 || route_trigger)) {
+    // While the camera moves a comparison is one probe (cull_loop.h kSampleRouteMovingHysteresis):
+    // the running route -- compute when none has won yet -- samples, and one pass of the other
+    // route over 1/probe_share() of the budget is timed.
+    if (best_route < 0) best_route = 1;
+    comparing = true;
+    probing = true;
+    moving_comparison = true;
+    compare_ms[0].clear();
+    compare_ms[1].clear();
+  } else if (!comparing && !moving && (best_route < 0 || since_compare >= explore_interval)) {
     comparing = true;
     probing = best_route >= 0 && pass_count >= 2;
+    moving_comparison = false;
     since_compare = 0;
     compare_ms[0].clear();
     compare_ms[1].clear();
   }
+  route_trigger = false;
   ++since_compare;
-  if (comparing && route_ts.enabled()) route_ts.reset(cmd);
+  if ((comparing || moving) && route_ts.enabled()) route_ts.reset(cmd);
 }
 
 bool CullLoop::Impl::choose_compute_route(uint32_t p, uint32_t pass_count) {
@@ -103,15 +115,42 @@ int sample_route_clear_winner(std::span<const double> raster_ms, std::span<const
 
 Status CullLoop::collect_route_timings() {
   Impl& m = *impl_;
-  if (!m.comparing || !m.route_ts.enabled()) return {};
+  if (!m.route_ts.enabled() || (!m.comparing && !(m.moving && m.best_route >= 0))) return {};
   std::map<std::string, size_t> before;
   for (const auto& [name, v] : m.route_ts.samples()) before[name] = v.size();
   MDS_TRY(m.route_ts.collect());
+  if (!m.comparing) {
+    // While the camera moves, the running route's passes ("run_*"): one slower than
+    // kSampleRouteClearCut x its compared time and than the other route's compared time
+    // triggers a probe (a camera entering dense data makes the compute route's glyphs large).
+    const int best = m.best_route, other = 1 - best;
+    for (const auto& [name, v] : m.route_ts.samples()) {
+      if (!name.starts_with("run_")) continue;
+      for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i)
+        if (v[i] > kSampleRouteClearCut * m.compared_ms[best] && v[i] > m.compared_ms[other]) m.route_trigger = true;
+    }
+    return {};
+  }
   for (const auto& [name, v] : m.route_ts.samples()) {
+    if (name.starts_with("run_")) continue;
     // "compute" / "raster", "_probe" for a probe (its time counts probe_share() times).
     const int r = name.rfind("compute", 0) == 0 ? 1 : 0;
     const double scale = name.ends_with("_probe") ? double(m.probe_share()) : 1.0;
     for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i) m.compare_ms[r].push_back(scale * v[i]);
+  }
+  if (m.probing && m.moving_comparison) {
+    // A moving comparison (decided here even when the camera has stopped since): the probed
+    // route takes over when its estimate beats the running route's passes by
+    // kSampleRouteMovingHysteresis (no whole passes of a slower route).
+    m.probing = false;
+    m.comparing = false;
+    m.moving_comparison = false;
+    const int best = m.best_route, other = 1 - best;
+    if (m.compare_ms[0].empty() || m.compare_ms[1].empty()) return {};  // not timed: try again later
+    m.compared_ms[best] = vk::median(m.compare_ms[best]);
+    m.compared_ms[other] = vk::median(m.compare_ms[other]);
+    if (kSampleRouteMovingHysteresis * m.compared_ms[other] < m.compared_ms[best]) m.best_route = other;
+    return {};
   }
   if (m.probing) {
     m.probing = false;
