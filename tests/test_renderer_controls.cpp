@@ -51,6 +51,15 @@ void expect_consistent(const Renderer& r) {
   EXPECT_LT(n, res.size()) << "the budget holds part of the store";
 }
 
+// A porous store of `particles` with nodes of <= 1000, written into a fresh folder `dir`.
+void write_porous_store(const fs::path& dir, uint32_t particles, std::string& store) {
+  fs::create_directories(dir);
+  const std::string dump = (dir / "p.dump").string();
+  store = (dir / "p.mds").string();
+  ASSERT_EQ(run("synth --scene porous --particles " + std::to_string(particles) + " -q -o " + dump), 0);
+  ASSERT_EQ(run("convert " + dump + " --node-size 1000 -q -o " + store), 0);
+}
+
 // Steps until the view converged (and at least `samples` were accumulated); the last report.
 FrameReport settle(Renderer& r, uint32_t samples = 0) {
   FrameReport rep;
@@ -70,10 +79,8 @@ FrameReport settle(Renderer& r, uint32_t samples = 0) {
 
 TEST(RendererControls, ResidencyAndLiveSettingsOnAStreamedStore) {
   const fs::path dir = fs::temp_directory_path() / ("mds_residency_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  const std::string dump = (dir / "p.dump").string(), store = (dir / "p.mds").string();
-  ASSERT_EQ(run("synth --scene porous --particles 100000 -q -o " + dump), 0);
-  ASSERT_EQ(run("convert " + dump + " --node-size 1000 -q -o " + store), 0);
+  std::string store;
+  ASSERT_NO_FATAL_FAILURE(write_porous_store(dir, 100000, store));
   auto reader = store::StoreReader::open(store);
   ASSERT_TRUE(reader.ok()) << reader.error().message;
   auto ctx = vk::Context::create(vk::ContextOptions::from_env());
@@ -167,10 +174,8 @@ TEST(RendererControls, ResidencyAndLiveSettingsOnAStreamedStore) {
 // collected, so no route was ever compared while the camera moved).
 TEST(RendererControls, AMovingCameraComparesTheSamplingRoutesByProbes) {
   const fs::path dir = fs::temp_directory_path() / ("mds_moving_route_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  const std::string dump = (dir / "p.dump").string(), store = (dir / "p.mds").string();
-  ASSERT_EQ(run("synth --scene porous --particles 60000 -q -o " + dump), 0);
-  ASSERT_EQ(run("convert " + dump + " --node-size 1000 -q -o " + store), 0);
+  std::string store;
+  ASSERT_NO_FATAL_FAILURE(write_porous_store(dir, 60000, store));
   auto reader = store::StoreReader::open(store);
   ASSERT_TRUE(reader.ok()) << reader.error().message;
   auto ctx = vk::Context::create(vk::ContextOptions::from_env());
