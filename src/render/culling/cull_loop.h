@@ -179,8 +179,8 @@ struct SceneBuffers {
 // nodes holding a visible particle on the porous 1M view 0 at 640x360 (docs/streaming.md).
 inline constexpr uint32_t kNodeExtentInMemory = 32;
 // Smallest subgroup whose lanes share large box tests by default (cull_classify_coop.comp).
-// Lavapipe's subgroups of 8 lose with it: the ablation 1M jumps' classification 0.41 -> 0.62 s
-// over 48 frames at 320x180, and 0.50 s even with no box shared (the variant alone).
+// Lavapipe's subgroups of 8 lose with it: the ablation 1M jumps' classification 0.46 -> 0.63 s
+// over 48 frames at 320x180, and 0.59 s even with no box shared (the variant alone).
 inline constexpr uint32_t kCooperativeBoxesMinSubgroup = 32;
 // Histogram block side of a view begun while the camera moves (CullLoop::set_moving): a quarter
 // of the rays of the default 2. Porous 1M stress fly-through, 320x180: median frame 35 -> 27 ms,
