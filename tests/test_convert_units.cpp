@@ -490,6 +490,31 @@ TEST(MeshletQuality, OctreeBuilderWithinFactorOfPclOnUniformAndClusteredNodes) {
   }
 }
 
+// The PCL builder fills the octree leaves from their kd-tree neighbourhoods: nearly every
+// meshlet is full, and the meshlets are more compact than cutting the same Morton order into
+// runs of 16 (what a fill from the next leaves along the curve, ignoring space, gives at best).
+TEST(MeshletQuality, PclBuilderFillsMeshletsMoreCompactlyThanMortonRuns) {
+  std::mt19937_64 rng(21);
+  std::normal_distribution<double> g(0, 1);
+  std::vector<SpillRecord> blobs;
+  for (int i = 0; i < 10000; ++i) {
+    const double c = 6.0 * double(i % 3);
+    blobs.push_back({c + g(rng), g(rng), 0.5 * g(rng), 1, 0.5f});
+  }
+  for (const auto& input : {uniform(10000, 1.0, 23), blobs}) {
+    const NodeData d = node_data(input);
+    const auto pcl = check_meshlets(MeshletBuilderKind::pcl, d, 16);
+    std::vector<uint32_t> morton(input.size());
+    std::iota(morton.begin(), morton.end(), 0u);  // node_data's order is the Morton order
+    MeshletQuality runs;
+    add_meshlet_quality(d.xyz, morton, std::vector<uint8_t>(input.size() / 16, 16), runs);
+    std::printf("  pcl: diag/spacing %.3f mean size %.2f; Morton runs of 16: %.3f\n",
+                pcl.quality.mean_diag_over_spacing(), pcl.quality.mean_size(), runs.mean_diag_over_spacing());
+    EXPECT_GT(pcl.quality.mean_size(), 15.8);
+    EXPECT_LT(pcl.quality.mean_diag_over_spacing(), 0.85 * runs.mean_diag_over_spacing());
+  }
+}
+
 // ---------------------------------------------------------------- quantization
 
 TEST(Quantize, ErrorAtMostHalfStepIncludingDegenerateAndHugeOffsets) {

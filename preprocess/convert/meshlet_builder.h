@@ -1,16 +1,13 @@
 // Meshlets (paper 000, §3.1 and §6 "Meshlet generation"): small groups of spatially close
 // particles inside a node. Two builders, chosen with `--meshlet-builder`:
-//   pcl     PCL kd-tree neighbourhoods (the default, as issue 2 specifies). Greedy: the first
-//           unassigned particle in Morton order seeds a meshlet; its k nearest neighbours fill
-//           it with the nearest unassigned particles. For speed the node is cut into Morton runs
-//           of about kPclChunk particles (rounded to a multiple of the meshlet size), and one
-//           small kd-tree is built per run, once: O(n log C) instead of O(n log n), at a small
-//           loss of compactness (measured below). When too few of the k nearest are free, and
-//           for the last kPclScanMeshlets meshlets of a run, the nearest free particles come
-//           from an exact scan of the run's unassigned ones (the same meshlet a wider query or
-//           a tree rebuilt over the unassigned ones gives, much cheaper): the scan walks a list
-//           of the free particles that drops assigned ones as it goes and keeps the nearest in
-//           a small sorted array, so it costs what is left of the run.
+//   pcl     PCL kd-tree neighbourhoods (the default, as issue 2 specifies) over the octree
+//           leaves of capacity meshlet size (the `octree` builder's groups). The leaves, in
+//           Morton order, seed the meshlets: a seed's free particles, then, from its
+//           kPclNeighbourLeaves nearest leaves by centre (PCL's kd-tree over the leaf centres,
+//           one per node), whole leaves that still fit, nearest first, then the free particles
+//           of those leaves nearest to the seed, until the meshlet is full. A leaf taken whole
+//           leaves no remnant behind; a remnant seeds its own meshlet when its turn comes.
+//           About one kd-tree query per meshlet; nearly all meshlets are full.
 //   octree  the leaves of the implicit octree over the node's sorted Morton keys with capacity
 //           meshlet size: the same split + binary-halves merge as the nodes
 //           (octree_partition.h), O(n), no geometry queries. Meshlets are octree boxes, but
@@ -36,22 +33,11 @@ enum class MeshletBuilderKind { pcl, octree };
 const char* meshlet_builder_name(MeshletBuilderKind kind);
 std::optional<MeshletBuilderKind> parse_meshlet_builder(const std::string& name);
 
-// Particles (Morton runs) per kd-tree of the PCL builder. Measured on porous (2M particles,
-// meshlet size 16): whole node (10000) 730 ns/particle, diag/spacing 4.18; 512: 440 ns, 4.57;
-// 256: 370 ns, 4.73; 128: 290 ns, 4.91; 64: 220 ns, 5.05.
-// (Those figures are from the earlier builder that rebuilt the tree over the unassigned particles;
-// the exact scan gives the same meshlets: 10M porous, meshlet CPU 3.7 s -> 2.6 s,
-// same diag/spacing 4.78 and mean size 15.98.)
-inline constexpr uint32_t kPclChunk = 256;
-// Meshlets at the end of each run filled by the exact scan without a kd-tree query. Any value
-// gives the same meshlets (the kd-tree answer and the exact scan agree); only the cost differs.
-// Meshlet CPU seconds, porous 2M particles, one thread, runs of 256 (16 meshlets), k = 32:
-//   4: 0.54   8: 0.44   12: 0.39   16 (no kd-tree at all): 0.19
-// With the kd-tree queried directly (meshlet_pcl.cpp, PclKdTree), porous 4M raw, meshlet CPU
-// seconds over both workers, 3 runs each: 2: 0.98-1.01  4: 0.92-0.96  8: 0.75-0.83  16: 0.37-0.38.
-// With the cheap scan a query is not faster than a scan even early in a run; the kd-tree still
-// answers the first half of each run's meshlets, as issue 2 asks for PCL neighbourhoods.
-inline constexpr uint32_t kPclScanMeshlets = 8;
+// Leaves asked of the kd-tree per meshlet of the PCL builder (widened 4x while they hold too few
+// free particles). Porous 2M particles, meshlet size 16, one thread, 3 runs (docs/results/convert.md):
+//   k = 3: diag/spacing 4.10   4: 4.12   6: 4.15   8: 4.18
+// with about the same time (1.0-1.3 queries per meshlet; fewer leaves, more widening).
+inline constexpr uint32_t kPclNeighbourLeaves = 4;
 
 class MeshletBuilder {
  public:

@@ -1,5 +1,7 @@
-// Greedy kd-tree meshlets with PCL (paper 000, §6); see meshlet_builder.h and meshlet_pcl.h.
+// Octree-leaf meshlets filled from PCL kd-tree neighbourhoods (paper 000, §6); see meshlet_builder.h.
 #include "pcl/meshlet_pcl.h"
+
+#include "convert/octree_partition.h"
 
 #include <algorithm>
 #include <optional>
@@ -20,8 +22,9 @@ namespace {
 // run's tree time: 37 -> 10 us for a build and 8 queries, measured alone). This is the same
 // index over the cloud's own memory (PointXYZ's 16-byte stride), asked through the
 // single-query findNeighbors with the result set knnSearch uses below the heap threshold
-// (KNNSimpleResultSet, sorted by insertion): the same neighbours in the same order, so the
-// same meshlets (stores compared byte for byte against the pcl::KdTreeFLANN version).
+// (KNNSimpleResultSet, sorted by insertion): the same neighbours in the same order as
+// nearestKSearch (stores compared byte for byte against the pcl::KdTreeFLANN version when this
+// was introduced, 06fb563). Here the cloud is the octree leaves' centres, one tree per node.
 class PclKdTree {
  public:
   using Index = flann::KDTreeSingleIndex<flann::L2_Simple<float>>;
@@ -35,14 +38,13 @@ class PclKdTree {
   }
 
   // The k nearest points to q (k <= the cloud's size), nearest first, into idx.
-  void nearest(const pcl::PointXYZ& q, size_t k, std::vector<size_t>& idx) {
+  void nearest(const float q[3], size_t k, std::vector<size_t>& idx) {
     if (!result_ || result_k_ != k) {
       result_.emplace(k);
       result_k_ = k;
     }
     result_->clear();
-    const float p[3] = {q.x, q.y, q.z};
-    index_->findNeighbors(*result_, p, params_);
+    index_->findNeighbors(*result_, q, params_);
     idx.resize(std::min(result_->size(), k));
     dist_.resize(idx.size());
     result_->copy(idx.data(), dist_.data(), idx.size(), true);
@@ -59,143 +61,128 @@ class PclKdTree {
 }  // namespace
 
 struct PclMeshletBuilder::Impl {
-  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud{new pcl::PointCloud<pcl::PointXYZ>};
+  pcl::PointCloud<pcl::PointXYZ> centroids;  // one per octree leaf, relative to the node's first particle
   PclKdTree tree;
-  std::vector<size_t> idx;
-  std::vector<uint8_t> assigned;
-  std::vector<std::pair<float, uint32_t>> cand;  // exact fallback: (squared distance, run index)
-  std::vector<uint32_t> free_list;  // exact fallback: unassigned run indices, ascending (compacted lazily)
+  std::vector<KeyRange> leaves;
+  std::vector<uint8_t> free;   // per leaf: its particles not yet in a meshlet
+  std::vector<uint8_t> taken;  // per particle
+  std::vector<size_t> near;    // kd-tree answer: leaf indices, nearest first
+  struct Candidate {
+    double d2;  // squared distance to the seed's centre
+    uint32_t particle, leaf;
+    bool operator<(const Candidate& o) const { return d2 < o.d2 || (d2 == o.d2 && particle < o.particle); }
+  };
+  std::vector<Candidate> cand;  // top-up candidates
 
-  // Greedy meshlets over cloud[0, n) (local indices); appends base + local index to `order`.
-  void run(size_t n, size_t base, uint32_t meshlet_size, std::vector<uint32_t>& order, std::vector<uint8_t>& sizes);
+  // Appends the meshlet seeded by leaf l (free[l] > 0) to order/sizes; xyz as build_impl's;
+  // `remaining` counts the node's particles not yet in a meshlet.
+  void meshlet(size_t l, std::span<const double> xyz, uint32_t meshlet_size, size_t& remaining,
+               std::vector<uint32_t>& order, std::vector<uint8_t>& sizes);
+  void take(size_t i, size_t leaf, std::vector<uint32_t>& order) {
+    taken[i] = 1;
+    --free[leaf];
+    order.push_back(uint32_t(i));
+  }
 };
 
 PclMeshletBuilder::PclMeshletBuilder() : impl_(std::make_unique<Impl>()) {}
 PclMeshletBuilder::~PclMeshletBuilder() = default;
 
-void PclMeshletBuilder::Impl::run(size_t n, size_t base, uint32_t meshlet_size, std::vector<uint32_t>& order,
-                                  std::vector<uint8_t>& sizes) {
-  assigned.assign(n, 0);
-  free_list.resize(n);
-  for (size_t i = 0; i < n; ++i) free_list[i] = uint32_t(i);
-  if (n <= meshlet_size) {
-    for (size_t i = 0; i < n; ++i) order.push_back(uint32_t(base + i));
-    sizes.push_back(uint8_t(n));
-    return;
-  }
-  // One kd-tree over the whole run, built once, on the first query (the whole cloud: PCL's
-  // identity index mapping); a run left entirely to the exact scan builds none.
-  bool tree_built = false;
-  size_t remaining = n;
-  size_t cursor = 0;  // first possibly unassigned index in Morton order
-  // Query size: twice the meshlet size (measured on porous 10M: k 16 or 24 leave more meshlets
-  // to the exact scan below, 82% and 66% instead of 45%, for about the same total time).
-  const size_t k = std::min(n, std::max<size_t>(std::min<size_t>(2 * size_t(meshlet_size), 64), meshlet_size));
-  // The last kPclScanMeshlets meshlets of a run are filled by the exact scan below without
-  // asking the tree: late in a run most of a seed's k nearest are taken (the query comes back
-  // short), and the scan of the few free particles is cheaper than a query (meshlet_builder.h).
-  const size_t scan_below = size_t(kPclScanMeshlets) * meshlet_size;
-  while (remaining > 0) {
-    while (assigned[cursor]) ++cursor;
-    const size_t want = std::min<size_t>(meshlet_size, remaining);
-    const size_t start = order.size();
-    assigned[cursor] = 1;
-    order.push_back(uint32_t(base + cursor));
-    size_t taken = 1;
-    if (remaining <= want) {
-      for (size_t i = cursor + 1; i < n; ++i)
-        if (!assigned[i]) {
-          assigned[i] = 1;
-          order.push_back(uint32_t(base + i));
-          ++taken;
-        }
-    } else {
-      size_t found = 0;  // free neighbours other than the seed among the k nearest
-      if (remaining > scan_below) {
-        if (!tree_built) {
-          tree.build(*cloud);
-          tree_built = true;
-        }
-        tree.nearest((*cloud)[cursor], k, idx);
-        for (auto j : idx)
-          if (!assigned[size_t(j)] && ++found >= want - 1) break;
-      }
-      if (found >= want - 1) {
-        // The nearest free ones (duplicates at distance 0 may precede the seed).
-        for (auto j : idx) {
-          if (taken >= want) break;
-          const size_t u = size_t(j);
-          if (assigned[u]) continue;
-          assigned[u] = 1;
-          order.push_back(uint32_t(base + u));
-          ++taken;
-        }
-      } else {
-        // Too many of the k nearest are taken (late seeds among leftovers), or the run's tail:
-        // the nearest free particles of the run by an exact scan of the unassigned ones, ties
-        // by index. The same meshlet as widening the query or rebuilding the tree over the
-        // unassigned particles (what this did before), at a fraction of the cost: the run has
-        // at most a few hundred particles and most of them are assigned by now.
-        // The unassigned ones come from the free list, which drops the assigned entries as it
-        // is walked (so the scans cost what is left, not the run's size). The want - 1 nearest,
-        // ordered by (squared distance, index), are kept in a small sorted array while walking.
-        const auto& q = (*cloud)[cursor];
-        const size_t limit = want - 1;
-        cand.clear();
-        size_t kept = 0;
-        for (const uint32_t i : free_list) {
-          if (assigned[i] || limit == 0) continue;
-          free_list[kept++] = i;
-          const auto& p = (*cloud)[i];
-          const float dx = p.x - q.x, dy = p.y - q.y, dz = p.z - q.z;
-          const std::pair<float, uint32_t> c{dx * dx + dy * dy + dz * dz, i};
-          if (cand.size() == limit) {
-            if (!(c < cand.back())) continue;
-            cand.pop_back();
-          }
-          cand.insert(std::upper_bound(cand.begin(), cand.end(), c), c);
-        }
-        free_list.resize(kept);
-        const size_t take = cand.size();
-        for (size_t c = 0; c < take; ++c) {
-          assigned[cand[c].second] = 1;
-          order.push_back(uint32_t(base + cand[c].second));
-        }
-        taken += take;
-      }
+void PclMeshletBuilder::Impl::meshlet(size_t l, std::span<const double> xyz, uint32_t meshlet_size,
+                                      size_t& remaining, std::vector<uint32_t>& order, std::vector<uint8_t>& sizes) {
+  const size_t start = order.size();
+  double c[3] = {0, 0, 0};  // centre of the seed leaf's free particles
+  for (size_t i = leaves[l].begin; i < leaves[l].end; ++i)
+    if (!taken[i]) {
+      for (int a = 0; a < 3; ++a) c[a] += xyz[3 * i + a];
+      take(i, l, order);
     }
-    remaining -= taken;
-    sizes.push_back(uint8_t(order.size() - start));
+  const size_t have = order.size() - start;
+  for (int a = 0; a < 3; ++a) c[a] /= double(have);
+  remaining -= have;
+  size_t need = std::min<size_t>(meshlet_size - have, remaining);
+  if (need > 0) {
+    // The nearest leaves by centre, widened until they hold enough free particles (late in a
+    // node the seed's neighbourhood is mostly used up; at most the whole node).
+    const size_t leaf_count = leaves.size();
+    // The query point in the cloud's frame (relative to the node's first particle).
+    const float q[3] = {float(c[0] - xyz[0]), float(c[1] - xyz[1]), float(c[2] - xyz[2])};
+    for (size_t k = kPclNeighbourLeaves;; k *= 4) {
+      tree.nearest(q, std::min(k, leaf_count), near);
+      size_t available = 0;
+      for (const size_t j : near) available += free[j];
+      if (available >= need || k >= leaf_count) break;
+    }
+    // Whole leaves first, nearest first: a leaf taken whole leaves no remnant behind to seed
+    // a scattered meshlet later (porous 2M: diag/spacing 4.37 -> 4.12).
+    for (const size_t j : near) {
+      if (free[j] == 0 || free[j] > need) continue;
+      need -= free[j];
+      remaining -= free[j];
+      for (size_t i = leaves[j].begin; i < leaves[j].end; ++i)
+        if (!taken[i]) take(i, j, order);
+      if (need == 0) break;
+    }
+    // The rest: the free particles of those leaves nearest to the seed's centre; ties by index.
+    if (need > 0) {
+      cand.clear();
+      for (const size_t j : near) {
+        if (free[j] == 0) continue;
+        for (size_t i = leaves[j].begin; i < leaves[j].end; ++i) {
+          if (taken[i]) continue;
+          const double dx = xyz[3 * i] - c[0], dy = xyz[3 * i + 1] - c[1], dz = xyz[3 * i + 2] - c[2];
+          cand.push_back({dx * dx + dy * dy + dz * dz, uint32_t(i), uint32_t(j)});
+        }
+      }
+      const size_t count = std::min(need, cand.size());
+      std::partial_sort(cand.begin(), cand.begin() + ptrdiff_t(count), cand.end());
+      for (size_t t = 0; t < count; ++t) take(cand[t].particle, cand[t].leaf, order);
+      remaining -= count;
+    }
   }
+  sizes.push_back(uint8_t(order.size() - start));
 }
 
-Status PclMeshletBuilder::build_impl(std::span<const uint64_t> /*keys*/, std::span<const double> xyz,
+Status PclMeshletBuilder::build_impl(std::span<const uint64_t> keys, std::span<const double> xyz,
                                      uint32_t meshlet_size, std::vector<uint32_t>& order,
                                      std::vector<uint8_t>& sizes) {
-  const size_t n = xyz.size() / 3;
-  // Morton runs of `chunk` particles, a multiple of the meshlet size, each with its own small
-  // kd-tree; a short tail run is folded into the previous run so no run is tiny.
-  const size_t chunk = std::max<size_t>(kPclChunk / meshlet_size, 1) * meshlet_size;
-  auto& cloud = *impl_->cloud;
-  for (size_t s = 0; s < n;) {
-    size_t e = std::min(n, s + chunk);
-    if (n - e < chunk / 2) e = n;
-    const size_t m = e - s;
-    // Positions relative to the run's first particle, as float: keeps full float precision
-    // for far-from-origin data (coordinates of 1e6 with sub-unit spacing).
-    const double o[3] = {xyz[3 * s], xyz[3 * s + 1], xyz[3 * s + 2]};
-    cloud.resize(m);
-    for (size_t i = 0; i < m; ++i) {
-      const double* p = &xyz[3 * (s + i)];
-      cloud[i].x = float(p[0] - o[0]);
-      cloud[i].y = float(p[1] - o[1]);
-      cloud[i].z = float(p[2] - o[2]);
+  auto& m = *impl_;
+  const size_t n = keys.size();
+  // 1. The octree leaves of capacity meshlet_size over the node's sorted keys (O(n)).
+  m.leaves.clear();
+  octree_partition(keys, common_cell_level(keys.front(), keys.back()), meshlet_size, m.leaves);
+  const size_t leaf_count = m.leaves.size();
+  // 2. The leaves' centres as a PCL cloud, relative to the node's first particle, as float
+  //    (keeps full float precision for far-from-origin data: coordinates of 1e6 with
+  //    sub-unit spacing). Distances between particles are taken in double.
+  m.centroids.resize(leaf_count);
+  m.free.resize(leaf_count);
+  for (size_t l = 0; l < leaf_count; ++l) {
+    const KeyRange r = m.leaves[l];
+    double c[3] = {0, 0, 0};
+    for (size_t i = r.begin; i < r.end; ++i)
+      for (int a = 0; a < 3; ++a) c[a] += xyz[3 * i + a];
+    const double inv = 1.0 / double(r.size());
+    m.centroids[l].x = float(c[0] * inv - xyz[0]);
+    m.centroids[l].y = float(c[1] * inv - xyz[1]);
+    m.centroids[l].z = float(c[2] * inv - xyz[2]);
+    m.free[l] = uint8_t(r.size());
+  }
+  m.centroids.width = uint32_t(leaf_count);
+  m.centroids.height = 1;
+  m.centroids.is_dense = true;
+  m.taken.assign(n, 0);
+  // 3. Meshlets seeded by the leaves in Morton order; the kd-tree is built on the first query
+  //    (a node whose leaves are all full needs none).
+  bool tree_built = false;
+  size_t remaining = n;
+  for (size_t l = 0; l < leaf_count && remaining > 0; ++l) {
+    if (m.free[l] == 0) continue;
+    if (!tree_built && m.free[l] < meshlet_size) {
+      m.tree.build(m.centroids);
+      tree_built = true;
     }
-    cloud.width = uint32_t(m);
-    cloud.height = 1;
-    cloud.is_dense = true;
-    impl_->run(m, s, meshlet_size, order, sizes);
-    s = e;
+    m.meshlet(l, xyz, meshlet_size, remaining, order, sizes);
   }
   return {};
 }

@@ -1,4 +1,4 @@
-// The `pcl` meshlet builder: greedy k-nearest-neighbour meshlets with the Point Cloud
+// The `pcl` meshlet builder: octree leaves filled from k-nearest-leaf neighbourhoods of the Point Cloud
 // Library's kd-tree (paper 000, §6 "Meshlet generation"); see meshlet_builder.h. This is the
 // only place that includes PCL; the builder keeps its point cloud and kd-tree between calls.
 // Built into libmdstream_pcl.so (convert/meshlet_pcl_module.h), which the converter opens only

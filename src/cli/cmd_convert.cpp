@@ -166,7 +166,8 @@ void setup_convert(CLI::App& sub, int& exit_code) {
   sub.add_option("--node-size", args->node_size, "Maximum particles per node (1..65535)")->capture_default_str();
   sub.add_option("--meshlet-size", args->meshlet_size, "Particles per meshlet (1..255)")->capture_default_str();
   sub.add_option("--meshlet-builder", args->meshlet_builder,
-                 "Meshlet builder: pcl (greedy PCL kd-tree neighbourhoods) or octree (leaves of the implicit octree "
+                 "Meshlet builder: pcl (octree leaves filled to the meshlet size from PCL kd-tree neighbourhoods) or "
+                 "octree (the leaves of the implicit octree "
                  "over Morton keys: much faster, smaller meshlets; compare the quality in the summary)")
       ->capture_default_str();
   sub.add_option("--radius", args->radius, "Radius of every type without its own (--radius-by-type, MMPLD list radius)")
