@@ -413,6 +413,36 @@ TEST(MeshletBuilder, BothWorkFarFromOriginAndOnDegenerateData) {
   }
 }
 
+// Random nodes of many sizes and shapes (clusters, duplicates, a line), every meshlet size
+// class: both builders partition them (check_meshlets), and the PCL builder's widening of the
+// kd-tree query (late seeds whose neighbourhood is used up, nodes of two or three leaves) still
+// fills its meshlets.
+TEST(MeshletBuilder, PartitionsRandomNodesOfManySizes) {
+  std::mt19937_64 rng(31);
+  const uint32_t meshlet_sizes[] = {2, 5, 16, 31, 64};
+  for (int trial = 0; trial < 40; ++trial) {
+    const size_t n = 3 + rng() % 3000;
+    const uint32_t msize = meshlet_sizes[trial % 5];
+    std::vector<SpillRecord> recs;
+    std::normal_distribution<double> g(0, 1);
+    const int clusters = 1 + int(rng() % 4);
+    for (size_t i = 0; i < n; ++i) {
+      const double c = 20.0 * double(i % size_t(clusters));
+      switch (trial % 3) {
+        case 0: recs.push_back({c + g(rng), g(rng), g(rng), 1, 0.5f}); break;
+        case 1: recs.push_back({double(rng() % 7), double(rng() % 5), 0.0, 1, 0.5f}); break;  // duplicates
+        default: recs.push_back({c + 0.01 * double(i), 0.0, 0.0, 1, 0.5f}); break;             // a line
+      }
+    }
+    SCOPED_TRACE(testing::Message() << "trial " << trial << ", n " << n << ", meshlet size " << msize);
+    const NodeData d = node_data(recs);
+    const auto oct = check_meshlets(MeshletBuilderKind::octree, d, msize);
+    const auto pcl = check_meshlets(MeshletBuilderKind::pcl, d, msize);
+    // Only a node's last meshlets can stay short: at least as full as the octree leaves.
+    EXPECT_GE(pcl.mean_size + 1e-9, oct.mean_size);
+  }
+}
+
 TEST(MeshletBuilder, RejectsBadArguments) {
   for (auto kind : kBothBuilders) {
     auto mb = std::move(make_meshlet_builder(kind).value());
