@@ -268,7 +268,7 @@ def write_results(args, rows, info, load_before, load_after):
                  "type), written from the dump outside the timed region. bytes/particle = store size / "
                  "particles; max quantization error in length units (`err/half-step` <= 1 is the requirement). "
                  "Meshlet quality: `diag/spacing` = mean over meshlets of the meshlet's bounding-box diagonal divided "
-                 "by its node's mean particle spacing (node box volume / particles)^(1/3) (lower = more compact), "
+                 "by its node's mean particle spacing (V / n)^(1/d), V the node box volume over its d non-flat axes (lower = more compact), "
                  "`size` = mean particles per meshlet (capacity 16). Stage columns (medians, from the report): read = "
                  "parse + validate (wall), sort = Morton keys + radix sort (wall), meshlets / encode = CPU seconds "
                  "summed over the worker threads.\n")

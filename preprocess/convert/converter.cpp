@@ -326,8 +326,9 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
                                 o.density.target_voxels ? o.density.target_voxels : default_density_target(scan.count));
   ctx.density = DensityGrid(scan.lo, scan.hi, dims);
   {
-    // Nodes hold node_size/8..node_size particles (octree cells and merged siblings); a node
-    // touches a few voxels per 1000 particles, a voxel a few nodes.
+    // Nodes hold 1..node_size particles, mostly more than node_size/8 (an octree cell's
+    // children, or merged siblings): a reserve for 8 x count / node_size nodes; a node touches
+    // a few voxels per 1000 particles, a voxel a few nodes. (Only a reservation: tables grow.)
     const uint64_t voxels = uint64_t(dims[0]) * dims[1] * dims[2];
     writer->reserve(8 * scan.count / std::max<uint32_t>(o.node_size, 1) + 64,
                     std::min<uint64_t>(scan.count, 4 * voxels + 64 * (scan.count / std::max<uint32_t>(o.node_size, 1))));

@@ -1,11 +1,11 @@
 // The conversion pipeline: simulation dumps -> the node/meshlet store (.mds).
 //   Pass A  parse every input once, validate, spill 32-byte records to a temporary file (or
 //           keep them in memory when they fit the budget); global bounds, counts, types.
+//           Reading runs on its own thread, two batches ahead of the validation (input_scan.h).
 //           One raw float32 input that fits the budget is not copied: it is mapped, validated
-//           in place on all threads (scan_raw_mapped), and the build reads the mapping
-//           (record_view.h).
+//           in place on all threads (scan_raw_mapped), and sorted into a new array of its
+//           positions (xyz_sort.h), which the build reads (record_view.h).
 //   Pass B  scatter the spill file into Morton-prefix bins that fit the budget (binning.h).
-//           Reading runs on its own thread, one batch ahead of the validation (input_scan.h).
 //   Build   per bin: Morton keys (split across the threads) + parallel radix sort of
 //           (key, index) (radix_sort.h), nodes (node_builder.h), then on worker threads per
 //           node: meshlets (meshlet_builder.h: PCL kd-tree or octree leaves), 16-bit
@@ -79,8 +79,8 @@ struct ConvertReport {
   //   partition  pass B (out of core only)
   //   load       reading bins back (out of core; overlapped with the build of the previous bin
   //              after the first, then only the wait for it counts here)
-  //   keys       Morton keys (parallel)
-  //   sort       radix sort (parallel)
+  //   sort       in memory: Morton keys + parallel radix sort (or the raw positions' sort);
+  //              out of core the keys and the sort of each bin are in `load`
   //   nodes      node partition + workers (gather, meshlets, quantize, voxel lists, encode) + ordered append
   //   finish     store sections, fsync, rename
   struct Stage {

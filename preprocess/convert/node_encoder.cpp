@@ -358,13 +358,6 @@ Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker
 }
 
 Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
-                 std::span<const uint64_t> keys, std::span<const uint32_t> perm, const RawXyzRecords& recs,
-                 int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress) {
-  return build_bin_impl(ctx, workers, build_nodes(keys, start_level, ctx.node_size),
-                        PermSource<RawXyzRecords>{keys, perm, &recs}, writer, tot, progress);
-}
-
-Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
                  const SortedXyzRecords& recs, const MortonGrid& grid, int start_level, store::StoreWriter& writer,
                  BuildTotals& tot, Progress& progress) {
   if (ctx.per_particle_radius) return make_error(Errc::internal, "build_bin: sorted raw positions carry no radii");

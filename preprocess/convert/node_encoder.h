@@ -80,11 +80,6 @@ struct NodeWorker {
 Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
                  std::span<const uint64_t> keys, std::span<const uint32_t> perm, std::span<const SpillRecord> recs,
                  int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress);
-// The same over the mapped raw float32 input (record_view.h).
-Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
-                 std::span<const uint64_t> keys, std::span<const uint32_t> perm, const RawXyzRecords& recs,
-                 int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress);
-
 // The same over the raw positions sorted by their keys in `grid` (xyz_sort.h; identity
 // permutation). The keys are computed where needed (nodes, meshlets), not read from an array.
 Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,

@@ -1,9 +1,8 @@
-// Random access to the converter's particle records during the build: either the 32-byte
-// records of pass A (spill.h) or, for one raw float32 input that fits the budget, the mapped
-// input file itself (3 floats per particle, one type, one radius): the build then reads the
-// 12-byte input directly instead of a 32-byte copy of it (no record array to write, map and
-// read back). Both give a SpillRecord per index. SortedXyzRecords: that input after the Morton
-// sort moved its positions (xyz_sort.h).
+// Views of the converter's particle records: the 32-byte records of pass A (spill.h), and, for
+// one raw float32 input that fits the budget, the mapped input file itself (3 floats per
+// particle, one type, one radius; no 32-byte copy is written). Both give a SpillRecord per
+// index; the mapped input is scanned and sorted in place (input_scan.h, xyz_sort.h), and the
+// build reads SortedXyzRecords, the copy of its positions that the Morton sort wrote.
 #pragma once
 
 #include <cstddef>

@@ -180,7 +180,8 @@ void setup_convert(CLI::App& sub, int& exit_code) {
                  "Peak working memory, e.g. 512MiB, 2GiB, 1.5G; inputs larger than this are partitioned through "
                  "temporary files")
       ->capture_default_str();
-  sub.add_option("--threads", args->threads, "Worker threads for meshlet building and encoding")->capture_default_str();
+  sub.add_option("--threads", args->threads, "Threads for the raw input's scan and sort, the Morton keys and radix sort, and the per-node work "
+                 "(meshlets, quantization, encoding); text is parsed on the hardware threads (at most 8)")->capture_default_str();
   sub.add_option("--tmp-dir", args->tmp_dir, "Directory for temporary files (default: the output's directory)");
   sub.add_flag("-q,--quiet", args->quiet, "Print nothing but errors");
   sub.add_option("--json-report", args->json_report, "Also write the conversion report as JSON to this file");
