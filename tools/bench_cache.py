@@ -17,6 +17,7 @@ import csv
 import json
 import os
 import shutil
+import statistics
 import sys
 import time
 
@@ -24,6 +25,10 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_common import fmt_bytes, machine_info, make_store, newest_mdstream, open_work, parse_count, sh  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def median_or_none(values):
+    return statistics.median(values) if values else None
 
 
 def stress(mds, store, budget, path, policy, args, work, log, extra=()):
@@ -67,6 +72,10 @@ def main():
     ap.add_argument("--dense-variants", default=",--front-node-alone false",
                     help="comma-separated extra `stress` options of the dense-view runs; the first one (default: "
                          "none) gives the 8x ratio")
+    ap.add_argument("--dense-repeats", type=int, default=3,
+                    help="runs of the first dense variant at 1x and 8x data, alternating; the 8x ratio is the ratio "
+                         "of their median converged frames (one run's converged frame moves by up to a third on the "
+                         "2-core VM)")
     ap.add_argument("--out", default=os.path.join(REPO, "docs", "results"))
     ap.add_argument("--work", default=None, help="scratch folder (default: a temporary one, removed)")
     args = ap.parse_args()
@@ -135,16 +144,25 @@ def main():
                     "seconds": j["_seconds"],
                 })
         # Dense held view from a cold cache: bytes read to converge vs bytes the converged view wants.
-        for wn in variants:
-            print(f"  {scene} dense {args.dense_view} {wn or 'default'} ...", file=sys.stderr, flush=True)
-            d = stress(mds, store, budget, args.dense_view, "occlusion", args, work, log, ["--frames", "1"] + wn.split())
-            dense[(scene, 1, wn)] = (store, store_bytes, budget, d)
-        if not args.no_scale:
-            big = make_store(mds, work, scene, args.particles * 8, args.node_size, log)
-            for wn in variants:
-                print(f"  {scene} dense {args.dense_view}, 8x data, {wn or 'default'} ...", file=sys.stderr, flush=True)
-                d8 = stress(mds, big, budget, args.dense_view, "occlusion", args, work, log, ["--frames", "1"] + wn.split())
-                dense[(scene, 8, wn)] = (big, os.path.getsize(big), budget, d8)
+        # The first variant runs --dense-repeats times at 1x and at 8x data, alternating (load drifts
+        # hit both sides); its table row is the first run, its converged frame the median.
+        big = None if args.no_scale else make_store(mds, work, scene, args.particles * 8, args.node_size, log)
+        sides = [(1, store)] + ([(8, big)] if big else [])
+        for i, wn in enumerate(variants):
+            repeats = max(1, args.dense_repeats) if i == 0 else 1
+            for r in range(repeats):
+                for scale, st in sides:
+                    print(f"  {scene} dense {args.dense_view}, {scale}x data, {wn or 'default'}"
+                          f"{f' (run {r + 1} of {repeats})' if repeats > 1 else ''} ...", file=sys.stderr, flush=True)
+                    d = stress(mds, st, budget, args.dense_view, "occlusion", args, work, log,
+                               ["--frames", "1"] + wn.split())
+                    if r == 0:
+                        d["_frame_runs"] = []
+                        dense[(scene, scale, wn)] = (st, os.path.getsize(st), budget, d)
+                    first = dense[(scene, scale, wn)][3]
+                    if d["converged_frame_ms"] is not None:
+                        first["_frame_runs"].append((d["converged_frame_ms"], d["converged_frame_gpu_ms"]))
+        if big:
             os.remove(big)
 
     # --- outputs ---
@@ -168,7 +186,9 @@ def main():
                 "ratio_visible": v.get("bytes_read_over_visible"),
                 "nodes": d["nodes"], "nodes_never_loaded": d["nodes_never_loaded"],
                 "wanted_nodes": v.get("wanted_nodes_at_convergence"),
-                "converged_frame_ms": d["converged_frame_ms"], "converged_frame_gpu_ms": d["converged_frame_gpu_ms"],
+                "converged_frame_ms": median_or_none([w for w, _ in d["_frame_runs"]]),
+                "converged_frame_gpu_ms": median_or_none([g for _, g in d["_frame_runs"]]),
+                "converged_frame_runs_ms": [round(w, 2) for w, _ in d["_frame_runs"]],
                 "gpu_peak_bytes": d["gpu_peak_bytes"], "budget_exhausted": bool(d.get("budget_exhausted")),
             })
     plot(rows, runs, scenes, paths, policies, args.out, dyn_paths)
@@ -319,7 +339,9 @@ def write_md(rows, dense_rows, args, mds, scenes, seconds, variants):
              "and read / visible describe an incomplete image. *Variant* = extra `stress` options: `default`, "
              "and `--front-node-alone false` (a wave at rest whose first node is large on screen and dense no "
              "longer reads it alone; docs/streaming.md, \"Wave size\"). Issue targets: read / visible <= 1.25; "
-             "converged frame at 8x data <= 1.5x (default).\n")
+             "converged frame at 8x data <= 1.5x (default). *Converged frame ms*: for the default variant the median "
+             f"over {max(1, args.dense_repeats)} runs at 1x and 8x data, alternating (the other columns are its first "
+             "run's); one run for the other variants.\n")
     L.append("| scene | particles | variant | store | budget | pool held the view | converged | frames | ms | bytes read "
              "| wanted bytes | read / wanted | visible bytes | read / visible | wanted nodes / nodes | never loaded "
              "| converged frame ms (wall / GPU) |")
@@ -344,8 +366,15 @@ def write_md(rows, dense_rows, args, mds, scenes, seconds, variants):
         b = next((d for d in dense_rows if d["scene"] == scene and d["particles"] == args.particles * 8
                   and d["variant"] == (variants[0] or "default")), None)
         if a and b and a["converged_frame_ms"] and b["converged_frame_ms"]:
+            runs_note = ""
+            if len(a["converged_frame_runs_ms"]) > 1 or len(b["converged_frame_runs_ms"]) > 1:
+                runs_note = (f" Medians of {len(a['converged_frame_runs_ms'])} / {len(b['converged_frame_runs_ms'])} runs, "
+                             f"alternating; wall ms per run 1x {', '.join(f'{v:.1f}' for v in a['converged_frame_runs_ms'])}, "
+                             f"8x {', '.join(f'{v:.1f}' for v in b['converged_frame_runs_ms'])}.")
+            verdict = "met" if b["converged_frame_ms"] / a["converged_frame_ms"] <= 1.5 else "**not met**"
             L.append(f"\n{scene}: converged frame at 8x data / 1x = {b['converged_frame_ms'] / a['converged_frame_ms']:.2f} "
-                     f"(wall), {b['converged_frame_gpu_ms'] / max(a['converged_frame_gpu_ms'], 1e-9):.2f} (GPU).")
+                     f"(wall; target <= 1.5: {verdict}), "
+                     f"{b['converged_frame_gpu_ms'] / max(a['converged_frame_gpu_ms'], 1e-9):.2f} (GPU).{runs_note}")
         elif a and b:
             L.append(f"\n{scene}: 8x data did not converge within the settle frames at this budget; no ratio.")
     for d in dense_rows:
