@@ -72,6 +72,10 @@ def main():
     ap.add_argument("--dense-variants", default=",--front-node-alone false",
                     help="comma-separated extra `stress` options of the dense-view runs; the first one (default: "
                          "none) gives the 8x ratio")
+    ap.add_argument("--path-repeats", type=int, default=3,
+                    help="runs of each occlusion-policy path (the rows of the targets table), one after the other; the "
+                         "targets use the medians of p99/p50 and of hit rate / Belady (a 48-frame path's p99/p50 "
+                         "moves by up to 1.5 between runs on the 2-core VM); the other columns are the first run's")
     ap.add_argument("--dense-repeats", type=int, default=3,
                     help="runs of the first dense variant at 1x and 8x data, alternating; the 8x ratio is the ratio "
                          "of their median converged frames (one run's converged frame moves by up to a third on the "
@@ -117,6 +121,15 @@ def main():
                            (["--dynamic-resolution"] if dynamic else []) + ([] if known else ["--known-path", "false"]))
                 if known:
                     runs[(scene, path, policy, res)] = j
+                extra_runs = []
+                if policy == "occlusion":
+                    for r in range(1, max(1, args.path_repeats)):
+                        print(f"  {scene} {path} {policy} {res}{'' if known else ' motion learned'} "
+                              f"(run {r + 1} of {args.path_repeats}) ...", file=sys.stderr, flush=True)
+                        extra_runs.append(stress(mds, store, budget, path, policy, args, work, log,
+                                                 (["--dynamic-resolution"] if dynamic else [])
+                                                 + ([] if known else ["--known-path", "false"])))
+                all_runs = [j] + extra_runs
                 ev = j["evictions"]
                 b = j["bound"]
                 rows.append({
@@ -135,6 +148,9 @@ def main():
                     "upload_stalls": j["upload_stalls"],
                     "frame_ms_p50": j["frame_ms"]["p50"], "frame_ms_p99": j["frame_ms"]["p99"],
                     "frame_ms_max": j["frame_ms"]["max"], "p99_over_p50": j["frame_ms"]["p99_over_p50"],
+                    "p99_over_p50_runs": [round(x["frame_ms"]["p99_over_p50"], 3) for x in all_runs],
+                    "hit_over_belady_runs": [round(x["hit_rate"] / x["bound"]["belady"]["hit_rate"], 4)
+                                             if x["bound"]["belady"]["hit_rate"] > 0 else None for x in all_runs],
                     "streaming_frame_ms_p50": j["streaming_frame_ms"]["p50"],
                     "streaming_frame_ms_p99": j["streaming_frame_ms"]["p99"],
                     "streaming_frames": j["streaming_frame_ms"]["frames"],
@@ -295,14 +311,22 @@ def write_md(rows, dense_rows, args, mds, scenes, seconds, variants):
     L.append("Targets of issue 4: hit rate within 5 % of Belady; p99 frame time <= 2x the median while streaming.\n")
     occ = [r for r in rows if r["policy"] == "occlusion"]
     if occ:
-        L.append("| scene | path | resolution | path known | occlusion hit rate / Belady | p99/p50 (path) | hit rate target | p99 target |")
-        L.append("|---|---|---|---|---|---|---|---|")
+        n_runs = max(len(r["p99_over_p50_runs"]) for r in occ)
+        if n_runs > 1:
+            L.append(f"Medians of {n_runs} runs of each path, one after the other (the runs in the last two columns); "
+                     "the tables above show the first run.\n")
+        L.append("| scene | path | resolution | path known | occlusion hit rate / Belady | p99/p50 (path) | hit rate target "
+                 "| p99 target | hit rate / Belady per run | p99/p50 per run |")
+        L.append("|---|---|---|---|---|---|---|---|---|---|")
         for r in occ:
-            rel = r["hit_rate"] / r["belady_hit_rate"] if r["belady_hit_rate"] > 0 else float("nan")
+            rels = [x for x in r["hit_over_belady_runs"] if x is not None]
+            rel = statistics.median(rels) if rels else float("nan")
+            p99 = statistics.median(r["p99_over_p50_runs"])
             ok = lambda c: "met" if c else "**not met**"
             kn = "yes" if r["path_known"] else "no"
-            L.append(f"| {r['scene']} | {r['path']} | {r['resolution']} | {kn} | {rel:.3f} | {r['p99_over_p50']:.2f} "
-                     f"| {ok(rel >= 0.95)} | {ok(r['p99_over_p50'] <= 2.0)} |")
+            L.append(f"| {r['scene']} | {r['path']} | {r['resolution']} | {kn} | {rel:.3f} | {p99:.2f} "
+                     f"| {ok(rel >= 0.95)} | {ok(p99 <= 2.0)} "
+                     f"| {', '.join(f'{x:.3f}' for x in rels)} | {', '.join(f'{x:.2f}' for x in r['p99_over_p50_runs'])} |")
         L.append("")
         for r in occ:
             # A path p99 far above the median while the frames still streaming stay within 2x of it:
