@@ -34,7 +34,8 @@ const char* meshlet_builder_name(MeshletBuilderKind kind);
 std::optional<MeshletBuilderKind> parse_meshlet_builder(const std::string& name);
 
 // Leaves asked of the kd-tree per meshlet of the PCL builder (widened 4x while they hold too few
-// free particles). Porous 2M particles, meshlet size 16, one thread, 3 runs (docs/results/convert.md):
+// free particles). Measured on the builder alone (porous 2M particles, meshlet size 16, one
+// thread; the variants tried are in docs/results/convert.md):
 //   k = 3: diag/spacing 4.10   4: 4.12   6: 4.15   8: 4.18
 // with about the same time (1.0-1.3 queries per meshlet; fewer leaves, more widening).
 inline constexpr uint32_t kPclNeighbourLeaves = 4;
