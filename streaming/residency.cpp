@@ -122,20 +122,30 @@ int evict_group(uint8_t cls) { return cls == kClassO ? 0 : cls == kClassM ? 1 : 
 int fetch_group(uint8_t cls) { return cls == kClassP ? 0 : cls == kClassL ? 1 : 2; }
 }  // namespace
 
-bool ResidencyTable::evict_before(uint32_t a, uint32_t b) const {
-  const NodeState& x = nodes_[a];
-  const NodeState& y = nodes_[b];
+bool ResidencyTable::evict_before(const NodeState& x, uint32_t a, const NodeState& y, uint32_t b) const {
   switch (policy_) {
-    case Policy::occlusion:
+    case Policy::occlusion: {
+      // Within a group, a node outside the view (not in the frustum, not in a next view) before
+      // one in it: an occluded node in the frustum may show through a gap as the camera moves,
+      // one the camera has passed only comes back when it turns.
+      const int vx = x.in_frustum || x.ahead > 0, vy = y.in_frustum || y.ahead > 0;
       // farthest first: compare -distance
-      return std::make_tuple(evict_group(x.cls), x.last_use, x.ahead, -x.distance, a) <
-             std::make_tuple(evict_group(y.cls), y.last_use, y.ahead, -y.distance, b);
+      return std::make_tuple(evict_group(x.cls), vx, x.last_use, x.ahead, -x.distance, a) <
+             std::make_tuple(evict_group(y.cls), vy, y.last_use, y.ahead, -y.distance, b);
+    }
     case Policy::lru:
       return std::make_tuple(x.last_use, x.ahead, -x.distance, a) < std::make_tuple(y.last_use, y.ahead, -y.distance, b);
     case Policy::fifo:
       return std::make_tuple(x.load_seq, a) < std::make_tuple(y.load_seq, b);
   }
   return a < b;
+}
+
+bool ResidencyTable::evicted_before(uint32_t a, uint32_t b, uint64_t frame) const {
+  NodeState y = nodes_[b];
+  y.last_use = frame;
+  y.load_seq = load_counter_ + 1;
+  return evict_before(nodes_[a], a, y, b);
 }
 
 bool ResidencyTable::fetch_before(uint32_t a, uint32_t b) const {
@@ -166,7 +176,7 @@ std::vector<uint32_t> ResidencyTable::eviction_order() const {
   std::vector<uint32_t> out;
   for (uint32_t i = 0; i < nodes_.size(); ++i)
     if (nodes_[i].residency == Residency::resident) out.push_back(i);
-  std::sort(out.begin(), out.end(), [&](uint32_t a, uint32_t b) { return evict_before(a, b); });
+  std::sort(out.begin(), out.end(), [&](uint32_t a, uint32_t b) { return evict_before(nodes_[a], a, nodes_[b], b); });
   return out;
 }
 

@@ -5,8 +5,9 @@
 // the main occluders) and §8 (future work: a GPU cache for data larger than GPU memory), with
 // Grottel et al. §3.1 (the visible cells of the previous frame are the first occluders; front to
 // back order).
-//   eviction (policy occlusion): O first, then M, then L/P; within a group least recently used
-//            first, then farthest first;
+//   eviction (policy occlusion): O first, then M, then L/P; within a group the nodes outside the
+//            view (not in the frustum nor in a next view) first, then least recently used first,
+//            then farthest first;
 //   prefetch (policy occlusion): P, then L, then M (M is drawn but is no occluder), front to
 //            back (smaller distance first), larger projected size first among equal distances;
 //            O nodes are never requested, so a node classified O before it was ever loaded is
@@ -107,13 +108,17 @@ class ResidencyTable {
   uint64_t evictable_bytes(uint64_t protect_frame, int64_t incoming = -1) const;
   // Whether `incoming` may take the place of resident node `resident` drawn this frame.
   bool displaces(uint32_t incoming, uint32_t resident) const { return fetch_before(incoming, resident); }
+  // Whether resident node `a` comes before node `b` in the eviction order, were `b` resident,
+  // placed and used in frame `frame` (a read that arrived for a node no longer wanted: it is
+  // kept only at the expense of nodes evicted before it).
+  bool evicted_before(uint32_t a, uint32_t b, uint64_t frame) const;
 
   uint64_t resident_bytes() const { return resident_bytes_; }
   size_t resident_count() const { return resident_count_; }
   size_t never_loaded_count() const;
 
  private:
-  bool evict_before(uint32_t a, uint32_t b) const;
+  bool evict_before(const NodeState& x, uint32_t a, const NodeState& y, uint32_t b) const;
   bool fetch_before(uint32_t a, uint32_t b) const;
 
   std::vector<NodeState> nodes_;

@@ -188,3 +188,35 @@ TEST(StreamingResidency, LookAheadFetchesPersistentNodesFirstAndIncomingNodesLas
   EXPECT_EQ(order.front(), 0u);
   EXPECT_EQ(order.back(), 1u);  // stays 3 views, nearer than 2
 }
+
+// Within the O group, nodes outside the view (not in the frustum, in no next view) go first: an
+// occluded node in the frustum may show through a gap as the camera moves on, a node the camera
+// has passed only comes back when it turns. evicted_before() ranks a node not yet resident as if
+// it were placed and used in the given frame (a late arrival, StreamSettings::keep_late_arrivals).
+TEST(StreamingResidency, OccludedNodesOutsideTheViewEvictedBeforeOccludedNodesInIt) {
+  ResidencyTable t(std::vector<uint64_t>(6, 100), Policy::occlusion);
+  // node: in frustum, ahead, last use
+  struct S { bool in; uint8_t ahead; uint64_t use; };
+  const S s[5] = {{true, 0, 2}, {false, 0, 9}, {false, 2, 1}, {true, 3, 5}, {false, 0, 4}};
+  for (uint32_t i = 0; i < 5; ++i) {
+    load(t, i);
+    t.set_class(i, kClassO);
+    t.touch(i, s[i].use);
+    t.set_view(i, 1.0f, 1.0f, s[i].in);
+    t.set_ahead(i, s[i].ahead);
+  }
+  // Outside the view: 4 (use 4), 1 (use 9); in it or ahead: 2 (use 1), 0 (use 2), 3 (use 5).
+  EXPECT_EQ(t.eviction_order(), (std::vector<uint32_t>{4, 1, 2, 0, 3}));
+  // Node 5, occluded in the frustum, arriving in frame 10: after every resident node in the view
+  // used before frame 10; a node outside the view comes first whatever its last use.
+  t.set_class(5, kClassO);
+  t.set_view(5, 1.0f, 1.0f, true);
+  for (uint32_t i = 0; i < 5; ++i) EXPECT_TRUE(t.evicted_before(i, 5, 10)) << i;
+  EXPECT_FALSE(t.evicted_before(3, 5, 4));  // node 3 (used in frame 5) after a use in frame 4
+  EXPECT_TRUE(t.evicted_before(1, 5, 4));   // outside the view
+  // A P node in the frustum stays after every O node.
+  load(t, 5);
+  t.set_class(5, kClassP);
+  t.touch(5, 0);
+  EXPECT_EQ(t.eviction_order().back(), 5u);
+}

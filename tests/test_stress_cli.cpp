@@ -410,6 +410,52 @@ TEST_F(StressCli, FlyingIntoTheBlockKeepsWantingTheNodesAhead) {
   EXPECT_TRUE(j["final_view"]["converged"].get<bool>());
 }
 
+// --keep-late-arrivals: a read that arrives for a node found occluded meanwhile is placed
+// (counted in late_arrivals_kept) or, with false, dropped. --trace writes the demand that the
+// offline bounds replay: one row per frame and wanted node, as many as the hits and misses.
+TEST_F(StressCli, LateArrivalsAndTheDemandTrace) {
+  const uint64_t budget = fs::file_size(store()) / 4;
+  for (const bool keep : {true, false}) {
+    SCOPED_TRACE(keep);
+    const fs::path js = dir_ / "late.json", tr = dir_ / "late.csv";
+    ASSERT_EQ(run("stress " + store() + " --gpu-budget " + std::to_string(budget) +
+                  " --path flythrough --frames 16 --settle-frames 40 --keep-late-arrivals " + (keep ? "true" : "false") +
+                  " --json " + js.string() + " --trace " + tr.string() + small()),
+              0)
+        << last_stderr();
+    std::ifstream f(js);
+    const auto j = nlohmann::json::parse(f);
+    check_report(j, budget);
+    const uint64_t kept = j["late_arrivals_kept"];
+    if (keep)
+      EXPECT_LE(kept, j["nodes_loaded"].get<uint64_t>());
+    else
+      EXPECT_EQ(kept, 0u);
+
+    std::istringstream lines(slurp(tr));
+    std::string line;
+    ASSERT_TRUE(std::getline(lines, line));
+    EXPECT_EQ(line, "frame,node,bytes");
+    const size_t frames_total = j["frames_total"];
+    std::vector<uint64_t> per_frame(frames_total, 0);
+    uint64_t rows = 0;
+    while (std::getline(lines, line)) {
+      const auto v = split_csv_line(line);
+      ASSERT_EQ(v.size(), 3u) << line;
+      const size_t frame = std::stoull(v[0]);
+      ASSERT_LT(frame, frames_total) << line;
+      EXPECT_LT(std::stoull(v[1]), j["nodes"].get<uint64_t>()) << line;
+      EXPECT_GT(std::stoull(v[2]), 0u) << line;
+      ++per_frame[frame];
+      ++rows;
+    }
+    EXPECT_EQ(rows, j["cache_hits"].get<uint64_t>() + j["cache_misses"].get<uint64_t>());
+    for (size_t k = 0; k < frames_total; ++k)
+      EXPECT_EQ(per_frame[k], j["per_frame"]["hits"][k].get<uint64_t>() + j["per_frame"]["misses"][k].get<uint64_t>())
+          << "frame " << k;
+  }
+}
+
 TEST_F(StressCli, DynamicResolutionScalesOnlyMovingFrames) {
   // An unreachable target (1 us: an NVIDIA H200 renders these frames in under 1 ms, so 1 ms was
   // reachable there) drives every moving frame after the first to --min-scale; the held final

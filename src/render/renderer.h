@@ -90,6 +90,12 @@ struct StreamSettings {
   // the image height) and dense (its spheres fill >= 10 % of its box) holds that node alone: it
   // may hide most of what the window would read with it (docs/streaming.md, "Wave size").
   bool front_node_alone = true;
+  // A read that arrives for a node found occluded meanwhile (in the frustum, class O) is placed
+  // when the room it needs can be made from nodes that come before it in the eviction order
+  // (nodes outside the view, or used longer ago), instead of being dropped: its bytes are read,
+  // and on a fly-through what a gap showed for one frame is often seen again a few frames later
+  // (docs/streaming.md, "Late arrivals"). It never evicts a node drawn this frame.
+  bool keep_late_arrivals = true;
   bool record_trace = false;  // FrameReport::wanted filled (stress: offline Belady bound)
 };
 
@@ -217,6 +223,7 @@ struct CacheStats {
   uint64_t cache_misses = 0;      //   ... not resident
   uint64_t evictions[4] = {};     // by class at eviction: P, L, M, O
   uint64_t upload_stalls = 0;     // frames where a ready node could not be placed (pool full of needed nodes)
+  uint64_t late_arrivals_kept = 0;  // reads found occluded on arrival and placed anyway (keep_late_arrivals)
   uint64_t in_flight = 0;         // reads queued or running now
   bool budget_exhausted = false;  // the last frame wanted more nodes than fit (image incomplete)
   bool pool_device_capped = false;  // the device's limits made the pool smaller than the budget

@@ -284,6 +284,7 @@ Status run_render(const RenderOptions& o) {
       j["cache_misses"] = c.cache_misses;
       j["evictions"] = {{"P", c.evictions[0]}, {"L", c.evictions[1]}, {"M", c.evictions[2]}, {"O", c.evictions[3]}};
       j["upload_stalls"] = c.upload_stalls;
+      j["late_arrivals_kept"] = c.late_arrivals_kept;
       j["budget_exhausted"] = c.budget_exhausted;
       j["gpu_pool_device_capped"] = c.pool_device_capped;
       j["wanted_nodes"] = c.wanted_nodes;

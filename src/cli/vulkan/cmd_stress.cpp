@@ -52,7 +52,7 @@ struct StressOptions {
   bool known_path = true;  // the cache is told the path's next views (Renderer::set_path_next)
   uint32_t width = 640, height = 360;
   double fov = 40.0;
-  std::string csv, json;
+  std::string csv, json, trace;
   CullingOptions cull;
   int device = -1;
   bool quiet = false;
@@ -141,6 +141,7 @@ Status run_stress(const StressOptions& o) {
   const auto& nodes = reader->nodes();
   std::vector<stress::FrameRecord> frames;
   std::vector<streaming::TraceRequest> trace;
+  std::vector<uint32_t> trace_frames;  // the replay frame of each request (--trace)
   std::vector<uint64_t> device_bytes = renderer->node_device_bytes();
   uint32_t view = 0;
   render::Camera prev_cam;
@@ -200,6 +201,7 @@ Status run_stress(const StressOptions& o) {
     for (uint32_t n : fr.wanted) {
       if (n < nodes.size()) r.wanted_payload_bytes += nodes[n].payload_bytes;
       trace.push_back({n, n < device_bytes.size() ? device_bytes[n] : 0});
+      trace_frames.push_back(uint32_t(frames.size()));
     }
     return r;
   };
@@ -324,6 +326,7 @@ Status run_stress(const StressOptions& o) {
   j["nodes_failed"] = c.nodes_failed;
   j["evictions"] = {{"O", c.evictions[3]}, {"M", c.evictions[2]}, {"L", c.evictions[1]}, {"P", c.evictions[0]}};
   j["upload_stalls"] = c.upload_stalls;
+  j["late_arrivals_kept"] = c.late_arrivals_kept;
   j["frame_ms"] = stress::quantiles_json(q_path);
   j["frame_ms_with_settle"] = stress::quantiles_json(q_all);
   j["streaming_frame_ms"] = stress::quantiles_json(q_stream);
@@ -390,6 +393,7 @@ Status run_stress(const StressOptions& o) {
 
   if (!o.json.empty()) MDS_TRY(write_text_atomically(o.json, j.dump(2) + "\n"));
   if (!o.csv.empty()) MDS_TRY(write_text_atomically(o.csv, stress::csv_summary(j)));
+  if (!o.trace.empty()) MDS_TRY(write_text_atomically(o.trace, stress::trace_csv(trace_frames, trace)));
 
   // --- stdout table ---
   auto row = [](const std::string& k, const std::string& v) { std::printf("  %-34s %s\n", k.c_str(), v.c_str()); };
@@ -405,6 +409,7 @@ Status run_stress(const StressOptions& o) {
   row("nodes loaded / never loaded / failed", fmt::format("{} / {} / {}", c.nodes_loaded, c.nodes_never_loaded, c.nodes_failed));
   row("evictions O / M / L / P", fmt::format("{} / {} / {} / {}", c.evictions[3], c.evictions[2], c.evictions[1], c.evictions[0]));
   row("upload stalls", fmt::format("{}", c.upload_stalls));
+  row("late arrivals kept", fmt::format("{}", c.late_arrivals_kept));
   row("frame ms p50 / p99 / max (path)", fmt::format("{:.2f} / {:.2f} / {:.2f} (p99/p50 {:.2f})", q_path.p50, q_path.p99, q_path.max, q_path.ratio()));
   if (pacer)
     row("dynamic resolution", fmt::format("target {:.1f} ms{}, scale p50 {:.3f}, min {:.3f} (path)", pacer->target_ms(),
@@ -458,6 +463,9 @@ void setup_stress(CLI::App& sub, int& exit_code) {
   sub.add_option("--height", opt->height, "Image height")->check(CLI::Range(1u, 16384u))->capture_default_str();
   sub.add_option("--fov", opt->fov, "Vertical field of view of the built-in paths (degrees)")->capture_default_str();
   sub.add_option("--csv", opt->csv, "Write the summary as CSV (header + one row)");
+  sub.add_option("--trace", opt->trace,
+                 "Write the demand trace the offline bounds replay as CSV (frame,node,bytes: one row per frame and "
+                 "wanted node; bytes = the node's pool bytes)");
   sub.add_option("--json", opt->json, "Write the full report (summary, views, offline bounds) as JSON");
   add_culling_options(sub, opt->cull, "No occlusion culling (every node in the frustum is wanted)");
   sub.add_option("--device", opt->device, "Vulkan device index (default: automatic, discrete GPU first)");

@@ -43,6 +43,10 @@ void add_stream_options(CLI::App& sub, StreamOptions& o, bool budget_required) {
                  "At rest, a wave whose first node is large on screen and dense reads it alone (true/false; "
                  "docs/streaming.md, \"Wave size\")")
       ->capture_default_str();
+  sub.add_option("--keep-late-arrivals", o.keep_late_arrivals,
+                 "A read that arrives for a node found occluded meanwhile is kept in room that nodes evicted before "
+                 "it can free, instead of dropped (true/false; docs/streaming.md, \"Late arrivals\")")
+      ->capture_default_str();
   sub.add_option("--occluded-hold-frames", o.occluded_hold_frames,
                  "While the camera moves, a node found occluded stays unread until no culling iteration has "
                  "confirmed it for this many frames (docs/streaming.md, \"Camera changes\")")
@@ -74,6 +78,7 @@ Result<render::StreamSettings> stream_settings(const StreamOptions& o) {
   ss.wave_nodes = o.wave_nodes;
   ss.wave_coverage = o.wave_coverage;
   ss.front_node_alone = o.front_node_alone;
+  ss.keep_late_arrivals = o.keep_late_arrivals;
   ss.occluded_hold_frames = o.occluded_hold_frames;
   return ss;
 }

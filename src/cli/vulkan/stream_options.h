@@ -26,6 +26,7 @@ struct StreamOptions {
   uint32_t wave_nodes = 2;          // render::StreamSettings::wave_nodes
   double wave_coverage = 1.0;       // render::StreamSettings::wave_coverage
   bool front_node_alone = true;     // render::StreamSettings::front_node_alone
+  bool keep_late_arrivals = true;   // render::StreamSettings::keep_late_arrivals
   uint32_t occluded_hold_frames = 1;  // render::StreamSettings::occluded_hold_frames
 };
 

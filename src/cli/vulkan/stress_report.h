@@ -202,4 +202,13 @@ inline std::string csv_summary(const nlohmann::ordered_json& report) {
   return out;
 }
 
+// The demand trace (`stress --trace`): one row per frame and wanted node, in request order.
+// Precondition: frames.size() == trace.size() (the frame of each request).
+inline std::string trace_csv(const std::vector<uint32_t>& frames, const std::vector<streaming::TraceRequest>& trace) {
+  std::string out = "frame,node,bytes\n";
+  for (size_t i = 0; i < trace.size() && i < frames.size(); ++i)
+    out += fmt::format("{},{},{}\n", frames[i], trace[i].node, trace[i].bytes);
+  return out;
+}
+
 }  // namespace mds::cli::stress

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <tuple>
 
 #include "culling/culling_constants.h"
 #include "render/scene.h"
@@ -92,6 +93,7 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
       {.min = settings.wave_settle_frames > 0 ? std::max(1u, settings.wave_nodes) : 4u, .calm_frames = 3,
        .cap = settings.max_outstanding});
   c->placed_frame_.assign(nodes.size(), 0);
+  c->placed_late_.assign(nodes.size(), 0);
   c->o_confirmed_.assign(nodes.size(), 0);
 
   CacheStats& s = c->stats_;
@@ -231,6 +233,17 @@ Status StreamCache::evict_for(VkCommandBuffer cmd, uint32_t incoming, uint64_t f
   return {};
 }
 
+bool StreamCache::keep_late_arrival(uint32_t i, const store::NodeData& data, uint64_t uploaded, uint64_t frame) const {
+  if (!settings_.keep_late_arrivals || !table_->node(i).in_frustum) return false;
+  const uint64_t staged = pool_->upload_bytes(data);
+  if ((uploaded > 0 && uploaded + staged > settings_.upload_bytes_per_frame) || staged > pool_->staging_free()) return false;
+  auto victims = table_->choose_victims(node_bytes_[i], pool_->budget().free_bytes(), frame, i);
+  if (!victims.ok()) return false;
+  for (uint32_t v : *victims)
+    if (!table_->evicted_before(v, i, frame)) return false;
+  return true;
+}
+
 Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
   CacheFrame out;
   frame_ = frame;
@@ -268,17 +281,21 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
   std::vector<uint32_t> order;
   for (const auto& [i, c] : ready_) order.push_back(i);
   std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
-    return std::make_pair(table_->node(a).distance, a) < std::make_pair(table_->node(b).distance, b);
+    return std::make_tuple(!table_->fetchable(a), table_->node(a).distance, a) <
+           std::make_tuple(!table_->fetchable(b), table_->node(b).distance, b);
   });
   uint32_t occluded = 0, arrived = uint32_t(order.size());
   for (uint32_t i : order) {
     auto it = ready_.find(i);
-    if (!table_->fetchable(i)) {  // became O (or left the frustum) while it was read: drop
+    const bool late = !table_->fetchable(i);
+    if (late) {  // became O (or left the frustum) while it was read
       if (table_->node(i).in_frustum) ++occluded;  // found O meanwhile (not: left the frustum)
-      MDS_TRY(table_->mark_cancelled(i));
-      std::erase(requested_, i);
-      ready_.erase(it);
-      continue;
+      if (!keep_late_arrival(i, it->second.data, out.bytes_uploaded, frame)) {
+        MDS_TRY(table_->mark_cancelled(i));
+        std::erase(requested_, i);
+        ready_.erase(it);
+        continue;
+      }
     }
     const uint64_t staged = pool_->upload_bytes(it->second.data);
     if (out.bytes_uploaded > 0 && out.bytes_uploaded + staged > settings_.upload_bytes_per_frame) break;
@@ -303,6 +320,8 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
       MDS_TRY(table_->mark_loaded(i));
       table_->touch(i, frame);
       placed_frame_[i] = frame;
+      placed_late_[i] = late;  // counted as waste on arrival, not again after the settle frames
+      if (late) ++stats_.late_arrivals_kept;
       live_meshlets_ += node_meshlets_[i];
       ++out.nodes_uploaded;
       out.bytes_uploaded += staged;
@@ -355,7 +374,7 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
     wave_open = !requested_.empty();
     for (uint32_t i = 0; i < n_nodes; ++i) {
       const auto& n = table_->node(i);
-      if (n.residency != Residency::resident || frame > placed_frame_[i] + settle) continue;
+      if (n.residency != Residency::resident || placed_late_[i] || frame > placed_frame_[i] + settle) continue;
       if (frame == placed_frame_[i] + settle && n.in_frustum && n.cls == MDS_CULL_CLASS_O) ++occluded;
       if (frame < placed_frame_[i] + settle && demanded(i)) wave_open = true;
     }

@@ -8,8 +8,10 @@
 //   2. demand: the nodes the frame needs (in the frustum, not O), marked in use (kept by step 3);
 //   3. finished reads (streaming::IoPool: pread + XXH3 check + lz4 decode on background threads)
 //      are placed into the paged pool (NodePool), evicting by the policy's order (occlusion: O,
-//      then M, then L/P by least recent use and distance; never a node drawn this frame), at
-//      most upload_bytes_per_frame per frame; a read that is no longer wanted is dropped;
+//      then M, then L/P, each outside the view first, then by least recent use and distance;
+//      never a node drawn this frame), at most upload_bytes_per_frame per frame; a read that is
+//      no longer wanted is dropped, unless it was found occluded in the frustum and room can be
+//      made from nodes evicted before it (keep_late_arrivals);
 //   4. prefetch: requests in the policy's order (occlusion: P, then L, then M, front to back),
 //      a window of reads at a time (streaming::ReadWindow), like TCP's congestion window: at rest (a held view) it starts
 //      at 4, grows by 4 after 3 frames whose arrivals were
@@ -118,6 +120,10 @@ class StreamCache {
   StreamCache() = default;
   bool demanded(uint32_t node) const;
   Status evict_for(VkCommandBuffer cmd, uint32_t incoming, uint64_t frame, bool& stalled);
+  // Whether a finished read of node i, no longer fetchable (found O meanwhile), is placed anyway
+  // (StreamSettings::keep_late_arrivals): in the frustum, within the frame's upload and staging
+  // budgets, and the room it needs comes from nodes evicted before it (evicted_before).
+  bool keep_late_arrival(uint32_t i, const store::NodeData& data, uint64_t uploaded, uint64_t frame) const;
 
   const store::StoreReader* reader_ = nullptr;
   StreamSettings settings_;
@@ -141,6 +147,7 @@ class StreamCache {
   Camera last_camera_;  // of the previous set_view (look-ahead extrapolation)
   double aspect_ = 1.0;  // width / height of the view (screen_share of the wave coverage)
   std::vector<uint64_t> placed_frame_;  // frame of each node's last placement (waves at rest)
+  std::vector<uint8_t> placed_late_;    // that placement kept a late arrival (keep_late_arrival)
   std::vector<uint64_t> o_confirmed_;   // frame a culling iteration last classified the node O
   uint64_t frame_ = 0;                  // the frame of the last update()
   mds::streaming::ReadWindow window_;  // reads queued or in flight at a time (step 4)
