@@ -140,6 +140,10 @@ struct RenderSettings {
   // particles (5.9-10.4 % of the pixels beyond 0.1 on 1M views at 16 spp); with
   // exact coverage (CullSettings::coverage) it loses <= 0.6 %, with automatic up to 4 %
   // (docs/rendering.md). The CLI's --particle-occlusion auto turns it on with --coverage exact.
+  // Paced occlusion sampling at rest (Renderer::step): an iteration of a view whose sampling
+  // pass costs more than the recent views' median runs fewer passes (render/sample_pacer.h);
+  // convergence still needs converge_iterations x samples_per_iteration quiet passes.
+  bool pace_sampling = true;
   bool particle_occlusion = false;
   // Sprite records the compute sprite path holds at once (48 B each, bound whole, so at most
   // maxStorageBufferRange / 48: 2.8 M on lavapipe). A draw list with more particles is turned

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "render/renderer.h"
+#include "render/sample_pacer.h"
 #include "render/streaming/stream_cache.h"
 #include "vk/commands.h"
 #include "vk/pipeline.h"
@@ -123,7 +124,15 @@ struct Renderer::Impl {
   bool has_view = false;
   bool view_stale = false;     // resize(), set_c_occ(): the view restarts at the next set_view()/step()
   uint32_t samples = 0;        // accumulated in the current image
-  uint32_t quiet = 0;          // culling iterations without class changes
+  uint32_t quiet = 0;          // sampling passes of the iterations since the last class change
+  // Paced sampling at rest (RenderSettings::pace_sampling, render/sample_pacer.h).
+  SamplePacer sample_pacer;
+  bool moving = false;            // set_motion()
+  double view_pass_ms = -1.0;     // per-pass sampling GPU ms of this view's last measured iteration
+  uint32_t view_passes = 0;       // sampling passes of this view's completed iterations
+  uint32_t iteration_passes = 0;  // passes of the iteration in flight ...
+  uint32_t iteration_full = 0;    // ... and of an unpaced one (1 moving, else samples_per_iteration)
+  bool iteration_moving = false;  // ... recorded while moving
   bool culling_converged = false;
   bool complete = true;        // streaming: the cache holds every wanted node
   bool pending_iteration = false;

@@ -152,6 +152,12 @@ Result<double> Renderer::Impl::collect_frame_ms() {
     }
   if (!g.passes.empty()) {
     g.ms = sum;
+    // Paced sampling (sample_pacer.h): the frame in flight, now collected, ran iteration_passes
+    // sampling passes: this view's pass time, and the reference of the iterations at rest.
+    if (const auto it = g.passes.find("sample"); it != g.passes.end() && iteration_passes > 0) {
+      view_pass_ms = it->second / double(iteration_passes);
+      if (!iteration_moving) sample_pacer.observe(view_pass_ms);
+    }
     last_gpu = std::move(g);
   }
   return sum;
@@ -167,15 +173,17 @@ void Renderer::Impl::after_iteration() {
   view_cull.class_counts.assign(c.class_count, c.class_count + 4);
   if (iteration_hook) iteration_hook(cull_iteration);
   ++cull_iteration;
-  // Streaming: node classes drive the cache, so they must be stable too.
+  view_passes += iteration_passes;
+  // Streaming: node classes drive the cache, so they must be stable too. Quiet is counted in
+  // sampling passes: a paced view needs as many quiet passes as an unpaced one.
   const bool still = c.changed == 0 && (!cache || c.node_changed == 0);
-  quiet = still ? quiet + 1 : 0;
-  if (quiet >= std::max(1u, cull->settings().converge_iterations)) {
+  quiet = still ? quiet + iteration_passes : 0;
+  if (quiet >= std::max(1u, cull->settings().converge_iterations) * std::max(1u, iteration_full)) {
     cull_active = false;
     culling_converged = true;
     view_cull.converged = true;
     view_cull.iterations_to_converge = cull_iteration;
-    view_cull.samples_to_converge = cull_iteration * cull->samples_per_iteration();
+    view_cull.samples_to_converge = view_passes;
     view_cull.time_to_converge_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - view_t0).count();
   } else if (cull_iteration >= std::max(1u, cull->settings().max_iterations)) {
@@ -208,6 +216,9 @@ Status Renderer::set_view(const Camera& camera_in) {
   m.quiet = 0;
   m.culling_converged = false;
   m.cull_iteration = 0;
+  m.view_pass_ms = -1.0;
+  m.view_passes = 0;
+  m.sample_pacer.new_view();
   m.view_cull = CullStats{};
   m.frame_gpu_ms.clear();
   m.frame_wall_ms.clear();
@@ -266,6 +277,14 @@ Result<FrameReport> Renderer::step() {
     }
   }
   m.pending_iteration = m.cull && m.cull_active;
+  if (m.pending_iteration) {
+    // Sampling passes of this iteration: one while moving, else the configured passes, paced.
+    m.iteration_moving = m.moving;
+    m.iteration_full = m.moving ? 1u : std::max(1u, m.settings.cull_settings.samples_per_iteration);
+    m.iteration_passes = m.iteration_full;
+    if (!m.moving && m.settings.pace_sampling) m.iteration_passes = m.sample_pacer.passes(m.iteration_full, m.view_pass_ms);
+    m.cull->set_samples_per_iteration(m.iteration_passes);
+  }
   const bool accumulate = m.samples < m.settings.spp;
   m.write_frame_uniforms(m.view_camera, m.samples);
   m.record_pass(cmd, m.samples == 0, accumulate);
@@ -378,6 +397,7 @@ void Renderer::set_motion(bool moving) {
     m.cull->set_samples_per_iteration(moving ? 1u : m.settings.cull_settings.samples_per_iteration);
     m.cull->set_moving(moving);
   }
+  m.moving = moving;
 }
 
 Status Renderer::set_spp(uint32_t spp) {
@@ -428,7 +448,7 @@ RenderStats Renderer::stats() const {
   if (m.cull) {
     s.cull.enabled = true;
     s.cull.iterations = m.cull_iteration;
-    s.cull.samples = m.cull_iteration * m.cull->samples_per_iteration();
+    s.cull.samples = m.view_passes;
     s.cull.samples_per_iteration = m.cull->samples_per_iteration();
     s.cull.bins = m.cull->bins();
     s.cull.sample_passes_compute = m.cull->sample_route_passes(culling::SampleRoute::compute);

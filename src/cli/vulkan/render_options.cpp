@@ -56,6 +56,12 @@ void add_culling_options(CLI::App& sub, CullingOptions& o, const std::string& no
                  "paper), or auto (on with --coverage exact only: with the expected area, also that of --coverage "
                  "auto's larger particles, it drops visible particles); docs/rendering.md")
       ->capture_default_str();
+  sub.add_option("--pace-sampling", o.pace_sampling,
+                 "Frame by frame (view, stress): at rest, a view whose occlusion sampling pass costs more than the "
+                 "recent views' median runs fewer passes per culling iteration, so that its frames stay near the "
+                 "usual length; convergence still needs as many quiet passes (true/false; docs/rendering.md, "
+                 "\"Paced sampling at rest\")")
+      ->capture_default_str();
 }
 
 Status apply_culling_options(const CullingOptions& o, render::RenderSettings& rs) {
@@ -71,6 +77,7 @@ Status apply_culling_options(const CullingOptions& o, render::RenderSettings& rs
                       o.particle_occlusion);
   rs.particle_occlusion = o.particle_occlusion == "on" || (o.particle_occlusion == "auto" && o.coverage == "exact");
   rs.cull = !o.no_cull;
+  rs.pace_sampling = o.pace_sampling;
   auto& c = rs.cull_settings;
   c.c_occ = o.cocc;
   c.acceptance = o.acceptance == "random" ? MDS_CULL_ACCEPT_RANDOM : MDS_CULL_ACCEPT_NORMAL;

@@ -28,6 +28,7 @@ struct CullingOptions {
   std::string mesh_shaders = "auto";
   std::string coverage = "auto";           // auto | expected | exact (CullSettings::coverage)
   std::string particle_occlusion = "auto";  // auto | on | off (RenderSettings::particle_occlusion; auto: on with exact)
+  bool pace_sampling = true;                // RenderSettings::pace_sampling
 };
 
 // Adds --no-cull (with this command's help text) and the culling and sprite-path options;

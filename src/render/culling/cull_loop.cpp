@@ -624,7 +624,7 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
     // The probe of the other route (cull_loop.h kSampleRouteProbeShare): measured, not applied.
     m.sample_compute = m.best_route != 1;
     m.route_ts.begin(cmd, m.sample_compute ? "compute_probe" : "raster_probe");
-    m.record_sampling_pass(cmd, ts, iteration * passes, m.probe_share());
+    m.record_sampling_pass(cmd, ts, iteration * m.max_passes(), m.probe_share());
     m.route_ts.end(cmd);
   }
   for (uint32_t p = 0; p < passes; ++p) {
@@ -634,7 +634,7 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
     if (timed)
       m.route_ts.begin(cmd, m.comparing ? (m.sample_compute ? "compute" : "raster")
                                         : (m.sample_compute ? "run_compute" : "run_raster"));
-    m.record_sampling_pass(cmd, ts, iteration * passes + p);
+    m.record_sampling_pass(cmd, ts, iteration * m.max_passes() + p);
     if (timed) m.route_ts.end(cmd);
   }
 

@@ -235,7 +235,8 @@ class CullLoop {
   // from the same state as without the warm-up (the sampling-route choice included).
   Status warm_up(const Camera& camera);
   // One culling iteration (see the file comment) into cmd; `iteration` counts from 0 per view;
-  // its sampling passes are numbered iteration * samples_per_iteration() + p.
+  // its sampling passes are numbered iteration * settings().samples_per_iteration + p (unique
+  // whatever set_samples_per_iteration chose: the renderer paces the passes at rest).
   // Ends with a copy of the counters for counters(). Timestamps per pass when ts != nullptr.
   void record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint32_t iteration);
   // Appends every meshlet not in O to `draw_list` (header must be reset by the caller).

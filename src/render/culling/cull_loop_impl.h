@@ -1,6 +1,7 @@
 // Internal to the culling loop (cull_loop.cpp, cull_sampling.cpp): its GPU state, CullLoop::Impl.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -25,6 +26,8 @@ struct CullLoop::Impl {
   vk::Context* ctx = nullptr;
   CullSettings settings;
   uint32_t width = 0, height = 0, bins = 0, budget = 0, levels = 0, passes = 1;
+  // Passes per iteration at most (the numbering stride of the sampling passes).
+  uint32_t max_passes() const { return std::max(1u, settings.samples_per_iteration); }
   uint32_t meshlet_count = 0, node_count = 0, max_meshlet = 0, frame_flags = 0;
   float radius_min = 0, radius_max = 0;
   uint64_t pyramid_texels = 0;
