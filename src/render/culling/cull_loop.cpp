@@ -619,7 +619,7 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
     m.histogram_recast = false;
   }
   const uint32_t passes = m.passes;
-  m.begin_route_choice(cmd, passes);
+  m.begin_route_choice(cmd);
   if (m.probing && m.route_ts.enabled()) {
     // The probe of the other route (cull_loop.h kSampleRouteProbeShare): measured, not applied.
     m.sample_compute = m.best_route != 1;

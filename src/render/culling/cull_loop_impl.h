@@ -108,7 +108,7 @@ struct CullLoop::Impl {
   bool choose_compute_route(uint32_t p, uint32_t pass_count);
   // kSampleRouteProbeShare, or MDSTREAM_CULL_PROBE_SHARE=N (A/B runs; 1: a whole pass).
   uint32_t probe_share() const;
-  void begin_route_choice(VkCommandBuffer cmd, uint32_t pass_count);
+  void begin_route_choice(VkCommandBuffer cmd);
   void bind(VkCommandBuffer cmd, VkPipelineBindPoint bp, VkPipeline pipe, const vk::DescriptorSet& s0) const;
   void push(VkCommandBuffer cmd, uint32_t mode, uint32_t pass = 0, glm::vec2 jitter = glm::vec2(0.0f)) const;
   void write_uniforms(uint32_t iteration);

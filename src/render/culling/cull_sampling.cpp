@@ -42,7 +42,7 @@ bool CullLoop::Impl::sampled_list_wanted() const {
 // half of its passes (on lavapipe's close-ups the slower route's pass takes up to 8x the
 // other's: 100-210 ms frames at every repeat). Otherwise the comparison goes on alternating as
 // above (whole passes: both routes give the same samples).
-void CullLoop::Impl::begin_route_choice(VkCommandBuffer cmd, uint32_t pass_count) {
+void CullLoop::Impl::begin_route_choice(VkCommandBuffer cmd) {
   if (!compute_available || forced_route() != SampleRoute::automatic) {
     comparing = false;
     probing = false;
@@ -60,7 +60,10 @@ void CullLoop::Impl::begin_route_choice(VkCommandBuffer cmd, uint32_t pass_count
     compare_ms[1].clear();
   } else if (!comparing && !moving && (best_route < 0 || since_compare >= explore_interval)) {
     comparing = true;
-    probing = best_route >= 0 && pass_count >= 2;
+    // A repeat comparison starts as a probe, whatever the pass count: with one pass per iteration
+    // (paced sampling at rest, render/sample_pacer.h) an alternating comparison would run whole
+    // passes of the slower route.
+    probing = best_route >= 0;
     moving_comparison = false;
     since_compare = 0;
     compare_ms[0].clear();
