@@ -153,7 +153,7 @@ Result<double> Renderer::Impl::collect_frame_ms() {
   if (!g.passes.empty()) {
     g.ms = sum;
     // Paced sampling (sample_pacer.h): the frame in flight, now collected, ran iteration_passes
-    // sampling passes: this view's pass time, and the reference of the iterations at rest.
+    // sampling passes: this view's pass time, recorded for the pacer's reference when at rest.
     if (const auto it = g.passes.find("sample"); it != g.passes.end() && iteration_passes > 0) {
       view_pass_ms = it->second / double(iteration_passes);
       if (!iteration_moving) sample_pacer.observe(view_pass_ms);
@@ -282,7 +282,8 @@ Result<FrameReport> Renderer::step() {
     m.iteration_moving = m.moving;
     m.iteration_full = m.moving ? 1u : std::max(1u, m.settings.cull_settings.samples_per_iteration);
     m.iteration_passes = m.iteration_full;
-    if (!m.moving && m.settings.pace_sampling) m.iteration_passes = m.sample_pacer.passes(m.iteration_full, m.view_pass_ms);
+    if (!m.moving && m.settings.pace_sampling)
+      m.iteration_passes = m.sample_pacer.passes(m.iteration_full, m.view_pass_ms);
     m.cull->set_samples_per_iteration(m.iteration_passes);
   }
   const bool accumulate = m.samples < m.settings.spp;
