@@ -23,7 +23,8 @@ void add_culling_options(CLI::App& sub, CullingOptions& o, const std::string& no
       ->check(CLI::Range(1u, 100000u))
       ->capture_default_str();
   sub.add_option("--converge-iterations", o.converge_iterations,
-                 "Culling has converged after this many iterations without class changes")
+                 "Culling has converged after this many iterations without class changes (of "
+                 "--samples-per-iteration passes: paced iterations at rest count their passes)")
       ->check(CLI::Range(1u, 1000000u))
       ->capture_default_str();
   sub.add_option("--histogram-bins", o.bins, "Density histogram bins per pixel (0: as many as fit, <= 64)")
