@@ -362,7 +362,8 @@ class Renderer {
   // Camera in motion (dynamic resolution, render/frame_pacer.h): one occlusion sampling pass per
   // culling iteration instead of RenderSettings' count -- a moving frame is a new view whose
   // classes never mature, so the extra passes cost time (a fixed cost per particle, not per
-  // pixel) and buy nothing; at rest (false) the configured count returns.
+  // pixel) and buy nothing; at rest (false) the configured count returns, paced by
+  // RenderSettings::pace_sampling. step() applies it to each iteration it records.
   void set_motion(bool moving);
   uint32_t width() const;
   uint32_t height() const;

@@ -394,11 +394,8 @@ void Renderer::set_path_next(std::span<const Camera> next) {
 
 void Renderer::set_motion(bool moving) {
   Impl& m = *impl_;
-  if (m.cull) {
-    m.cull->set_samples_per_iteration(moving ? 1u : m.settings.cull_settings.samples_per_iteration);
-    m.cull->set_moving(moving);
-  }
-  m.moving = moving;
+  if (m.cull) m.cull->set_moving(moving);
+  m.moving = moving;  // step() sets the iteration's sampling passes from it (one while moving)
 }
 
 Status Renderer::set_spp(uint32_t spp) {
