@@ -233,8 +233,10 @@ Status StreamCache::evict_for(VkCommandBuffer cmd, uint32_t incoming, uint64_t f
   return {};
 }
 
-bool StreamCache::keep_late_arrival(uint32_t i, uint64_t frame) const {
+bool StreamCache::keep_late_arrival(uint32_t i, const store::NodeData& data, uint64_t uploaded, uint64_t frame) const {
   if (!settings_.keep_late_arrivals || !table_->node(i).in_frustum) return false;
+  const uint64_t staged = pool_->upload_bytes(data);
+  if ((uploaded > 0 && uploaded + staged > settings_.upload_bytes_per_frame) || staged > pool_->staging_free()) return false;
   auto victims = table_->choose_victims(node_bytes_[i], pool_->budget().free_bytes(), frame, i);
   if (!victims.ok()) return false;
   for (uint32_t v : *victims)
@@ -288,7 +290,7 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
     const bool late = !table_->fetchable(i);
     if (late) {  // became O (or left the frustum) while it was read
       if (table_->node(i).in_frustum) ++occluded;  // found O meanwhile (not: left the frustum)
-      if (!keep_late_arrival(i, frame)) {
+      if (!keep_late_arrival(i, it->second.data, out.bytes_uploaded, frame)) {
         MDS_TRY(table_->mark_cancelled(i));
         std::erase(requested_, i);
         ready_.erase(it);

@@ -121,10 +121,9 @@ class StreamCache {
   bool demanded(uint32_t node) const;
   Status evict_for(VkCommandBuffer cmd, uint32_t incoming, uint64_t frame, bool& stalled);
   // Whether a finished read of node i, no longer fetchable (found O meanwhile), is placed anyway
-  // (StreamSettings::keep_late_arrivals): in the frustum, and the room it needs comes from nodes
-  // evicted before it (evicted_before). The frame's upload and staging budgets apply as to any
-  // read (over them, it waits for the next frame and is judged again).
-  bool keep_late_arrival(uint32_t i, uint64_t frame) const;
+  // (StreamSettings::keep_late_arrivals): in the frustum, within the frame's upload and staging
+  // budgets, and the room it needs comes from nodes evicted before it (evicted_before).
+  bool keep_late_arrival(uint32_t i, const store::NodeData& data, uint64_t uploaded, uint64_t frame) const;
 
   const store::StoreReader* reader_ = nullptr;
   StreamSettings settings_;
