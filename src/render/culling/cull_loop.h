@@ -97,6 +97,14 @@ inline constexpr uint32_t kSampleRouteProbeShare = 4;
 // glyphs large). The probed route takes over when kSampleRouteMovingHysteresis x its estimate
 // is below the running route's pass.
 inline constexpr double kSampleRouteMovingHysteresis = 1.5;
+// The probe of a moving comparison selects 1/kSampleRouteMovingProbeShare of the budget (its
+// time counts as many times): its cost lands in a moving frame, which the frame pacer holds near
+// its target, and a 1.5x gap needs no finer estimate. On lavapipe a quarter-budget raster probe
+// took 28 ms next to a 20 ms compute pass (porous fly-through, 320x180 at scale 0.5); the
+// slowest of frames 3-9 of the dynamic-resolution fly-throughs went 56-64 -> 45-48 ms (porous)
+// and 50-62 -> 44-49 ms (ablation), medians of 8-10 runs (docs/rendering.md "Occlusion
+// sampling pass").
+inline constexpr uint32_t kSampleRouteMovingProbeShare = 16;
 // The clear-cut rule: 0 (raster) or 1 (compute) when every timed pass of the other route took at
 // least kSampleRouteClearCut times the winner's slowest pass; -1 otherwise (or when either
 // route has no pass yet).

@@ -92,7 +92,7 @@ uint32_t CullLoop::Impl::probe_share() const {
     const int v = std::atoi(e);
     if (v >= 1) return uint32_t(v);
   }
-  return kSampleRouteProbeShare;
+  return moving_comparison ? kSampleRouteMovingProbeShare : kSampleRouteProbeShare;
 }
 
 bool CullLoop::shared_box_tests() const { return impl_->shared_box_tests; }
