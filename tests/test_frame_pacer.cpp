@@ -2,7 +2,8 @@
 // model t = fixed + k * view_cost * pixels^0.8 stands in for the renderer. Checks: it converges
 // to the target, never leaves [min_scale, max_scale], returns to full scale when the camera
 // rests, derives the automatic target from full-scale moving frames, and brings the frame times
-// of a view whose cost jumps back under the target within a few frames.
+// of a view whose cost jumps back under the target within a few frames; streaming arrivals
+// (FrameLoad) hold the scale.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -10,6 +11,7 @@
 
 #include "render/frame_pacer.h"
 
+using mds::render::FrameLoad;
 using mds::render::FramePacer;
 using mds::render::PacerSettings;
 
@@ -119,6 +121,36 @@ TEST(FramePacer, RisingCostIsAnticipated) {
     cost *= 1.6;
   }
   EXPECT_EQ(over, 0);
+}
+
+// The scale after `frames` cheap moving frames (10 ms against a 40 ms target) that each drew
+// `load`, starting from scale 0.5.
+static double scale_after_cheap_frames(const FrameLoad& load, int frames, bool watch_arrivals = true) {
+  PacerSettings ps;
+  ps.target_ms = 40.0;
+  ps.watch_arrivals = watch_arrivals;
+  FramePacer p(ps);
+  p.next_scale(true);
+  p.observe(model_ms(1.0, 1.0, 0.0) * 4.0);  // 400 ms at full scale: down to about 0.4
+  const double start = p.scale();
+  EXPECT_LT(start, 0.6);
+  for (int f = 0; f < frames; ++f) {
+    p.next_scale(true);
+    p.observe(10.0, load);
+  }
+  return p.scale() / start;  // growth of the scale
+}
+
+TEST(FramePacer, AFrameLackingMostOfItsNodesRaisesNoScale) {
+  // Lacking more wanted nodes than it drew: its cost says little about the next frames, which
+  // draw the arrivals. Held (the pool can hold them) ...
+  EXPECT_EQ(scale_after_cheap_frames({.drawn = 3, .missing = 20}, 6), 1.0);
+  // ... raised once it drew most of what it wanted, when the pool is full (the rest will not
+  // arrive), and without the arrival rules.
+  EXPECT_GT(scale_after_cheap_frames({.drawn = 20, .missing = 3}, 6), 1.5);
+  EXPECT_GT(scale_after_cheap_frames({.drawn = 3, .missing = 20, .pool_full = true}, 6), 1.5);
+  EXPECT_GT(scale_after_cheap_frames({.drawn = 3, .missing = 20}, 6, false), 1.5);
+  EXPECT_GT(scale_after_cheap_frames({}, 6), 1.5);  // in memory: no arrivals
 }
 
 TEST(FramePacer, ScaledSizeRoundsAndKeepsAtLeastOnePixel) {

@@ -41,7 +41,7 @@ double FramePacer::next_scale(bool moving) {
   return last_scale_;
 }
 
-void FramePacer::observe(double frame_ms) {
+void FramePacer::observe(double frame_ms, const FrameLoad& load) {
   if (!last_moving_) {
     last_cost_ = 0.0;  // a rest breaks the trend
     return;
@@ -58,9 +58,13 @@ void FramePacer::observe(double frame_ms) {
   const double target = target_ms();
   if (target <= 0.0) return;
   const double expect = frame_ms * trend;  // the next frame at scale s
+  // Arrivals (file comment): the lacking nodes will be drawn at the scale chosen now.
+  const bool hold = s_.watch_arrivals && !load.pool_full && load.missing > load.drawn;  // no up-step
   double next = s;
   if (expect > target) {
     next = s * std::pow(target / expect, s_.exponent);
+  } else if (hold) {
+    return;
   } else if (expect < (1.0 - s_.band) * target) {
     next = std::min(s * std::pow(target / expect, s_.exponent), s * s_.max_up);
   }

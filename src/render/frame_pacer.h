@@ -19,6 +19,13 @@
 // every step, so the cost is normalized to full scale (c = t / s^(1/exponent)) and, when c grew
 // from the previous moving frame, the growth (at most max_trend) is extrapolated one frame
 // ahead; a falling cost is not extrapolated (up-steps stay cautious).
+// Arrivals (streaming; observe()'s FrameLoad): a frame's time describes the nodes it drew; the
+// nodes it wanted but lacked arrive within the next frames, drawn at the scale chosen now. So a
+// frame that lacked more wanted nodes than it drew (and whose pool can hold them) raises no
+// scale: on the cache benchmark's ablation fly-through a few views that drew next to nothing had
+// let the scale climb to 1.0, then 4-16 near nodes arrived and that frame cost 2-3x the median
+// (docs/viewer.md "Dynamic resolution", with a rule tried and not kept: lowering the scale ahead
+// of the arrivals).
 //
 // The target. Fixed (--frame-ms-target MS), or automatic (0, default): auto_factor (1.25) times
 // the median of the last auto_window moving frames rendered at full scale. The frames the
@@ -37,6 +44,14 @@
 
 namespace mds::render {
 
+// What a moving frame drew against what it wanted (streaming: Renderer::step()'s FrameReport
+// frame_hits / frame_misses / budget_exhausted). All zero (in memory): no arrivals.
+struct FrameLoad {
+  uint32_t drawn = 0;      // wanted nodes resident (drawn by the frame)
+  uint32_t missing = 0;    // wanted nodes not resident (reads queued or in flight)
+  bool pool_full = false;  // the pool cannot hold every wanted node: not all of `missing` will arrive
+};
+
 struct PacerSettings {
   double target_ms = 0.0;      // 0: automatic (see the file comment)
   double auto_factor = 1.25;   // automatic target = auto_factor x median full-scale moving frame
@@ -48,6 +63,7 @@ struct PacerSettings {
   double max_up = 1.25;        // largest up-step factor per frame
   double exponent = 0.5 / 0.8; // s' = s * (target / t)^exponent (t ~ pixels^0.8)
   double max_trend = 4.0;      // cap of the growth extrapolated from the last two moving frames
+  bool watch_arrivals = true;  // the arrival rule of the file comment (false: frame times only)
 };
 
 class FramePacer {
@@ -57,8 +73,9 @@ class FramePacer {
   // The scale of the next frame: the controller's for a moving frame, max_scale at rest.
   double next_scale(bool moving);
   // The frame rendered at the scale next_scale() returned took frame_ms (wall time of the
-  // whole frame); a moving frame updates the controller (and the automatic target).
-  void observe(double frame_ms);
+  // whole frame) and drew `load`; a moving frame updates the controller (and the automatic
+  // target).
+  void observe(double frame_ms, const FrameLoad& load = {});
 
   double scale() const { return scale_; }          // controller's scale for moving frames
   double last_scale() const { return last_scale_; }  // what next_scale() returned last

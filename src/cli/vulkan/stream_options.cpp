@@ -94,6 +94,10 @@ void add_pacing_options(CLI::App& sub, PacingOptions& o, bool default_on) {
       ->capture_default_str();
   sub.add_option("--min-scale", o.min_scale, "Smallest render scale (of width and height) of the dynamic resolution")
       ->capture_default_str();
+  sub.add_option("--pace-arrivals", o.watch_arrivals,
+                 "Dynamic resolution: a frame that lacked more wanted nodes than it drew (nodes on their way) "
+                 "raises no scale (docs/viewer.md)")
+      ->capture_default_str();
 }
 
 Result<render::PacerSettings> pacer_settings(const PacingOptions& o) {
@@ -105,6 +109,7 @@ Result<render::PacerSettings> pacer_settings(const PacingOptions& o) {
   render::PacerSettings p;
   p.target_ms = o.frame_ms_target;
   p.min_scale = o.min_scale;
+  p.watch_arrivals = o.watch_arrivals;
   return p;
 }
 

@@ -48,9 +48,11 @@ struct PacingOptions {
   bool dynamic = false;
   double frame_ms_target = 0.0;  // 0: automatic
   double min_scale = 0.125;
+  bool watch_arrivals = true;  // render::PacerSettings::watch_arrivals
 };
 
-// Adds --dynamic-resolution/--fixed-resolution (default: default_on), --frame-ms-target, --min-scale.
+// Adds --dynamic-resolution/--fixed-resolution (default: default_on), --frame-ms-target, --min-scale,
+// --pace-arrivals.
 void add_pacing_options(CLI::App& sub, PacingOptions& o, bool default_on);
 // The controller's settings; Errc::invalid_argument naming the option for a bad value.
 Result<render::PacerSettings> pacer_settings(const PacingOptions& o);
