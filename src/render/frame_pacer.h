@@ -44,7 +44,7 @@
 
 namespace mds::render {
 
-// What a moving frame drew against what it wanted (streaming: Renderer::step()'s FrameReport
+// What a moving frame drew against what it wanted (streaming: FrameReport::load(), from its
 // frame_hits / frame_misses / budget_exhausted). All zero (in memory): no arrivals.
 struct FrameLoad {
   uint32_t drawn = 0;      // wanted nodes resident (drawn by the frame)

@@ -35,6 +35,7 @@
 
 #include "core/result.h"
 #include "render/camera.h"
+#include "render/frame_pacer.h"
 #include "render/culling/cull_loop.h"
 #include "render/culling/density_volume.h"
 #include "render/mesh_sprites.h"
@@ -263,6 +264,9 @@ struct FrameReport {
   bool upload_stall = false;
   bool budget_exhausted = false;  // streaming: this frame wanted more nodes than the pool holds
   std::vector<uint32_t> wanted;   // StreamSettings::record_trace: this frame's wanted nodes
+
+  // What the frame pacer needs of this frame (FramePacer::observe).
+  FrameLoad load() const { return {frame_hits, frame_misses, budget_exhausted}; }
 };
 
 struct RenderStats {

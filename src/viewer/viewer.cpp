@@ -429,7 +429,7 @@ Status Viewer::run() {
     if (recorder_) recorder_->observe(frame, cam);
     const double frame_ms = ms_since(t0);
     hud_.frame_ms = frame_ms;
-    if (pacer_ && stepped) pacer_->observe(frame_ms, {report.frame_hits, report.frame_misses, report.budget_exhausted});
+    if (pacer_ && stepped) pacer_->observe(frame_ms, report.load());
     if (log_) {
       FrameLogRow row;
       row.frame = frame;

@@ -177,7 +177,7 @@ Status run_stress(const StressOptions& o) {
     MDS_ASSIGN_OR_RETURN(render::FrameReport fr, renderer->step());
     MDS_TRY(renderer->finish());
     fr.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    if (pacer) pacer->observe(fr.wall_ms, {fr.frame_hits, fr.frame_misses, fr.budget_exhausted});
+    if (pacer) pacer->observe(fr.wall_ms, fr.load());
     stress::FrameRecord r;
     r.scale = scale;
     r.view = view;
