@@ -327,7 +327,9 @@ TEST_F(RenderCli, CoverageAutoClipsOnlyParticlesBelowTwoPixels) {
 }
 
 // `mdstream bench`: every row is compared with the reference (every particle at
-// --reference-spp). The row with the reference's settings reproduces it exactly, fewer samples
+// --reference-spp). The row with the reference's settings reproduces it exactly on a CPU device
+// (on a GPU the atomics' order breaks exact depth ties differently between the two renders, as in
+// test_cull_render.cpp, so there at most 0.1 % of its pixels may differ beyond 0.1), fewer samples
 // do not, and on the close-up, where culling removes most meshlets, the image of the converged
 // meshlet classes at the reference's spp stays within the renderer's own tolerance (at most 1 %
 // of the pixels beyond 0.1, as test_cull_render.cpp requires of culled renders) with either
@@ -337,10 +339,13 @@ TEST_F(RenderCli, CoverageAutoClipsOnlyParticlesBelowTwoPixels) {
 // not bounded: docs/rendering.md, "What accuracy costs in time").
 TEST_F(RenderCli, BenchComparesEveryRowWithTheReference) {
   const fs::path csv = dir_ / "bench.csv";
+  const fs::path json = dir_ / "bench.json";
   ASSERT_EQ(run("bench " + store() + " --view 2 --width 64 --height 48 --spp-list 1,4 --reference-spp 4 " +
-                "--particle-occlusion on --csv " + csv.string() + " > /dev/null"),
+                "--particle-occlusion on --csv " + csv.string() + " --json " + json.string() + " > /dev/null"),
             0)
       << last_stderr();
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
+  const bool cpu_device = j.at("device_type").get<std::string>() == "cpu";
   std::ifstream f(csv);
   std::string line;
   std::getline(f, line);
@@ -359,8 +364,12 @@ TEST_F(RenderCli, BenchComparesEveryRowWithTheReference) {
   const auto rmse = [&](const std::string& k) { return std::stod(rows.at(k)[8]); };
   const auto beyond = [&](const std::string& k) { return std::stod(rows.at(k)[12]); };
   const auto culled = [&](const std::string& k) { return std::stod(rows.at(k)[7]); };
-  EXPECT_EQ(rmse("all/4"), 0.0);
-  EXPECT_EQ(rows.at("all/4")[9], "inf");
+  if (cpu_device) {
+    EXPECT_EQ(rmse("all/4"), 0.0);
+    EXPECT_EQ(rows.at("all/4")[9], "inf");
+  } else {
+    EXPECT_LE(beyond("all/4"), 0.001) << "on " << j.at("device").get<std::string>();
+  }
   EXPECT_GT(rmse("all/1"), 0.0);
   for (const std::string cov : {"expected", "exact"}) {
     EXPECT_LE(beyond("culled@" + cov + "/4"), 0.01) << cov;

@@ -18,7 +18,10 @@
 #   sweep  tools/bench_mesh_path.py (1M) at 640x360 and 1920x1080 under the pixel-route settings
 #          MDSTREAM_PIXEL_ROUTE=attachments, MDSTREAM_SMALL_PX=0, =2 and the defaults (sweep/<cfg>_<w>)
 # OUT gets log.txt (everything) and results.tar (each step's files, appended as the step ends, so
-# a run cut off still returns the steps before). GPU_CHECK_STEPS="smoke tests" picks steps;
+# a run cut off still returns the steps before). GPU_CHECK_GL_DEBS=DIR unpacks DIR/*.deb into / first
+# (Debian's libvulkan1 and the glvnd libraries: without them the NVIDIA Vulkan driver of the lent
+# H100 and H200 images returns no vkCreateInstance, VK_ERROR_INCOMPATIBLE_DRIVER; docs/rendering.md,
+# "Checks on a GPU"). GPU_CHECK_STEPS="smoke tests" picks steps;
 # GPU_CHECK_QUICK=1 makes every step small (a dry run of this script on lavapipe); PYTHON picks
 # the interpreter.
 set -uo pipefail
@@ -53,6 +56,10 @@ mkdir -p "$repo/build/tests"
 cp "$bundle"/bin/* "$repo/build/"
 cp "$bundle"/tests/* "$repo/build/tests/" 2>/dev/null
 if [ "$src_dir" != "$repo" ] && [ ! -e "$src_dir" ]; then mkdir -p "$(dirname "$src_dir")"; ln -s "$repo" "$src_dir"; fi
+if [ -n "${GPU_CHECK_GL_DEBS:-}" ]; then
+  for f in "$GPU_CHECK_GL_DEBS"/*.deb; do dpkg -x "$f" / || echo "gpu_check: dpkg -x $f failed"; done
+  ldconfig
+fi
 export LD_LIBRARY_PATH="$bundle/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 for icd in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json /usr/share/vulkan/icd.d/nvidia_icd.json \
            /etc/vulkan/icd.d/nvidia_icd.json; do
@@ -129,7 +136,7 @@ export work repo mds py quick
 export -f smoke tests tests_mesh mesh render render_mesh cache big sweep
 for s in $steps; do
   case $s in
-    smoke) step smoke 90 smoke || { echo "smoke failed: no further steps"; ldd "$mds" "$repo/build/libmdstream_vulkan.so" | grep -i "not found"; break; } ;;
+    smoke) step smoke 90 smoke || { echo "smoke failed: no further steps (no driver found? GPU_CHECK_GL_DEBS)"; ldd "$mds" "$repo/build/libmdstream_vulkan.so" | grep -i "not found"; break; } ;;
     tests|tests_mesh) step "$s" 150 "$s" 140 ;;
     sweep) step sweep 300 sweep ;;
     *) step "$s" 200 "$s" ;;

@@ -173,6 +173,7 @@ Status run_bench(const BenchOptions& o) {
     j["width"] = o.width;
     j["height"] = o.height;
     j["device"] = ref_stats.device;
+    j["device_type"] = vk::device_type_name(ctx->info().type);  // "cpu" on lavapipe
     j["reference"] = {{"spp", o.reference_spp}, {"wall_ms", ref_stats.wall_ms}, {"gpu_frame_ms", ref_stats.frame_ms_median}};
     j["rows"] = nlohmann::json::array();
     for (const BenchRow& r : rows) {
