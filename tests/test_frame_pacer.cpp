@@ -3,7 +3,7 @@
 // to the target, never leaves [min_scale, max_scale], returns to full scale when the camera
 // rests, derives the automatic target from full-scale moving frames, and brings the frame times
 // of a view whose cost jumps back under the target within a few frames; streaming arrivals
-// (FrameLoad) hold the scale.
+// (FrameLoad) hold the scale; only the frame's GPU time is priced by its pixels.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -152,6 +152,45 @@ TEST(FramePacer, AFrameLackingMostOfItsNodesRaisesNoScale) {
   EXPECT_GT(scale_after_cheap_frames({.drawn = 3, .missing = 20, .pool_full = true}, 6), 1.5);
   EXPECT_GT(scale_after_cheap_frames({.drawn = 3, .missing = 20}, 6, false), 1.5);
   EXPECT_GT(scale_after_cheap_frames({}, 6), 1.5);  // in memory: no arrivals
+}
+
+// A GPU-like frame: h ms of CPU work that the render size does not change, and g_full ms of GPU
+// work at full scale that scales with the pixels (as model_ms). Runs 40 moving frames against a
+// 2.25 ms target; returns the last scale, the last frame's time in *last_ms.
+static double scale_with_fixed_cpu(double h, double g_full, bool split, double* last_ms) {
+  PacerSettings ps;
+  ps.target_ms = 2.25;
+  ps.split_gpu_time = split;
+  FramePacer p(ps);
+  for (int f = 0; f < 40; ++f) {
+    const double g = g_full * std::pow(std::pow(p.next_scale(true), 2.0), 0.8);
+    *last_ms = h + g;
+    p.observe(h + g, {}, g);
+  }
+  return p.scale();
+}
+
+TEST(FramePacer, ScalesOnlyTheFramesGpuTime) {
+  // 2.1 ms of CPU work, 0.5 ms of GPU at full scale (the H100's 320x180 cache benchmark frames
+  // are ~2 ms of wall time for 0.2-0.5 ms of GPU). Priced by its GPU time, the frame meets the
+  // target at the largest scale whose GPU time fits beside the CPU's 2.1 ms ...
+  // (0.15 ms of GPU: s^1.6 <= 0.3, s <= 0.47; on the 1/16 grid 7/16), or one quantum below it.
+  double t = 0.0;
+  const double split = scale_with_fixed_cpu(2.1, 0.5, true, &t);
+  EXPECT_LE(t, 2.25);
+  EXPECT_LE(split, 7.0 / 16.0);
+  EXPECT_GE(split, 6.0 / 16.0);
+  // ... where a frame priced whole by its pixels falls to min_scale: every step down leaves it
+  // above the target or inside the band below it, where no up-step is taken.
+  EXPECT_EQ(scale_with_fixed_cpu(2.1, 0.5, false, &t), PacerSettings{}.min_scale);
+  // CPU work alone above the target: no scale can meet it, full scale is kept.
+  EXPECT_EQ(scale_with_fixed_cpu(2.4, 0.5, true, &t), 1.0);
+  EXPECT_EQ(scale_with_fixed_cpu(2.4, 0.5, false, &t), PacerSettings{}.min_scale);
+  // All of the frame on the GPU (lavapipe runs the GPU work on the CPU cores; a frame's GPU time
+  // is 80-95 % of its wall time there): the split changes nothing.
+  double t_split = 0.0, t_whole = 0.0;
+  EXPECT_EQ(scale_with_fixed_cpu(0.0, 8.0, true, &t_split), scale_with_fixed_cpu(0.0, 8.0, false, &t_whole));
+  EXPECT_EQ(t_split, t_whole);
 }
 
 TEST(FramePacer, ScaledSizeRoundsAndKeepsAtLeastOnePixel) {

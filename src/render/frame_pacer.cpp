@@ -41,7 +41,7 @@ double FramePacer::next_scale(bool moving) {
   return last_scale_;
 }
 
-void FramePacer::observe(double frame_ms, const FrameLoad& load) {
+void FramePacer::observe(double frame_ms, const FrameLoad& load, double gpu_ms) {
   if (!last_moving_) {
     last_cost_ = 0.0;  // a rest breaks the trend
     return;
@@ -52,28 +52,36 @@ void FramePacer::observe(double frame_ms, const FrameLoad& load) {
     while (full_scale_ms_.size() > s_.auto_window) full_scale_ms_.pop_front();
   }
   const double s = last_scale_;
-  const double cost = frame_ms / std::pow(s, 1.0 / s_.exponent);
+  // The split (file comment): g scales with the pixels, h does not.
+  const bool split = s_.split_gpu_time && gpu_ms > 0.0 && std::isfinite(gpu_ms);
+  const double g = split ? std::min(gpu_ms, frame_ms) : frame_ms;
+  const double h = frame_ms - g;
+  const double cost = g / std::pow(s, 1.0 / s_.exponent);
   const double trend = last_cost_ > 0.0 ? std::clamp(cost / last_cost_, 1.0, s_.max_trend) : 1.0;
   last_cost_ = cost;
   const double target = target_ms();
   if (target <= 0.0) return;
-  const double expect = frame_ms * trend;  // the next frame at scale s
+  const double expect_g = g * trend;  // the next frame's GPU time at scale s
+  const double expect = h + expect_g;
+  const double room = target - h;     // the GPU time that fits the target beside h
   // Arrivals (file comment): the lacking nodes will be drawn at the scale chosen now.
   const bool hold = s_.watch_arrivals && !load.pool_full && load.missing > load.drawn;  // no up-step
   double next = s;
   if (expect > target) {
-    next = s * std::pow(target / expect, s_.exponent);
+    if (room > 0.0) next = s * std::pow(room / expect_g, s_.exponent);
+    else if (3.0 * expect_g >= expect) next = s * std::pow(target / expect, s_.exponent);  // whole frame
+    else return;  // h alone exceeds the target and g is a small part: a smaller frame does not help
   } else if (hold) {
     return;
-  } else if (expect < (1.0 - s_.band) * target) {
-    next = std::min(s * std::pow(target / expect, s_.exponent), s * s_.max_up);
+  } else if (expect_g < (1.0 - s_.band) * room) {
+    next = std::min(s * std::pow(room / expect_g, s_.exponent), s * s_.max_up);
   }
   // Rounding down must not swallow every up-step smaller than a quantum: one quantum up when
   // the model predicts it still meets the target.
   double q = quantize(next);
   if (next > s && q <= s && s < s_.max_scale) {
     const double up = quantize(std::min(s + s_.quantum, s_.max_scale));
-    if (up > s && expect * std::pow(up / s, 1.0 / s_.exponent) <= target) q = up;
+    if (up > s && h + expect_g * std::pow(up / s, 1.0 / s_.exponent) <= target) q = up;
   }
   scale_ = std::clamp(q, s_.min_scale, s_.max_scale);
 }

@@ -27,6 +27,22 @@
 // (docs/viewer.md "Dynamic resolution", with a rule tried and not kept: lowering the scale ahead
 // of the arrivals).
 //
+// Work the render size does not change (the split): only a frame's GPU time scales with the
+// pixels; the rest of its wall time (CPU: culling bookkeeping, the cache, uploads, submission,
+// the viewer's HUD and present) is fixed. observe() takes the frame's GPU time and applies the
+// model to it alone: t = h + g, h = t - g fixed, g ~ s^(1/exponent). A down-step solves for the
+// GPU time that fits the target beside h. When h alone exceeds the target no scale meets it:
+// if g is at least a third of the frame the whole frame is priced by its pixels (as without the
+// split: the smaller frame is the best there is), otherwise the scale is kept (resolution cannot
+// buy the frame back). An up-step needs g below (1 - band) of the room beside h. On
+// lavapipe h is 5-20 % of a frame and the split changed nothing beyond the noise. On an H100 the
+// cache benchmark's 320x180 fly-throughs sat at min_scale when the whole frame was priced by its
+// pixels: a frame at 1/8 scale (porous p50 2.2 ms) cost nearly what one at full scale did (2.5
+// ms), and an up-step needed it under 0.85x the target. How much of that fixed part was CPU
+// work, which the split takes out, was not measured there
+// (docs/viewer.md "Dynamic resolution", docs/results/gpu-h100.md). Without a GPU time (0) the
+// whole frame scales, as before.
+//
 // The target. Fixed (--frame-ms-target MS), or automatic (0, default): auto_factor (1.25) times
 // the median of the last auto_window moving frames rendered at full scale. The frames the
 // camera costs least (outside the data, an overview) set the pace, and only views that would
@@ -64,6 +80,7 @@ struct PacerSettings {
   double exponent = 0.5 / 0.8; // s' = s * (target / t)^exponent (t ~ pixels^0.8)
   double max_trend = 4.0;      // cap of the growth extrapolated from the last two moving frames
   bool watch_arrivals = true;  // the arrival rule of the file comment (false: frame times only)
+  bool split_gpu_time = true;  // the split of the file comment (false: the whole frame scales)
 };
 
 class FramePacer {
@@ -73,9 +90,10 @@ class FramePacer {
   // The scale of the next frame: the controller's for a moving frame, max_scale at rest.
   double next_scale(bool moving);
   // The frame rendered at the scale next_scale() returned took frame_ms (wall time of the
-  // whole frame) and drew `load`; a moving frame updates the controller (and the automatic
-  // target).
-  void observe(double frame_ms, const FrameLoad& load = {});
+  // whole frame), gpu_ms of it on the GPU (its own passes, Renderer::last_frame_gpu() after
+  // finish(); 0: unknown, the whole frame scales), and drew `load`; a moving frame updates the
+  // controller (and the automatic target, which stays in wall time).
+  void observe(double frame_ms, const FrameLoad& load = {}, double gpu_ms = 0.0);
 
   double scale() const { return scale_; }          // controller's scale for moving frames
   double last_scale() const { return last_scale_; }  // what next_scale() returned last
@@ -91,7 +109,7 @@ class FramePacer {
   double scale_ = 1.0;
   double last_scale_ = 1.0;
   bool last_moving_ = false;
-  double last_cost_ = 0.0;  // full-scale-normalized cost of the previous moving frame (0: none)
+  double last_cost_ = 0.0;  // full-scale-normalized GPU cost of the previous moving frame (0: none)
   std::deque<double> full_scale_ms_;  // recent full-scale moving frames (automatic target)
 };
 

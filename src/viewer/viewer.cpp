@@ -341,6 +341,7 @@ Status Viewer::run() {
     const bool moved = !have_view_ || !same_camera(cam, view_camera_);
     render::Renderer* r = host_->renderer();
     double step_ms = 0.0;
+    double gpu_ms = 0.0;  // this frame's GPU passes (0: not timed)
     bool stepped = false;
     // Render size: the window's, scaled down by the pacer while the camera moves; at rest the
     // full size returns and the view refines (culling convergence, super-sampling) there.
@@ -378,6 +379,9 @@ Status Viewer::run() {
         auto img = r->read_image();
         if (!img.ok()) render_error_ = img.error();
         else image_.set_from_linear(*img);
+        // read_image() waited for the frame: collect its GPU timestamps (the pacer's split).
+        if (Status st = r->finish(); !st.ok()) render_error_ = st.error();
+        gpu_ms = r->last_frame_gpu().ms;
         stepped = true;
         idle_ = report.converged && report.samples >= host_->settings().spp;
       }
@@ -429,7 +433,7 @@ Status Viewer::run() {
     if (recorder_) recorder_->observe(frame, cam);
     const double frame_ms = ms_since(t0);
     hud_.frame_ms = frame_ms;
-    if (pacer_ && stepped) pacer_->observe(frame_ms, report.load());
+    if (pacer_ && stepped) pacer_->observe(frame_ms, report.load(), gpu_ms);
     if (log_) {
       FrameLogRow row;
       row.frame = frame;

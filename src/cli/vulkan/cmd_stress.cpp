@@ -177,15 +177,15 @@ Status run_stress(const StressOptions& o) {
     MDS_ASSIGN_OR_RETURN(render::FrameReport fr, renderer->step());
     MDS_TRY(renderer->finish());
     fr.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    if (pacer) pacer->observe(fr.wall_ms, fr.load());
+    // This frame's own GPU passes (finish() collected them; fr.gpu_ms is the previous frame's).
+    const render::FrameGpu gpu = renderer->last_frame_gpu();
+    if (pacer) pacer->observe(fr.wall_ms, fr.load(), gpu.ms);
     stress::FrameRecord r;
     r.scale = scale;
     r.view = view;
     r.settle = settle;
     r.after_converged = after;
     r.wall_ms = fr.wall_ms;
-    // This frame's own GPU passes (finish() collected them; fr.gpu_ms is the previous frame's).
-    const render::FrameGpu gpu = renderer->last_frame_gpu();
     r.gpu_ms = gpu.ms;
     r.gpu_passes = gpu.passes;
     r.converged = fr.converged;
@@ -303,6 +303,7 @@ Status run_stress(const StressOptions& o) {
   j["converged_frames_run"] = converged_run;
   j["frames_total"] = frames.size();
   j["device"] = st.device;
+  j["device_type"] = vk::device_type_name(ctx->info().type);  // "cpu" on lavapipe
   j["cull_shared_box_tests"] = st.cull.shared_box_tests;  // cull_classify_coop.comp
   j["io"] = {{"threads", ss.io.threads}, {"latency_ms", ss.io.io_latency_ms}, {"bandwidth_bytes_per_s", bandwidth}};
   j["upload_bytes_per_frame"] = upload_budget;

@@ -98,6 +98,10 @@ void add_pacing_options(CLI::App& sub, PacingOptions& o, bool default_on) {
                  "Dynamic resolution: a frame that lacked more wanted nodes than it drew (nodes on their way) "
                  "raises no scale (docs/viewer.md)")
       ->capture_default_str();
+  sub.add_option("--pace-gpu-time", o.split_gpu_time,
+                 "Dynamic resolution: only the frame's GPU time scales with the render size, the rest of it "
+                 "(CPU work) is fixed (false: the whole frame scales; docs/viewer.md)")
+      ->capture_default_str();
 }
 
 Result<render::PacerSettings> pacer_settings(const PacingOptions& o) {
@@ -110,6 +114,7 @@ Result<render::PacerSettings> pacer_settings(const PacingOptions& o) {
   p.target_ms = o.frame_ms_target;
   p.min_scale = o.min_scale;
   p.watch_arrivals = o.watch_arrivals;
+  p.split_gpu_time = o.split_gpu_time;
   return p;
 }
 

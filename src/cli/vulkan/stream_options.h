@@ -49,10 +49,11 @@ struct PacingOptions {
   double frame_ms_target = 0.0;  // 0: automatic
   double min_scale = 0.125;
   bool watch_arrivals = true;  // render::PacerSettings::watch_arrivals
+  bool split_gpu_time = true;  // render::PacerSettings::split_gpu_time
 };
 
 // Adds --dynamic-resolution/--fixed-resolution (default: default_on), --frame-ms-target, --min-scale,
-// --pace-arrivals.
+// --pace-arrivals, --pace-gpu-time.
 void add_pacing_options(CLI::App& sub, PacingOptions& o, bool default_on);
 // The controller's settings; Errc::invalid_argument naming the option for a bad value.
 Result<render::PacerSettings> pacer_settings(const PacingOptions& o);
