@@ -160,7 +160,7 @@ TEST(FramePacer, AFrameLackingMostOfItsNodesRaisesNoScale) {
 static double scale_with_fixed_cpu(double h, double g_full, bool split, double* last_ms) {
   PacerSettings ps;
   ps.target_ms = 2.25;
-  ps.split_gpu_time = split;
+  ps.gpu_split = split ? mds::render::GpuSplit::on : mds::render::GpuSplit::off;
   FramePacer p(ps);
   for (int f = 0; f < 40; ++f) {
     const double g = g_full * std::pow(std::pow(p.next_scale(true), 2.0), 0.8);
@@ -186,6 +186,10 @@ TEST(FramePacer, ScalesOnlyTheFramesGpuTime) {
   // CPU work alone above the target: no scale can meet it, full scale is kept.
   EXPECT_EQ(scale_with_fixed_cpu(2.4, 0.5, true, &t), 1.0);
   EXPECT_EQ(scale_with_fixed_cpu(2.4, 0.5, false, &t), PacerSettings{}.min_scale);
+  // The default (--pace-gpu-time auto) splits on a GPU only.
+  EXPECT_TRUE(FramePacer(PacerSettings{}).split_gpu_time());
+  EXPECT_FALSE(FramePacer(PacerSettings{.cpu_device = true}).split_gpu_time());
+  EXPECT_TRUE(FramePacer(PacerSettings{.gpu_split = mds::render::GpuSplit::on, .cpu_device = true}).split_gpu_time());
   // All of the frame on the GPU (lavapipe runs the GPU work on the CPU cores; a frame's GPU time
   // is 80-95 % of its wall time there): the split changes nothing.
   double t_split = 0.0, t_whole = 0.0;

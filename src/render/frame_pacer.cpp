@@ -29,6 +29,10 @@ double FramePacer::target_ms() const {
   return s_.auto_factor * med;
 }
 
+bool FramePacer::split_gpu_time() const {
+  return s_.gpu_split == GpuSplit::on || (s_.gpu_split == GpuSplit::gpu_devices && !s_.cpu_device);
+}
+
 double FramePacer::quantize(double s) const {
   if (s >= s_.max_scale) return s_.max_scale;
   const double q = std::floor(s / s_.quantum + 1e-9) * s_.quantum;
@@ -53,7 +57,7 @@ void FramePacer::observe(double frame_ms, const FrameLoad& load, double gpu_ms) 
   }
   const double s = last_scale_;
   // The split (file comment): g scales with the pixels, h does not.
-  const bool split = s_.split_gpu_time && gpu_ms > 0.0 && std::isfinite(gpu_ms);
+  const bool split = split_gpu_time() && gpu_ms > 0.0 && std::isfinite(gpu_ms);
   const double g = split ? std::min(gpu_ms, frame_ms) : frame_ms;
   const double h = frame_ms - g;
   const double cost = g / std::pow(s, 1.0 / s_.exponent);

@@ -34,14 +34,17 @@
 // GPU time that fits the target beside h. When h alone exceeds the target no scale meets it:
 // if g is at least a third of the frame the whole frame is priced by its pixels (as without the
 // split: the smaller frame is the best there is), otherwise the scale is kept (resolution cannot
-// buy the frame back). An up-step needs g below (1 - band) of the room beside h. On
-// lavapipe h is 5-20 % of a frame and the split changed nothing beyond the noise. On an H100 the
-// cache benchmark's 320x180 fly-throughs sat at min_scale when the whole frame was priced by its
-// pixels: a frame at 1/8 scale (porous p50 2.2 ms) cost nearly what one at full scale did (2.5
-// ms), and an up-step needed it under 0.85x the target. How much of that fixed part was CPU
-// work, which the split takes out, was not measured there
-// (docs/viewer.md "Dynamic resolution", docs/results/gpu-h100.md). Without a GPU time (0) the
-// whole frame scales, as before.
+// buy the frame back). An up-step needs g below (1 - band) of the room beside h. Without a GPU
+// time (0) the whole frame scales, as before.
+// Where: on an H100 the cache benchmark's 320x180 fly-throughs sat at min_scale when the whole
+// frame was priced by its pixels: a frame at 1/8 scale (porous p50 2.2 ms) cost nearly what one
+// at full scale did (2.5 ms), and an up-step needed it under 0.85x the target. How much of that
+// fixed part was CPU work, which the split takes out, was not measured there (docs/viewer.md
+// "Dynamic resolution", docs/results/gpu-h100.md). On a CPU device (lavapipe) h is 5-20 % of a
+// frame and the split is off by default (GpuSplit::gpu_devices): there it changed p99/p50 by no
+// more than the noise, and in two A/B runs the porous fly-through's hit rate / Belady was 0.02
+// lower with it (0.957 -> 0.940, 0.936 -> 0.916; two benchmark runs without it gave 0.959 and
+// 0.936, so this is at the edge of the noise). Off, lavapipe behaves as before.
 //
 // The target. Fixed (--frame-ms-target MS), or automatic (0, default): auto_factor (1.25) times
 // the median of the last auto_window moving frames rendered at full scale. The frames the
@@ -68,6 +71,13 @@ struct FrameLoad {
   bool pool_full = false;  // the pool cannot hold every wanted node: not all of `missing` will arrive
 };
 
+// Where the split of the file comment applies (--pace-gpu-time auto|true|false).
+enum class GpuSplit : uint8_t {
+  gpu_devices,  // auto: on a GPU, not on a CPU device (PacerSettings::cpu_device)
+  on,
+  off,  // the whole frame scales
+};
+
 struct PacerSettings {
   double target_ms = 0.0;      // 0: automatic (see the file comment)
   double auto_factor = 1.25;   // automatic target = auto_factor x median full-scale moving frame
@@ -80,7 +90,8 @@ struct PacerSettings {
   double exponent = 0.5 / 0.8; // s' = s * (target / t)^exponent (t ~ pixels^0.8)
   double max_trend = 4.0;      // cap of the growth extrapolated from the last two moving frames
   bool watch_arrivals = true;  // the arrival rule of the file comment (false: frame times only)
-  bool split_gpu_time = true;  // the split of the file comment (false: the whole frame scales)
+  GpuSplit gpu_split = GpuSplit::gpu_devices;  // the split of the file comment: where it applies
+  bool cpu_device = false;     // the renderer's device is a CPU (lavapipe): set by the caller
 };
 
 class FramePacer {
@@ -99,6 +110,7 @@ class FramePacer {
   double last_scale() const { return last_scale_; }  // what next_scale() returned last
   double target_ms() const;                         // 0 while the automatic target is unknown
   const PacerSettings& settings() const { return s_; }
+  bool split_gpu_time() const;  // the split applies (settings' gpu_split and cpu_device)
 
   // width/height x scale, rounded, at least 1 pixel (and exactly w x h at scale >= 1).
   static void scaled_size(uint32_t width, uint32_t height, double scale, uint32_t& out_w, uint32_t& out_h);

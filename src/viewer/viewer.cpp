@@ -121,7 +121,11 @@ Status Viewer::setup() {
   MDS_ASSIGN_OR_RETURN(host_, RenderHost::open(*ctx_, o_));
   input_ = std::make_unique<Input>(window_->handle());
   vs_.hud = o_.hud;
-  if (o_.dynamic_resolution) pacer_.emplace(o_.pacer);
+  if (o_.dynamic_resolution) {
+    render::PacerSettings ps = o_.pacer;
+    ps.cpu_device = ctx_->info().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
+    pacer_.emplace(ps);
+  }
   MDS_TRY(host_->recreate(fw, fh));
 
   // Home camera: --camera or a default view, with --fov/--ortho.

@@ -104,12 +104,13 @@ Status run_stress(const StressOptions& o) {
   MDS_ASSIGN_OR_RETURN(PathChoice choice, choose_path(o.path));
   MDS_ASSIGN_OR_RETURN(render::PacerSettings pacer_cfg, pacer_settings(o.pacing));
   std::optional<render::FramePacer> pacer;
-  if (o.pacing.dynamic) pacer.emplace(pacer_cfg);
 
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
   vk::ContextOptions copt = vk::ContextOptions::from_env();
   copt.device_index = o.device;
   MDS_ASSIGN_OR_RETURN(auto ctx, vk::Context::create(copt));
+  pacer_cfg.cpu_device = ctx->info().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
+  if (o.pacing.dynamic) pacer.emplace(pacer_cfg);
 
   rs.width = o.width;
   rs.height = o.height;
@@ -296,6 +297,7 @@ Status run_stress(const StressOptions& o) {
     j["dynamic_resolution"] = o.pacing.dynamic;
     j["frame_ms_target"] = pacer ? pacer->target_ms() : 0.0;  // automatic: the final value
     j["min_scale"] = pacer ? pacer->settings().min_scale : 1.0;
+    j["pace_gpu_time"] = pacer && pacer->split_gpu_time();  // --pace-gpu-time, resolved for the device
     j["scale_p50"] = stress::quantile(path_scales, 0.5);
     j["scale_min"] = path_scales.empty() ? 1.0 : *std::min_element(path_scales.begin(), path_scales.end());
   }

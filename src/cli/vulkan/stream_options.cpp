@@ -98,9 +98,11 @@ void add_pacing_options(CLI::App& sub, PacingOptions& o, bool default_on) {
                  "Dynamic resolution: a frame that lacked more wanted nodes than it drew (nodes on their way) "
                  "raises no scale (docs/viewer.md)")
       ->capture_default_str();
-  sub.add_option("--pace-gpu-time", o.split_gpu_time,
+  sub.add_option("--pace-gpu-time", o.pace_gpu_time,
                  "Dynamic resolution: only the frame's GPU time scales with the render size, the rest of it "
-                 "(CPU work) is fixed (false: the whole frame scales; docs/viewer.md)")
+                 "(CPU work) is fixed; auto: on a GPU, not on a CPU device such as lavapipe (false: the whole "
+                 "frame scales; docs/viewer.md)")
+      ->check(CLI::IsMember({"auto", "true", "false"}))
       ->capture_default_str();
 }
 
@@ -114,7 +116,9 @@ Result<render::PacerSettings> pacer_settings(const PacingOptions& o) {
   p.target_ms = o.frame_ms_target;
   p.min_scale = o.min_scale;
   p.watch_arrivals = o.watch_arrivals;
-  p.split_gpu_time = o.split_gpu_time;
+  p.gpu_split = o.pace_gpu_time == "true"    ? render::GpuSplit::on
+                : o.pace_gpu_time == "false" ? render::GpuSplit::off
+                                             : render::GpuSplit::gpu_devices;
   return p;
 }
 

@@ -49,7 +49,7 @@ struct PacingOptions {
   double frame_ms_target = 0.0;  // 0: automatic
   double min_scale = 0.125;
   bool watch_arrivals = true;  // render::PacerSettings::watch_arrivals
-  bool split_gpu_time = true;  // render::PacerSettings::split_gpu_time
+  std::string pace_gpu_time = "auto";  // render::PacerSettings::gpu_split: auto|true|false
 };
 
 // Adds --dynamic-resolution/--fixed-resolution (default: default_on), --frame-ms-target, --min-scale,
