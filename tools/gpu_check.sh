@@ -15,6 +15,10 @@
 #          the sprite path `--mesh-shaders auto` picks (compute + indirect draws)
 #   render_mesh  the same with `--mesh-shaders on` (task/mesh path; fails without mesh shaders)
 #   cache  tools/bench_cache.py, porous, fly-through and orbit, occlusion and LRU policies
+#   cache_1m    tools/bench_cache.py, every scene, path and policy, at the setting of the lavapipe
+#          run in docs/results/cache.md (1M particles, nodes of 1000, 320x180, 48 frames; ~50 s
+#          on an H100)
+#   cache_full  tools/bench_cache.py at its defaults (1.5M, nodes of 2000, 640x360; ~75 s)
 #   sweep  tools/bench_mesh_path.py (1M) at 640x360 and 1920x1080 under the pixel-route settings
 #          MDSTREAM_PIXEL_ROUTE=attachments, MDSTREAM_SMALL_PX=0, =2 and the defaults (sweep/<cfg>_<w>)
 # OUT gets log.txt (everything) and results.tar (each step's files, appended as the step ends, so
@@ -127,13 +131,22 @@ cache() {
   "$py" "$repo/tools/bench_cache.py" "${q[@]}" --scenes porous --paths flythrough,orbit --policies occlusion,lru \
     --no-scale --out "$work/cache" --work /tmp/gc_cache
 }
+cache_1m() {
+  local q=(--particles 1000000 --node-size 1000 --frames 48 --width 320 --height 180 --settle-frames 160)
+  [ "$quick" = 1 ] && q=(--quick)
+  "$py" "$repo/tools/bench_cache.py" "${q[@]}" --out "$work/cache_1m" --work /tmp/gc_cache_1m
+}
+cache_full() {
+  local q=(); [ "$quick" = 1 ] && q=(--quick)
+  "$py" "$repo/tools/bench_cache.py" "${q[@]}" --out "$work/cache_full" --work /tmp/gc_cache_full
+}
 big() {
   local q=(--particles 32M --width 1920 --height 1080 --budget 256MiB); [ "$quick" = 1 ] && q=(--quick)
   "$py" "$repo/tools/bench_mesh_path.py" "${q[@]}" --scenes porous --out "$work/big" --work /tmp/gc_big
 }
 
 export work repo mds py quick
-export -f smoke tests tests_mesh mesh render render_mesh cache big sweep
+export -f smoke tests tests_mesh mesh render render_mesh cache cache_1m cache_full big sweep
 for s in $steps; do
   case $s in
     smoke) step smoke 90 smoke || { echo "smoke failed: no further steps (no driver found? GPU_CHECK_GL_DEBS)"; ldd "$mds" "$repo/build/libmdstream_vulkan.so" | grep -i "not found"; break; } ;;
