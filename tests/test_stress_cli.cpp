@@ -511,6 +511,18 @@ TEST_F(StressCli, DynamicResolutionScalesOnlyMovingFrames) {
   EXPECT_NE(last_stderr().find("--min-scale"), std::string::npos) << last_stderr();
   EXPECT_EQ(run("stress " + store() + " --gpu-budget 1MiB --path orbit --frame-ms-target -5" + small()), 2);
   EXPECT_NE(last_stderr().find("--frame-ms-target"), std::string::npos) << last_stderr();
+  EXPECT_EQ(run("stress " + store() + " --gpu-budget 1MiB --path orbit --pace-gpu-time maybe" + small()), 2);
+  EXPECT_NE(last_stderr().find("--pace-gpu-time"), std::string::npos) << last_stderr();
+  // The report says whether the pacer priced only the GPU time: by default (auto) on a GPU only.
+  EXPECT_EQ(j["pace_gpu_time"].get<bool>(), j["device_type"].get<std::string>() != "cpu");
+  const fs::path forced = dir_ / "forced.json";
+  ASSERT_EQ(run("stress " + store() + " --gpu-budget " + std::to_string(budget) +
+                " --path flythrough --frames 3 --settle-frames 0 --dynamic-resolution --pace-gpu-time true --json " +
+                forced.string() + small()),
+            0)
+      << last_stderr();
+  std::ifstream ff(forced);
+  EXPECT_TRUE(nlohmann::json::parse(ff)["pace_gpu_time"].get<bool>());
 }
 
 TEST_F(StressCli, CameraPathFile) {
