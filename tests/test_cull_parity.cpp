@@ -211,6 +211,41 @@ TEST(CullParity, MovingViewCastsCoarserBlocksUntilItRests) {
   compare_histograms(f, 2);
 }
 
+// A moving view's sampling pass selects its share of the occluder budget (CullLoop::set_moving,
+// the dynamic resolution's FramePacer::sample_share); at rest the whole budget returns.
+TEST(CullParity, MovingSamplingPassSelectsItsShareOfTheBudget) {
+  Fixture f = make_fixture(false);
+  rc::CullLoop* loop = f.renderer->cull_loop();
+  ASSERT_NE(loop, nullptr);
+  const uint32_t budget = loop->budget();
+  ASSERT_GE(budget, 100u);
+  auto selected = [&](bool moving, double share) {
+    loop->set_moving(moving, share);
+    EXPECT_TRUE(loop->begin_view(f.camera).ok());
+    EXPECT_TRUE(f.ctx->submit_and_wait([&](VkCommandBuffer cmd) { loop->record_iteration(cmd, nullptr, 0); }).ok());
+    return loop->counters().selected;
+  };
+  // The first iteration selects from class P (every meshlet in the frustum, more than the budget).
+  const uint32_t whole = selected(true, 1.0);
+  EXPECT_EQ(loop->pass_budget(), budget);
+  EXPECT_GT(whole, budget * 3 / 4);
+  EXPECT_LT(whole, budget * 5 / 4);
+  const uint32_t quarter = selected(true, 0.25);
+  EXPECT_EQ(loop->pass_budget(), (budget + 2) / 4);
+  EXPECT_GT(quarter, budget / 8);
+  EXPECT_LT(quarter, budget * 3 / 8);
+  // A share rounding to nothing still selects one meshlet; out of range is the whole budget.
+  loop->set_moving(true, 1e-9);
+  EXPECT_EQ(loop->pass_budget(), 1u);
+  loop->set_moving(true, 0.0);
+  EXPECT_EQ(loop->pass_budget(), budget);
+  loop->set_moving(true, 2.0);
+  EXPECT_EQ(loop->pass_budget(), budget);
+  // At rest the share does not apply.
+  EXPECT_GT(selected(false, 0.25), budget * 3 / 4);
+  EXPECT_EQ(loop->pass_budget(), budget);
+}
+
 // CullLoop::warm_up (run by Renderer::create) leaves no trace: a renderer warmed up once more,
 // on another view, runs a view with the same classes after every frame and the same image as
 // one warmed up only at creation (the sampling-route choice, the histogram state and the

@@ -3,7 +3,8 @@
 // to the target, never leaves [min_scale, max_scale], returns to full scale when the camera
 // rests, derives the automatic target from full-scale moving frames, and brings the frame times
 // of a view whose cost jumps back under the target within a few frames; streaming arrivals
-// (FrameLoad) hold the scale; only the frame's GPU time is priced by its pixels.
+// (FrameLoad) hold the scale; only the frame's GPU time is priced by its pixels; the occlusion
+// sampling's share of the budget follows the pixels.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -211,4 +212,50 @@ TEST(FramePacer, ScaledSizeRoundsAndKeepsAtLeastOnePixel) {
   FramePacer::scaled_size(3, 2, 0.01, w, h);
   EXPECT_EQ(w, 1u);
   EXPECT_EQ(h, 1u);
+}
+
+// The occlusion sampling follows the pixels (PacerSettings::scale_samples): a moving frame at a
+// reduced scale samples the scaled size's share of the pixels of the budget, at least
+// min_sample_share; full scale, frames at rest, and the option off keep the whole budget.
+TEST(FramePacer, SamplingShareFollowsThePixels) {
+  PacerSettings ps;
+  ps.target_ms = 10.0;
+  FramePacer p(ps);
+  EXPECT_EQ(p.next_scale(true), 1.0);
+  EXPECT_EQ(p.sample_share(320, 180), 1.0);
+  // A frame at 4x the target: the scale falls; the share is the scaled size's pixels.
+  p.observe(40.0);
+  const double s = p.next_scale(true);
+  ASSERT_LT(s, 1.0);
+  ASSERT_GT(s, 0.25);
+  uint32_t w = 0, h = 0;
+  FramePacer::scaled_size(320, 180, s, w, h);
+  EXPECT_DOUBLE_EQ(p.sample_share(320, 180), double(w) * h / (320.0 * 180.0));
+  // Far over the target: min_scale (1/8, 40x22 = 1.5 % of the pixels) samples the floor, 1/16.
+  for (int i = 0; i < 8; ++i) {
+    p.observe(1000.0);
+    p.next_scale(true);
+  }
+  ASSERT_EQ(p.last_scale(), ps.min_scale);
+  EXPECT_DOUBLE_EQ(p.sample_share(320, 180), ps.min_sample_share);
+  PacerSettings no_floor = ps;
+  no_floor.min_sample_share = 0.0;
+  FramePacer q(no_floor);
+  q.next_scale(true);
+  for (int i = 0; i < 8; ++i) {
+    q.observe(1000.0);
+    q.next_scale(true);
+  }
+  EXPECT_DOUBLE_EQ(q.sample_share(320, 180), 40.0 * 23.0 / (320.0 * 180.0));
+  // At rest the full size and the whole budget return.
+  EXPECT_EQ(p.next_scale(false), 1.0);
+  EXPECT_EQ(p.sample_share(320, 180), 1.0);
+  // Off: the whole budget at every scale.
+  PacerSettings off = ps;
+  off.scale_samples = false;
+  FramePacer r(off);
+  r.next_scale(true);
+  r.observe(1000.0);
+  ASSERT_LT(r.next_scale(true), 1.0);
+  EXPECT_EQ(r.sample_share(320, 180), 1.0);
 }

@@ -515,14 +515,20 @@ TEST_F(StressCli, DynamicResolutionScalesOnlyMovingFrames) {
   EXPECT_NE(last_stderr().find("--pace-gpu-time"), std::string::npos) << last_stderr();
   // The report says whether the pacer priced only the GPU time: by default (auto) on a GPU only.
   EXPECT_EQ(j["pace_gpu_time"].get<bool>(), j["device_type"].get<std::string>() != "cpu");
+  // ... and whether the moving frames' sampling followed the pixels (--pace-samples, default on).
+  EXPECT_TRUE(j["pace_samples"].get<bool>());
+  EXPECT_FALSE(k["pace_samples"].get<bool>());  // no pacer at fixed resolution
   const fs::path forced = dir_ / "forced.json";
   ASSERT_EQ(run("stress " + store() + " --gpu-budget " + std::to_string(budget) +
-                " --path flythrough --frames 3 --settle-frames 0 --dynamic-resolution --pace-gpu-time true --json " +
+                " --path flythrough --frames 3 --settle-frames 0 --dynamic-resolution --pace-gpu-time true "
+                "--pace-samples false --json " +
                 forced.string() + small()),
             0)
       << last_stderr();
   std::ifstream ff(forced);
-  EXPECT_TRUE(nlohmann::json::parse(ff)["pace_gpu_time"].get<bool>());
+  const auto forced_json = nlohmann::json::parse(ff);
+  EXPECT_TRUE(forced_json["pace_gpu_time"].get<bool>());
+  EXPECT_FALSE(forced_json["pace_samples"].get<bool>());
 }
 
 TEST_F(StressCli, CameraPathFile) {

@@ -143,6 +143,7 @@ def main():
                     "scale_p50": j.get("scale_p50", 1.0), "scale_min": j.get("scale_min", 1.0),
                     "frame_ms_target": j.get("frame_ms_target", 0.0),
                     "pace_gpu_time": bool(j.get("pace_gpu_time", False)),
+                    "pace_samples": bool(j.get("pace_samples", False)),
                     "frames": j["frames"], "store_bytes": store_bytes, "gpu_budget_bytes": j["gpu_budget_bytes"],
                     "pool_bytes": j["pool_bytes"], "gpu_peak_bytes": j["gpu_peak_bytes"],
                     "hit_rate": j["hit_rate"], "belady_hit_rate": b["belady"]["hit_rate"],
@@ -304,7 +305,8 @@ def write_md(rows, dense_rows, args, mds, scenes, seconds, variants):
     L.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         res = r["resolution"] if r["resolution"] == "fixed" else (
-            f"dynamic (scale p50 {r['scale_p50']:.2f}{', GPU time priced' if r['pace_gpu_time'] else ''})")
+            f"dynamic (scale p50 {r['scale_p50']:.2f}{', GPU time priced' if r['pace_gpu_time'] else ''}"
+            f"{', sampling scaled' if r['pace_samples'] else ''})")
         kn = "yes" if r["path_known"] else "no"
         L.append(f"| {r['scene']} | {r['path']} | {r['policy']} | {res} | {kn} | {r['hit_rate']:.3f} | {r['belady_hit_rate']:.3f} "
                  f"| {r['lru_sim_hit_rate']:.3f} | {fmt_bytes(r['bytes_read'])} | {r['bytes_read_over_store']:.2f} "

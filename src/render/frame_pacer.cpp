@@ -90,6 +90,14 @@ void FramePacer::observe(double frame_ms, const FrameLoad& load, double gpu_ms) 
   scale_ = std::clamp(q, s_.min_scale, s_.max_scale);
 }
 
+double FramePacer::sample_share(uint32_t width, uint32_t height) const {
+  if (!s_.scale_samples || last_scale_ >= 1.0 || width == 0 || height == 0) return 1.0;
+  uint32_t w = 0, h = 0;
+  scaled_size(width, height, last_scale_, w, h);
+  const double share = double(w) * double(h) / (double(width) * double(height));
+  return std::clamp(std::max(share, s_.min_sample_share), 0.0, 1.0);
+}
+
 void FramePacer::scaled_size(uint32_t width, uint32_t height, double scale, uint32_t& out_w, uint32_t& out_h) {
   if (scale >= 1.0) {
     out_w = width;

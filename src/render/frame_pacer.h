@@ -46,6 +46,18 @@
 // lower with it (0.957 -> 0.940, 0.936 -> 0.916; two benchmark runs without it gave 0.959 and
 // 0.936, so this is at the edge of the noise). Off, lavapipe behaves as before.
 //
+// Sampling follows the pixels (scale_samples, --pace-samples): a moving frame runs one occlusion
+// sampling pass (Renderer::set_motion), whose cost is per occluder particle, not per pixel: at
+// 1/8 scale the porous fly-through's pass still took 15-30 of its 30-40 ms on lavapipe, the
+// frames could not reach the target at any scale, and the scale sat at min_scale. A smaller
+// image needs fewer samples for the same samples per pixel, so the pass selects the render
+// size's share of the pixels of the occluder budget (sample_share()), at least
+// min_sample_share. Then the whole frame follows the pixels, as the model above assumes: the
+// cache benchmark's dynamic fly-throughs went p99/p50 2.22 -> 1.86 (porous) and 1.85 -> 1.57
+// (ablation), medians of 10 runs. The floor of 1/16 kept the porous hit rate / Belady near
+// where it was (0.959 -> 0.948); without a floor it fell to 0.894 (docs/viewer.md "Dynamic
+// resolution", "Sampling follows the pixels").
+//
 // The target. Fixed (--frame-ms-target MS), or automatic (0, default): auto_factor (1.25) times
 // the median of the last auto_window moving frames rendered at full scale. The frames the
 // camera costs least (outside the data, an overview) set the pace, and only views that would
@@ -92,6 +104,8 @@ struct PacerSettings {
   bool watch_arrivals = true;  // the arrival rule of the file comment (false: frame times only)
   GpuSplit gpu_split = GpuSplit::gpu_devices;  // the split of the file comment: where it applies
   bool cpu_device = false;     // the renderer's device is a CPU (lavapipe): set by the caller
+  bool scale_samples = true;   // sample_share(): the occlusion sampling follows the pixels (file comment)
+  double min_sample_share = 1.0 / 16.0;  // its floor (1/16 of the budget: scale 1/4 and below)
 };
 
 class FramePacer {
@@ -112,6 +126,10 @@ class FramePacer {
   const PacerSettings& settings() const { return s_; }
   bool split_gpu_time() const;  // the split applies (settings' gpu_split and cpu_device)
 
+  // The share of the culling loop's occluder budget that the sampling pass of the frame at
+  // last_scale() selects (Renderer::set_motion): the scaled size's share of the pixels of
+  // width x height, at least min_sample_share; 1 when scale_samples is off or at full scale.
+  double sample_share(uint32_t width, uint32_t height) const;
   // width/height x scale, rounded, at least 1 pixel (and exactly w x h at scale >= 1).
   static void scaled_size(uint32_t width, uint32_t height, double scale, uint32_t& out_w, uint32_t& out_h);
 

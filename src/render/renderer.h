@@ -368,7 +368,10 @@ class Renderer {
   // classes never mature, so the extra passes cost time (a fixed cost per particle, not per
   // pixel) and buy nothing; at rest (false) the configured count returns, paced by
   // RenderSettings::pace_sampling. step() applies it to each iteration it records.
-  void set_motion(bool moving);
+  // sample_share in (0, 1]: while moving, each sampling pass selects that share of the culling
+  // loop's occluder budget (CullLoop::set_moving); the dynamic resolution passes
+  // FramePacer::sample_share(), the render size's share of the full size's pixels.
+  void set_motion(bool moving, double sample_share = 1.0);
   uint32_t width() const;
   uint32_t height() const;
   // Statistics so far (pass times over the frames since the last set_view()).

@@ -392,9 +392,9 @@ void Renderer::set_path_next(std::span<const Camera> next) {
   for (Camera& c : m.path_next) fit_clip_planes(c, m.bounds);
 }
 
-void Renderer::set_motion(bool moving) {
+void Renderer::set_motion(bool moving, double sample_share) {
   Impl& m = *impl_;
-  if (m.cull) m.cull->set_moving(moving);
+  if (m.cull) m.cull->set_moving(moving, sample_share);
   m.moving = moving;  // step() sets the iteration's sampling passes from it (one while moving)
 }
 

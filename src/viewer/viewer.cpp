@@ -355,7 +355,8 @@ Status Viewer::run() {
       render::FramePacer::scaled_size(host_->settings().width, host_->settings().height, render_scale_, sw, sh);
       Status st = r->resize(sw, sh);
       if (!st.ok()) render_error_ = st.error();
-      r->set_motion(moved);  // one occlusion sampling pass per iteration while moving
+      // One occlusion sampling pass per iteration while moving, over the scale's share of the budget.
+      r->set_motion(moved, pacer_ ? pacer_->sample_share(host_->settings().width, host_->settings().height) : 1.0);
     }
     if (moved) {
       view_camera_ = cam;

@@ -172,7 +172,8 @@ Status run_stress(const StressOptions& o) {
       render::FramePacer::scaled_size(o.width, o.height, scale, sw, sh);
       MDS_TRY(renderer->resize(sw, sh));
     }
-    renderer->set_motion(moving);  // one occlusion sampling pass per iteration while moving
+    // One occlusion sampling pass per iteration while moving, over the scale's share of the budget.
+    renderer->set_motion(moving, pacer ? pacer->sample_share(o.width, o.height) : 1.0);
     if (o.known_path) renderer->set_path_next(next);
     MDS_TRY(renderer->set_view(cam));
     MDS_ASSIGN_OR_RETURN(render::FrameReport fr, renderer->step());
@@ -298,6 +299,7 @@ Status run_stress(const StressOptions& o) {
     j["frame_ms_target"] = pacer ? pacer->target_ms() : 0.0;  // automatic: the final value
     j["min_scale"] = pacer ? pacer->settings().min_scale : 1.0;
     j["pace_gpu_time"] = pacer && pacer->split_gpu_time();  // --pace-gpu-time, resolved for the device
+    j["pace_samples"] = pacer && pacer->settings().scale_samples;  // --pace-samples
     j["scale_p50"] = stress::quantile(path_scales, 0.5);
     j["scale_min"] = path_scales.empty() ? 1.0 : *std::min_element(path_scales.begin(), path_scales.end());
   }

@@ -98,6 +98,11 @@ void add_pacing_options(CLI::App& sub, PacingOptions& o, bool default_on) {
                  "Dynamic resolution: a frame that lacked more wanted nodes than it drew (nodes on their way) "
                  "raises no scale (docs/viewer.md)")
       ->capture_default_str();
+  sub.add_option("--pace-samples", o.scale_samples,
+                 "Dynamic resolution: a moving frame's occlusion sampling pass selects the render size's share of "
+                 "the pixels of the occluder budget, at least 1/16 (false: the whole budget at every scale; "
+                 "docs/viewer.md)")
+      ->capture_default_str();
   sub.add_option("--pace-gpu-time", o.pace_gpu_time,
                  "Dynamic resolution: only the frame's GPU time scales with the render size, the rest of it "
                  "(CPU work) is fixed; auto: on a GPU, not on a CPU device such as lavapipe (false: the whole "
@@ -116,6 +121,7 @@ Result<render::PacerSettings> pacer_settings(const PacingOptions& o) {
   p.target_ms = o.frame_ms_target;
   p.min_scale = o.min_scale;
   p.watch_arrivals = o.watch_arrivals;
+  p.scale_samples = o.scale_samples;
   p.gpu_split = o.pace_gpu_time == "true"    ? render::GpuSplit::on
                 : o.pace_gpu_time == "false" ? render::GpuSplit::off
                                              : render::GpuSplit::gpu_devices;

@@ -49,11 +49,12 @@ struct PacingOptions {
   double frame_ms_target = 0.0;  // 0: automatic
   double min_scale = 0.125;
   bool watch_arrivals = true;  // render::PacerSettings::watch_arrivals
+  bool scale_samples = true;   // render::PacerSettings::scale_samples
   std::string pace_gpu_time = "auto";  // render::PacerSettings::gpu_split: auto|true|false
 };
 
 // Adds --dynamic-resolution/--fixed-resolution (default: default_on), --frame-ms-target, --min-scale,
-// --pace-arrivals, --pace-gpu-time.
+// --pace-arrivals, --pace-samples, --pace-gpu-time.
 void add_pacing_options(CLI::App& sub, PacingOptions& o, bool default_on);
 // The controller's settings; Errc::invalid_argument naming the option for a bad value.
 Result<render::PacerSettings> pacer_settings(const PacingOptions& o);

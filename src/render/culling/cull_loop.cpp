@@ -332,8 +332,14 @@ void CullLoop::Impl::push(VkCommandBuffer cmd, uint32_t mode, uint32_t pass, glm
   vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_ALL, 0, sizeof(p), &p);
 }
 
+uint32_t CullLoop::Impl::pass_budget() const {
+  if (!moving || moving_share >= 1.0) return budget;
+  return std::max(1u, uint32_t(std::lround(double(budget) * moving_share)));
+}
+
 void CullLoop::Impl::write_uniforms(uint32_t iteration) {
   uniforms.counts.z = iteration;
+  uniforms.params.z = pass_budget();  // cull_select.comp
   std::memcpy(cull_ubo.mapped(), &uniforms, sizeof(uniforms));
   cull_ubo.flush();
 }
@@ -476,13 +482,15 @@ CullLoop::~CullLoop() = default;
 
 uint32_t CullLoop::bins() const { return impl_->bins; }
 uint32_t CullLoop::budget() const { return impl_->budget; }
+uint32_t CullLoop::pass_budget() const { return impl_->pass_budget(); }
 uint32_t CullLoop::samples_per_iteration() const { return impl_->passes; }
 void CullLoop::set_samples_per_iteration(uint32_t passes) {
   impl_->passes = std::clamp(passes, 1u, std::max(1u, impl_->settings.samples_per_iteration));
 }
-void CullLoop::set_moving(bool moving) {
+void CullLoop::set_moving(bool moving, double budget_share) {
   Impl& m = *impl_;
   m.moving = moving;
+  m.moving_share = budget_share > 0.0 && budget_share <= 1.0 ? budget_share : 1.0;
   // At rest, a view begun while moving goes on with the configured histogram blocks: cast again
   // (all of them) before its next sampling pass; its classes stay.
   if (!moving && m.hist_stride() != m.configured_stride()) {

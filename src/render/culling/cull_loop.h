@@ -295,7 +295,15 @@ class CullLoop {
   // A view begun while moving also casts its density histograms per kMovingHistogramStride^2
   // block (begin_view); when the camera comes to rest on it, the next iteration casts them again
   // per configured block (the classes stay), so the refinement at rest runs on render()'s blocks.
-  void set_moving(bool moving);
+  // budget_share in (0, 1]: while moving, each sampling pass selects that share of budget()
+  // (at least one meshlet; out of range: 1). The dynamic resolution passes the render size's
+  // share of the full size's pixels (FramePacer::sample_share): a pass's cost is per occluder
+  // particle, so without it a frame at 1/8 scale still paid the full size's sampling, and a
+  // smaller image needs fewer samples for the same samples per pixel. At rest: the whole budget.
+  void set_moving(bool moving, double budget_share = 1.0);
+  // Occluder meshlets per sampling pass of the next recorded iteration: budget(), or its share
+  // while moving (set_moving).
+  uint32_t pass_budget() const;
   uint32_t view_histogram_stride() const;
 
   // Inspection and test hooks (each submits and waits).

@@ -91,6 +91,7 @@ struct CullLoop::Impl {
   bool shared_box_tests = false;  // classify_pipe is cull_classify_coop.comp
   vk::UniquePipeline classify_coarse_pipe;  // kNodeExtentInMemory, while moving (set_moving); null when node_extent is that
   bool moving = false;
+  double moving_share = 1.0;  // set_moving: share of the budget per sampling pass while moving
   bool histogram_pending = false;  // the last iteration's classification may have changed the volume
   bool histogram_recast = false;   // the view's stride changed (set_moving(false)): cast every block
   vk::UniquePipeline reset_pipe, histogram_pipe, select_pipe, update_pipe, pyramid_pipe, classify_pipe,
@@ -112,6 +113,7 @@ struct CullLoop::Impl {
   void bind(VkCommandBuffer cmd, VkPipelineBindPoint bp, VkPipeline pipe, const vk::DescriptorSet& s0) const;
   void push(VkCommandBuffer cmd, uint32_t mode, uint32_t pass = 0, glm::vec2 jitter = glm::vec2(0.0f)) const;
   void write_uniforms(uint32_t iteration);
+  uint32_t pass_budget() const;  // CullLoop::pass_budget
   void write_frame_uniforms(uint32_t iteration);
   // probe_share > 0: a probe (cull_loop.h kSampleRouteProbeShare) -- 1 / probe_share of the
   // occluder budget, sampled and not applied (no update).
