@@ -109,9 +109,10 @@ struct Renderer::Impl {
   std::function<void(uint32_t)> iteration_hook;
 
   // Named passes per frame: 3 per occlusion sampling pass and 2 of a route probe (select, sample;
-  // cull_loop.h kSampleRouteProbeShare), pyramid/classify/histogram, 4 drawing.
+  // cull_loop.h kSampleRouteProbeShare), view (CullLoop::prepare_view)/pyramid/classify/histogram,
+  // 4 drawing.
   uint32_t timestamp_capacity() const {
-    return 22 + 3 * std::max(1u, settings.cull_settings.samples_per_iteration);
+    return 23 + 3 * std::max(1u, settings.cull_settings.samples_per_iteration);
   }
 
   // Out-of-core (create_streaming): the cache; null in memory.

@@ -228,7 +228,7 @@ Status Renderer::set_view(const Camera& camera_in) {
   m.complete = !m.cache;
   if (m.cull) {
     const uint32_t live = m.cache ? uint32_t(m.cache->live_meshlets()) : m.meshlet_count;
-    MDS_TRY(m.cull->begin_view(camera, live));
+    MDS_TRY(m.cull->prepare_view(camera, live));  // reset recorded by the next step()'s iteration
     m.cull_active = true;
   }
   return {};

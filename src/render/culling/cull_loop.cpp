@@ -530,7 +530,7 @@ Status CullLoop::resize(uint32_t width, uint32_t height) {
 }
 
 
-Status CullLoop::begin_view(const Camera& camera, uint32_t live_meshlets) {
+Status CullLoop::prepare_view(const Camera& camera, uint32_t live_meshlets) {
   impl_->sampled_fraction = -1.0;  // the new view probes its sampled fraction again
   Impl& m = *impl_;
   m.explore_interval = kSampleRouteExplore;  // a new view may favour the other sampling route
@@ -558,21 +558,40 @@ Status CullLoop::begin_view(const Camera& camera, uint32_t live_meshlets) {
   u.thresholds.z = clipped ? m.footprint_radius : 0.0f;
   u.params.w = (camera.ortho ? gpu::kCullOrtho : 0u) | m.scene_flags | (clipped ? gpu::kCullExtendDepth : 0u);
   m.write_uniforms(0);
+  m.view_live = std::min(live_meshlets, m.meshlet_count);
+  m.view_pending = true;
+  return {};
+}
+
+void CullLoop::Impl::record_view_start(VkCommandBuffer cmd, vk::TimestampPool* ts) {
+  if (!view_pending) return;
+  view_pending = false;
+  if (ts) ts->begin(cmd, "view");
+  // After whatever the command buffer holds before it (the cache's uploads fill the classes of
+  // new pool pages with P, which this fill repeats), before the iteration that reads it.
+  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
   gpu::CullCounters c{};
-  c.class_count[MDS_CULL_CLASS_P] = std::min(live_meshlets, m.meshlet_count);
-  return m.ctx->submit_and_wait([&](VkCommandBuffer cmd) {
-    vkCmdFillBuffer(cmd, m.meshlet_class, 0, VK_WHOLE_SIZE, 0);
-    vkCmdFillBuffer(cmd, m.node_class.get(), 0, VK_WHOLE_SIZE, 0);
-    vkCmdUpdateBuffer(cmd, m.counters.get(), 0, sizeof(c), &c);
-    VkBufferCopy bc{0, 0, m.volume.size()};
-    vkCmdCopyBuffer(cmd, m.volume_init.get(), m.volume.get(), 1, &bc);
-    compute_barrier(cmd);
-    m.bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, m.reset_pipe, m.set0_sample);
-    m.push(cmd, 0);
-    vkCmdDispatch(cmd, (m.width + 7) / 8, (m.height + 7) / 8, 1);
-    compute_barrier(cmd);
-    m.record_histogram(cmd, 1);
-  });
+  c.class_count[MDS_CULL_CLASS_P] = view_live;
+  vkCmdFillBuffer(cmd, meshlet_class, 0, VK_WHOLE_SIZE, 0);
+  vkCmdFillBuffer(cmd, node_class.get(), 0, VK_WHOLE_SIZE, 0);
+  vkCmdUpdateBuffer(cmd, counters.get(), 0, sizeof(c), &c);
+  VkBufferCopy bc{0, 0, volume.size()};
+  vkCmdCopyBuffer(cmd, volume_init.get(), volume.get(), 1, &bc);
+  compute_barrier(cmd);
+  bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, reset_pipe, set0_sample);
+  push(cmd, 0);
+  vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1);
+  compute_barrier(cmd);
+  record_histogram(cmd, 1);
+  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
+  if (ts) ts->end(cmd);
+}
+
+Status CullLoop::begin_view(const Camera& camera, uint32_t live_meshlets) {
+  MDS_TRY(prepare_view(camera, live_meshlets));
+  return impl_->ctx->submit_and_wait([&](VkCommandBuffer cmd) { impl_->record_view_start(cmd, nullptr); });
 }
 
 Status CullLoop::warm_up(const Camera& camera) {
@@ -605,6 +624,7 @@ Status CullLoop::warm_up(const Camera& camera) {
 
 void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint32_t iteration) {
   Impl& m = *impl_;
+  m.record_view_start(cmd, ts);  // a view begun by prepare_view: its reset comes first
   m.write_uniforms(iteration);
   m.write_frame_uniforms(iteration);
   auto begin = [&](const char* name) {

@@ -16,6 +16,9 @@
 //             requires, and amortises the ray cast over the iteration's passes. Recorded at the
 //             start of the next iteration of the same view (before its sampling passes), so a
 //             view that ends -- a moving camera starts a new one every frame -- skips it.
+// A view starts with its reset (classes to P, the original density volume, histograms cast):
+// begin_view submits it at once; prepare_view leaves it to the next record_iteration, which
+// records it first (pass "view"), in the frame's own command buffer.
 // record_draw_list writes the potentially visible set (all meshlets not in O) into a draw list
 // in the renderer's format. The host decides convergence (Sect. 5.3) from counters() read after
 // each iteration: no meshlet changed class for `converge_iterations` iterations.
@@ -237,6 +240,14 @@ class CullLoop {
   // histograms cast. `camera` must have near/far set. Submits and waits.
   // live_meshlets: occupied slots (the initial |P| of the occluder selection); default all.
   Status begin_view(const Camera& camera, uint32_t live_meshlets = UINT32_MAX);
+  // The same without a submission of its own: sets the view's uniforms now, and the next
+  // record_iteration() records the view's GPU reset first, in the frame's command buffer (pass
+  // "view" of its timestamps). The renderer's frames use it: a moving camera begins a view every
+  // frame, and a submit-and-wait of its own cost each of them a round trip to the device, with
+  // GPU work (on lavapipe 1.3-7 ms per view) that no timestamp saw. Until that iteration is
+  // recorded the loop's buffers hold the previous view (counters(), node_classes(), the read_*
+  // hooks). Errc::invalid_argument as begin_view.
+  Status prepare_view(const Camera& camera, uint32_t live_meshlets = UINT32_MAX);
   // Runs begin_view and one culling iteration with `camera` (submits and waits), then forgets
   // them: the first view's frame no longer pays the first use of the culling pipelines and
   // buffers (docs/streaming.md "Warm-up"). Call before the first begin_view; that view starts

@@ -91,6 +91,8 @@ struct CullLoop::Impl {
   bool shared_box_tests = false;  // classify_pipe is cull_classify_coop.comp
   vk::UniquePipeline classify_coarse_pipe;  // kNodeExtentInMemory, while moving (set_moving); null when node_extent is that
   bool moving = false;
+  bool view_pending = false;  // prepare_view ran; record_view_start not yet recorded
+  uint32_t view_live = 0;     // its initial |P| (live meshlets)
   double moving_share = 1.0;  // set_moving: share of the budget per sampling pass while moving
   bool histogram_pending = false;  // the last iteration's classification may have changed the volume
   bool histogram_recast = false;   // the view's stride changed (set_moving(false)): cast every block
@@ -114,6 +116,10 @@ struct CullLoop::Impl {
   void push(VkCommandBuffer cmd, uint32_t mode, uint32_t pass = 0, glm::vec2 jitter = glm::vec2(0.0f)) const;
   void write_uniforms(uint32_t iteration);
   uint32_t pass_budget() const;  // CullLoop::pass_budget
+  // The GPU half of a view begun by prepare_view (classes to P, counters, the density volume,
+  // the cull buffers, the histograms), once: into the next recorded iteration's command buffer
+  // (timestamped "view"), or submitted at once by begin_view.
+  void record_view_start(VkCommandBuffer cmd, vk::TimestampPool* ts);
   void write_frame_uniforms(uint32_t iteration);
   // probe_share > 0: a probe (cull_loop.h kSampleRouteProbeShare) -- 1 / probe_share of the
   // occluder budget, sampled and not applied (no update).
