@@ -211,6 +211,58 @@ TEST(CullParity, MovingViewCastsCoarserBlocksUntilItRests) {
   compare_histograms(f, 2);
 }
 
+// prepare_view leaves the view's reset to the next recorded iteration (the renderer's frames):
+// that iteration gives what begin_view + the same iteration give, although the loop's buffers
+// hold a converging view before it; until it is recorded they still hold that view.
+TEST(CullParity, PreparedViewResetsInTheNextIteration) {
+  auto c = vk::Context::create(vk::ContextOptions::from_env());
+  ASSERT_TRUE(c.ok());
+  std::vector<glm::dvec3> pos;  // a dense block: 24^3 spheres that overlap their neighbours
+  for (int z = 0; z < 24; ++z)
+    for (int y = 0; y < 24; ++y)
+      for (int x = 0; x < 24; ++x) pos.push_back({x, y, z});
+  std::vector<uint8_t> types(pos.size(), 0);
+  const float radius[1] = {0.6f};
+  const SceneData scene = scene_from_particles(pos, types, radius, 2000, 16).value();
+  RenderSettings rs;
+  rs.width = kW;
+  rs.height = kH;
+  rs.spp = 1;
+  rs.cull = true;
+  auto r = Renderer::create(*c.value(), scene, rs);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  rc::CullLoop* loop = r.value()->cull_loop();
+  ASSERT_NE(loop, nullptr);
+  Camera cam = default_view(0, scene.bounds, 40.0, double(kW) / kH).value();
+  fit_clip_planes(cam, scene.bounds);
+  auto iterate = [&](uint32_t iteration) {
+    ASSERT_TRUE(
+        c.value()->submit_and_wait([&](VkCommandBuffer cmd) { loop->record_iteration(cmd, nullptr, iteration); }).ok());
+  };
+  ASSERT_TRUE(loop->begin_view(cam).ok());
+  iterate(0);
+  const auto classes = loop->read_meshlet_classes();
+  ASSERT_TRUE(classes.ok());
+  const std::vector<uint32_t> nodes(loop->node_classes().begin(), loop->node_classes().end());
+  const auto state = loop->read_pixel_state();
+  ASSERT_TRUE(state.ok());
+  // More iterations of the same view move classes up (some meshlets reach O) ...
+  for (uint32_t i = 1; i < 6; ++i) iterate(i);
+  const auto later = loop->read_meshlet_classes();
+  ASSERT_TRUE(later.ok());
+  ASSERT_NE(later.value(), classes.value()) << "the view must change over iterations for this test";
+  // ... and prepare_view alone leaves them there.
+  ASSERT_TRUE(loop->prepare_view(cam).ok());
+  EXPECT_EQ(loop->read_meshlet_classes().value(), later.value());
+  iterate(0);
+  EXPECT_EQ(loop->read_meshlet_classes().value(), classes.value());
+  EXPECT_EQ(std::vector<uint32_t>(loop->node_classes().begin(), loop->node_classes().end()), nodes);
+  const auto state2 = loop->read_pixel_state();
+  ASSERT_TRUE(state2.ok());
+  ASSERT_EQ(state2.value().size(), state.value().size());
+  EXPECT_TRUE(state2.value() == state.value());
+}
+
 // A moving view's sampling pass selects its share of the occluder budget (CullLoop::set_moving,
 // the dynamic resolution's FramePacer::sample_share); at rest the whole budget returns.
 TEST(CullParity, MovingSamplingPassSelectsItsShareOfTheBudget) {

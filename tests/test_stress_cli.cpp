@@ -335,6 +335,10 @@ TEST_F(StressCli, ContinuousPathsSettleTheFinalViewAndAcceptSlowDiskOptions) {
       EXPECT_NEAR(sum, gpu[i].get<double>(), 1e-6 * sum) << "frame " << i;
       if (i > 0 && i < 12) {
         EXPECT_TRUE(passes[i].contains("classify")) << "frame " << i;  // a culling iteration
+        // ... of a new view, whose reset is recorded and timed in the frame (CullLoop::prepare_view)
+        EXPECT_TRUE(passes[i].contains("view")) << "frame " << i;
+      } else if (i >= 12) {
+        EXPECT_FALSE(passes[i].contains("view")) << "frame " << i;  // the held view goes on
       }
     }
     // Camera motion is not a held view: only the final camera (held after the path) is one.
