@@ -22,8 +22,10 @@ std::unordered_map<uint32_t, uint64_t> node_sizes(std::span<const TraceRequest> 
 
 }  // namespace
 
-CacheSimResult simulate_belady(std::span<const TraceRequest> trace, uint64_t budget_bytes, bool allow_bypass) {
+CacheSimResult simulate_belady(std::span<const TraceRequest> trace, uint64_t budget_bytes, bool allow_bypass,
+                               std::vector<uint8_t>* hit_out) {
   CacheSimResult res;
+  if (hit_out) hit_out->assign(trace.size(), 0);
   const auto sizes = node_sizes(trace);
   // next[i] = index of the next request of trace[i].node after i, kNever if none.
   std::vector<uint64_t> next(trace.size(), kNever);
@@ -47,6 +49,7 @@ CacheSimResult simulate_belady(std::span<const TraceRequest> trace, uint64_t bud
     if (auto it = resident.find(node); it != resident.end()) {
       ++res.hits;
       res.bytes_hit += size;
+      if (hit_out) (*hit_out)[i] = 1;
       by_next.erase({it->second, node});
       it->second = next[i];
       by_next.insert({next[i], node});

@@ -33,7 +33,10 @@ struct CacheSimResult {
   double byte_hit_rate() const { return bytes_requested ? double(bytes_hit) / double(bytes_requested) : 0.0; }
 };
 
-CacheSimResult simulate_belady(std::span<const TraceRequest> trace, uint64_t budget_bytes, bool allow_bypass = false);
+// hit_out (optional): set to one entry per request, 1 where that request was a hit (the
+// per-request outcome that `stress --trace` writes next to the online cache's).
+CacheSimResult simulate_belady(std::span<const TraceRequest> trace, uint64_t budget_bytes, bool allow_bypass = false,
+                               std::vector<uint8_t>* hit_out = nullptr);
 CacheSimResult simulate_lru(std::span<const TraceRequest> trace, uint64_t budget_bytes);
 CacheSimResult simulate_fifo(std::span<const TraceRequest> trace, uint64_t budget_bytes);
 

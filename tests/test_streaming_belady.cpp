@@ -24,6 +24,11 @@ TEST(StreamingBelady, TextbookReferenceString) {
   EXPECT_EQ(simulate_lru(t, 3).hits, 20u - 12u);
   EXPECT_EQ(simulate_fifo(t, 3).hits, 20u - 15u);
   EXPECT_EQ(simulate_belady(t, 3).requests, 20u);
+  // Which requests hit (stress --trace's belady_hit): worked by hand from the farthest-next-use rule.
+  std::vector<uint8_t> hit;
+  EXPECT_EQ(simulate_belady(t, 3, false, &hit).hits, 11u);
+  const std::vector<uint8_t> expected{0, 0, 0, 0, 1, 0, 1, 0, 1, 1, 0, 1, 1, 0, 1, 1, 1, 0, 1, 1};
+  EXPECT_EQ(hit, expected);
   // Allowed to skip caching (not possible for a GPU cache: nodes are drawn from the device),
   // the optimum is one hit better: page 3 at position 9 is served without evicting page 0.
   EXPECT_EQ(simulate_belady(t, 3, true).hits, 12u);

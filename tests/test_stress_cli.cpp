@@ -439,24 +439,32 @@ TEST_F(StressCli, LateArrivalsAndTheDemandTrace) {
     std::istringstream lines(slurp(tr));
     std::string line;
     ASSERT_TRUE(std::getline(lines, line));
-    EXPECT_EQ(line, "frame,node,bytes");
+    EXPECT_EQ(line, "frame,node,bytes,hit,belady_hit");
     const size_t frames_total = j["frames_total"];
-    std::vector<uint64_t> per_frame(frames_total, 0);
-    uint64_t rows = 0;
+    std::vector<uint64_t> per_frame(frames_total, 0), hits_per_frame(frames_total, 0);
+    uint64_t rows = 0, belady_hits = 0;
     while (std::getline(lines, line)) {
       const auto v = split_csv_line(line);
-      ASSERT_EQ(v.size(), 3u) << line;
+      ASSERT_EQ(v.size(), 5u) << line;
       const size_t frame = std::stoull(v[0]);
       ASSERT_LT(frame, frames_total) << line;
       EXPECT_LT(std::stoull(v[1]), j["nodes"].get<uint64_t>()) << line;
       EXPECT_GT(std::stoull(v[2]), 0u) << line;
+      ASSERT_TRUE(v[3] == "0" || v[3] == "1") << line;
+      ASSERT_TRUE(v[4] == "0" || v[4] == "1") << line;
       ++per_frame[frame];
+      hits_per_frame[frame] += v[3] == "1";
+      belady_hits += v[4] == "1";
       ++rows;
     }
     EXPECT_EQ(rows, j["cache_hits"].get<uint64_t>() + j["cache_misses"].get<uint64_t>());
-    for (size_t k = 0; k < frames_total; ++k)
+    // The outcomes add up to the report's: the online cache's per frame, Belady's in all.
+    EXPECT_EQ(belady_hits, j["bound"]["belady"]["hits"].get<uint64_t>());
+    for (size_t k = 0; k < frames_total; ++k) {
       EXPECT_EQ(per_frame[k], j["per_frame"]["hits"][k].get<uint64_t>() + j["per_frame"]["misses"][k].get<uint64_t>())
           << "frame " << k;
+      EXPECT_EQ(hits_per_frame[k], j["per_frame"]["hits"][k].get<uint64_t>()) << "frame " << k;
+    }
   }
 }
 

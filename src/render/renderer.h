@@ -264,6 +264,7 @@ struct FrameReport {
   bool upload_stall = false;
   bool budget_exhausted = false;  // streaming: this frame wanted more nodes than the pool holds
   std::vector<uint32_t> wanted;   // StreamSettings::record_trace: this frame's wanted nodes
+  std::vector<uint8_t> wanted_hit;  // parallel to wanted: 1 = resident when this frame drew (a hit)
 
   // What the frame pacer needs of this frame (FramePacer::observe).
   FrameLoad load() const { return {frame_hits, frame_misses, budget_exhausted}; }

@@ -261,6 +261,7 @@ Result<FrameReport> Renderer::step() {
     rep.upload_stall = cf.upload_stall;
     rep.budget_exhausted = cf.exhausted;
     rep.wanted = std::move(cf.wanted);
+    rep.wanted_hit = std::move(cf.wanted_resident);
     m.complete = cf.complete;
     if (cf.nodes_uploaded > 0) {  // new data: refine again
       m.samples = 0;

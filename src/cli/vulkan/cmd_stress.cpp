@@ -143,6 +143,7 @@ Status run_stress(const StressOptions& o) {
   std::vector<stress::FrameRecord> frames;
   std::vector<streaming::TraceRequest> trace;
   std::vector<uint32_t> trace_frames;  // the replay frame of each request (--trace)
+  std::vector<uint8_t> trace_hits;     // the online cache's outcome of each request (--trace)
   std::vector<uint64_t> device_bytes = renderer->node_device_bytes();
   uint32_t view = 0;
   render::Camera prev_cam;
@@ -200,10 +201,12 @@ Status run_stress(const StressOptions& o) {
     r.bytes_read_total = renderer->stats().cache.bytes_read;
     r.wanted_nodes = uint32_t(fr.wanted.size());
     if (device_bytes.empty()) device_bytes = renderer->node_device_bytes();
-    for (uint32_t n : fr.wanted) {
+    for (size_t k = 0; k < fr.wanted.size(); ++k) {
+      const uint32_t n = fr.wanted[k];
       if (n < nodes.size()) r.wanted_payload_bytes += nodes[n].payload_bytes;
       trace.push_back({n, n < device_bytes.size() ? device_bytes[n] : 0});
       trace_frames.push_back(uint32_t(frames.size()));
+      trace_hits.push_back(k < fr.wanted_hit.size() ? fr.wanted_hit[k] : 0);
     }
     return r;
   };
@@ -398,7 +401,12 @@ Status run_stress(const StressOptions& o) {
 
   if (!o.json.empty()) MDS_TRY(write_text_atomically(o.json, j.dump(2) + "\n"));
   if (!o.csv.empty()) MDS_TRY(write_text_atomically(o.csv, stress::csv_summary(j)));
-  if (!o.trace.empty()) MDS_TRY(write_text_atomically(o.trace, stress::trace_csv(trace_frames, trace)));
+  if (!o.trace.empty()) {
+    // Belady's outcome per request, for comparing it with the online cache's request by request.
+    std::vector<uint8_t> belady_hits;
+    (void)streaming::simulate_belady(trace, sim_budget, false, &belady_hits);
+    MDS_TRY(write_text_atomically(o.trace, stress::trace_csv(trace_frames, trace, trace_hits, belady_hits)));
+  }
 
   // --- stdout table ---
   auto row = [](const std::string& k, const std::string& v) { std::printf("  %-34s %s\n", k.c_str(), v.c_str()); };
@@ -469,8 +477,9 @@ void setup_stress(CLI::App& sub, int& exit_code) {
   sub.add_option("--fov", opt->fov, "Vertical field of view of the built-in paths (degrees)")->capture_default_str();
   sub.add_option("--csv", opt->csv, "Write the summary as CSV (header + one row)");
   sub.add_option("--trace", opt->trace,
-                 "Write the demand trace the offline bounds replay as CSV (frame,node,bytes: one row per frame and "
-                 "wanted node; bytes = the node's pool bytes)");
+                 "Write the demand trace the offline bounds replay as CSV (frame,node,bytes,hit,belady_hit: one row "
+                 "per frame and wanted node; bytes = the node's pool bytes; hit = resident when the frame drew; "
+                 "belady_hit = a hit of the offline Belady replay)");
   sub.add_option("--json", opt->json, "Write the full report (summary, views, offline bounds) as JSON");
   add_culling_options(sub, opt->cull, "No occlusion culling (every node in the frustum is wanted)");
   sub.add_option("--device", opt->device, "Vulkan device index (default: automatic, discrete GPU first)");

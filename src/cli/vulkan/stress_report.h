@@ -202,12 +202,16 @@ inline std::string csv_summary(const nlohmann::ordered_json& report) {
   return out;
 }
 
-// The demand trace (`stress --trace`): one row per frame and wanted node, in request order.
-// Precondition: frames.size() == trace.size() (the frame of each request).
-inline std::string trace_csv(const std::vector<uint32_t>& frames, const std::vector<streaming::TraceRequest>& trace) {
-  std::string out = "frame,node,bytes\n";
+// The demand trace (`stress --trace`): one row per frame and wanted node, in request order,
+// with the online cache's outcome (hit: resident when the frame drew) and that of the offline
+// Belady replay (simulate_belady's hit_out). Precondition: frames, hits and belady_hits have
+// trace.size() entries (the frame and the outcomes of each request; missing outcomes read 0).
+inline std::string trace_csv(const std::vector<uint32_t>& frames, const std::vector<streaming::TraceRequest>& trace,
+                             const std::vector<uint8_t>& hits, const std::vector<uint8_t>& belady_hits) {
+  std::string out = "frame,node,bytes,hit,belady_hit\n";
   for (size_t i = 0; i < trace.size() && i < frames.size(); ++i)
-    out += fmt::format("{},{},{}\n", frames[i], trace[i].node, trace[i].bytes);
+    out += fmt::format("{},{},{},{},{}\n", frames[i], trace[i].node, trace[i].bytes, i < hits.size() ? hits[i] : 0,
+                       i < belady_hits.size() ? belady_hits[i] : 0);
   return out;
 }
 

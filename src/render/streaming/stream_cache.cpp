@@ -338,8 +338,12 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
     if (!demanded(i)) continue;
     ++stats_.wanted_nodes;
     stats_.wanted_bytes += node_bytes_[i];
-    if (settings_.record_trace) out.wanted.push_back(i);
-    if (table_->node(i).residency == Residency::resident)
+    const bool resident = table_->node(i).residency == Residency::resident;
+    if (settings_.record_trace) {
+      out.wanted.push_back(i);
+      out.wanted_resident.push_back(resident ? 1 : 0);
+    }
+    if (resident)
       ++out.hits;
     else
       ++out.misses;

@@ -61,6 +61,7 @@ struct CacheFrame {
   bool exhausted = false;      // wanted nodes do not fit the pool
   bool complete = false;       // every wanted node resident (or failed / beyond the budget), nothing in flight
   std::vector<uint32_t> wanted;  // demand of this frame (StreamSettings::record_trace)
+  std::vector<uint8_t> wanted_resident;  // parallel to wanted: 1 = resident for this frame (a hit)
 };
 
 class StreamCache {
