@@ -34,6 +34,8 @@ void ReadWindow::new_view(bool known_moving) {
 
 void ReadWindow::end_frame(uint32_t arrived, uint32_t wasted) {
   ++view_frames_;
+  // Moving: a share of waste below moving_waste_share is the noise of one-iteration classes.
+  if (moving_ && wasted > 0 && double(wasted) < s_.moving_waste_share * double(arrived)) wasted = 0;
   if (wasted > 0) {
     window_ = std::max(s_.min, window_ / 2);
     calm_ = 0;

@@ -11,7 +11,10 @@
 //   while the camera moves (the previous view ran at most one frame): every frame is a new view
 //     whose classes never mature, so waiting for them gains nothing and a window restarted per
 //     view could never grow. When the motion starts the window opens to `cap`; across the moving
-//     views it keeps its state, halved after a frame with waste, doubled after one without.
+//     views it keeps its state, halved after a frame where at least `moving_waste_share` of the
+//     arrivals were waste, doubled after one with less. A moving view's classes come from one
+//     culling iteration, in which a node flips between O and P from frame to frame: a few of a
+//     frame's arrivals found O is that noise, not a window too wide (docs/streaming.md).
 // Pure logic, no threads; tests/test_streaming_window.cpp.
 #pragma once
 
@@ -23,6 +26,9 @@ struct ReadWindowSettings {
   uint32_t min = 4;          // window at the start of a held view; additive step
   uint32_t calm_frames = 3;  // calm frames (arrivals, no waste) before an additive step at rest
   uint32_t cap = 64;         // largest window (--max-outstanding)
+  // While moving: the share of a frame's arrivals that must be waste to halve the window
+  // (--moving-waste-share; 0: any waste halves it, as at rest).
+  double moving_waste_share = 0.5;
 };
 
 // Share of the image that a node's bounding sphere covers: a disk of radius `projected_size` (in

@@ -56,7 +56,7 @@ TEST(StreamingWindow, WasteHalvesTheWindowButNotBelowTheMinimum) {
 }
 
 TEST(StreamingWindow, AMovingCameraOpensTheWindowAndKeepsItAcrossViews) {
-  ReadWindow w(ReadWindowSettings{.min = 4, .calm_frames = 3, .cap = 40});
+  ReadWindow w(ReadWindowSettings{.min = 4, .calm_frames = 3, .cap = 40, .moving_waste_share = 0.0});
   w.new_view();      // first view: at rest
   w.end_frame(0, 0);
   EXPECT_EQ(w.size(), 4u);
@@ -87,6 +87,35 @@ TEST(StreamingWindow, AMovingCameraOpensTheWindowAndKeepsItAcrossViews) {
   EXPECT_EQ(w.size(), 40u);
 }
 
+// While moving, the window halves only when at least moving_waste_share of a frame's arrivals
+// were waste (the default 1/2); less is the noise of one-iteration classes and counts as calm.
+// At rest any waste halves it.
+TEST(StreamingWindow, WhileMovingOnlyMostlyWastedArrivalsHalveTheWindow) {
+  ReadWindow w(ReadWindowSettings{.min = 4, .calm_frames = 1, .cap = 40});
+  EXPECT_DOUBLE_EQ(w.settings().moving_waste_share, 0.5);
+  w.new_view(true);
+  ASSERT_TRUE(w.moving());
+  ASSERT_EQ(w.size(), 40u);
+  w.end_frame(10, 4);  // 40 % waste: noise
+  EXPECT_EQ(w.size(), 40u);
+  w.end_frame(10, 5);  // half: halved
+  EXPECT_EQ(w.size(), 20u);
+  w.end_frame(10, 4);  // calm again: doubled
+  EXPECT_EQ(w.size(), 40u);
+  w.end_frame(1, 1);
+  EXPECT_EQ(w.size(), 20u);
+  // At rest a single wasted read of ten halves it.
+  w.new_view(false);
+  w.end_frame(0, 0);
+  w.end_frame(0, 0);
+  w.new_view(false);
+  ASSERT_FALSE(w.moving());
+  w.end_frame(10, 0);
+  EXPECT_EQ(w.size(), 8u);
+  w.end_frame(10, 1);
+  EXPECT_EQ(w.size(), 4u);
+}
+
 // A caller that knows the camera's next views (a path replay) says the first view moves: the
 // window opens at the path's first frame, not at its second.
 TEST(StreamingWindow, AKnownMotionOpensTheWindowAtTheFirstView) {
@@ -94,7 +123,7 @@ TEST(StreamingWindow, AKnownMotionOpensTheWindowAtTheFirstView) {
   w.new_view(/*known_moving=*/true);
   EXPECT_TRUE(w.moving());
   EXPECT_EQ(w.size(), 40u);
-  w.end_frame(10, 3);
+  w.end_frame(10, 6);  // mostly waste (ReadWindowSettings::moving_waste_share)
   EXPECT_EQ(w.size(), 20u);
   w.new_view(true);  // still moving: the state is kept
   EXPECT_EQ(w.size(), 20u);

@@ -61,6 +61,12 @@ struct StreamSettings {
   // 128 reads fill a pool of 128 nodes at once (the benchmark's 1/8-store pool holds ~70 nodes
   // of 1000 particles, ~11.5 KiB each on the device; 64 left its first moving frame short of it).
   uint32_t max_outstanding = 128;
+  // While the camera moves the window halves only after a frame in which at least this share of
+  // the arrived reads were for nodes found occluded meanwhile (streaming::ReadWindowSettings):
+  // with any waste halving it, the noisy classes of moving frames collapsed the window to 2-4
+  // reads per frame on some runs of the porous dynamic-resolution fly-through, while 70-90
+  // wanted nodes were missing (docs/streaming.md, "Read window while moving"). 0: any waste.
+  double moving_waste_share = 0.5;
   // Before a view matures (every view while the camera moves), a node the culling loop
   // classified O stays O in the cache until no iteration has confirmed it for this many frames (StreamCache::set_classes): one iteration of
   // a moving view is noisy (a node flips between O and P from frame to frame), and a node known

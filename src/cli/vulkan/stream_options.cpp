@@ -23,6 +23,11 @@ void add_stream_options(CLI::App& sub, StreamOptions& o, bool budget_required) {
                  "Cap of the node reads queued or in flight at a time (the window adapts from --wave-nodes per held view, 4 without waves)")
       ->check(CLI::Range(1u, 100000u))
       ->capture_default_str();
+  sub.add_option("--moving-waste-share", o.moving_waste_share,
+                 "While the camera moves, the read window halves only after a frame in which at least this share "
+                 "of the arrived reads were for nodes found occluded meanwhile (0: any such read; docs/streaming.md)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   sub.add_option("--wave-settle-frames", o.wave_settle_frames,
                  "At rest, reads go out in waves: the next wave waits until the last one's nodes have been resident "
                  "this many frames (sampled as occluders); 0: no waves (docs/streaming.md)")
@@ -74,6 +79,7 @@ Result<render::StreamSettings> stream_settings(const StreamOptions& o) {
   ss.io.threads = o.io_threads;
   ss.io.io_latency_ms = o.io_latency_ms;
   ss.max_outstanding = o.max_outstanding;
+  ss.moving_waste_share = o.moving_waste_share;
   ss.wave_settle_frames = o.wave_settle_frames;
   ss.wave_nodes = o.wave_nodes;
   ss.wave_coverage = o.wave_coverage;

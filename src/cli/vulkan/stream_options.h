@@ -22,6 +22,7 @@ struct StreamOptions {
   std::string io_bandwidth;  // empty: unlimited
   std::string upload_per_frame = "32MiB";
   uint32_t max_outstanding = 128;
+  double moving_waste_share = 0.5;  // render::StreamSettings::moving_waste_share
   uint32_t wave_settle_frames = 2;  // render::StreamSettings::wave_settle_frames
   uint32_t wave_nodes = 2;          // render::StreamSettings::wave_nodes
   double wave_coverage = 1.0;       // render::StreamSettings::wave_coverage

@@ -91,7 +91,7 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
   // With waves each wave is sampled before the next, so the window starts smaller.
   c->window_ = mds::streaming::ReadWindow(
       {.min = settings.wave_settle_frames > 0 ? std::max(1u, settings.wave_nodes) : 4u, .calm_frames = 3,
-       .cap = settings.max_outstanding});
+       .cap = settings.max_outstanding, .moving_waste_share = settings.moving_waste_share});
   c->placed_frame_.assign(nodes.size(), 0);
   c->placed_late_.assign(nodes.size(), 0);
   c->o_confirmed_.assign(nodes.size(), 0);
