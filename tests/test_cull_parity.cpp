@@ -87,6 +87,27 @@ Fixture make_fixture(bool ortho, int acceptance = MDS_CULL_ACCEPT_NORMAL, uint32
   return f;
 }
 
+// A dense block of side^3 spheres at unit spacing that overlap their neighbours (radius 0.6),
+// and the settings of its culled render at kW x kH, 1 spp: views that cull.
+struct DenseBlock {
+  SceneData scene;
+  RenderSettings rs;
+};
+DenseBlock dense_block(int side) {
+  std::vector<glm::dvec3> pos;
+  for (int z = 0; z < side; ++z)
+    for (int y = 0; y < side; ++y)
+      for (int x = 0; x < side; ++x) pos.push_back({x, y, z});
+  std::vector<uint8_t> types(pos.size(), 0);
+  const float radius[1] = {0.6f};
+  DenseBlock b{scene_from_particles(pos, types, radius, 2000, 16).value(), RenderSettings{}};
+  b.rs.width = kW;
+  b.rs.height = kH;
+  b.rs.spp = 1;
+  b.rs.cull = true;
+  return b;
+}
+
 // CPU reference grid and pixel rays from the camera's own basis (not from the GPU matrices).
 cc::DensityGrid cpu_grid(const Fixture& f) {
   cc::DensityGrid g;
@@ -217,18 +238,7 @@ TEST(CullParity, MovingViewCastsCoarserBlocksUntilItRests) {
 TEST(CullParity, PreparedViewResetsInTheNextIteration) {
   auto c = vk::Context::create(vk::ContextOptions::from_env());
   ASSERT_TRUE(c.ok());
-  std::vector<glm::dvec3> pos;  // a dense block: 24^3 spheres that overlap their neighbours
-  for (int z = 0; z < 24; ++z)
-    for (int y = 0; y < 24; ++y)
-      for (int x = 0; x < 24; ++x) pos.push_back({x, y, z});
-  std::vector<uint8_t> types(pos.size(), 0);
-  const float radius[1] = {0.6f};
-  const SceneData scene = scene_from_particles(pos, types, radius, 2000, 16).value();
-  RenderSettings rs;
-  rs.width = kW;
-  rs.height = kH;
-  rs.spp = 1;
-  rs.cull = true;
+  const auto [scene, rs] = dense_block(24);
   auto r = Renderer::create(*c.value(), scene, rs);
   ASSERT_TRUE(r.ok()) << r.error().message;
   rc::CullLoop* loop = r.value()->cull_loop();
@@ -305,18 +315,7 @@ TEST(CullParity, MovingSamplingPassSelectsItsShareOfTheBudget) {
 TEST(CullParity, WarmUpLeavesNoTrace) {
   auto c = vk::Context::create(vk::ContextOptions::from_env());
   ASSERT_TRUE(c.ok());
-  std::vector<glm::dvec3> pos;  // a dense block: 32^3 spheres that overlap their neighbours
-  for (int z = 0; z < 32; ++z)
-    for (int y = 0; y < 32; ++y)
-      for (int x = 0; x < 32; ++x) pos.push_back({x, y, z});
-  std::vector<uint8_t> types(pos.size(), 0);
-  const float radius[1] = {0.6f};
-  const SceneData scene = scene_from_particles(pos, types, radius, 2000, 16).value();
-  RenderSettings rs;
-  rs.width = kW;
-  rs.height = kH;
-  rs.spp = 1;
-  rs.cull = true;
+  const auto [scene, rs] = dense_block(32);
   auto make = [&]() { return Renderer::create(*c.value(), scene, rs); };
   auto a = make(), b = make();
   ASSERT_TRUE(a.ok() && b.ok());
