@@ -525,6 +525,10 @@ TEST_F(StressCli, DynamicResolutionScalesOnlyMovingFrames) {
   EXPECT_NE(last_stderr().find("--frame-ms-target"), std::string::npos) << last_stderr();
   EXPECT_EQ(run("stress " + store() + " --gpu-budget 1MiB --path orbit --pace-gpu-time maybe" + small()), 2);
   EXPECT_NE(last_stderr().find("--pace-gpu-time"), std::string::npos) << last_stderr();
+  EXPECT_EQ(run("stress " + store() + " --gpu-budget 1MiB --path orbit --pace-samples maybe" + small()), 2);
+  EXPECT_NE(last_stderr().find("--pace-samples"), std::string::npos) << last_stderr();
+  EXPECT_EQ(run("stress " + store() + " --gpu-budget 1MiB --path orbit --moving-waste-share 2" + small()), 2);
+  EXPECT_NE(last_stderr().find("--moving-waste-share"), std::string::npos) << last_stderr();
   // The report says whether the pacer priced only the GPU time: by default (auto) on a GPU only.
   EXPECT_EQ(j["pace_gpu_time"].get<bool>(), j["device_type"].get<std::string>() != "cpu");
   // ... and whether the moving frames' sampling followed the pixels (--pace-samples, default on).
