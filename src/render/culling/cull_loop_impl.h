@@ -1,4 +1,4 @@
-// Internal to the culling loop (cull_loop.cpp, cull_sampling.cpp): its GPU state, CullLoop::Impl.
+// Internal to the culling loop (cull_loop*.cpp, cull_sampling.cpp): its GPU state, CullLoop::Impl.
 #pragma once
 
 #include <algorithm>
