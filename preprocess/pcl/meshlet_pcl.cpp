@@ -5,6 +5,7 @@
 #include "pcl/pcl_kdtree.h"
 
 #include <algorithm>
+#include <array>
 
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
@@ -23,7 +24,7 @@ struct PclMeshletBuilder::Impl {
     uint32_t particle, leaf;
     bool operator<(const Candidate& o) const { return d2 < o.d2 || (d2 == o.d2 && particle < o.particle); }
   };
-  std::vector<Candidate> cand;  // top-up candidates
+  std::array<Candidate, 256> cand;  // top-up: the nearest candidates so far, sorted (meshlet_size <= 255)
 
   // Appends the meshlet seeded by leaf l (free[l] > 0) to order/sizes; xyz as build_impl's;
   // `remaining` counts the node's particles not yet in a meshlet.
@@ -76,17 +77,23 @@ void PclMeshletBuilder::Impl::meshlet(size_t l, std::span<const double> xyz, uin
     }
     // The rest: the free particles of those leaves nearest to the seed's centre; ties by index.
     if (need > 0) {
-      cand.clear();
+      // The `need` nearest, kept sorted by insertion as they are found (a few of some 40
+      // candidates: cheaper than collecting them all and partial_sort's heap).
+      size_t count = 0;
       for (const size_t j : near) {
         if (free[j] == 0) continue;
         for (size_t i = leaves[j].begin; i < leaves[j].end; ++i) {
           if (taken[i]) continue;
           const double dx = xyz[3 * i] - c[0], dy = xyz[3 * i + 1] - c[1], dz = xyz[3 * i + 2] - c[2];
-          cand.push_back({dx * dx + dy * dy + dz * dz, uint32_t(i), uint32_t(j)});
+          const Candidate x{dx * dx + dy * dy + dz * dz, uint32_t(i), uint32_t(j)};
+          size_t t;
+          if (count < need) t = count++;
+          else if (x < cand[count - 1]) t = count - 1;
+          else continue;
+          for (; t > 0 && x < cand[t - 1]; --t) cand[t] = cand[t - 1];
+          cand[t] = x;
         }
       }
-      const size_t count = std::min(need, cand.size());
-      std::partial_sort(cand.begin(), cand.begin() + ptrdiff_t(count), cand.end());
       for (size_t t = 0; t < count; ++t) take(cand[t].particle, cand[t].leaf, order);
       remaining -= count;
     }
