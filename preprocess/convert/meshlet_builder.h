@@ -33,12 +33,15 @@ enum class MeshletBuilderKind { pcl, octree };
 const char* meshlet_builder_name(MeshletBuilderKind kind);
 std::optional<MeshletBuilderKind> parse_meshlet_builder(const std::string& name);
 
-// Leaves asked of the kd-tree per meshlet of the PCL builder (widened 4x while they hold too few
-// free particles). Measured on the builder alone (porous 2M particles, meshlet size 16, one
-// thread; the variants tried are in docs/results/convert.md):
-//   k = 3: diag/spacing 4.10   4: 4.12   6: 4.15   8: 4.18
-// with about the same time (1.0-1.3 queries per meshlet; fewer leaves, more widening).
-inline constexpr uint32_t kPclNeighbourLeaves = 4;
+// Leaves asked of the kd-tree per meshlet of the PCL builder (widened 2x while they hold too few
+// free particles). The seed's own leaf is usually the first answer (its centre is the seed's
+// centre), so 3 brings two other leaves. Measured with tools/meshlet_bench (10M particles, meshlet
+// size 16, one thread, builder time relative to k = 4 widened 4x; diag/spacing porous, ablation):
+//   k = 4, 4x: 1.000, 4.095, 4.384   4, 2x: 0.955, 4.086, 4.377   3, 2x: 0.958, 4.065, 4.352
+//   k = 2, 2x: 1.035, 4.026, 4.304   4, +2: 1.065, 4.087, -
+// Fewer leaves give more compact meshlets (the top-up comes from the nearest leaves) and more
+// widened queries; widening 2x instead of 4x makes those cheaper.
+inline constexpr uint32_t kPclNeighbourLeaves = 3;
 
 class MeshletBuilder {
  public:

@@ -59,7 +59,7 @@ void PclMeshletBuilder::Impl::meshlet(size_t l, std::span<const double> xyz, uin
     const size_t leaf_count = leaves.size();
     // The query point in the cloud's frame (relative to the node's first particle).
     const float q[3] = {float(c[0] - xyz[0]), float(c[1] - xyz[1]), float(c[2] - xyz[2])};
-    for (size_t k = kPclNeighbourLeaves;; k *= 4) {
+    for (size_t k = kPclNeighbourLeaves;; k *= 2) {
       tree.nearest(q, std::min(k, leaf_count), near);
       size_t available = 0;
       for (const size_t j : near) available += free[j];
