@@ -100,6 +100,9 @@ struct CullLoop::Impl {
       draw_list_pipe, sample_pipe, sample_comp_pipe, update_buffer_pipe, sample_compact_pipe, update_list_pipe;
 
   Status create_buffers(const CullScene& scene_data, const DensityVolume& vol);
+  // A device-local storage buffer of `bytes` (at least 16) into b; an error naming `what` when
+  // it exceeds maxStorageBufferRange.
+  Status make_ssbo(vk::Buffer& b, uint64_t bytes, const char* what, VkBufferUsageFlags extra = 0);
   Status create_pixel_buffers();
   void set_pixel_uniforms();
   void write_pixel_descriptors();

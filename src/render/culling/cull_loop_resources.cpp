@@ -11,31 +11,32 @@
 
 namespace mds::render::culling {
 
+Status CullLoop::Impl::make_ssbo(vk::Buffer& b, uint64_t bytes, const char* what, VkBufferUsageFlags extra) {
+  if (bytes > ctx->limits().maxStorageBufferRange)
+    return make_error(Errc::budget, "culling: {} need {} bytes, more than maxStorageBufferRange ({})", what, bytes,
+                      ctx->limits().maxStorageBufferRange);
+  MDS_ASSIGN_OR_RETURN(b, vk::Buffer::create(ctx->allocator(), std::max<uint64_t>(bytes, 16), kSsbo | extra,
+                                             vk::MemoryIntent::device_local, what));
+  return {};
+}
+
 Status CullLoop::Impl::create_buffers(const CullScene& s, const DensityVolume& vol) {
   auto& alloc = ctx->allocator();
-    auto make = [&](vk::Buffer& b, uint64_t bytes, const char* what, VkBufferUsageFlags extra = 0) -> Status {
-    if (bytes > ctx->limits().maxStorageBufferRange)
-      return make_error(Errc::budget, "culling: {} need {} bytes, more than maxStorageBufferRange ({})", what, bytes,
-                        ctx->limits().maxStorageBufferRange);
-    MDS_ASSIGN_OR_RETURN(b, vk::Buffer::create(alloc, std::max<uint64_t>(bytes, 16), kSsbo | extra,
-                                               vk::MemoryIntent::device_local, what));
-    return {};
-  };
   MDS_TRY(create_pixel_buffers());
-  MDS_TRY(make(volume, vol.counts.size() * 4, "density volume"));
-  MDS_TRY(make(volume_init, vol.counts.size() * 4, "density volume (initial)"));
-  MDS_TRY(make(meshlet_voxel_first, s.voxel_first.size() * 4, "voxel list index"));
-  MDS_TRY(make(voxel_refs, s.voxel_refs.size() * 8, "voxel lists"));
+  MDS_TRY(make_ssbo(volume, vol.counts.size() * 4, "density volume"));
+  MDS_TRY(make_ssbo(volume_init, vol.counts.size() * 4, "density volume (initial)"));
+  MDS_TRY(make_ssbo(meshlet_voxel_first, s.voxel_first.size() * 4, "voxel list index"));
+  MDS_TRY(make_ssbo(voxel_refs, s.voxel_refs.size() * 8, "voxel lists"));
   if (meshlet_class == VK_NULL_HANDLE) {
-    MDS_TRY(make(own_meshlet_class, uint64_t(meshlet_count) * 4, "meshlet classes"));
+    MDS_TRY(make_ssbo(own_meshlet_class, uint64_t(meshlet_count) * 4, "meshlet classes"));
     meshlet_class = own_meshlet_class.get();
   }
-  MDS_TRY(make(node_class, uint64_t(node_count) * 4, "node classes"));
-  MDS_TRY(make(counters, sizeof(gpu::CullCounters), "cull counters"));
+  MDS_TRY(make_ssbo(node_class, uint64_t(node_count) * 4, "node classes"));
+  MDS_TRY(make_ssbo(counters, sizeof(gpu::CullCounters), "cull counters"));
   static constexpr float kNormalCdf[] = {MDS_CULL_NORMAL_CDF_TABLE_VALUES};
   static_assert(std::size(kNormalCdf) == MDS_CULL_NORMAL_TABLE_SIZE);
-  MDS_TRY(make(normal_cdf, sizeof(kNormalCdf), "normal CDF table"));
-  MDS_TRY(make(occluder_list, sizeof(gpu::DrawListHeader) + 4ull * meshlet_count, "occluder list",
+  MDS_TRY(make_ssbo(normal_cdf, sizeof(kNormalCdf), "normal CDF table"));
+  MDS_TRY(make_ssbo(occluder_list, sizeof(gpu::DrawListHeader) + 4ull * meshlet_count, "occluder list",
                VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT));
   MDS_ASSIGN_OR_RETURN(counters_host, vk::Buffer::create(alloc, sizeof(gpu::CullCounters),
                                                          VK_BUFFER_USAGE_TRANSFER_DST_BIT,
@@ -83,14 +84,6 @@ Status CullLoop::Impl::create_buffers(const CullScene& s, const DensityVolume& v
 Status CullLoop::Impl::create_pixel_buffers() {
   auto& alloc = ctx->allocator();
   const uint64_t px = uint64_t(width) * height;
-  auto make = [&](vk::Buffer& b, uint64_t bytes, const char* what, VkBufferUsageFlags extra = 0) -> Status {
-    if (bytes > ctx->limits().maxStorageBufferRange)
-      return make_error(Errc::budget, "culling: {} need {} bytes, more than maxStorageBufferRange ({})", what, bytes,
-                        ctx->limits().maxStorageBufferRange);
-    MDS_ASSIGN_OR_RETURN(b, vk::Buffer::create(alloc, std::max<uint64_t>(bytes, 16), kSsbo | extra,
-                                               vk::MemoryIntent::device_local, what));
-    return {};
-  };
   levels = 1;
   pyramid_texels = px;
   for (uint32_t w = width, h = height; w > 1 || h > 1; ++levels) {
@@ -100,17 +93,17 @@ Status CullLoop::Impl::create_pixel_buffers() {
   }
   const uint32_t s = configured_stride();  // the most blocks any view uses
   const uint64_t blocks = uint64_t((width + s - 1) / s) * ((height + s - 1) / s);
-  MDS_TRY(make(histogram, blocks * bins * sizeof(float), "density histograms"));
-  MDS_TRY(make(hist_range, blocks * 8, "histogram ranges"));
-  MDS_TRY(make(pixel_state, px * 32, "cull/accumulation buffers"));
-  MDS_TRY(make(pyramid, pyramid_texels * 8, "confidence pyramid"));
+  MDS_TRY(make_ssbo(histogram, blocks * bins * sizeof(float), "density histograms"));
+  MDS_TRY(make_ssbo(hist_range, blocks * 8, "histogram ranges"));
+  MDS_TRY(make_ssbo(pixel_state, px * 32, "cull/accumulation buffers"));
+  MDS_TRY(make_ssbo(pyramid, pyramid_texels * 8, "confidence pyramid"));
   const SampleRoute forced = forced_route();
   compute_available = ctx->int64_atomics() && forced != SampleRoute::raster &&
                       px * 8 <= ctx->limits().maxStorageBufferRange;
-  MDS_TRY(make(sample_buf, compute_available ? px * 8 : 16, "occlusion samples (compute route)"));
+  MDS_TRY(make_ssbo(sample_buf, compute_available ? px * 8 : 16, "occlusion samples (compute route)"));
   sampled_list = compute_available && sampled_list_wanted() && ctx->compute_ballot() &&
                  sizeof(gpu::CoveredPixelsHeader) + px * 4 <= ctx->limits().maxStorageBufferRange;
-  MDS_TRY(make(sampled_pixels, sampled_list ? sizeof(gpu::CoveredPixelsHeader) + px * 4 : 16,
+  MDS_TRY(make_ssbo(sampled_pixels, sampled_list ? sizeof(gpu::CoveredPixelsHeader) + px * 4 : 16,
                "sampled pixels (compute route)", VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT));
   const bool image_used = !(compute_available && forced == SampleRoute::compute);
   const uint32_t iw = image_used ? width : 1, ih = image_used ? height : 1;
