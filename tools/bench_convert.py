@@ -12,7 +12,8 @@ reports medians. Wall time is measured here; peak RSS is the converter's own VmH
 at fork time, so it is recorded only as `wait4_maxrss_mib`); the report also supplies
 bytes/particle, compression ratio, the maximum quantization error, the meshlet quality
 (mean meshlet bounding-box diagonal / node particle spacing, mean meshlet size) and the
-per-stage times.
+per-stage times. On each scene's largest raw input it also runs build/tools/meshlet_bench, the
+builders alone (one thread, interleaved node by node; --builder-rounds, 0 to skip).
 
 Writes docs/results/convert.md (table + machine info), convert.csv and convert.png
 (throughput vs N). Any failed step aborts the run without writing results.
@@ -106,6 +107,9 @@ def main():
     ap.add_argument("--keep", action="store_true", help="keep the generated inputs and stores")
     ap.add_argument("--threads", type=int, default=None, help="pass --threads to convert (default: its own)")
     ap.add_argument("--builders", default="pcl,octree", help="meshlet builders to compare (default pcl,octree)")
+    ap.add_argument("--builder-rounds", type=int, default=5,
+                    help="rounds of build/tools/meshlet_bench (the builders alone) on each scene's largest "
+                         "input; 0: skip (also skipped when the tool is not built)")
     args = ap.parse_args()
     # The raw inputs are made with numpy (in a child of this interpreter) and the plot with
     # matplotlib: both are Debian packages of /usr/bin/python3, not of every python3 on PATH.
@@ -131,6 +135,10 @@ def main():
     print(f"bench_convert: {exe}, sizes {sizes}, scenes {scenes}, {args.repeats} repeats, work dir {work}", flush=True)
 
     rows = []
+    builder_tables = []  # (scene, n, meshlet_bench's table)
+    meshlet_bench = os.path.join(args.build_dir, "tools", "meshlet_bench")
+    if args.builder_rounds > 0 and not os.access(meshlet_bench, os.X_OK):
+        print(f"bench_convert: {meshlet_bench} not built: no table of the builders alone", flush=True)
     try:
         for scene in scenes:
             for n in sizes:
@@ -141,6 +149,12 @@ def main():
                 synth_s = time.perf_counter() - t0
                 raw = base + ".f32"
                 dump_to_raw(dump, raw)
+                if n == max(sizes) and args.builder_rounds > 0 and os.access(meshlet_bench, os.X_OK):
+                    out = subprocess.run([meshlet_bench, raw, *builders, "--particles", str(n), "--rounds",
+                                          str(args.builder_rounds)], check=True, capture_output=True, text=True).stdout
+                    table = "\n".join(l for l in out.splitlines() if l.startswith("|"))
+                    builder_tables.append((scene, n, table))
+                    print(out, flush=True)
                 for (kind, path, fmt), builder in ((k, b) for k in (("lammps text", dump, "lammps"),
                                                                      ("raw float32", raw, "raw")) for b in builders):
                     walls, cpus, rsses, reports = [], [], [], []
@@ -212,10 +226,18 @@ def main():
         if not args.keep and args.work_dir is None:
             shutil.rmtree(work, ignore_errors=True)
     load_after = os.getloadavg()
-    write_results(args, rows, info, load_before, load_after)
+    write_results(args, rows, info, load_before, load_after, builder_tables)
 
 
-def write_results(args, rows, info, load_before, load_after):
+def builders_of(rows):
+    seen = []
+    for r in rows:
+        if r["meshlet_builder"] not in seen:
+            seen.append(r["meshlet_builder"])
+    return seen
+
+
+def write_results(args, rows, info, load_before, load_after, builder_tables=()):
     os.makedirs(args.out_dir, exist_ok=True)
     stem = "convert_quick" if args.quick else "convert"
     csv_path = os.path.join(args.out_dir, stem + ".csv")
@@ -313,6 +335,15 @@ def write_results(args, rows, info, load_before, load_after):
     emax = max(r["max_error_over_half_step"] for r in rows)
     lines.append(f"- quantization error <= half a step: max ratio {emax:.6f}, {verdict(emax <= 1.0 + 1e-6)}")
     lines.append("")
+    if builder_tables:
+        lines.append("## The meshlet builders alone\n")
+        lines.append(f"`build/tools/meshlet_bench INPUT.f32 {' '.join(builders_of(rows))} --particles N --rounds "
+                     f"{args.builder_rounds}` on each scene's largest raw input (tools/meshlet_bench.cpp): the "
+                     "builders on the converter's nodes, interleaved node by node on one thread, thread CPU time "
+                     "per particle, medians over the rounds; the quality columns as above.\n")
+        for scene, n, table in builder_tables:
+            lines.append(f"{scene} {fmt_count(n)}:\n")
+            lines.append(table + "\n")
     lines.append(f"Raw numbers: [`{os.path.basename(csv_path)}`]({os.path.basename(csv_path)}); "
                  f"plot: [`{os.path.basename(png_path)}`]({os.path.basename(png_path)}).\n")
     lines.append(f"![throughput vs N]({os.path.basename(png_path)})\n")
