@@ -99,6 +99,11 @@ int main(int argc, char** argv) {
   std::vector<float> raw(3 * particles);
   f.seekg(0);
   f.read(reinterpret_cast<char*>(raw.data()), std::streamsize(raw.size() * sizeof(float)));
+  if (size_t(f.gcount()) != raw.size() * sizeof(float)) {
+    std::fprintf(stderr, "%s: read %lld of %zu bytes\n", input.c_str(), static_cast<long long>(f.gcount()),
+                 raw.size() * sizeof(float));
+    return 1;
+  }
   double lo[3] = {raw[0], raw[1], raw[2]}, hi[3] = {raw[0], raw[1], raw[2]};
   for (size_t i = 0; i < particles; ++i)
     for (int a = 0; a < 3; ++a) {
