@@ -1,6 +1,7 @@
 #version 460
 // Confidence-based occlusion classification (paper 000, Sect. 5, Fig. 10), hierarchical:
-// push.mode 0 tests every node, push.mode 1 every meshlet (a meshlet of a node in O is O).
+// push.mode 0 tests every node, push.mode 1 every meshlet (a meshlet of a node in O is O);
+// push.mode 2 (MDS_COOPERATIVE_BOXES) every node with one subgroup per node.
 // The box test: the axis-aligned box is projected (8 corners, unjittered projection); its pixel
 // rectangle selects the pyramid level where it covers at most kNodeExtent^2 (nodes) or
 // kMeshletExtent^2 (meshlets) texels. The paper rasterizes the box and depth-tests its fragments
@@ -33,6 +34,7 @@
 // The classes are those of one thread per box up to the summation order of the mean confidence.
 #extension GL_GOOGLE_include_directive : require
 #ifdef MDS_COOPERATIVE_BOXES
+#extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_ballot : require
 #extension GL_KHR_shader_subgroup_shuffle : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
@@ -424,24 +426,59 @@ int box_class(uint index, bool test) {
   return c;
 }
 
+// The class of node i after its test (c: box_class's), the node counters and, reaching O with
+// kCullNodeDensity, the node's density subtraction. One invocation per node.
+void store_node_class(uint i, int c, bool node_density) {
+  uint prev = node_class[i];
+  uint now = prev;
+  if (prev != uint(MDS_CULL_CLASS_O)) {
+    now = c < 0 ? uint(MDS_CULL_CLASS_O) : max(prev, uint(c));
+    node_class[i] = now;
+  }
+  if (now != prev) {
+    atomicAdd(counters.node_changed, 1u);
+    if (now == uint(MDS_CULL_CLASS_O) && node_density) subtract_voxels(i);
+  }
+  atomicAdd(counters.node_class_count[now], 1u);
+}
+
+#ifdef MDS_COOPERATIVE_BOXES
+// push.mode 2: one subgroup per node, every test shared by its lanes whatever its size. Node i
+// is subgroup gl_SubgroupID of flat workgroup i / gl_NumSubgroups (the host dispatches
+// ceil(nodes / (64 / subgroupSize)) workgroups; a device that runs smaller subgroups has more per
+// workgroup, and the extra ones find no node). Mode 0 walks a workgroup's 64 nodes with its two
+// subgroups, one large test after the other: on the H200 the nodes of a 1M store kept 46 warps
+// busy, one per SM, through up to 16384 texels each (docs/results/classify.md).
+void classify_node_per_subgroup(bool node_density) {
+  uint wg = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+  uint i = wg * gl_NumSubgroups + gl_SubgroupID;
+  if (i >= cull.counts.y) return;  // the whole subgroup
+  int c = -1;
+  if (node_class[i] != uint(MDS_CULL_CLASS_O)) {
+    vec3 bmin = nodes[i].aabb_min, bmax = nodes[i].aabb_max;
+    BoxTest b;
+    c = box_setup(bmin, bmax, kNodeExtent, b);
+    if (c == kBoxTexelTest)
+      c = box_test(bmin, bmax, b, uvec2(nodes[i].occupancy_lo, nodes[i].occupancy_hi), int(i), true);
+  }
+  if (subgroupElect()) store_node_class(i, c, node_density);
+}
+#endif
+
 void main() {
   uint i = mds_flat_id();
   bool node_density = (cull.params.w & kCullNodeDensity) != 0u;
+#ifdef MDS_COOPERATIVE_BOXES
+  if (push.mode == 2u) {
+    classify_node_per_subgroup(node_density);
+    return;
+  }
+#endif
   if (push.mode == 0u) {
     bool valid = i < cull.counts.y;
     uint prev = valid ? node_class[i] : uint(MDS_CULL_CLASS_O);
     int c = box_class(i, prev != uint(MDS_CULL_CLASS_O));
-    if (!valid) return;
-    uint now = prev;
-    if (prev != uint(MDS_CULL_CLASS_O)) {
-      now = c < 0 ? uint(MDS_CULL_CLASS_O) : max(prev, uint(c));
-      node_class[i] = now;
-    }
-    if (now != prev) {
-      atomicAdd(counters.node_changed, 1u);
-      if (now == uint(MDS_CULL_CLASS_O) && node_density) subtract_voxels(i);
-    }
-    atomicAdd(counters.node_class_count[now], 1u);
+    if (valid) store_node_class(i, c, node_density);
     return;
   }
   bool valid = i < cull.counts.x;

@@ -243,29 +243,40 @@ TEST_F(RenderCli, StreamingRenderWarnsWhenThePoolCannotHoldTheView) {
 // the front view and the close-up. Only the summation order of a box's mean confidence differs,
 // which moved no class on lavapipe or the H200. Fails when a lane's share of the texels or cells is
 // skipped (tried: every other round skipped) or when the round that found a texel in front does
-// not end the test on every lane.
+// not end the test on every lane. The shared variant runs twice: nodes one subgroup each
+// (push.mode 2, the default) and nodes one thread each in subgroup-shared rounds
+// (MDSTREAM_CULL_NODE_SUBGROUP=0, mode 0); a node skipped or tested twice by mode 2's indexing
+// changes the node classes and so the meshlets'.
 TEST_F(RenderCli, SharedBoxTestsClassifyLikeOneThreadPerBox) {
   const fs::path dump = dir_ / "porous.lammpstrj", porous = dir_ / "porous.mds";
   ASSERT_EQ(run("synth --scene porous --particles 60000 -q -o " + dump.string()), 0) << last_stderr();
   ASSERT_EQ(run("convert " + dump.string() + " --node-size 1000 -q -o " + porous.string()), 0) << last_stderr();
+  const char* variants[3] = {"MDSTREAM_CULL_COOP_BOXES=0 ", "MDSTREAM_CULL_COOP_BOXES=1 ",
+                             "MDSTREAM_CULL_COOP_BOXES=1 MDSTREAM_CULL_NODE_SUBGROUP=0 "};
   for (int view : {0, 2}) {
     SCOPED_TRACE("view " + std::to_string(view));
-    nlohmann::json j[2];
-    for (int shared = 0; shared < 2; ++shared) {
-      const fs::path png = dir_ / "shared.png", stats = dir_ / ("shared" + std::to_string(shared) + ".json");
-      ASSERT_EQ(run_env(std::string("MDSTREAM_CULL_COOP_TEXELS=1 MDSTREAM_CULL_COOP_BOXES=") + (shared ? "1 " : "0 "),
+    nlohmann::json j[3];
+    for (int v = 0; v < 3; ++v) {
+      const fs::path png = dir_ / "shared.png", stats = dir_ / ("shared" + std::to_string(v) + ".json");
+      ASSERT_EQ(run_env(std::string("MDSTREAM_CULL_COOP_TEXELS=1 ") + variants[v],
                         "render " + porous.string() + " -o " + png.string() + " --width 160 --height 120 --spp 8 --view " +
                             std::to_string(view) + " --stats " + stats.string()),
                 0)
           << last_stderr();
       std::ifstream f(stats);
-      j[shared] = nlohmann::json::parse(f);
+      j[v] = nlohmann::json::parse(f);
     }
     EXPECT_FALSE(j[0]["parameters"]["shared_box_tests"].get<bool>());
+    EXPECT_FALSE(j[0]["parameters"]["node_per_subgroup"].get<bool>());
     if (!j[1]["parameters"]["shared_box_tests"].get<bool>()) GTEST_SKIP() << "no subgroup ballot + shuffle + add in compute";
-    for (const char* k : {"changed_per_iteration", "culled_per_iteration", "class_counts", "iterations"})
-      EXPECT_EQ(j[0][k], j[1][k]) << k;
-    EXPECT_GT(j[1]["culled_fraction"].get<double>(), 0.0);
+    EXPECT_TRUE(j[1]["parameters"]["node_per_subgroup"].get<bool>());
+    EXPECT_FALSE(j[2]["parameters"]["node_per_subgroup"].get<bool>());
+    for (int v : {1, 2}) {
+      SCOPED_TRACE(variants[v]);
+      for (const char* k : {"changed_per_iteration", "culled_per_iteration", "class_counts", "iterations"})
+        EXPECT_EQ(j[0][k], j[v][k]) << k;
+      EXPECT_GT(j[v]["culled_fraction"].get<double>(), 0.0);
+    }
   }
 }
 

@@ -167,7 +167,7 @@ TEST_F(StreamingRender, EighthOfTheStoreMatchesInMemoryOnADenseView) {
   EXPECT_GT(cs.frame_ms_after_convergence, 0.0);
   EXPECT_GT(cs.frame_ms_during_culling, 0.0);
   EXPECT_EQ(cs.pass_ms_after_convergence.count("draw_list"), 1u);
-  for (const char* pass : {"select", "sample", "update", "pyramid", "classify", "histogram"})
+  for (const char* pass : {"select", "sample", "update", "pyramid", "classify_nodes", "classify_meshlets", "histogram"})
     EXPECT_EQ(cs.pass_ms_after_convergence.count(pass), 0u) << pass;
 
   Image mem = in_memory(*reader.value(), true, 2);

@@ -334,7 +334,8 @@ TEST_F(StressCli, ContinuousPathsSettleTheFinalViewAndAcceptSlowDiskOptions) {
       EXPECT_GT(gpu[i].get<double>(), 0.0) << "frame " << i;
       EXPECT_NEAR(sum, gpu[i].get<double>(), 1e-6 * sum) << "frame " << i;
       if (i > 0 && i < 12) {
-        EXPECT_TRUE(passes[i].contains("classify")) << "frame " << i;  // a culling iteration
+        EXPECT_TRUE(passes[i].contains("classify_nodes")) << "frame " << i;  // a culling iteration
+        EXPECT_TRUE(passes[i].contains("classify_meshlets")) << "frame " << i;
         // ... of a new view, whose reset is recorded and timed in the frame (CullLoop::prepare_view)
         EXPECT_TRUE(passes[i].contains("view")) << "frame " << i;
       } else if (i >= 12) {

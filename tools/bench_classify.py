@@ -1,12 +1,17 @@
 #!/usr/bin/python3
-"""Shared box tests benchmark: the classification pass (shaders/cull_classify.comp) with one thread
-per box against its subgroup-shared variant (cull_classify_coop.comp, MDS_COOPERATIVE_BOXES: a box
-test of more than kCooperativeTexels pyramid texels is run by its whole subgroup), in the frames of
-`mdstream stress` where it costs most: fly-throughs and jumps of the porous and ablation scenes with
-a GPU budget of 1/8 of the store. The variants are forced with MDSTREAM_CULL_COOP_BOXES=0 / 1
-(MDSTREAM_CULL_COOP_TEXELS sets the threshold) and run alternately, --reps times each; the table
-shows medians over the runs. Both variants must classify alike: the script checks that every
-frame's hits, misses and reads are the same (column *same demand*).
+"""Classification benchmark: variants of the classification passes (shaders/cull_classify.comp) in
+the frames of `mdstream stress` where they cost most: fly-throughs and jumps of the porous and
+ablation scenes with a GPU budget of 1/8 of the store. Variants (--variants, default
+shared,subgroup):
+  thread    one thread per box (MDSTREAM_CULL_COOP_BOXES=0)
+  shared    cull_classify_coop.comp (MDS_COOPERATIVE_BOXES): a box test of more than
+            kCooperativeTexels pyramid texels is run by its whole subgroup, nodes one thread each
+            in a 64-node workgroup (MDSTREAM_CULL_NODE_SUBGROUP=0)
+  subgroup  the same, but every node tested by a subgroup of its own (push.mode 2; the default
+            where box tests are shared)
+They run alternately, --reps times each; the table shows medians over the runs, with the node and
+meshlet passes (`classify_nodes`, `classify_meshlets`) apart. The variants must classify alike: the
+script checks that every frame's hits, misses and reads are the same (column *same demand*).
 
 Writes docs/results/classify.md and classify.csv (or --out).
 
@@ -36,10 +41,16 @@ def quantile(v, q):
     return s[i] if i + 1 >= len(s) else s[i] + (s[i + 1] - s[i]) * (x - i)
 
 
+VARIANT_ENV = {
+    "thread": {"MDSTREAM_CULL_COOP_BOXES": "0"},
+    "shared": {"MDSTREAM_CULL_COOP_BOXES": "1", "MDSTREAM_CULL_NODE_SUBGROUP": "0"},
+    "subgroup": {"MDSTREAM_CULL_COOP_BOXES": "1", "MDSTREAM_CULL_NODE_SUBGROUP": "1"},
+}
+
+
 def run(mds, store, path, variant, args, work, log, rep):
     out = os.path.join(work, f"{os.path.basename(store)}.{path}.{variant}.{rep}.json")
-    env = dict(os.environ, MDSTREAM_CULL_COOP_BOXES="1" if variant == "shared" else "0",
-               MDSTREAM_CULL_COOP_TEXELS=str(args.texels))
+    env = dict(os.environ, MDSTREAM_CULL_COOP_TEXELS=str(args.texels), **VARIANT_ENV[variant])
     budget = os.path.getsize(store) // 8
     sh([mds, "stress", store, "--gpu-budget", str(budget), "--path", path, "--frames", str(args.frames),
         "--width", str(args.width), "--height", str(args.height), "--settle-frames", "0", "--json", out, "-q"],
@@ -48,11 +59,16 @@ def run(mds, store, path, variant, args, work, log, rep):
         j = json.load(f)
     pf = j["per_frame"]
     n = j["frames"]
-    classify = [g.get("classify", 0.0) for g in pf["gpu_passes"][:n]]
+    nodes = [g.get("classify_nodes", 0.0) for g in pf["gpu_passes"][:n]]
+    meshlets = [g.get("classify_meshlets", 0.0) for g in pf["gpu_passes"][:n]]
+    classify = [a + b for a, b in zip(nodes, meshlets)]
     return {
         "device": j.get("device", "unknown"),
         "shared": j.get("cull_shared_box_tests", False),
+        "node_per_subgroup": j.get("cull_node_per_subgroup", False),
         "classify_sum": sum(classify),
+        "nodes_sum": sum(nodes),
+        "meshlets_sum": sum(meshlets),
         "classify_p50": quantile(classify, 0.5),
         "classify_max": max(classify) if classify else 0.0,
         "gpu_p50": quantile(pf["gpu_ms"][:n], 0.5),
@@ -74,6 +90,7 @@ def main():
     ap.add_argument("--height", type=int, default=None, help="default 360 (quick 90)")
     ap.add_argument("--reps", type=int, default=None, help="runs per variant (default 3; quick 1)")
     ap.add_argument("--texels", type=int, default=256, help="MDSTREAM_CULL_COOP_TEXELS (kCooperativeTexels)")
+    ap.add_argument("--variants", default="shared,subgroup", help="of thread, shared, subgroup; the first is the base")
     ap.add_argument("--scenes", default="porous,ablation")
     ap.add_argument("--paths", default="flythrough,jumps")
     ap.add_argument("--out", default=os.path.join(REPO, "docs", "results"))
@@ -88,32 +105,37 @@ def main():
     mds = args.mdstream or newest_mdstream(REPO)
     work, log = open_work("bench_classify", args.work, args.out)
     t0 = time.time()
+    variants = args.variants.split(",")
+    for v in variants:
+        if v not in VARIANT_ENV:
+            ap.error(f"--variants: unknown variant '{v}' (thread, shared, subgroup)")
     rows = []
     device = "unknown"
     try:
         for scene in args.scenes.split(","):
             store = make_store(mds, work, scene, args.particles, args.node_size, log)
             for path in args.paths.split(","):
-                runs = {"thread": [], "shared": []}
+                runs = {v: [] for v in variants}
                 for rep in range(args.reps):
-                    for variant in ("thread", "shared"):
+                    for variant in variants:
                         runs[variant].append(run(mds, store, path, variant, args, work, log, rep))
-                device = runs["thread"][0]["device"]
-                if not runs["shared"][0]["shared"]:
+                device = runs[variants[0]][0]["device"]
+                if any(v != "thread" and not runs[v][0]["shared"] for v in variants):
                     print("bench_classify: the device has no subgroup ballot + shuffle + add: nothing to compare")
                     return 0
                 # Demand equal within each variant (reads that may or may not arrive within a
                 # frame make it vary between runs on a fast device), then across the variants.
                 steady = all(r["demand"] == rs[0]["demand"] for rs in runs.values() for r in rs)
-                same = ("yes" if runs["thread"][0]["demand"] == runs["shared"][0]["demand"] else "**no**") \
-                    if steady else "varies between runs"
+                same = ("yes" if all(rs[0]["demand"] == runs[variants[0]][0]["demand"] for rs in runs.values())
+                        else "**no**") if steady else "varies between runs"
                 for variant, rs in runs.items():
                     row = {"scene": scene, "path": path, "variant": variant, "same_demand": same}
-                    for k in ("classify_sum", "classify_p50", "classify_max", "gpu_p50", "gpu_p99", "wall_p50",
-                              "wall_p99"):
+                    for k in ("classify_sum", "nodes_sum", "meshlets_sum", "classify_p50", "classify_max", "gpu_p50",
+                              "gpu_p99", "wall_p50", "wall_p99"):
                         row[k] = st.median(r[k] for r in rs)
                     rows.append(row)
-                    print(f"{scene} {path} {variant}: classify {row['classify_sum']:.1f} ms over the path, "
+                    print(f"{scene} {path} {variant}: classify {row['classify_sum']:.1f} ms over the path "
+                          f"(nodes {row['nodes_sum']:.1f}, meshlets {row['meshlets_sum']:.1f}), "
                           f"max {row['classify_max']:.2f}; GPU frame p50/p99 {row['gpu_p50']:.2f}/{row['gpu_p99']:.2f}",
                           flush=True)
     finally:
@@ -126,34 +148,42 @@ def main():
         w.writeheader()
         w.writerows(rows)
     m = machine_info(REPO)
-    L = ["# Shared box tests in the classification pass", "",
+    L = ["# The classification passes: shared box tests, a subgroup per node", "",
          f"Generated by `tools/bench_classify.py` in {(time.time() - t0) / 60:.1f} min.", "",
          f"Machine: {m['cpu']}, {m['nproc']} cores, {m['memory']}, kernel {m['kernel']}; {m['date']}; "
          f"commit {m['commit']}. Device: {device}.", "",
          f"Setup: `mdstream synth --scene S -n {args.particles}`, `convert --node-size {args.node_size}`; "
          f"`mdstream stress --path P --frames {args.frames}` at {args.width}x{args.height}, GPU budget = store / 8, "
          f"the occlusion policy. *thread* = one thread per box (`MDSTREAM_CULL_COOP_BOXES=0`), *shared* = "
-         f"box tests of more than {args.texels} texels run by their subgroup (`=1`). {args.reps} runs per variant, "
-         "alternating; medians. *classify* = GPU ms of the classification pass (nodes and meshlets) summed over "
-         "the path's frames, and its largest frame; GPU frame = the frame's timestamped passes; wall = CPU wall "
+         f"box tests of more than {args.texels} texels run by their subgroup (`=1`), nodes one thread each "
+         "(`MDSTREAM_CULL_NODE_SUBGROUP=0`), *subgroup* = the same with a subgroup per node (the default where "
+         f"box tests are shared). {args.reps} runs per variant, "
+         "alternating; medians. *classify* = GPU ms of the classification passes summed over "
+         "the path's frames (*nodes* and *meshlets*: each pass's sum), and the largest frame's; GPU frame = the "
+         "frame's timestamped passes; wall = CPU wall "
          "time of the frame (`frame_ms`). *Same demand* = every frame's hits, misses and reads equal in every run "
-         "of both variants (*varies between runs*: already between the runs of one variant, as on a fast "
+         "of every variant (*varies between runs*: already between the runs of one variant, as on a fast "
          "device where a read may or may not arrive within a frame; the classes themselves are compared by "
          "`RenderCli.SharedBoxTestsClassifyLikeOneThreadPerBox`).", "",
-         "| scene | path | variant | classify ms (sum) | classify max ms | GPU frame p50 / p99 ms | wall p50 / p99 ms | same demand |",
-         "|---|---|---|---:|---:|---:|---:|---|"]
+         "| scene | path | variant | classify ms (sum) | nodes | meshlets | classify max ms | GPU frame p50 / p99 ms | wall p50 / p99 ms | same demand |",
+         "|---|---|---|---:|---:|---:|---:|---:|---:|---|"]
     for r in rows:
-        L.append(f"| {r['scene']} | {r['path']} | {r['variant']} | {r['classify_sum']:.1f} | {r['classify_max']:.2f} | "
+        L.append(f"| {r['scene']} | {r['path']} | {r['variant']} | {r['classify_sum']:.1f} | {r['nodes_sum']:.1f} | "
+                 f"{r['meshlets_sum']:.1f} | {r['classify_max']:.2f} | "
                  f"{r['gpu_p50']:.2f} / {r['gpu_p99']:.2f} | {r['wall_p50']:.2f} / {r['wall_p99']:.2f} | "
                  f"{r['same_demand']} |")
-    L += ["", "Shared / thread (same run):", ""]
-    L.append("| scene | path | classify sum | classify max | GPU frame p99 | wall p99 |")
-    L.append("|---|---|---:|---:|---:|---:|")
-    for a, b in zip(rows[0::2], rows[1::2]):
-        def ratio(k):
-            return f"{b[k] / a[k]:.2f}" if a[k] > 0 else "-"
-        L.append(f"| {a['scene']} | {a['path']} | {ratio('classify_sum')} | {ratio('classify_max')} | "
-                 f"{ratio('gpu_p99')} | {ratio('wall_p99')} |")
+    nv = len(variants)
+    for v in variants[1:]:
+        L += ["", f"{v} / {variants[0]} (same run):", ""]
+        L.append("| scene | path | classify sum | nodes sum | classify max | GPU frame p50 | GPU frame p99 | wall p99 |")
+        L.append("|---|---|---:|---:|---:|---:|---:|---:|")
+        for k0 in range(0, len(rows), nv):
+            a, b = rows[k0], rows[k0 + variants.index(v)]
+
+            def ratio(k):
+                return f"{b[k] / a[k]:.2f}" if a[k] > 0 else "-"
+            L.append(f"| {a['scene']} | {a['path']} | {ratio('classify_sum')} | {ratio('nodes_sum')} | "
+                     f"{ratio('classify_max')} | {ratio('gpu_p50')} | {ratio('gpu_p99')} | {ratio('wall_p99')} |")
     with open(os.path.join(args.out, "classify.md"), "w") as f:
         f.write("\n".join(L) + "\n")
     print("wrote", os.path.join(args.out, "classify.md"))

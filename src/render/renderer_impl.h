@@ -112,7 +112,7 @@ struct Renderer::Impl {
   // cull_loop.h kSampleRouteProbeShare), view (CullLoop::prepare_view)/pyramid/classify/histogram,
   // 4 drawing.
   uint32_t timestamp_capacity() const {
-    return 23 + 3 * std::max(1u, settings.cull_settings.samples_per_iteration);
+    return 24 + 3 * std::max(1u, settings.cull_settings.samples_per_iteration);
   }
 
   // Out-of-core (create_streaming): the cache; null in memory.

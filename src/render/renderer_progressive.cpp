@@ -455,6 +455,7 @@ RenderStats Renderer::stats() const {
     s.cull.sample_ms_compute = m.cull->sample_route_ms(culling::SampleRoute::compute);
     s.cull.sample_ms_raster = m.cull->sample_route_ms(culling::SampleRoute::raster);
     s.cull.shared_box_tests = m.cull->shared_box_tests();
+    s.cull.node_per_subgroup = m.cull->node_per_subgroup();
     s.cull.budget = m.cull->budget();
     if (s.cull.class_counts.size() == 4) s.cull.meshlets_culled = s.cull.class_counts[MDS_CULL_CLASS_O];
   }

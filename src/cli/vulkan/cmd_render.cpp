@@ -255,6 +255,7 @@ Status run_render(const RenderOptions& o) {
                          {"sample_pass_ms_compared", {{"compute", c.sample_ms_compute},
                                                       {"raster", c.sample_ms_raster}}},
                          {"shared_box_tests", c.shared_box_tests},
+                         {"node_per_subgroup", c.node_per_subgroup},
                          {"n_budget", o.cull.n_budget},
                          {"seed", o.cull.seed},
                          {"mesh_shaders", o.cull.mesh_shaders},

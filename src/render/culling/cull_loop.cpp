@@ -401,15 +401,23 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
   m.record_pyramid(cmd);
   end();
 
-  begin("classify");  // Sect. 5.1, nodes then meshlets; Sect. 4.4 volume updates
+  // Sect. 5.1, nodes then meshlets (two passes); Sect. 4.4 volume updates.
+  begin("classify_nodes");
   vkCmdFillBuffer(cmd, m.counters.get(), 0, offsetof(gpu::CullCounters, selected), 0);
   vkCmdFillBuffer(cmd, m.counters.get(), offsetof(gpu::CullCounters, node_class_count), 20, 0);  // + node_changed
   compute_barrier(cmd);
   m.bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
          m.moving && m.classify_coarse_pipe ? m.classify_coarse_pipe.get() : m.classify_pipe.get(), m.set0_sample);
-  m.push(cmd, 0);
-  vk::dispatch_rows(cmd, (m.node_count + 63) / 64, gpu::kDispatchRow);
+  if (m.nodes_per_group > 0) {
+    m.push(cmd, 2);  // a subgroup per node (cull_classify.comp)
+    vk::dispatch_rows(cmd, (m.node_count + m.nodes_per_group - 1) / m.nodes_per_group, gpu::kDispatchRow);
+  } else {
+    m.push(cmd, 0);
+    vk::dispatch_rows(cmd, (m.node_count + 63) / 64, gpu::kDispatchRow);
+  }
   compute_barrier(cmd);
+  end();
+  begin("classify_meshlets");
   m.push(cmd, 1);
   vk::dispatch_rows(cmd, (m.meshlet_count + 63) / 64, gpu::kDispatchRow);
   compute_barrier(cmd);

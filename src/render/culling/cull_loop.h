@@ -272,6 +272,8 @@ class CullLoop {
   uint32_t sample_route_passes(SampleRoute route) const;
   // The classification shares large box tests over subgroups (cull_classify_coop.comp).
   bool shared_box_tests() const;
+  // The node classification runs one subgroup per node (cull_classify_coop.comp push.mode 2).
+  bool node_per_subgroup() const;
   // GPU ms per sampling pass of the route in the last finished comparison (-1: none).
   double sample_route_ms(SampleRoute route) const;
   // After an iteration completed on the GPU (before the next is recorded): reads the timestamps

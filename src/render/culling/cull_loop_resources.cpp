@@ -248,6 +248,12 @@ Status CullLoop::Impl::create_pipelines() {
     const bool coop = ctx->compute_arithmetic() &&
                       (coop_env ? std::string(coop_env) != "0" : ctx->subgroup_size() >= kCooperativeBoxesMinSubgroup);
     shared_box_tests = coop;
+    // One subgroup per node where box tests are shared (push.mode 2); MDSTREAM_CULL_NODE_SUBGROUP=0
+    // keeps one thread per node (mode 0; A/B runs, tools/bench_classify.py).
+    const char* node_env = std::getenv("MDSTREAM_CULL_NODE_SUBGROUP");
+    nodes_per_group = coop && !(node_env && std::string(node_env) == "0")
+                          ? std::max<uint32_t>(1, 64 / std::max<uint32_t>(1, ctx->subgroup_size()))
+                          : 0;
     const char* classify = coop ? "cull_classify_coop.comp" : "cull_classify.comp";
     // kCooperativeTexels; MDSTREAM_CULL_COOP_TEXELS=N for A/B runs.
     const char* texels_env = std::getenv("MDSTREAM_CULL_COOP_TEXELS");
