@@ -151,11 +151,17 @@ void IoPool::worker() {
     simulate_delay(e.payload_bytes);
     c.status = reader_.read_payload(node, compressed);
     if (c.status.ok()) c.status = reader_.decode_payload(node, compressed, c.data);
+    if (c.status.ok() && options_.prepare) {
+      Status st = options_.prepare(node, c.data, c.prepared);
+      if (!st.ok())
+        c.status = make_error(st.error().code, "{}: {}", reader_.path().string(), st.error().message);
+    }
     if (c.status.ok()) {
       c.compressed_bytes = e.payload_bytes;
       c.raw_bytes = e.payload_raw_bytes;
     } else {
       c.data = store::NodeData{};
+      c.prepared.clear();
     }
     {
       std::lock_guard lock(mutex_);

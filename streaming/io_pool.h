@@ -13,6 +13,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -33,12 +34,19 @@ struct IoOptions {
   double io_latency_ms = 0;  // simulated per-request latency
   double io_bandwidth = 0;   // simulated bytes/s per request (compressed bytes), 0 = unlimited
   bool start_paused = false; // workers take no request until resume() (batch submission)
+  // Work on a decoded node that the reader thread does before it reports the node finished
+  // (the cache's meshlet bounds, render/streaming/node_pool.h meshlet_bounds), so that the render
+  // loop does not: fills IoCompletion::prepared. Runs on the reader threads, concurrently: it
+  // must only read shared state. An error makes the completion an error (prefixed with the
+  // store's path), and the node is never read again, as after a failed decode. Empty: none.
+  std::function<Status(uint32_t node, const store::NodeData& data, std::vector<float>& out)> prepare;
 };
 
 struct IoCompletion {
   uint32_t node = 0;
   Status status;              // error: Errc::checksum / io / format naming file, node, offset
   store::NodeData data;       // decoded node (empty on error)
+  std::vector<float> prepared;  // IoOptions::prepare's output (empty without it or on error)
   uint64_t compressed_bytes = 0;
   uint64_t raw_bytes = 0;
 };

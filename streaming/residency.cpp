@@ -185,7 +185,18 @@ Result<std::vector<uint32_t>> ResidencyTable::choose_victims(uint64_t need, uint
   std::vector<uint32_t> victims;
   if (need <= free) return victims;
   uint64_t gained = free;
-  for (uint32_t i : eviction_order()) {
+  // eviction_order(), taken from a heap one node at a time: a placement usually needs the first
+  // few, and sorting every resident node for each of a frame's placements cost ~10 us per node
+  // placed (ablation 1M jumps, 69 placements in a frame).
+  std::vector<uint32_t> heap;
+  for (uint32_t i = 0; i < nodes_.size(); ++i)
+    if (nodes_[i].residency == Residency::resident) heap.push_back(i);
+  const auto after = [&](uint32_t a, uint32_t b) { return evict_before(nodes_[b], b, nodes_[a], a); };
+  std::make_heap(heap.begin(), heap.end(), after);
+  while (!heap.empty()) {
+    std::pop_heap(heap.begin(), heap.end(), after);
+    const uint32_t i = heap.back();
+    heap.pop_back();
     const NodeState& n = nodes_[i];
     const bool drawn_now = n.last_use == protect_frame && !(policy_ == Policy::occlusion && n.cls == kClassO);
     if (drawn_now && !(incoming >= 0 && displaces(uint32_t(incoming), i))) continue;

@@ -1,8 +1,10 @@
 // Tests of streaming/io_pool.h on real stores written with store::StoreWriter: every node read
 // by background threads equals StoreReader::read_node; a corrupted payload gives exactly one
-// error completion naming the node; cancellation; shutdown with work pending.
+// error completion naming the node; the readers' prepare step; cancellation; shutdown with work
+// pending.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
 #include <map>
 #include <thread>
@@ -167,6 +169,58 @@ TEST(StreamingIo, CorruptedPayloadReportedOnceNeverRetried) {
   ASSERT_EQ(again.size(), 1u);
   EXPECT_TRUE(again[0].status.ok());
   EXPECT_EQ((*pool)->stats().failed, 1u);
+  std::filesystem::remove_all(dir);
+}
+
+// IoOptions::prepare runs on the reader threads, once per decoded node, and its output arrives
+// with the node; an error from it fails the node like a bad payload (named with the store's
+// path, reported once, never read again).
+TEST(StreamingIo, PrepareRunsOnTheReaderThreads) {
+  auto dir = mds::testing::temp_dir("streaming_io_prepare", true);
+  const auto path = dir / "p.mds";
+  auto reader = make_store(path, 8, 2000);
+  ASSERT_TRUE(reader);
+  const uint32_t n = uint32_t(reader->nodes().size());
+  const uint32_t bad = n / 3;
+  const std::thread::id caller = std::this_thread::get_id();
+  std::atomic<int> on_caller{0}, calls{0};
+  IoOptions opt;
+  opt.threads = 3;
+  opt.prepare = [&](uint32_t node, const store::NodeData& d, std::vector<float>& out) -> Status {
+    ++calls;
+    if (std::this_thread::get_id() == caller) ++on_caller;
+    if (node == bad) return make_error(Errc::format, "node {}: refused", node);
+    out.assign({float(node), float(d.particle_count()), float(d.meshlet_size.size())});
+    return {};
+  };
+  auto pool = IoPool::create(*reader, opt);
+  ASSERT_TRUE(pool.ok());
+  for (uint32_t i = 0; i < n; ++i) ASSERT_TRUE((*pool)->submit(i, 0.0));
+  auto done = drain(**pool, n);
+  ASSERT_EQ(done.size(), n);
+  for (const auto& c : done) {
+    if (c.node == bad) {
+      ASSERT_FALSE(c.status.ok());
+      EXPECT_EQ(c.status.error().code, Errc::format);
+      EXPECT_NE(c.status.error().message.find(path.filename().string()), std::string::npos) << c.status.error().message;
+      EXPECT_NE(c.status.error().message.find("refused"), std::string::npos) << c.status.error().message;
+      EXPECT_TRUE(c.prepared.empty());
+      EXPECT_EQ(c.data.particle_count(), 0u);
+      continue;
+    }
+    ASSERT_TRUE(c.status.ok()) << c.status.error().message;
+    const auto& e = reader->nodes()[c.node];
+    ASSERT_EQ(c.prepared.size(), 3u);
+    EXPECT_EQ(c.prepared[0], float(c.node));
+    EXPECT_EQ(c.prepared[1], float(e.particle_count));
+    EXPECT_EQ(c.prepared[2], float(e.meshlet_count));
+  }
+  EXPECT_EQ(calls.load(), int(n));
+  EXPECT_EQ(on_caller.load(), 0);
+  EXPECT_TRUE((*pool)->is_failed(bad));
+  EXPECT_FALSE((*pool)->submit(bad, 0.0));
+  EXPECT_EQ((*pool)->stats().failed, 1u);
+  pool->reset();
   std::filesystem::remove_all(dir);
 }
 

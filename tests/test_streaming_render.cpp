@@ -480,6 +480,50 @@ TEST_F(StreamingRender, BudgetBelowOneNodeIsAClearError) {
   EXPECT_NE(r.error().message.find("--gpu-budget"), std::string::npos) << r.error().message;
 }
 
+// The cache's meshlet bounds (node_pool.h meshlet_bounds, computed by the reader threads) are
+// the in-memory scene's (render::append_node), float for float, on every node of the store; a
+// type index outside the table is a format error naming the node.
+TEST_F(StreamingRender, MeshletBoundsMatchTheInMemoryScene) {
+  auto opened = store::StoreReader::open(store_path());
+  ASSERT_TRUE(opened.ok());
+  const store::StoreReader& reader = *opened.value();
+  auto scene = load_scene(reader);
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  const auto& h = reader.header();
+  streaming_gpu::PoolScene ps;
+  ps.origin = scene->origin;
+  for (const auto& t : reader.types()) ps.type_radius.push_back(t.radius);
+  ps.per_particle_radius = (h.flags & store::kFlagPerParticleRadius) != 0;
+  ps.radius_min = h.radius_min;
+  ps.radius_max = h.radius_max;
+  store::NodeData d;
+  std::vector<uint8_t> scratch;
+  std::vector<float> b;
+  size_t compared = 0;
+  for (uint32_t i = 0; i < reader.nodes().size(); ++i) {
+    ASSERT_TRUE(reader.read_node(i, d, scratch).ok());
+    streaming_gpu::NodeFrame f;
+    for (int a = 0; a < 3; ++a) {
+      f.center_min[a] = reader.nodes()[i].center_min[a];
+      f.center_max[a] = reader.nodes()[i].center_max[a];
+    }
+    ASSERT_TRUE(streaming_gpu::meshlet_bounds(ps, i, f, d, b).ok());
+    ASSERT_EQ(b.size(), 6 * d.meshlet_size.size());
+    const uint32_t first = scene->nodes[i].first_meshlet;
+    for (size_t k = 0; k < d.meshlet_size.size(); ++k, ++compared) {
+      const gpu::GpuMeshlet& m = scene->meshlets[first + k];
+      ASSERT_EQ(glm::vec3(b[6 * k], b[6 * k + 1], b[6 * k + 2]), m.aabb_min) << "node " << i << " meshlet " << k;
+      ASSERT_EQ(glm::vec3(b[6 * k + 3], b[6 * k + 4], b[6 * k + 5]), m.aabb_max) << "node " << i << " meshlet " << k;
+    }
+  }
+  EXPECT_EQ(compared, scene->meshlets.size());
+  d.type_index.back() = uint8_t(ps.type_radius.size());
+  auto bad = streaming_gpu::meshlet_bounds(ps, 7, streaming_gpu::NodeFrame{}, d, b);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.error().code, Errc::format);
+  EXPECT_NE(bad.error().message.find("node 7"), std::string::npos) << bad.error().message;
+}
+
 TEST(StreamingPool, PageCountFollowsFromTheDirectory) {
   streaming_gpu::PoolLayout l;
   l.page_particles = 512;

@@ -328,6 +328,18 @@ TEST_F(StressCli, ContinuousPathsSettleTheFinalViewAndAcceptSlowDiskOptions) {
     const auto& gpu = j["per_frame"]["gpu_ms"];
     const auto& passes = j["per_frame"]["gpu_passes"];
     ASSERT_EQ(gpu.size(), passes.size());
+    // The frame's CPU parts: each within the frame's wall time, the cache's update within step.
+    const auto& parts = j["per_frame"]["cpu_parts"];
+    const auto& wall = j["per_frame"]["wall_ms"];
+    ASSERT_EQ(parts.size(), gpu.size());
+    for (size_t i = 0; i < parts.size(); ++i) {
+      const double v = parts[i]["set_view"], st = parts[i]["step"], c = parts[i]["cache"], f = parts[i]["finish"];
+      EXPECT_GE(v, 0.0);
+      EXPECT_GE(c, 0.0);
+      EXPECT_LE(c, st) << "frame " << i;
+      EXPECT_GT(f, 0.0) << "frame " << i;
+      EXPECT_LE(v + st + f, wall[i].get<double>()) << "frame " << i;
+    }
     for (size_t i = 0; i < gpu.size(); ++i) {
       double sum = 0.0;
       for (const auto& [name, ms] : passes[i].items()) sum += ms.get<double>();

@@ -262,6 +262,8 @@ struct FrameReport {
   bool converged = false;         // culling_converged && complete (in-memory: culling_converged or no culling)
   double gpu_ms = 0.0;            // GPU time of the PREVIOUS frame's passes (known once it completed; 0: not timed)
   double wall_ms = 0.0;           // CPU wall time of step()
+  double wait_ms = 0.0;           // of it: waiting for the previous frame's command buffer
+  double cache_ms = 0.0;          // of it: the streaming cache's update (reads placed, uploads recorded, prefetch)
   uint32_t class_counts[4] = {};  // meshlets P, L, M, O after the last classification
   uint32_t node_class_counts[4] = {};
   uint32_t nodes_uploaded = 0;    // this frame

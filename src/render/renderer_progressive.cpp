@@ -242,6 +242,8 @@ Result<FrameReport> Renderer::step() {
   FrameReport rep;
   rep.frame = m.frame_index;
   MDS_ASSIGN_OR_RETURN(VkCommandBuffer cmd, m.slot.begin());  // waits for the previous frame
+  const auto t_begun = std::chrono::steady_clock::now();
+  rep.wait_ms = std::chrono::duration<double, std::milli>(t_begun - t0).count();
   MDS_ASSIGN_OR_RETURN(rep.gpu_ms, m.collect_frame_ms());
   if (rep.gpu_ms > 0.0) m.frame_gpu_ms.push_back(rep.gpu_ms);
   // Collected by finish() (this view) or set_view() (the previous view's last frame).
@@ -252,7 +254,9 @@ Result<FrameReport> Renderer::step() {
   m.destroyer.collect(m.frame_index);
 
   if (m.cache) {
+    const auto t_cache = std::chrono::steady_clock::now();
     MDS_ASSIGN_OR_RETURN(streaming_gpu::CacheFrame cf, m.cache->update(cmd, m.frame_index));
+    rep.cache_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_cache).count();
     rep.nodes_uploaded = cf.nodes_uploaded;
     rep.bytes_uploaded = cf.bytes_uploaded;
     rep.frame_hits = cf.hits;

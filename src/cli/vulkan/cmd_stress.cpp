@@ -176,10 +176,15 @@ Status run_stress(const StressOptions& o) {
     // One occlusion sampling pass per iteration while moving, over the scale's share of the budget.
     renderer->set_motion(moving, pacer ? pacer->sample_share(o.width, o.height) : 1.0);
     if (o.known_path) renderer->set_path_next(next);
+    using ms = std::chrono::duration<double, std::milli>;
+    const auto t_view = std::chrono::steady_clock::now();
     MDS_TRY(renderer->set_view(cam));
+    const auto t_step = std::chrono::steady_clock::now();
     MDS_ASSIGN_OR_RETURN(render::FrameReport fr, renderer->step());
+    const auto t_finish = std::chrono::steady_clock::now();
     MDS_TRY(renderer->finish());
-    fr.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    const auto t_end = std::chrono::steady_clock::now();
+    fr.wall_ms = ms(t_end - t0).count();
     // This frame's own GPU passes (finish() collected them; fr.gpu_ms is the previous frame's).
     const render::FrameGpu gpu = renderer->last_frame_gpu();
     if (pacer) pacer->observe(fr.wall_ms, fr.load(), gpu.ms);
@@ -191,6 +196,10 @@ Status run_stress(const StressOptions& o) {
     r.wall_ms = fr.wall_ms;
     r.gpu_ms = gpu.ms;
     r.gpu_passes = gpu.passes;
+    r.view_ms = ms(t_step - t_view).count();
+    r.step_ms = ms(t_finish - t_step).count();
+    r.cache_ms = fr.cache_ms;
+    r.finish_ms = ms(t_end - t_finish).count();
     r.converged = fr.converged;
     r.complete = fr.complete;
     r.upload_stall = fr.upload_stall;
@@ -383,7 +392,8 @@ Status run_stress(const StressOptions& o) {
                                {"reads_requested", nlohmann::ordered_json::array()},
                                {"bytes_read_total", nlohmann::ordered_json::array()},
                                {"scale", nlohmann::ordered_json::array()},
-                               {"gpu_passes", nlohmann::ordered_json::array()}};
+                               {"gpu_passes", nlohmann::ordered_json::array()},
+                               {"cpu_parts", nlohmann::ordered_json::array()}};
   for (const auto& f : frames) {
     pf["wall_ms"].push_back(f.wall_ms);
     pf["gpu_ms"].push_back(f.gpu_ms);
@@ -397,6 +407,8 @@ Status run_stress(const StressOptions& o) {
     pf["bytes_read_total"].push_back(f.bytes_read_total);
     pf["scale"].push_back(f.scale);
     pf["gpu_passes"].push_back(f.gpu_passes);  // pass -> GPU ms of this frame (summed over repeats)
+    pf["cpu_parts"].push_back(  // wall ms of the frame's parts (FrameRecord)
+        {{"set_view", f.view_ms}, {"step", f.step_ms}, {"cache", f.cache_ms}, {"finish", f.finish_ms}});
   }
   j["per_frame"] = pf;  // arrays: in the JSON only (the CSV keeps scalars)
 

@@ -103,11 +103,52 @@ uint64_t NodePool::upload_bytes(const store::NodeData& d) const {
   return d.particle_count() * (8 + (layout_.radii ? 2 : 0)) + d.meshlet_size.size() * sizeof(gpu::GpuMeshlet) + 64;
 }
 
-Status NodePool::upload(VkCommandBuffer cmd, uint32_t node, const NodeFrame& frame, const store::NodeData& d) {
+Status meshlet_bounds(const PoolScene& scene, uint32_t node, const NodeFrame& frame, const store::NodeData& d,
+                      std::vector<float>& out) {
+  const uint64_t n = d.particle_count(), m = d.meshlet_size.size();
+  if (d.qpos.size() != 3 * n || d.type_index.size() != n || (scene.per_particle_radius && d.radius_q.size() != n))
+    return make_error(Errc::format, "node {}: {} particles, {} coordinates, {} types: inconsistent", node, n,
+                      d.qpos.size(), d.type_index.size());
+  double step[3];
+  for (int a = 0; a < 3; ++a) step[a] = (frame.center_max[a] - frame.center_min[a]) / double(store::kQuantMax);
+  out.resize(6 * m);
+  uint64_t p = 0;
+  for (uint64_t k = 0; k < m; ++k) {
+    const uint32_t count = d.meshlet_size[k];
+    if (count == 0 || p + count > n)
+      return make_error(Errc::format, "node {} meshlet {}: size {} overruns the node's {} particles", node, k, count, n);
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+    for (uint64_t i = p; i < p + count; ++i) {
+      glm::vec3 pos;
+      for (int a = 0; a < 3; ++a)
+        pos[a] = float(frame.center_min[a] + double(d.qpos[3 * i + a]) * step[a] - scene.origin[a]);
+      const uint8_t t = d.type_index[i];
+      if (t >= scene.type_radius.size())
+        return make_error(Errc::format, "node {} particle {}: type index {} outside the type table ({} types)", node,
+                          i, t, scene.type_radius.size());
+      const float r = scene.per_particle_radius
+                          ? float(scene.radius_min + double(d.radius_q[i]) * (scene.radius_max - scene.radius_min) /
+                                                         store::kQuantMax)
+                          : scene.type_radius[t];
+      lo = glm::min(lo, pos - r);
+      hi = glm::max(hi, pos + r);
+    }
+    for (int a = 0; a < 3; ++a) {
+      out[6 * k + a] = lo[a];
+      out[6 * k + 3 + a] = hi[a];
+    }
+    p += count;
+  }
+  if (p != n) return make_error(Errc::format, "node {}: meshlet sizes sum to {}, node has {} particles", node, p, n);
+  return {};
+}
+
+Status NodePool::upload(VkCommandBuffer cmd, uint32_t node, const NodeFrame& frame, const store::NodeData& d,
+                        std::span<const float> bounds) {
   const uint64_t n = d.particle_count(), m = d.meshlet_size.size();
   if (node >= node_pages_.size() || !node_pages_[node].empty())
     return make_error(Errc::internal, "pool: upload of node {} which is resident or out of range", node);
-  if (n == 0 || m == 0 || d.qpos.size() != 3 * n || (layout_.radii && d.radius_q.size() != n))
+  if (n == 0 || m == 0 || d.qpos.size() != 3 * n || d.type_index.size() != n || (layout_.radii && d.radius_q.size() != n))
     return make_error(Errc::format, "node {}: {} particles, {} meshlets, {} coordinates: inconsistent", node, n, m,
                       d.qpos.size());
   const uint32_t need = layout_.pages_for(n, m);
@@ -118,14 +159,17 @@ Status NodePool::upload(VkCommandBuffer cmd, uint32_t node, const NodeFrame& fra
   if (staged > staging_free())
     return make_error(Errc::budget, "pool: node {} needs {} staging bytes, {} left this frame", node, staged,
                       staging_free());
+  std::vector<float> computed;
+  if (bounds.size() != 6 * m) {  // not prepared by the caller (it validates the meshlet sizes)
+    MDS_TRY(meshlet_bounds(scene_, node, frame, d, computed));
+    bounds = computed;
+  }
 
   // Meshlet records first (they validate the meshlet sizes), then commit.
   const uint32_t P = layout_.page_particles, M = layout_.page_meshlets;
   std::vector<uint32_t> pages(free_.end() - need, free_.end());
   std::reverse(pages.begin(), pages.end());
   auto slot_of = [&](uint64_t local) { return uint64_t(pages[local / P]) * P + local % P; };
-  double step[3];
-  for (int a = 0; a < 3; ++a) step[a] = (frame.center_max[a] - frame.center_min[a]) / double(store::kQuantMax);
   std::vector<gpu::GpuMeshlet> recs(m);
   uint64_t p = 0;
   for (uint64_t k = 0; k < m; ++k) {
@@ -139,24 +183,8 @@ Status NodePool::upload(VkCommandBuffer cmd, uint32_t node, const NodeFrame& fra
     const uint64_t room = P - p % P;  // slots left on the first particle's page
     g.split = uint32_t(std::min<uint64_t>(count, room));
     g.second_particle = count > room ? uint32_t(slot_of(p + room)) : 0u;
-    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
-    for (uint64_t i = p; i < p + count; ++i) {
-      glm::vec3 pos;
-      for (int a = 0; a < 3; ++a)
-        pos[a] = float(frame.center_min[a] + double(d.qpos[3 * i + a]) * step[a] - scene_.origin[a]);
-      const uint8_t t = d.type_index[i];
-      if (t >= scene_.type_radius.size())
-        return make_error(Errc::format, "node {} particle {}: type index {} outside the type table ({} types)", node,
-                          i, t, scene_.type_radius.size());
-      const float r = scene_.per_particle_radius
-                          ? float(scene_.radius_min + double(d.radius_q[i]) * (scene_.radius_max - scene_.radius_min) /
-                                                          store::kQuantMax)
-                          : scene_.type_radius[t];
-      lo = glm::min(lo, pos - r);
-      hi = glm::max(hi, pos + r);
-    }
-    g.aabb_min = lo;
-    g.aabb_max = hi;
+    g.aabb_min = glm::vec3(bounds[6 * k + 0], bounds[6 * k + 1], bounds[6 * k + 2]);
+    g.aabb_max = glm::vec3(bounds[6 * k + 3], bounds[6 * k + 4], bounds[6 * k + 5]);
     p += count;
   }
   if (p != n) return make_error(Errc::format, "node {}: meshlet sizes sum to {}, node has {} particles", node, p, n);
@@ -170,23 +198,34 @@ Status NodePool::upload(VkCommandBuffer cmd, uint32_t node, const NodeFrame& fra
   node_pages_[node] = pages;
   MDS_TRY(budget_.reserve(bytes, "node pages"));
 
-  // Stage particles (uint16 x, y, z, type), radii, meshlet records; one copy region per page.
+  // Stage particles (uint16 x, y, z, type; packed in place), radii, meshlet records; one copy
+  // region per page.
   std::byte* base = staging_.data();
   const VkBuffer src = staging_buf_.get();
-  auto stage = [&](const void* data, uint64_t size) {
+  auto reserve = [&](uint64_t size) {
     const uint64_t off = staging_head_;
-    std::memcpy(base + off, data, size);
     staging_head_ += (size + 15) & ~uint64_t(15);
     return off;
   };
-  std::vector<uint16_t> part(4 * n);
-  for (uint64_t i = 0; i < n; ++i) {
-    part[4 * i + 0] = d.qpos[3 * i + 0];
-    part[4 * i + 1] = d.qpos[3 * i + 1];
-    part[4 * i + 2] = d.qpos[3 * i + 2];
-    part[4 * i + 3] = d.type_index[i];
+  auto stage = [&](const void* data, uint64_t size) {
+    const uint64_t off = reserve(size);
+    std::memcpy(base + off, data, size);
+    return off;
+  };
+  const uint64_t part_off = reserve(n * 8);
+  {
+    uint16_t part[4 * 64];  // a block of 64 particles, then one copy into the staging area
+    for (uint64_t i0 = 0; i0 < n; i0 += 64) {
+      const uint64_t c = std::min<uint64_t>(64, n - i0);
+      for (uint64_t i = 0; i < c; ++i) {
+        part[4 * i + 0] = d.qpos[3 * (i0 + i) + 0];
+        part[4 * i + 1] = d.qpos[3 * (i0 + i) + 1];
+        part[4 * i + 2] = d.qpos[3 * (i0 + i) + 2];
+        part[4 * i + 3] = d.type_index[i0 + i];
+      }
+      std::memcpy(base + part_off + i0 * 8, part, c * 8);
+    }
   }
-  const uint64_t part_off = stage(part.data(), part.size() * 2);
   const uint64_t rad_off = layout_.radii ? stage(d.radius_q.data(), n * 2) : 0;
   const uint64_t rec_off = stage(recs.data(), recs.size() * sizeof(gpu::GpuMeshlet));
   for (uint32_t i = 0; i < need; ++i) {

@@ -62,6 +62,14 @@ struct NodeFrame {  // a node's quantization frame (NodeEntry center_min / cente
   double center_max[3] = {0, 0, 0};
 };
 
+// The meshlet bounds of a decoded node into `out`: 6 floats per meshlet (min x, y, z, max x, y, z;
+// relative to scene.origin, grown by each particle's radius, as render::append_node computes
+// them). Reads its arguments only, so any thread may run it: the cache runs it on its reader
+// threads (IoOptions::prepare), off the render loop. Errc::format for a meshlet that overruns
+// the node's particles, a type index outside the type table or missing per-particle radii.
+Status meshlet_bounds(const PoolScene& scene, uint32_t node, const NodeFrame& frame, const store::NodeData& data,
+                      std::vector<float>& out);
+
 class NodePool {
  public:
   // Pages = min(budget / page_bytes, store_pages), where store_pages would hold every node at
@@ -101,10 +109,13 @@ class NodePool {
   // Staging bytes an upload of `data` takes.
   uint64_t upload_bytes(const store::NodeData& data) const;
   // Places a decoded node: takes pages_for(n, m) free pages, converts it into GPU records in the
-  // staging area (meshlet bounds from the decoded positions), records the copies and resets its
-  // meshlet slots' classes to P. Errc::budget when pages or staging space are short (nothing
-  // changes then); Errc::format when the node's data is inconsistent.
-  Status upload(VkCommandBuffer cmd, uint32_t node, const NodeFrame& frame, const store::NodeData& data);
+  // staging area, records the copies and resets its meshlet slots' classes to P. `bounds`: the
+  // node's meshlet_bounds when the caller has them (6 per meshlet), else empty and computed here.
+  // Errc::budget when pages or staging space are short (nothing changes then); Errc::format when
+  // the node's data is inconsistent.
+  Status upload(VkCommandBuffer cmd, uint32_t node, const NodeFrame& frame, const store::NodeData& data,
+                std::span<const float> bounds = {});
+  const PoolScene& scene() const { return scene_; }
   // Makes this frame's transfers visible to the shaders (after the last upload/evict).
   void end_frame(VkCommandBuffer cmd);
 

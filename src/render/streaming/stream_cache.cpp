@@ -87,7 +87,16 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
                       format_bytes(ctx.limits().maxStorageBufferRange), format_bytes(c->pool_->budget().pool_bytes()),
                       largest_node, format_bytes(largest));
   c->table_ = std::make_unique<mds::streaming::ResidencyTable>(c->node_bytes_, settings.policy);
-  MDS_ASSIGN_OR_RETURN(c->io_, mds::streaming::IoPool::create(reader, settings.io));
+  // The meshlet bounds of a node are computed by the reader thread that decoded it (node_pool.h
+  // meshlet_bounds), not by the render loop: most of NodePool::upload's 17 us per node on this
+  // VM (ablation 1M jumps, 320x180; docs/streaming.md, "Placing a node"). frames_ and the pool's
+  // scene are not changed after this; ~StreamCache stops the readers first.
+  mds::streaming::IoOptions io = settings.io;
+  const StreamCache* self = c.get();
+  io.prepare = [self](uint32_t node, const store::NodeData& data, std::vector<float>& out) {
+    return meshlet_bounds(self->pool_->scene(), node, self->frames_[node], data, out);
+  };
+  MDS_ASSIGN_OR_RETURN(c->io_, mds::streaming::IoPool::create(reader, io));
   // With waves each wave is sampled before the next, so the window starts smaller.
   c->window_ = mds::streaming::ReadWindow(
       {.min = settings.wave_settle_frames > 0 ? std::max(1u, settings.wave_nodes) : 4u, .calm_frames = 3,
@@ -106,7 +115,9 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
   return c;
 }
 
-StreamCache::~StreamCache() = default;
+StreamCache::~StreamCache() {
+  io_.reset();  // its readers use frames_ and the pool's scene (IoOptions::prepare)
+}
 
 namespace {
 // Waves at rest (StreamSettings::front_node_alone): a first node whose bounding sphere's radius
@@ -310,7 +321,7 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
       ready_.erase(it);
       continue;
     }
-    Status st = pool_->upload(cmd, i, frames_[i], it->second.data);
+    Status st = pool_->upload(cmd, i, frames_[i], it->second.data, it->second.prepared);
     if (!st.ok()) {
       if (st.error().code == Errc::budget) break;  // staging full: next frame
       stats_.errors.push_back(reader_->path().string() + ": " + st.error().message);
