@@ -65,12 +65,19 @@ Result<std::unique_ptr<NodePool>> NodePool::create(vk::Context& ctx, const PoolL
                                                            VK_BUFFER_USAGE_TRANSFER_SRC_BIT, vk::MemoryIntent::upload,
                                                            "pool: upload staging"));
   p->staging_ = {static_cast<std::byte*>(p->staging_buf_.mapped()), size_t(p->staging_buf_.size())};
+  static_assert(MDS_CULL_CLASS_P == 0, "classes are reset to P by copying zeros");
+  // One page's meshlet records of zeros: 32 slots x 48 B = 1.5 KiB at the default page.
+  MDS_ASSIGN_OR_RETURN(p->zeros_, vk::Buffer::create(alloc, uint64_t(layout.page_meshlets) * sizeof(gpu::GpuMeshlet),
+                                                     VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                                     vk::MemoryIntent::device_local, "pool: zeros"));
+  p->page_pending_.assign(pages, 0);
   // Every slot starts empty (particle_count 0).
   MDS_TRY(ctx.submit_and_wait([&](VkCommandBuffer cmd) {
     vkCmdFillBuffer(cmd, p->meshlets_.get(), 0, VK_WHOLE_SIZE, 0);
     vkCmdFillBuffer(cmd, p->classes_.get(), 0, VK_WHOLE_SIZE, 0);
     vkCmdFillBuffer(cmd, p->particles_.get(), 0, VK_WHOLE_SIZE, 0);
     vkCmdFillBuffer(cmd, p->radii_.get(), 0, VK_WHOLE_SIZE, 0);
+    vkCmdFillBuffer(cmd, p->zeros_.get(), 0, VK_WHOLE_SIZE, 0);
     vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                        VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
   }));
@@ -82,21 +89,52 @@ NodePool::~NodePool() = default;
 void NodePool::begin_frame() {
   staging_head_ = 0;
   transfers_ = false;
-  evicted_ = false;
+  flushed_ = false;
 }
 
 Status NodePool::evict(VkCommandBuffer cmd, uint32_t node) {
   if (node >= node_pages_.size() || node_pages_[node].empty())
     return make_error(Errc::internal, "pool: evict of node {} which is not resident", node);
   const uint64_t rec = layout_.page_meshlets * sizeof(gpu::GpuMeshlet);
+  // A node placed earlier in this frame: its copies go first, so that the zeros land after them.
+  for (uint32_t page : node_pages_[node])
+    if (page_pending_[page]) {
+      flush(cmd);
+      break;
+    }
   for (uint32_t page : node_pages_[node]) {
-    vkCmdFillBuffer(cmd, meshlets_.get(), uint64_t(page) * rec, rec, 0);
+    zero_meshlets_.push_back({0, uint64_t(page) * rec, rec});
     free_.push_back(page);
   }
   MDS_TRY(budget_.release(uint64_t(node_pages_[node].size()) * layout_.page_bytes()));
   node_pages_[node].clear();
-  transfers_ = evicted_ = true;
+  transfers_ = true;
   return {};
+}
+
+void NodePool::flush(VkCommandBuffer cmd) {
+  const bool copies = !copy_particles_.empty() || !copy_meshlets_.empty() || !zero_classes_.empty();
+  if (zero_meshlets_.empty() && !copies) return;
+  auto transfer_barrier = [&] {
+    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
+  };
+  if (flushed_) transfer_barrier();  // after this frame's earlier copies to the same pages
+  auto record = [&](VkBuffer src, VkBuffer dst, std::vector<VkBufferCopy>& regions) {
+    if (!regions.empty()) vkCmdCopyBuffer(cmd, src, dst, uint32_t(regions.size()), regions.data());
+    regions.clear();
+  };
+  if (!zero_meshlets_.empty()) {
+    record(zeros_.get(), meshlets_.get(), zero_meshlets_);
+    if (copies) transfer_barrier();  // a page emptied here may be written below
+  }
+  record(staging_buf_.get(), particles_.get(), copy_particles_);
+  record(staging_buf_.get(), radii_.get(), copy_radii_);
+  record(staging_buf_.get(), meshlets_.get(), copy_meshlets_);
+  record(zeros_.get(), classes_.get(), zero_classes_);
+  for (uint32_t page : pending_pages_) page_pending_[page] = 0;
+  pending_pages_.clear();
+  flushed_ = true;
 }
 
 uint64_t NodePool::upload_bytes(const store::NodeData& d) const {
@@ -189,19 +227,13 @@ Status NodePool::upload(VkCommandBuffer cmd, uint32_t node, const NodeFrame& fra
   }
   if (p != n) return make_error(Errc::format, "node {}: meshlet sizes sum to {}, node has {} particles", node, p, n);
 
-  if (evicted_) {  // a page freed by an eviction fill this frame may be written now
-    vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                       VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
-    evicted_ = false;
-  }
   free_.resize(free_.size() - need);
   node_pages_[node] = pages;
   MDS_TRY(budget_.reserve(bytes, "node pages"));
 
   // Stage particles (uint16 x, y, z, type; packed in place), radii, meshlet records; one copy
-  // region per page.
+  // region per page, recorded by flush().
   std::byte* base = staging_.data();
-  const VkBuffer src = staging_buf_.get();
   auto reserve = [&](uint64_t size) {
     const uint64_t off = staging_head_;
     staging_head_ += (size + 15) & ~uint64_t(15);
@@ -231,27 +263,26 @@ Status NodePool::upload(VkCommandBuffer cmd, uint32_t node, const NodeFrame& fra
   for (uint32_t i = 0; i < need; ++i) {
     const uint64_t first = uint64_t(i) * P, count = first < n ? std::min<uint64_t>(P, n - first) : 0;
     if (count > 0) {
-      VkBufferCopy c{part_off + first * 8, uint64_t(pages[i]) * P * 8, count * 8};
-      vkCmdCopyBuffer(cmd, src, particles_.get(), 1, &c);
-      if (layout_.radii) {
-        VkBufferCopy r{rad_off + first * 2, uint64_t(pages[i]) * P * 2, count * 2};
-        vkCmdCopyBuffer(cmd, src, radii_.get(), 1, &r);
-      }
+      copy_particles_.push_back({part_off + first * 8, uint64_t(pages[i]) * P * 8, count * 8});
+      if (layout_.radii) copy_radii_.push_back({rad_off + first * 2, uint64_t(pages[i]) * P * 2, count * 2});
     }
     const uint64_t mfirst = uint64_t(i) * M, mcount = mfirst < m ? std::min<uint64_t>(M, m - mfirst) : 0;
     if (mcount > 0) {
       const uint64_t rs = sizeof(gpu::GpuMeshlet);
-      VkBufferCopy c{rec_off + mfirst * rs, uint64_t(pages[i]) * M * rs, mcount * rs};
-      vkCmdCopyBuffer(cmd, src, meshlets_.get(), 1, &c);
-      vkCmdFillBuffer(cmd, classes_.get(), uint64_t(pages[i]) * M * 4, mcount * 4, MDS_CULL_CLASS_P);
+      copy_meshlets_.push_back({rec_off + mfirst * rs, uint64_t(pages[i]) * M * rs, mcount * rs});
+      zero_classes_.push_back({0, uint64_t(pages[i]) * M * 4, mcount * 4});
     }
+    page_pending_[pages[i]] = 1;
+    pending_pages_.push_back(pages[i]);
   }
+  (void)cmd;
   transfers_ = true;
   return {};
 }
 
 void NodePool::end_frame(VkCommandBuffer cmd) {
   if (!transfers_) return;
+  flush(cmd);
   staging_buf_.flush();
   vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |

@@ -7,9 +7,13 @@
 // (GpuMeshlet.split / second_particle), and the page count follows from the node directory alone
 // (NodeEntry counts), before the node is read: the cache can plan evictions exactly.
 // Pages are reused without compaction (no fragmentation: any free page fits any node's need).
-// Uploads and evictions are recorded into the frame's command buffer (vkCmdCopyBuffer from a
-// per-frame staging area, vkCmdFillBuffer to empty meshlet slots); a frame's staging area is reused
-// by the next frame only after the renderer waited for the previous one (one frame in flight).
+// Uploads and evictions are recorded into the frame's command buffer as copy regions (from a
+// per-frame staging area; from a buffer of zeros to empty meshlet slots and to reset classes to
+// P = 0), gathered over the frame and recorded as one vkCmdCopyBuffer per destination buffer
+// (flush(): evictions' zeros, a barrier, the uploads' copies). One small command per page, as
+// before, cost the H200 ~1 ms of GPU time for a wave of ~60 nodes (docs/streaming.md, "Placing
+// a node"). A frame's staging area is reused by the next frame only after the renderer waited
+// for the previous one (one frame in flight).
 #pragma once
 
 #include <cstdint>
@@ -116,7 +120,8 @@ class NodePool {
   Status upload(VkCommandBuffer cmd, uint32_t node, const NodeFrame& frame, const store::NodeData& data,
                 std::span<const float> bounds = {});
   const PoolScene& scene() const { return scene_; }
-  // Makes this frame's transfers visible to the shaders (after the last upload/evict).
+  // Records this frame's gathered transfers and makes them visible to the shaders (after the
+  // last upload/evict).
   void end_frame(VkCommandBuffer cmd);
 
  private:
@@ -132,8 +137,17 @@ class NodePool {
   vk::Buffer particles_, radii_, meshlets_, classes_, staging_buf_;
   std::span<std::byte> staging_;
   uint64_t staging_head_ = 0;
-  bool transfers_ = false;  // transfers recorded since begin_frame
-  bool evicted_ = false;    // fills recorded that a later copy may overwrite
+  // Records the gathered regions: zeros (evictions) first, then, after a barrier, the uploads'
+  // copies; a barrier first when a flush of this frame came before.
+  void flush(VkCommandBuffer cmd);
+
+  bool transfers_ = false;  // transfers gathered or recorded since begin_frame
+  bool flushed_ = false;    // flush() recorded copies this frame
+  vk::Buffer zeros_;        // page_meshlets GpuMeshlet records of zero bytes (also P = 0 classes)
+  std::vector<VkBufferCopy> zero_meshlets_, zero_classes_;  // from zeros_
+  std::vector<VkBufferCopy> copy_particles_, copy_radii_, copy_meshlets_;  // from the staging area
+  std::vector<uint8_t> page_pending_;  // page has an upload region not yet flushed
+  std::vector<uint32_t> pending_pages_;  // those pages (cleared by flush)
   bool device_capped_ = false;
 };
 
