@@ -6,6 +6,8 @@
 #include <limits>
 #include <tuple>
 
+#include <glm/gtc/matrix_access.hpp>
+
 #include "culling/culling_constants.h"
 #include "render/scene.h"
 
@@ -126,20 +128,32 @@ namespace {
 // Porous / ablation stores of 1000-particle nodes: dense-block nodes fill 0.2-0.6 of their box,
 // plume nodes of the ablation scene less than 0.1 (docs/streaming.md, "Wave size").
 constexpr float kLoneFrontProjected = 0.5f;
-// Conservative frustum test of a box: out when all 8 corners are outside one clip plane.
-bool box_in_frustum(const glm::dmat4& clip_from_world, const glm::dvec3& lo, const glm::dvec3& hi) {
-  int out[6] = {0, 0, 0, 0, 0, 0};
-  for (int k = 0; k < 8; ++k) {
-    const glm::dvec4 p = clip_from_world * glm::dvec4(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z, 1.0);
-    out[0] += p.x < -p.w;
-    out[1] += p.x > p.w;
-    out[2] += p.y < -p.w;
-    out[3] += p.y > p.w;
-    out[4] += p.z < 0.0;
-    out[5] += p.z > p.w;
+// Conservative frustum test of a box: out when all 8 corners are outside one clip plane
+// (-w <= x, y <= w, 0 <= z <= w). Each condition is linear in the corner, so "all 8 outside" is
+// "the corner farthest inside is outside": a . c + |a| . e + a_w < 0 for the plane's row
+// combination a, the box centre c and half extent e. 6 planes x 7 multiply-adds instead of
+// 8 corners x 16: set_view tests every node of the store against the view and up to 3 look-ahead
+// views, 0.36 ms per moving frame on this VM at 1443 nodes with the corners.
+struct FrustumPlanes {
+  glm::dvec4 a[6];
+  explicit FrustumPlanes(const glm::dmat4& m) {
+    const glm::dvec4 r0 = glm::row(m, 0), r1 = glm::row(m, 1), r2 = glm::row(m, 2), r3 = glm::row(m, 3);
+    a[0] = r3 + r0;  // x >= -w
+    a[1] = r3 - r0;  // x <= w
+    a[2] = r3 + r1;
+    a[3] = r3 - r1;
+    a[4] = r2;       // z >= 0
+    a[5] = r3 - r2;  // z <= w
   }
-  return std::none_of(out, out + 6, [](int n) { return n == 8; });
-}
+  bool box_in(const glm::dvec3& lo, const glm::dvec3& hi) const {
+    const glm::dvec3 c = 0.5 * (lo + hi), e = 0.5 * (hi - lo);
+    for (const glm::dvec4& p : a) {
+      const glm::dvec3 n(p);
+      if (glm::dot(n, c) + glm::dot(glm::abs(n), e) + p.w < 0.0) return false;
+    }
+    return true;
+  }
+};
 }  // namespace
 
 void StreamCache::set_view(const Camera& camera, double aspect, std::span<const Camera> next) {
@@ -161,10 +175,10 @@ void StreamCache::set_view(const Camera& camera, double aspect, std::span<const 
   window_.new_view(known_moving);
   // Look-ahead while the camera moves: the known next views, else the views of the next frames
   // if the motion of the last one goes on (eye and target linearly; the near/far planes of this view).
-  std::vector<glm::dmat4> ahead;
+  std::vector<FrustumPlanes> ahead;
   if (known_moving) {
     for (const Camera& c : next)
-      if (glm::length(c.target - c.eye) > 0.0) ahead.push_back(projection_matrix(c, aspect) * view_matrix(c, origin));
+      if (glm::length(c.target - c.eye) > 0.0) ahead.emplace_back(projection_matrix(c, aspect) * view_matrix(c, origin));
   } else if (!next.empty()) {
     // The path holds this camera: nothing to look ahead to.
   } else if (has_view_ && window_.moving()) {
@@ -175,15 +189,16 @@ void StreamCache::set_view(const Camera& camera, double aspect, std::span<const 
         c.eye += double(k) * d_eye;
         c.target += double(k) * d_target;
         if (glm::length(c.target - c.eye) <= 0.0) continue;
-        ahead.push_back(projection_matrix(c, aspect) * view_matrix(c, origin));
+        ahead.emplace_back(projection_matrix(c, aspect) * view_matrix(c, origin));
       }
     }
   }
+  const FrustumPlanes frustum(clip_from_world);
   for (uint32_t i = 0; i < directory_.size(); ++i) {
     const glm::dvec3 lo(directory_[i].aabb_min), hi(directory_[i].aabb_max);
-    const bool in = box_in_frustum(clip_from_world, lo, hi);
+    const bool in = frustum.box_in(lo, hi);
     uint8_t frames_ahead = 0;
-    for (const glm::dmat4& a : ahead) frames_ahead += box_in_frustum(a, lo, hi) ? 1 : 0;
+    for (const FrustumPlanes& a : ahead) frames_ahead += a.box_in(lo, hi) ? 1 : 0;
     const bool is_ahead = !in && frames_ahead > 0;
     const glm::dvec3 nearest = glm::clamp(eye, lo, hi);
     const double dist = glm::length(nearest - eye);
