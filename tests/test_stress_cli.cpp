@@ -333,12 +333,13 @@ TEST_F(StressCli, ContinuousPathsSettleTheFinalViewAndAcceptSlowDiskOptions) {
     const auto& wall = j["per_frame"]["wall_ms"];
     ASSERT_EQ(parts.size(), gpu.size());
     for (size_t i = 0; i < parts.size(); ++i) {
-      const double v = parts[i]["set_view"], st = parts[i]["step"], c = parts[i]["cache"], f = parts[i]["finish"];
-      EXPECT_GE(v, 0.0);
-      EXPECT_GE(c, 0.0);
-      EXPECT_LE(c, st) << "frame " << i;
-      EXPECT_GT(f, 0.0) << "frame " << i;
-      EXPECT_LE(v + st + f, wall[i].get<double>()) << "frame " << i;
+      const double view = parts[i]["set_view"], step = parts[i]["step"], cache = parts[i]["cache"],
+                   finish = parts[i]["finish"];
+      EXPECT_GE(view, 0.0);
+      EXPECT_GE(cache, 0.0);
+      EXPECT_LE(cache, step) << "frame " << i;
+      EXPECT_GT(finish, 0.0) << "frame " << i;
+      EXPECT_LE(view + step + finish, wall[i].get<double>()) << "frame " << i;
     }
     for (size_t i = 0; i < gpu.size(); ++i) {
       double sum = 0.0;
