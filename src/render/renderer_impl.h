@@ -112,7 +112,7 @@ struct Renderer::Impl {
   // cull_loop.h kSampleRouteProbeShare), view (CullLoop::prepare_view)/pyramid/classify/histogram,
   // 4 drawing.
   uint32_t timestamp_capacity() const {
-    return 24 + 3 * std::max(1u, settings.cull_settings.samples_per_iteration);
+    return 25 + 3 * std::max(1u, settings.cull_settings.samples_per_iteration);
   }
 
   // Out-of-core (create_streaming): the cache; null in memory.
@@ -137,6 +137,7 @@ struct Renderer::Impl {
   bool culling_converged = false;
   bool complete = true;        // streaming: the cache holds every wanted node
   bool pending_iteration = false;
+  bool timestamps_reset = false;  // step() reset the timestamp pool this frame (pass "upload")
   uint64_t view_first_frame = 0;
   std::vector<double> frame_gpu_ms, frame_wall_ms;  // per step() since set_view
   // The passes of the frame whose timestamps were collected last (Renderer::last_frame_gpu), and

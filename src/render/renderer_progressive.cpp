@@ -255,7 +255,13 @@ Result<FrameReport> Renderer::step() {
 
   if (m.cache) {
     const auto t_cache = std::chrono::steady_clock::now();
+    // The pool's transfers (evictions, uploads) are the frame's first GPU work: timed as pass
+    // "upload", so the timestamp pool is reset here rather than by record_pass.
+    m.timestamps.reset(cmd);
+    m.timestamps_reset = true;
+    m.timestamps.begin(cmd, "upload");
     MDS_ASSIGN_OR_RETURN(streaming_gpu::CacheFrame cf, m.cache->update(cmd, m.frame_index));
+    m.timestamps.end(cmd);
     rep.cache_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_cache).count();
     rep.nodes_uploaded = cf.nodes_uploaded;
     rep.bytes_uploaded = cf.bytes_uploaded;

@@ -207,7 +207,8 @@ void Renderer::Impl::record_cull_only(VkCommandBuffer cmd) {
 void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first, bool accumulate, bool all_meshlets) {
   const uint32_t w = settings.width, h = settings.height;
   VkDescriptorSet ds = set.set();
-  timestamps.reset(cmd);
+  if (!timestamps_reset) timestamps.reset(cmd);  // step() resets before the pool's transfers
+  timestamps_reset = false;
   if (first) {  // both accumulation targets to zero (the unused one is 16 bytes or 1 pixel)
     vk::image_barrier(cmd, accum.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL,
                       VK_PIPELINE_STAGE_2_NONE, 0, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
