@@ -11,6 +11,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -24,6 +25,7 @@
 #include "render_test_helpers.h"
 #include "store/store_reader.h"
 #include "vk/context.h"
+#include "vk/staging.h"
 
 namespace fs = std::filesystem;
 using namespace mds;
@@ -522,6 +524,89 @@ TEST_F(StreamingRender, MeshletBoundsMatchTheInMemoryScene) {
   ASSERT_FALSE(bad.ok());
   EXPECT_EQ(bad.error().code, Errc::format);
   EXPECT_NE(bad.error().message.find("node 7"), std::string::npos) << bad.error().message;
+}
+
+// NodePool gathers a frame's transfers and records them at end_frame (evictions' zeros, a
+// barrier, the uploads). A node placed and evicted in one frame, its pages then taken by
+// another node, and the same across two frames: the meshlet slots hold the last node's records
+// and nothing of the evicted one (its zeros landed before the new copies, after the old ones),
+// the classes are P. Fails when the zeros of an eviction are recorded after the copies that
+// follow it (the new node's records zeroed) or when the evicted node's copies land after its
+// zeros (stale records of a node that is not resident).
+TEST_F(StreamingRender, PoolTransfersOfOneFrameLandInOrder) {
+  auto opened = store::StoreReader::open(store_path());
+  ASSERT_TRUE(opened.ok());
+  const store::StoreReader& reader = *opened.value();
+  const auto& h = reader.header();
+  const streaming_gpu::PoolLayout layout = streaming_gpu::pool_layout_for(h);
+  streaming_gpu::PoolScene ps;
+  for (const auto& t : reader.types()) ps.type_radius.push_back(t.radius);
+  ps.per_particle_radius = layout.radii;
+  ps.radius_min = h.radius_min;
+  ps.radius_max = h.radius_max;
+  const auto& nodes = reader.nodes();
+  // Two nodes of the same page count: the pool holds one of them at a time.
+  const uint32_t a = 0;
+  uint32_t b = 1;
+  auto pages = [&](uint32_t i) { return layout.pages_for(nodes[i].particle_count, nodes[i].meshlet_count); };
+  while (b < nodes.size() && pages(b) != pages(a)) ++b;
+  ASSERT_LT(b, nodes.size());
+  auto pool = streaming_gpu::NodePool::create(*ctx_, layout, ps, uint32_t(nodes.size()), layout.node_bytes(nodes[a].particle_count, nodes[a].meshlet_count),
+                                              1000, 1 << 20);
+  ASSERT_TRUE(pool.ok()) << pool.error().message;
+  streaming_gpu::NodePool& p = **pool;
+  ASSERT_EQ(p.page_count(), pages(a));
+  store::NodeData da, db;
+  std::vector<uint8_t> scratch;
+  ASSERT_TRUE(reader.read_node(a, da, scratch).ok());
+  ASSERT_TRUE(reader.read_node(b, db, scratch).ok());
+  auto frame_of = [&](uint32_t i) {
+    streaming_gpu::NodeFrame f;
+    for (int k = 0; k < 3; ++k) {
+      f.center_min[k] = nodes[i].center_min[k];
+      f.center_max[k] = nodes[i].center_max[k];
+    }
+    return f;
+  };
+  // The slots: per node, its live meshlet records (particle_count > 0) and their classes.
+  auto live = [&](uint32_t node) {
+    const uint64_t slots = p.meshlet_slots();
+    auto recs = vk::read_buffer(*ctx_, p.meshlets(), 0, slots * sizeof(gpu::GpuMeshlet));
+    auto cls = vk::read_buffer(*ctx_, p.meshlet_class(), 0, slots * 4);
+    EXPECT_TRUE(recs.ok() && cls.ok());
+    std::vector<gpu::GpuMeshlet> m(slots);
+    std::vector<uint32_t> c(slots);
+    std::memcpy(m.data(), recs->data(), m.size() * sizeof(gpu::GpuMeshlet));
+    std::memcpy(c.data(), cls->data(), c.size() * 4);
+    uint32_t n = 0;
+    for (uint64_t k = 0; k < slots; ++k)
+      if (m[k].particle_count > 0 && m[k].node == node) {
+        ++n;
+        EXPECT_EQ(c[k], uint32_t(MDS_CULL_CLASS_P)) << "slot " << k;
+      }
+    return n;
+  };
+  // One frame: a placed, evicted, b placed in its pages.
+  p.begin_frame();
+  ASSERT_TRUE(ctx_->submit_and_wait([&](VkCommandBuffer cmd) {
+                    ASSERT_TRUE(p.upload(cmd, a, frame_of(a), da).ok());
+                    ASSERT_TRUE(p.evict(cmd, a).ok());
+                    ASSERT_TRUE(p.upload(cmd, b, frame_of(b), db).ok());
+                    p.end_frame(cmd);
+                  }).ok());
+  EXPECT_EQ(live(a), 0u);
+  EXPECT_EQ(live(b), nodes[b].meshlet_count);
+  // Two frames: b evicted and a placed in the next.
+  p.begin_frame();
+  ASSERT_TRUE(ctx_->submit_and_wait([&](VkCommandBuffer cmd) {
+                    ASSERT_TRUE(p.evict(cmd, b).ok());
+                    ASSERT_TRUE(p.upload(cmd, a, frame_of(a), da).ok());
+                    p.end_frame(cmd);
+                  }).ok());
+  EXPECT_EQ(live(b), 0u);
+  EXPECT_EQ(live(a), nodes[a].meshlet_count);
+  EXPECT_TRUE(p.resident(a));
+  EXPECT_FALSE(p.resident(b));
 }
 
 TEST(StreamingPool, PageCountFollowsFromTheDirectory) {
