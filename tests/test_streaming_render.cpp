@@ -586,23 +586,22 @@ TEST_F(StreamingRender, PoolTransfersOfOneFrameLandInOrder) {
       }
     return n;
   };
-  // One frame: a placed, evicted, b placed in its pages.
-  p.begin_frame();
-  ASSERT_TRUE(ctx_->submit_and_wait([&](VkCommandBuffer cmd) {
-                    ASSERT_TRUE(p.upload(cmd, a, frame_of(a), da).ok());
-                    ASSERT_TRUE(p.evict(cmd, a).ok());
-                    ASSERT_TRUE(p.upload(cmd, b, frame_of(b), db).ok());
-                    p.end_frame(cmd);
-                  }).ok());
+  // A frame's operations in order: +node places it, -node evicts it.
+  auto frame = [&](std::initializer_list<int> ops) {
+    p.begin_frame();
+    return ctx_->submit_and_wait([&](VkCommandBuffer cmd) {
+      for (int op : ops) {
+        const uint32_t i = uint32_t(std::abs(op) - 1);
+        EXPECT_TRUE((op > 0 ? p.upload(cmd, i, frame_of(i), i == a ? da : db) : p.evict(cmd, i)).ok()) << op;
+      }
+      p.end_frame(cmd);
+    });
+  };
+  const int A = int(a) + 1, B = int(b) + 1;
+  ASSERT_TRUE(frame({A, -A, B}).ok());  // one frame: a placed, evicted, b placed in its pages
   EXPECT_EQ(live(a), 0u);
   EXPECT_EQ(live(b), nodes[b].meshlet_count);
-  // Two frames: b evicted and a placed in the next.
-  p.begin_frame();
-  ASSERT_TRUE(ctx_->submit_and_wait([&](VkCommandBuffer cmd) {
-                    ASSERT_TRUE(p.evict(cmd, b).ok());
-                    ASSERT_TRUE(p.upload(cmd, a, frame_of(a), da).ok());
-                    p.end_frame(cmd);
-                  }).ok());
+  ASSERT_TRUE(frame({-B, A}).ok());  // the next: b evicted, a placed
   EXPECT_EQ(live(b), 0u);
   EXPECT_EQ(live(a), nodes[a].meshlet_count);
   EXPECT_TRUE(p.resident(a));
