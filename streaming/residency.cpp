@@ -219,6 +219,32 @@ uint64_t ResidencyTable::evictable_bytes(uint64_t protect_frame, int64_t incomin
   return b;
 }
 
+std::vector<uint64_t> ResidencyTable::evictable_bytes_in_order(std::span<const uint32_t> order,
+                                                               uint64_t protect_frame) const {
+  uint64_t free_anyway = 0;   // resident, not drawn in protect_frame
+  std::vector<uint32_t> drawn;  // resident and drawn: evictable only for a candidate before them
+  for (uint32_t i = 0; i < nodes_.size(); ++i) {
+    const NodeState& n = nodes_[i];
+    if (n.residency != Residency::resident) continue;
+    const bool drawn_now = n.last_use == protect_frame && !(policy_ == Policy::occlusion && n.cls == kClassO);
+    if (drawn_now)
+      drawn.push_back(i);
+    else
+      free_anyway += n.bytes;
+  }
+  std::sort(drawn.begin(), drawn.end(), [&](uint32_t a, uint32_t b) { return fetch_before(a, b); });
+  uint64_t after = 0;  // bytes of the drawn nodes from the cursor on
+  for (uint32_t i : drawn) after += nodes_[i].bytes;
+  std::vector<uint64_t> out(order.size());
+  size_t cursor = 0;
+  for (size_t k = 0; k < order.size(); ++k) {
+    // Drawn nodes fetched before this candidate are not displaced by it (nor by later ones).
+    while (cursor < drawn.size() && !fetch_before(order[k], drawn[cursor])) after -= nodes_[drawn[cursor++]].bytes;
+    out[k] = free_anyway + after;
+  }
+  return out;
+}
+
 size_t ResidencyTable::never_loaded_count() const {
   size_t c = 0;
   for (const auto& n : nodes_) c += n.ever_loaded ? 0 : 1;

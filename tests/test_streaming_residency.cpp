@@ -220,3 +220,36 @@ TEST(StreamingResidency, OccludedNodesOutsideTheViewEvictedBeforeOccludedNodesIn
   t.touch(5, 0);
   EXPECT_EQ(t.eviction_order().back(), 5u);
 }
+
+// evictable_bytes_in_order (one sort of the drawn resident nodes, a cursor over the candidates)
+// equals evictable_bytes for every candidate of the prefetch order, on random tables of every
+// policy: classes, distances, sizes, look-ahead counts, frustum flags, drawn and not drawn.
+TEST(StreamingResidency, EvictableBytesInOrderEqualsPerCandidate) {
+  uint64_t state = 12345;
+  auto next = [&](uint32_t n) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return uint32_t((state >> 33) % n);
+  };
+  for (Policy policy : {Policy::occlusion, Policy::lru, Policy::fifo}) {
+    for (int trial = 0; trial < 40; ++trial) {
+      const uint32_t n = 20 + next(200);
+      std::vector<uint64_t> bytes(n);
+      for (auto& b : bytes) b = 100 * (1 + next(8));
+      ResidencyTable t(bytes, policy);
+      for (uint32_t i = 0; i < n; ++i) {
+        t.set_view(i, float(next(1000)) / 10.0f, float(next(100)) / 50.0f, next(5) != 0);
+        t.set_class(i, uint8_t(next(4)));
+        t.set_ahead(i, uint8_t(next(4)));
+        if (next(3) == 0) {
+          load(t, i);
+          t.touch(i, next(2) == 0 ? 7 : 6);
+        }
+      }
+      const auto order = t.prefetch_order();
+      const auto fast = t.evictable_bytes_in_order(order, 7);
+      ASSERT_EQ(fast.size(), order.size());
+      for (size_t k = 0; k < order.size(); ++k)
+        ASSERT_EQ(fast[k], t.evictable_bytes(7, order[k])) << "policy " << int(policy) << " trial " << trial << " k " << k;
+    }
+  }
+}

@@ -418,12 +418,14 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
   } else if (requested_.size() < window) {
     plan_stale_ = false;
     const auto order_next = table_->prefetch_order();
+    const std::vector<uint64_t> evictable = table_->evictable_bytes_in_order(order_next, frame);
     uint64_t planned = 0;
     double coverage = 0.0;  // images covered by this wave's bounding spheres (screen_share)
     double rank = 0.0;  // this frame's order (a re-submitted queued node gets its new rank)
-    for (uint32_t i : order_next) {
+    for (size_t k = 0; k < order_next.size(); ++k) {
+      const uint32_t i = order_next[k];
       // Room: free pages plus what this node may displace (never a node fetched before it).
-      const uint64_t room = pool_->budget().free_bytes() + table_->evictable_bytes(frame, i);
+      const uint64_t room = pool_->budget().free_bytes() + evictable[k];
       if (planned + node_bytes_[i] > room) {
         exhausted_ = true;
         break;
