@@ -198,7 +198,7 @@ Result<std::vector<uint32_t>> ResidencyTable::choose_victims(uint64_t need, uint
     const uint32_t i = heap.back();
     heap.pop_back();
     const NodeState& n = nodes_[i];
-    const bool drawn_now = n.last_use == protect_frame && !(policy_ == Policy::occlusion && n.cls == kClassO);
+    const bool drawn_now = drawn_in(n, protect_frame);
     if (drawn_now && !(incoming >= 0 && displaces(uint32_t(incoming), i))) continue;
     victims.push_back(i);
     gained += n.bytes;
@@ -213,7 +213,7 @@ uint64_t ResidencyTable::evictable_bytes(uint64_t protect_frame, int64_t incomin
   for (uint32_t i = 0; i < nodes_.size(); ++i) {
     const NodeState& n = nodes_[i];
     if (n.residency != Residency::resident) continue;
-    const bool drawn_now = n.last_use == protect_frame && !(policy_ == Policy::occlusion && n.cls == kClassO);
+    const bool drawn_now = drawn_in(n, protect_frame);
     if (!drawn_now || (incoming >= 0 && displaces(uint32_t(incoming), i))) b += n.bytes;
   }
   return b;
@@ -226,7 +226,7 @@ std::vector<uint64_t> ResidencyTable::evictable_bytes_in_order(std::span<const u
   for (uint32_t i = 0; i < nodes_.size(); ++i) {
     const NodeState& n = nodes_[i];
     if (n.residency != Residency::resident) continue;
-    const bool drawn_now = n.last_use == protect_frame && !(policy_ == Policy::occlusion && n.cls == kClassO);
+    const bool drawn_now = drawn_in(n, protect_frame);
     if (drawn_now)
       drawn.push_back(i);
     else

@@ -127,6 +127,11 @@ class ResidencyTable {
  private:
   bool evict_before(const NodeState& x, uint32_t a, const NodeState& y, uint32_t b) const;
   bool fetch_before(uint32_t a, uint32_t b) const;
+  // Node n was drawn in `frame` (touched then), and so is kept by an eviction in that frame:
+  // class O under the occlusion policy is not drawn.
+  bool drawn_in(const NodeState& n, uint64_t frame) const {
+    return n.last_use == frame && !(policy_ == Policy::occlusion && n.cls == kClassO);
+  }
 
   std::vector<NodeState> nodes_;
   Policy policy_;
