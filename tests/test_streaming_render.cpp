@@ -592,7 +592,7 @@ TEST_F(StreamingRender, PoolTransfersOfOneFrameLandInOrder) {
     return ctx_->submit_and_wait([&](VkCommandBuffer cmd) {
       for (int op : ops) {
         const uint32_t i = uint32_t(std::abs(op) - 1);
-        EXPECT_TRUE((op > 0 ? p.upload(cmd, i, frame_of(i), i == a ? da : db) : p.evict(cmd, i)).ok()) << op;
+        EXPECT_TRUE((op > 0 ? p.upload(i, frame_of(i), i == a ? da : db) : p.evict(cmd, i)).ok()) << op;
       }
       p.end_frame(cmd);
     });

@@ -181,7 +181,7 @@ Status meshlet_bounds(const PoolScene& scene, uint32_t node, const NodeFrame& fr
   return {};
 }
 
-Status NodePool::upload(VkCommandBuffer cmd, uint32_t node, const NodeFrame& frame, const store::NodeData& d,
+Status NodePool::upload(uint32_t node, const NodeFrame& frame, const store::NodeData& d,
                         std::span<const float> bounds) {
   const uint64_t n = d.particle_count(), m = d.meshlet_size.size();
   if (node >= node_pages_.size() || !node_pages_[node].empty())
@@ -275,7 +275,6 @@ Status NodePool::upload(VkCommandBuffer cmd, uint32_t node, const NodeFrame& fra
     page_pending_[pages[i]] = 1;
     pending_pages_.push_back(pages[i]);
   }
-  (void)cmd;
   transfers_ = true;
   return {};
 }

@@ -113,12 +113,12 @@ class NodePool {
   // Staging bytes an upload of `data` takes.
   uint64_t upload_bytes(const store::NodeData& data) const;
   // Places a decoded node: takes pages_for(n, m) free pages, converts it into GPU records in the
-  // staging area, records the copies and resets its meshlet slots' classes to P. `bounds`: the
+  // staging area and gathers the copies and the reset of its meshlet slots' classes to P (recorded
+  // by end_frame, or by an eviction of one of its pages in this frame). `bounds`: the
   // node's meshlet_bounds when the caller has them (6 per meshlet), else empty and computed here.
   // Errc::budget when pages or staging space are short (nothing changes then); Errc::format when
   // the node's data is inconsistent.
-  Status upload(VkCommandBuffer cmd, uint32_t node, const NodeFrame& frame, const store::NodeData& data,
-                std::span<const float> bounds = {});
+  Status upload(uint32_t node, const NodeFrame& frame, const store::NodeData& data, std::span<const float> bounds = {});
   const PoolScene& scene() const { return scene_; }
   // Records this frame's gathered transfers and makes them visible to the shaders (after the
   // last upload/evict).

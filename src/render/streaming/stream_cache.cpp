@@ -336,7 +336,7 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
       ready_.erase(it);
       continue;
     }
-    Status st = pool_->upload(cmd, i, frames_[i], it->second.data, it->second.prepared);
+    Status st = pool_->upload(i, frames_[i], it->second.data, it->second.prepared);
     if (!st.ok()) {
       if (st.error().code == Errc::budget) break;  // staging full: next frame
       stats_.errors.push_back(reader_->path().string() + ": " + st.error().message);
