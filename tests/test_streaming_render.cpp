@@ -433,6 +433,72 @@ TEST_F(StreamingRender, InMemoryResizeRoundTripIsPixelIdentical) {
   EXPECT_FALSE(r.value()->resize(0, kH).ok());
 }
 
+TEST_F(StreamingRender, ResizeWithinCapacityAllocatesNothingAndMatchesAFreshRenderer) {
+  // The size-dependent targets keep their largest size (vk::ensure_buffer / ensure_image_2d):
+  // a resize to a size they hold -- dynamic resolution changes the size every few frames --
+  // allocates no GPU memory, and the image at the smaller size equals a renderer created at
+  // that size (no stale texel of the larger size takes part). Both pixel routes: the visibility
+  // buffer with the accumulation in a buffer (the default here), and the attachments with the
+  // accumulation in an image (images kept larger than the frame, read back at its size).
+  for (const bool attachments : {false, true}) {
+    SCOPED_TRACE(attachments ? "attachments, accumulation image" : "default routes");
+    if (attachments) {
+      setenv("MDSTREAM_PIXEL_ROUTE", "attachments", 1);
+      setenv("MDSTREAM_ACCUM", "image", 1);
+    }
+    struct Unset {
+      ~Unset() {
+        unsetenv("MDSTREAM_PIXEL_ROUTE");
+        unsetenv("MDSTREAM_ACCUM");
+      }
+    } unset;
+    auto reader = store::StoreReader::open(store_path());
+    ASSERT_TRUE(reader.ok());
+    auto scene = load_scene(*reader.value());
+    ASSERT_TRUE(scene.ok());
+    RenderSettings rs = settings(true);
+    rs.spp = 2;
+    rs.cull_settings.max_iterations = 6;
+    auto r = Renderer::create(*ctx_, scene.value(), rs);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    const Camera cam = view(*reader.value(), 2);
+    ASSERT_TRUE(r.value()->render(cam).ok());
+    const vk::Allocator& alloc = ctx_->allocator();
+    const uint32_t sw = kW / 2 + 3, sh = kH / 3 + 1;  // odd sizes: other pyramid levels and strides
+    uint64_t before = alloc.allocation_count();
+    ASSERT_TRUE(r.value()->resize(sw, sh).ok());
+    EXPECT_EQ(alloc.allocation_count(), before) << "a resize to a smaller size allocated";
+    RenderStats st;
+    auto small = r.value()->render(cam, &st);
+    ASSERT_TRUE(small.ok()) << small.error().message;
+    EXPECT_EQ(st.visibility_route, !attachments);
+    EXPECT_EQ(st.accumulation_buffer, !attachments);
+    ASSERT_EQ(small.value().width, sw);
+    ASSERT_EQ(small.value().height, sh);
+
+    RenderSettings fs = rs;
+    fs.width = sw;
+    fs.height = sh;
+    auto fresh = Renderer::create(*ctx_, scene.value(), fs);
+    ASSERT_TRUE(fresh.ok()) << fresh.error().message;
+    auto ref = fresh.value()->render(cam);
+    ASSERT_TRUE(ref.ok());
+    EXPECT_TRUE(small.value().rgba == ref.value().rgba) << differing_pixels(small.value(), ref.value()) << " pixels differ";
+
+    // Back to the full size and a size between: still within the capacity.
+    before = alloc.allocation_count();
+    ASSERT_TRUE(r.value()->resize(kW, kH).ok());
+    ASSERT_TRUE(r.value()->resize(kW - 5, kH - 7).ok());
+    EXPECT_EQ(alloc.allocation_count(), before) << "a resize within the capacity allocated";
+    // Wider than ever before: new targets.
+    ASSERT_TRUE(r.value()->resize(kW + 16, kH).ok());
+    EXPECT_GT(alloc.allocation_count(), before);
+    auto wide = r.value()->render(cam);
+    ASSERT_TRUE(wide.ok()) << wide.error().message;
+    EXPECT_EQ(wide.value().width, kW + 16);
+  }
+}
+
 TEST_F(StreamingRender, CorruptedNodeIsSkippedWithAMessage) {
   const fs::path bad = dir_ / "bad.mds";
   fs::copy_file(store_path(), bad, fs::copy_options::overwrite_existing);

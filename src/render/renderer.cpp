@@ -173,53 +173,48 @@ Status Renderer::Impl::create_targets() {
     return make_error(Errc::budget, "{}x{}: the visibility buffer ({} bytes) exceeds maxStorageBufferRange ({})", w,
                       h, vis_bytes, ctx->limits().maxStorageBufferRange);
   }
+  // The size-dependent targets keep their capacity (vk::ensure_buffer / ensure_image_2d): a
+  // resize to a size they hold, as dynamic resolution's every few frames, allocates nothing.
   if (vis_route) {
     color = {};
     depth = {};
-    MDS_ASSIGN_OR_RETURN(visibility, vk::Buffer::create(alloc, vis_bytes,
-                                                        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
-                                                            VK_BUFFER_USAGE_TRANSFER_DST_BIT |
-                                                            VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
-                                                        vk::MemoryIntent::device_local, "visibility buffer"));
+    MDS_TRY(vk::ensure_buffer(visibility, alloc, vis_bytes,
+                              VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                  VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                              vk::MemoryIntent::device_local, "visibility buffer"));
   } else {
-    MDS_ASSIGN_OR_RETURN(color, vk::Image::create_2d(alloc, w, h, kColorFormat,
-                                                     VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_STORAGE_BIT,
-                                                     VK_IMAGE_ASPECT_COLOR_BIT, "colour target"));
-    MDS_ASSIGN_OR_RETURN(depth, vk::Image::create_2d(alloc, w, h, kDepthFormat,
-                                                     VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT |
-                                                         VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
-                                                     VK_IMAGE_ASPECT_DEPTH_BIT, "depth target"));
-    MDS_ASSIGN_OR_RETURN(visibility, vk::Buffer::create(alloc, 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                                                        vk::MemoryIntent::device_local, "visibility buffer (unused)"));
+    MDS_TRY(vk::ensure_image_2d(color, alloc, w, h, kColorFormat,
+                                VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_STORAGE_BIT,
+                                VK_IMAGE_ASPECT_COLOR_BIT, "colour target"));
+    MDS_TRY(vk::ensure_image_2d(depth, alloc, w, h, kDepthFormat,
+                                VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                                VK_IMAGE_ASPECT_DEPTH_BIT, "depth target"));
+    MDS_TRY(vk::ensure_buffer(visibility, alloc, 8, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, vk::MemoryIntent::device_local,
+                              "visibility buffer (unused)"));
   }
   covered_list = vis_route && settings.covered_pixel_list && ctx->compute_ballot();
   const uint64_t covered_bytes = covered_list ? sizeof(gpu::CoveredPixelsHeader) + 4ull * w * h : 16;
-  MDS_ASSIGN_OR_RETURN(covered, vk::Buffer::create(alloc, covered_bytes,
-                                                   VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
-                                                       VK_BUFFER_USAGE_TRANSFER_DST_BIT |
-                                                       VK_BUFFER_USAGE_TRANSFER_SRC_BIT |
-                                                       VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT,
-                                                   vk::MemoryIntent::device_local,
-                                                   covered_list ? "covered pixels" : "covered pixels (unused)"));
-  MDS_ASSIGN_OR_RETURN(coverage_rb, vk::Buffer::create(alloc, 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                                                       vk::MemoryIntent::readback, "covered pixel count"));
+  MDS_TRY(vk::ensure_buffer(covered, alloc, covered_bytes,
+                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT,
+                            vk::MemoryIntent::device_local, covered_list ? "covered pixels" : "covered pixels (unused)"));
+  MDS_TRY(vk::ensure_buffer(coverage_rb, alloc, 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT, vk::MemoryIntent::readback,
+                            "covered pixel count"));
   view_coverage = -1;  // new targets: probe again
   coverage_probe_pending = false;
   // The accumulation: 16 B/pixel (1920x1080: 33 MB) in a buffer where that fits the range.
   const uint64_t accum_bytes = 16ull * w * h;
   accum_in_buffer = settings.accumulation_buffer && accum_bytes <= ctx->limits().maxStorageBufferRange;
-  MDS_ASSIGN_OR_RETURN(accum_buf, vk::Buffer::create(alloc, accum_in_buffer ? accum_bytes : 16,
-                                                     VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
-                                                         VK_BUFFER_USAGE_TRANSFER_DST_BIT |
-                                                         VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
-                                                     vk::MemoryIntent::device_local,
-                                                     accum_in_buffer ? "accumulation buffer" : "accumulation buffer (unused)"));
-  MDS_ASSIGN_OR_RETURN(accum, vk::Image::create_2d(alloc, accum_in_buffer ? 1 : w, accum_in_buffer ? 1 : h,
-                                                   kColorFormat,
-                                                   VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT |
-                                                       VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
-                                                   VK_IMAGE_ASPECT_COLOR_BIT,
-                                                   accum_in_buffer ? "accumulation image (unused)" : "accumulation image"));
+  MDS_TRY(vk::ensure_buffer(accum_buf, alloc, accum_in_buffer ? accum_bytes : 16,
+                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                            vk::MemoryIntent::device_local,
+                            accum_in_buffer ? "accumulation buffer" : "accumulation buffer (unused)"));
+  MDS_TRY(vk::ensure_image_2d(accum, alloc, accum_in_buffer ? 1 : w, accum_in_buffer ? 1 : h, kColorFormat,
+                              VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT |
+                                  VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                              VK_IMAGE_ASPECT_COLOR_BIT,
+                              accum_in_buffer ? "accumulation image (unused)" : "accumulation image"));
   return {};
 }
 
@@ -257,7 +252,8 @@ Result<std::vector<float>> Renderer::Impl::read_average(uint32_t sample_count) {
   if (accum_in_buffer) {
     MDS_ASSIGN_OR_RETURN(raw, vk::read_buffer(*ctx, accum_buf, 0, n * sizeof(float)));
   } else {
-    MDS_ASSIGN_OR_RETURN(raw, vk::read_image(*ctx, accum, VK_IMAGE_LAYOUT_GENERAL, 16));
+    MDS_ASSIGN_OR_RETURN(raw,
+                         vk::read_image(*ctx, accum, VK_IMAGE_LAYOUT_GENERAL, 16, settings.width, settings.height));
   }
   std::memcpy(px.data(), raw.data(), n * sizeof(float));
   const glm::vec3 bg = background_linear();
@@ -687,7 +683,8 @@ Result<std::vector<float>> Renderer::read_last_depth() {
     return d;
   }
   MDS_ASSIGN_OR_RETURN(std::vector<std::byte> raw,
-                       vk::read_image(*m.ctx, m.depth, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, 4));
+                       vk::read_image(*m.ctx, m.depth, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, 4,
+                                      m.settings.width, m.settings.height));
   std::memcpy(d.data(), raw.data(), d.size() * sizeof(float));
   return d;
 }

@@ -86,6 +86,7 @@ Result<Allocation> Allocator::allocate(const VkMemoryRequirements& req, MemoryIn
     }
   }
   used_[size_t(intent)] += a.size;
+  ++allocations_;
   peak_[size_t(intent)] = std::max(peak_[size_t(intent)], used_[size_t(intent)]);
   return a;
 }
@@ -205,6 +206,25 @@ void Image::reset() {
   view_.reset();
   image_.reset();
   if (allocator_) allocator_->free(alloc_);
+}
+
+Result<bool> ensure_buffer(Buffer& b, Allocator& alloc, VkDeviceSize size, VkBufferUsageFlags usage,
+                           MemoryIntent intent, const std::string& name) {
+  if (b.valid() && b.size() >= size) return false;
+  b.reset();  // before the new one: the budget counts one of them
+  MDS_ASSIGN_OR_RETURN(b, Buffer::create(alloc, size, usage, intent, name));
+  return true;
+}
+
+Result<bool> ensure_image_2d(Image& im, Allocator& alloc, uint32_t width, uint32_t height, VkFormat format,
+                             VkImageUsageFlags usage, VkImageAspectFlags aspect, const std::string& name) {
+  if (im.get() != VK_NULL_HANDLE && im.width() >= width && im.height() >= height) return false;
+  // A new one holds both the old extent and the new one (a resize that grows one side only).
+  const uint32_t w = std::max(width, im.get() != VK_NULL_HANDLE ? im.width() : 0u);
+  const uint32_t h = std::max(height, im.get() != VK_NULL_HANDLE ? im.height() : 0u);
+  im.reset();
+  MDS_ASSIGN_OR_RETURN(im, Image::create_2d(alloc, w, h, format, usage, aspect, name));
+  return true;
 }
 
 }  // namespace mds::vk

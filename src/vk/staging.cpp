@@ -82,8 +82,15 @@ Result<std::vector<std::byte>> read_buffer(Context& ctx, VkBuffer src, VkDeviceS
 }
 
 Result<std::vector<std::byte>> read_image(Context& ctx, const Image& image, VkImageLayout layout,
-                                          uint32_t texel_bytes) {
-  const VkDeviceSize size = VkDeviceSize(image.width()) * image.height() * texel_bytes;
+                                          uint32_t texel_bytes, uint32_t width, uint32_t height) {
+  if (width == 0 || height == 0) {
+    width = image.width();
+    height = image.height();
+  }
+  if (width > image.width() || height > image.height())
+    return make_error(Errc::invalid_argument, "read_image: {}x{} texels of a {}x{} image", width, height,
+                      image.width(), image.height());
+  const VkDeviceSize size = VkDeviceSize(width) * height * texel_bytes;
   MDS_ASSIGN_OR_RETURN(Buffer rb, Buffer::create(ctx.allocator(), size, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                                  MemoryIntent::readback, "image readback buffer"));
   MDS_TRY(ctx.submit_and_wait([&](VkCommandBuffer cmd) {
@@ -92,7 +99,7 @@ Result<std::vector<std::byte>> read_image(Context& ctx, const Image& image, VkIm
                   VK_ACCESS_2_TRANSFER_READ_BIT);
     VkBufferImageCopy region{};
     region.imageSubresource = {image.aspect(), 0, 0, 1};
-    region.imageExtent = {image.width(), image.height(), 1};
+    region.imageExtent = {width, height, 1};
     vkCmdCopyImageToBuffer(cmd, image.get(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, rb.get(), 1, &region);
     image_barrier(cmd, image.get(), image.aspect(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, layout,
                   VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,

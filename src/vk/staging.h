@@ -50,9 +50,11 @@ class StagingRing {
 // Reads `size` bytes of `src` at `offset` (src needs TRANSFER_SRC usage). Waits for the GPU.
 Result<std::vector<std::byte>> read_buffer(Context& ctx, const Buffer& src, VkDeviceSize offset, VkDeviceSize size);
 Result<std::vector<std::byte>> read_buffer(Context& ctx, VkBuffer src, VkDeviceSize offset, VkDeviceSize size);
-// Reads a whole single-aspect 2D image currently in `layout` (needs TRANSFER_SRC usage); the
-// image is returned to `layout`. Tightly packed rows, texel size from `texel_bytes`.
+// Reads the top-left width x height texels (0, 0: the whole image) of a single-aspect 2D image
+// currently in `layout` (needs TRANSFER_SRC usage; a target kept at a larger capacity, see
+// ensure_image_2d, is read at its logical size); the image is returned to `layout`. Tightly
+// packed rows, texel size from `texel_bytes`. Precondition: the extent lies inside the image.
 Result<std::vector<std::byte>> read_image(Context& ctx, const Image& image, VkImageLayout layout,
-                                          uint32_t texel_bytes);
+                                          uint32_t texel_bytes, uint32_t width = 0, uint32_t height = 0);
 
 }  // namespace mds::vk

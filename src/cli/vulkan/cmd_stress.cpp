@@ -196,6 +196,7 @@ Status run_stress(const StressOptions& o) {
     r.wall_ms = fr.wall_ms;
     r.gpu_ms = gpu.ms;
     r.gpu_passes = gpu.passes;
+    r.resize_ms = ms(t_view - t0).count();  // the pacer's scale and Renderer::resize (with set_motion)
     r.view_ms = ms(t_step - t_view).count();
     r.step_ms = ms(t_finish - t_step).count();
     r.cache_ms = fr.cache_ms;
@@ -408,7 +409,7 @@ Status run_stress(const StressOptions& o) {
     pf["scale"].push_back(f.scale);
     pf["gpu_passes"].push_back(f.gpu_passes);  // pass -> GPU ms of this frame (summed over repeats)
     pf["cpu_parts"].push_back(  // wall ms of the frame's parts (FrameRecord)
-        {{"set_view", f.view_ms}, {"step", f.step_ms}, {"cache", f.cache_ms}, {"finish", f.finish_ms}});
+        {{"resize", f.resize_ms}, {"set_view", f.view_ms}, {"step", f.step_ms}, {"cache", f.cache_ms}, {"finish", f.finish_ms}});
   }
   j["per_frame"] = pf;  // arrays: in the JSON only (the CSV keeps scalars)
 

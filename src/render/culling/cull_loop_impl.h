@@ -105,7 +105,9 @@ struct CullLoop::Impl {
   Status create_buffers(const CullScene& scene_data, const DensityVolume& vol);
   // A device-local storage buffer of `bytes` (at least 16) into b; an error naming `what` when
   // it exceeds maxStorageBufferRange.
-  Status make_ssbo(vk::Buffer& b, uint64_t bytes, const char* what, VkBufferUsageFlags extra = 0);
+  // keep_capacity: b is kept when it holds `bytes` (vk::ensure_buffer; the per-pixel buffers).
+  Status make_ssbo(vk::Buffer& b, uint64_t bytes, const char* what, VkBufferUsageFlags extra = 0,
+                   bool keep_capacity = false);
   Status create_pixel_buffers();
   void set_pixel_uniforms();
   void write_pixel_descriptors();

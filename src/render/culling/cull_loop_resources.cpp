@@ -11,10 +11,16 @@
 
 namespace mds::render::culling {
 
-Status CullLoop::Impl::make_ssbo(vk::Buffer& b, uint64_t bytes, const char* what, VkBufferUsageFlags extra) {
+Status CullLoop::Impl::make_ssbo(vk::Buffer& b, uint64_t bytes, const char* what, VkBufferUsageFlags extra,
+                                 bool keep_capacity) {
   if (bytes > ctx->limits().maxStorageBufferRange)
     return make_error(Errc::budget, "culling: {} need {} bytes, more than maxStorageBufferRange ({})", what, bytes,
                       ctx->limits().maxStorageBufferRange);
+  if (keep_capacity) {
+    MDS_TRY(vk::ensure_buffer(b, ctx->allocator(), std::max<uint64_t>(bytes, 16), kSsbo | extra,
+                              vk::MemoryIntent::device_local, what));
+    return {};
+  }
   MDS_ASSIGN_OR_RETURN(b, vk::Buffer::create(ctx->allocator(), std::max<uint64_t>(bytes, 16), kSsbo | extra,
                                              vk::MemoryIntent::device_local, what));
   return {};
@@ -93,30 +99,30 @@ Status CullLoop::Impl::create_pixel_buffers() {
   }
   const uint32_t s = configured_stride();  // the most blocks any view uses
   const uint64_t blocks = uint64_t((width + s - 1) / s) * ((height + s - 1) / s);
-  MDS_TRY(make_ssbo(histogram, blocks * bins * sizeof(float), "density histograms"));
-  MDS_TRY(make_ssbo(hist_range, blocks * 8, "histogram ranges"));
-  MDS_TRY(make_ssbo(pixel_state, px * 32, "cull/accumulation buffers"));
-  MDS_TRY(make_ssbo(pyramid, pyramid_texels * 8, "confidence pyramid"));
+  // Kept at their capacity (vk::ensure_buffer): a resize to a size they hold allocates nothing.
+  MDS_TRY(make_ssbo(histogram, blocks * bins * sizeof(float), "density histograms", 0, true));
+  MDS_TRY(make_ssbo(hist_range, blocks * 8, "histogram ranges", 0, true));
+  MDS_TRY(make_ssbo(pixel_state, px * 32, "cull/accumulation buffers", 0, true));
+  MDS_TRY(make_ssbo(pyramid, pyramid_texels * 8, "confidence pyramid", 0, true));
   const SampleRoute forced = forced_route();
   compute_available = ctx->int64_atomics() && forced != SampleRoute::raster &&
                       px * 8 <= ctx->limits().maxStorageBufferRange;
-  MDS_TRY(make_ssbo(sample_buf, compute_available ? px * 8 : 16, "occlusion samples (compute route)"));
+  MDS_TRY(make_ssbo(sample_buf, compute_available ? px * 8 : 16, "occlusion samples (compute route)", 0, true));
   sampled_list = compute_available && sampled_list_wanted() && ctx->compute_ballot() &&
                  sizeof(gpu::CoveredPixelsHeader) + px * 4 <= ctx->limits().maxStorageBufferRange;
   MDS_TRY(make_ssbo(sampled_pixels, sampled_list ? sizeof(gpu::CoveredPixelsHeader) + px * 4 : 16,
-               "sampled pixels (compute route)", VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT));
+                    "sampled pixels (compute route)", VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, true));
   const bool image_used = !(compute_available && forced == SampleRoute::compute);
   const uint32_t iw = image_used ? width : 1, ih = image_used ? height : 1;
-  MDS_ASSIGN_OR_RETURN(sample_image, vk::Image::create_2d(alloc, iw, ih, kSampleFormat,
-                                                          VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT |
-                                                              VK_IMAGE_USAGE_STORAGE_BIT |
-                                                              VK_IMAGE_USAGE_TRANSFER_DST_BIT |
-                                                              VK_IMAGE_USAGE_TRANSFER_SRC_BIT,  // test read-back
-                                                          VK_IMAGE_ASPECT_COLOR_BIT, "occlusion sample image"));
-  MDS_ASSIGN_OR_RETURN(depth, vk::Image::create_2d(alloc, iw, ih, kDepthFormat,
-                                                   VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
-                                                   VK_IMAGE_ASPECT_DEPTH_BIT, "occlusion sample depth"));
-  {
+  MDS_ASSIGN_OR_RETURN(const bool new_image,
+                       vk::ensure_image_2d(sample_image, alloc, iw, ih, kSampleFormat,
+                                           VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_STORAGE_BIT |
+                                               VK_IMAGE_USAGE_TRANSFER_DST_BIT |
+                                               VK_IMAGE_USAGE_TRANSFER_SRC_BIT,  // test read-back
+                                           VK_IMAGE_ASPECT_COLOR_BIT, "occlusion sample image"));
+  MDS_TRY(vk::ensure_image_2d(depth, alloc, iw, ih, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                              VK_IMAGE_ASPECT_DEPTH_BIT, "occlusion sample depth"));
+  if (new_image) {
     // The sample image stays bound (cull_update.comp declares it) while the compute route runs:
     // in GENERAL layout from the start (the rasterized route transitions it per pass).
     MDS_TRY(ctx->submit_and_wait([&](VkCommandBuffer cmd) {

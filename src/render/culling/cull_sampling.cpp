@@ -337,7 +337,8 @@ Result<std::vector<glm::vec2>> CullLoop::run_sampling_pass_only(uint32_t pass) {
     return out;
   }
   MDS_TRY(m.ctx->submit_and_wait([&](VkCommandBuffer cmd) { m.record_sampling_pass(cmd, nullptr, pass); }));
-  MDS_ASSIGN_OR_RETURN(auto raw, vk::read_image(*m.ctx, m.sample_image, VK_IMAGE_LAYOUT_GENERAL, sizeof(glm::vec2)));
+  MDS_ASSIGN_OR_RETURN(auto raw, vk::read_image(*m.ctx, m.sample_image, VK_IMAGE_LAYOUT_GENERAL,
+                                                sizeof(glm::vec2), m.width, m.height));
   std::vector<glm::vec2> out(px);
   std::memcpy(out.data(), raw.data(), px * sizeof(glm::vec2));
   return out;
