@@ -161,7 +161,7 @@ void IoPool::worker() {
       c.raw_bytes = e.payload_raw_bytes;
     } else {
       c.data = store::NodeData{};
-      c.prepared.clear();
+      c.prepared = PreparedNode{};
     }
     {
       std::lock_guard lock(mutex_);

@@ -29,24 +29,33 @@
 
 namespace mds::streaming {
 
+// What IoOptions::prepare makes of a decoded node on a reader thread for the render loop's
+// upload (render/streaming/node_pool.h): its meshlet bounds and its particles in the pool's
+// layout, so that placing a node is a copy.
+struct PreparedNode {
+  std::vector<float> meshlet_bounds;  // 6 per meshlet (min xyz, max xyz)
+  std::vector<uint16_t> particles;    // 4 per particle: x, y, z, type (the pool's particle record)
+  bool empty() const { return meshlet_bounds.empty() && particles.empty(); }
+};
+
 struct IoOptions {
   unsigned threads = 2;
   double io_latency_ms = 0;  // simulated per-request latency
   double io_bandwidth = 0;   // simulated bytes/s per request (compressed bytes), 0 = unlimited
   bool start_paused = false; // workers take no request until resume() (batch submission)
   // Work on a decoded node that the reader thread does before it reports the node finished
-  // (the cache's meshlet bounds, render/streaming/node_pool.h meshlet_bounds), so that the render
-  // loop does not: fills IoCompletion::prepared. Runs on the reader threads, concurrently: it
+  // (the cache's meshlet bounds and particle records, render/streaming/node_pool.h
+  // prepare_node), so that the render loop does not: fills IoCompletion::prepared. Runs on the reader threads, concurrently: it
   // must only read shared state. An error makes the completion an error (prefixed with the
   // store's path), and the node is never read again, as after a failed decode. Empty: none.
-  std::function<Status(uint32_t node, const store::NodeData& data, std::vector<float>& out)> prepare;
+  std::function<Status(uint32_t node, const store::NodeData& data, PreparedNode& out)> prepare;
 };
 
 struct IoCompletion {
   uint32_t node = 0;
   Status status;              // error: Errc::checksum / io / format naming file, node, offset
   store::NodeData data;       // decoded node (empty on error)
-  std::vector<float> prepared;  // IoOptions::prepare's output (empty without it or on error)
+  PreparedNode prepared;       // IoOptions::prepare's output (empty without it or on error)
   uint64_t compressed_bytes = 0;
   uint64_t raw_bytes = 0;
 };

@@ -121,7 +121,11 @@ class ResidencyTable {
   bool evicted_before(uint32_t a, uint32_t b, uint64_t frame) const;
 
   uint64_t resident_bytes() const { return resident_bytes_; }
-  size_t resident_count() const { return resident_count_; }
+  size_t resident_count() const { return resident_.size(); }
+  // The resident nodes, in no particular order (kept by mark_loaded / mark_evicted): the
+  // per-placement work (choose_victims) and per-frame passes over resident nodes cost O(resident)
+  // rather than O(nodes) -- a store of 10^9 particles has 10^5 nodes of 10k, a pool a few hundred.
+  std::span<const uint32_t> resident_nodes() const { return resident_; }
   size_t never_loaded_count() const;
 
  private:
@@ -137,7 +141,9 @@ class ResidencyTable {
   Policy policy_;
   uint64_t load_counter_ = 0;
   uint64_t resident_bytes_ = 0;
-  size_t resident_count_ = 0;
+  std::vector<uint32_t> resident_;      // resident node ids, unordered
+  std::vector<uint32_t> resident_pos_;  // node -> its index in resident_ (kNotResident: none)
+  static constexpr uint32_t kNotResident = ~0u;
 };
 
 }  // namespace mds::streaming

@@ -186,11 +186,11 @@ TEST(StreamingIo, PrepareRunsOnTheReaderThreads) {
   std::atomic<int> on_caller{0}, calls{0};
   IoOptions opt;
   opt.threads = 3;
-  opt.prepare = [&](uint32_t node, const store::NodeData& d, std::vector<float>& out) -> Status {
+  opt.prepare = [&](uint32_t node, const store::NodeData& d, PreparedNode& out) -> Status {
     ++calls;
     if (std::this_thread::get_id() == caller) ++on_caller;
     if (node == bad) return make_error(Errc::format, "node {}: refused", node);
-    out.assign({float(node), float(d.particle_count()), float(d.meshlet_size.size())});
+    out.meshlet_bounds.assign({float(node), float(d.particle_count()), float(d.meshlet_size.size())});
     return {};
   };
   auto pool = IoPool::create(*reader, opt);
@@ -210,10 +210,10 @@ TEST(StreamingIo, PrepareRunsOnTheReaderThreads) {
     }
     ASSERT_TRUE(c.status.ok()) << c.status.error().message;
     const auto& e = reader->nodes()[c.node];
-    ASSERT_EQ(c.prepared.size(), 3u);
-    EXPECT_EQ(c.prepared[0], float(c.node));
-    EXPECT_EQ(c.prepared[1], float(e.particle_count));
-    EXPECT_EQ(c.prepared[2], float(e.meshlet_count));
+    ASSERT_EQ(c.prepared.meshlet_bounds.size(), 3u);
+    EXPECT_EQ(c.prepared.meshlet_bounds[0], float(c.node));
+    EXPECT_EQ(c.prepared.meshlet_bounds[1], float(e.particle_count));
+    EXPECT_EQ(c.prepared.meshlet_bounds[2], float(e.meshlet_count));
   }
   EXPECT_EQ(calls.load(), int(n));
   EXPECT_EQ(on_caller.load(), 0);

@@ -674,6 +674,106 @@ TEST_F(StreamingRender, PoolTransfersOfOneFrameLandInOrder) {
   EXPECT_FALSE(p.resident(b));
 }
 
+TEST_F(StreamingRender, PreparedUploadStagesWhatTheInlineOneDoes) {
+  // The cache's reader threads pack a node's particle records and its meshlet bounds
+  // (IoOptions::prepare: pack_particles, meshlet_bounds); NodePool::upload then copies them. The
+  // pool must end up with the same meshlets and particles as an upload that makes both itself
+  // (read back per meshlet, in its order: the pages differ). An inconsistent node changes
+  // nothing: its pages and staging return and a valid upload follows.
+  auto opened = store::StoreReader::open(store_path());
+  ASSERT_TRUE(opened.ok());
+  const store::StoreReader& reader = *opened.value();
+  const auto& h = reader.header();
+  const streaming_gpu::PoolLayout layout = streaming_gpu::pool_layout_for(h);
+  streaming_gpu::PoolScene ps;
+  for (const auto& t : reader.types()) ps.type_radius.push_back(t.radius);
+  ps.per_particle_radius = layout.radii;
+  ps.radius_min = h.radius_min;
+  ps.radius_max = h.radius_max;
+  const auto& nodes = reader.nodes();
+  const uint32_t a = uint32_t(nodes.size() / 2);
+  auto pool = streaming_gpu::NodePool::create(*ctx_, layout, ps, uint32_t(nodes.size()),
+                                              2 * layout.node_bytes(nodes[a].particle_count, nodes[a].meshlet_count),
+                                              1000, 1 << 20);
+  ASSERT_TRUE(pool.ok()) << pool.error().message;
+  streaming_gpu::NodePool& p = **pool;
+  store::NodeData d;
+  std::vector<uint8_t> scratch;
+  ASSERT_TRUE(reader.read_node(a, d, scratch).ok());
+  streaming_gpu::NodeFrame f;
+  for (int k = 0; k < 3; ++k) {
+    f.center_min[k] = nodes[a].center_min[k];
+    f.center_max[k] = nodes[a].center_max[k];
+  }
+  // Per live meshlet of node a, in slot order of its records: the record's bounds and count, then
+  // its particles' records gathered through first_particle / split / second_particle.
+  auto content = [&]() {
+    const uint64_t slots = p.meshlet_slots();
+    auto recs = vk::read_buffer(*ctx_, p.meshlets(), 0, slots * sizeof(gpu::GpuMeshlet));
+    auto parts = vk::read_buffer(*ctx_, p.particles(), 0, p.particle_slots() * 8);
+    EXPECT_TRUE(recs.ok() && parts.ok());
+    std::vector<gpu::GpuMeshlet> m(slots);
+    std::memcpy(m.data(), recs->data(), m.size() * sizeof(gpu::GpuMeshlet));
+    std::vector<uint64_t> part(p.particle_slots());
+    std::memcpy(part.data(), parts->data(), part.size() * 8);
+    std::vector<std::pair<gpu::GpuMeshlet, uint32_t>> live;  // record, slot
+    for (uint32_t k = 0; k < slots; ++k)
+      if (m[k].particle_count > 0 && m[k].node == a) live.push_back({m[k], k});
+    // Slot order is page order; the meshlets' own order is that of their first particles within
+    // the node, which the records' page-independent fields do not give: sort by bounds instead.
+    std::vector<std::vector<float>> out;
+    for (const auto& [g, k] : live) {
+      std::vector<float> v = {g.aabb_min.x, g.aabb_min.y, g.aabb_min.z, g.aabb_max.x, g.aabb_max.y, g.aabb_max.z,
+                              float(g.particle_count)};
+      for (uint32_t q = 0; q < g.particle_count; ++q) {
+        const uint64_t slot = q < g.split ? g.first_particle + q : g.second_particle + (q - g.split);
+        const uint64_t r = part[slot];
+        for (int c = 0; c < 4; ++c) v.push_back(float((r >> (16 * c)) & 0xffffu));
+      }
+      out.push_back(std::move(v));
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  auto frame = [&](auto&& body) {
+    p.begin_frame();
+    return ctx_->submit_and_wait([&](VkCommandBuffer cmd) {
+      body(cmd);
+      p.end_frame(cmd);
+    });
+  };
+  ASSERT_TRUE(frame([&](VkCommandBuffer) { EXPECT_TRUE(p.upload(a, f, d).ok()); }).ok());
+  const auto inline_content = content();
+  ASSERT_EQ(inline_content.size(), nodes[a].meshlet_count);
+
+  std::vector<float> bounds;
+  std::vector<uint16_t> packed;
+  ASSERT_TRUE(streaming_gpu::meshlet_bounds(ps, a, f, d, bounds).ok());
+  streaming_gpu::pack_particles(d, packed);
+  ASSERT_EQ(packed.size(), 4 * d.particle_count());
+  const uint32_t free_before = p.free_pages();
+  ASSERT_GT(d.meshlet_size.back(), 1u);
+  store::NodeData past = d, short_of = d;  // meshlet sizes summing past / short of the particles
+  past.meshlet_size.back() = uint8_t(past.meshlet_size.back() + 1);
+  short_of.meshlet_size.back() = uint8_t(short_of.meshlet_size.back() - 1);
+  ASSERT_TRUE(frame([&](VkCommandBuffer cmd) {
+                EXPECT_TRUE(p.evict(cmd, a).ok());
+                const uint32_t free_now = p.free_pages();
+                const uint64_t staging_now = p.staging_free();
+                for (const store::NodeData* bad : {&past, &short_of}) {
+                  Status st = p.upload(a, f, *bad, bounds, packed);
+                  EXPECT_FALSE(st.ok());
+                  EXPECT_EQ(st.error().code, Errc::format) << st.error().message;
+                  EXPECT_EQ(p.free_pages(), free_now);
+                  EXPECT_EQ(p.staging_free(), staging_now);
+                  EXPECT_FALSE(p.resident(a));
+                }
+                EXPECT_TRUE(p.upload(a, f, d, bounds, packed).ok());
+              }).ok());
+  EXPECT_EQ(p.free_pages(), free_before);
+  EXPECT_TRUE(content() == inline_content) << "the prepared upload staged other meshlets or particles";
+}
+
 TEST(StreamingPool, PageCountFollowsFromTheDirectory) {
   streaming_gpu::PoolLayout l;
   l.page_particles = 512;

@@ -253,3 +253,50 @@ TEST(StreamingResidency, EvictableBytesInOrderEqualsPerCandidate) {
     }
   }
 }
+
+TEST(StreamingResidency, ResidentListFollowsEveryTransition) {
+  // resident_nodes() is kept by mark_loaded / mark_evicted (swap-remove) instead of a scan of
+  // every node: after any sequence of transitions it holds exactly the resident nodes, once each,
+  // and choose_victims (which walks it) picks the same victims as the sorted eviction order.
+  uint64_t state = 777;
+  auto next = [&](uint32_t n) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return uint32_t((state >> 33) % n);
+  };
+  const uint32_t n = 300;
+  std::vector<uint64_t> bytes(n);
+  for (auto& b : bytes) b = 100 * (1 + next(8));
+  ResidencyTable t(bytes, Policy::occlusion);
+  for (uint32_t i = 0; i < n; ++i) t.set_view(i, float(next(1000)) / 10.0f, 0.1f, true);
+  for (int step = 0; step < 5000; ++step) {
+    const uint32_t i = next(n);
+    switch (t.node(i).residency) {
+      case Residency::absent: ASSERT_TRUE(t.mark_requested(i).ok()); break;
+      case Residency::requested: ASSERT_TRUE((next(4) == 0 ? t.mark_cancelled(i) : t.mark_loaded(i)).ok()); break;
+      case Residency::resident:
+        if (next(2) == 0) ASSERT_TRUE(t.mark_evicted(i).ok());
+        break;
+    }
+    t.set_class(i, uint8_t(next(4)));
+    t.touch(i, next(3));
+    if (step % 97 != 0) continue;
+    std::vector<uint32_t> listed(t.resident_nodes().begin(), t.resident_nodes().end()), scanned;
+    uint64_t resident_bytes = 0;
+    for (uint32_t k = 0; k < n; ++k)
+      if (t.node(k).residency == Residency::resident) {
+        scanned.push_back(k);
+        resident_bytes += bytes[k];
+      }
+    std::sort(listed.begin(), listed.end());
+    ASSERT_EQ(listed, scanned) << "step " << step;
+    ASSERT_EQ(t.resident_count(), scanned.size());
+    ASSERT_EQ(t.resident_bytes(), resident_bytes);
+    // Victims for a need of half the resident bytes, nothing protected: a prefix of eviction_order().
+    const auto order = t.eviction_order();
+    auto victims = t.choose_victims(resident_bytes / 2 + 1, 0, 99);
+    if (resident_bytes == 0) continue;
+    ASSERT_TRUE(victims.ok());
+    ASSERT_LE(victims.value().size(), order.size());
+    for (size_t k = 0; k < victims.value().size(); ++k) ASSERT_EQ(victims.value()[k], order[k]) << "step " << step;
+  }
+}

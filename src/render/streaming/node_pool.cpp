@@ -181,8 +181,19 @@ Status meshlet_bounds(const PoolScene& scene, uint32_t node, const NodeFrame& fr
   return {};
 }
 
+void pack_particles(const store::NodeData& d, std::vector<uint16_t>& out) {
+  const size_t n = d.particle_count();
+  out.resize(4 * n);
+  for (size_t i = 0; i < n; ++i) {
+    out[4 * i + 0] = d.qpos[3 * i + 0];
+    out[4 * i + 1] = d.qpos[3 * i + 1];
+    out[4 * i + 2] = d.qpos[3 * i + 2];
+    out[4 * i + 3] = d.type_index[i];
+  }
+}
+
 Status NodePool::upload(uint32_t node, const NodeFrame& frame, const store::NodeData& d,
-                        std::span<const float> bounds) {
+                        std::span<const float> bounds, std::span<const uint16_t> particles) {
   const uint64_t n = d.particle_count(), m = d.meshlet_size.size();
   if (node >= node_pages_.size() || !node_pages_[node].empty())
     return make_error(Errc::internal, "pool: upload of node {} which is resident or out of range", node);
@@ -203,18 +214,33 @@ Status NodePool::upload(uint32_t node, const NodeFrame& frame, const store::Node
     bounds = computed;
   }
 
-  // Meshlet records first (they validate the meshlet sizes), then commit.
+  // The staging area: particles (uint16 x, y, z, type), radii, meshlet records; one copy region
+  // per page, recorded by flush(). The meshlet records are written straight into it, each built
+  // whole and copied (host-visible upload memory may be write-combined); they validate the
+  // meshlet sizes, and an inconsistent node takes its pages and staging back.
+  std::byte* base = staging_.data();
+  const uint64_t staging_mark = staging_head_;
+  auto reserve = [&](uint64_t size) {
+    const uint64_t off = staging_head_;
+    staging_head_ += (size + 15) & ~uint64_t(15);
+    return off;
+  };
+  const uint64_t part_off = reserve(n * 8);
+  const uint64_t rad_off = layout_.radii ? reserve(n * 2) : 0;
+  const uint64_t rec_off = reserve(m * sizeof(gpu::GpuMeshlet));
+  std::vector<uint32_t>& pages = node_pages_[node];  // the last `need` free pages, last first
+  pages.assign(free_.rbegin(), free_.rbegin() + need);
   const uint32_t P = layout_.page_particles, M = layout_.page_meshlets;
-  std::vector<uint32_t> pages(free_.end() - need, free_.end());
-  std::reverse(pages.begin(), pages.end());
   auto slot_of = [&](uint64_t local) { return uint64_t(pages[local / P]) * P + local % P; };
-  std::vector<gpu::GpuMeshlet> recs(m);
   uint64_t p = 0;
   for (uint64_t k = 0; k < m; ++k) {
     const uint32_t count = d.meshlet_size[k];
-    if (count == 0 || p + count > n || count > P)
+    if (count == 0 || p + count > n || count > P) {
+      staging_head_ = staging_mark;
+      pages.clear();
       return make_error(Errc::format, "node {} meshlet {}: size {} overruns the node's {} particles", node, k, count, n);
-    gpu::GpuMeshlet& g = recs[k];
+    }
+    gpu::GpuMeshlet g{};
     g.node = node;
     g.particle_count = count;
     g.first_particle = uint32_t(slot_of(p));
@@ -223,29 +249,21 @@ Status NodePool::upload(uint32_t node, const NodeFrame& frame, const store::Node
     g.second_particle = count > room ? uint32_t(slot_of(p + room)) : 0u;
     g.aabb_min = glm::vec3(bounds[6 * k + 0], bounds[6 * k + 1], bounds[6 * k + 2]);
     g.aabb_max = glm::vec3(bounds[6 * k + 3], bounds[6 * k + 4], bounds[6 * k + 5]);
+    std::memcpy(base + rec_off + k * sizeof(gpu::GpuMeshlet), &g, sizeof(g));
     p += count;
   }
-  if (p != n) return make_error(Errc::format, "node {}: meshlet sizes sum to {}, node has {} particles", node, p, n);
+  if (p != n) {
+    staging_head_ = staging_mark;
+    pages.clear();
+    return make_error(Errc::format, "node {}: meshlet sizes sum to {}, node has {} particles", node, p, n);
+  }
 
+  // Commit.
   free_.resize(free_.size() - need);
-  node_pages_[node] = pages;
   MDS_TRY(budget_.reserve(bytes, "node pages"));
-
-  // Stage particles (uint16 x, y, z, type; packed in place), radii, meshlet records; one copy
-  // region per page, recorded by flush().
-  std::byte* base = staging_.data();
-  auto reserve = [&](uint64_t size) {
-    const uint64_t off = staging_head_;
-    staging_head_ += (size + 15) & ~uint64_t(15);
-    return off;
-  };
-  auto stage = [&](const void* data, uint64_t size) {
-    const uint64_t off = reserve(size);
-    std::memcpy(base + off, data, size);
-    return off;
-  };
-  const uint64_t part_off = reserve(n * 8);
-  {
+  if (particles.size() == 4 * n) {
+    std::memcpy(base + part_off, particles.data(), n * 8);  // packed by a reader thread (prepare_node)
+  } else {
     uint16_t part[4 * 64];  // a block of 64 particles, then one copy into the staging area
     for (uint64_t i0 = 0; i0 < n; i0 += 64) {
       const uint64_t c = std::min<uint64_t>(64, n - i0);
@@ -258,8 +276,7 @@ Status NodePool::upload(uint32_t node, const NodeFrame& frame, const store::Node
       std::memcpy(base + part_off + i0 * 8, part, c * 8);
     }
   }
-  const uint64_t rad_off = layout_.radii ? stage(d.radius_q.data(), n * 2) : 0;
-  const uint64_t rec_off = stage(recs.data(), recs.size() * sizeof(gpu::GpuMeshlet));
+  if (layout_.radii) std::memcpy(base + rad_off, d.radius_q.data(), n * 2);
   for (uint32_t i = 0; i < need; ++i) {
     const uint64_t first = uint64_t(i) * P, count = first < n ? std::min<uint64_t>(P, n - first) : 0;
     if (count > 0) {

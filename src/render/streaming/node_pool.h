@@ -73,6 +73,10 @@ struct NodeFrame {  // a node's quantization frame (NodeEntry center_min / cente
 // the node's particles, a type index outside the type table or missing per-particle radii.
 Status meshlet_bounds(const PoolScene& scene, uint32_t node, const NodeFrame& frame, const store::NodeData& data,
                       std::vector<float>& out);
+// A decoded node's particle records in the pool's layout into `out`: 4 uint16 per particle (x,
+// y, z quantized in the node's frame, type index), the bytes NodePool::upload stages. Any
+// thread may run it (the cache's reader threads). Precondition: data.qpos holds 3 per particle.
+void pack_particles(const store::NodeData& data, std::vector<uint16_t>& out);
 
 class NodePool {
  public:
@@ -115,10 +119,12 @@ class NodePool {
   // Places a decoded node: takes pages_for(n, m) free pages, converts it into GPU records in the
   // staging area and gathers the copies and the reset of its meshlet slots' classes to P (recorded
   // by end_frame, or by an eviction of one of its pages in this frame). `bounds`: the
-  // node's meshlet_bounds when the caller has them (6 per meshlet), else empty and computed here.
+  // node's meshlet_bounds when the caller has them (6 per meshlet), else empty and computed here;
+  // `particles`: its pack_particles records (4 per particle), else empty and packed here.
   // Errc::budget when pages or staging space are short (nothing changes then); Errc::format when
-  // the node's data is inconsistent.
-  Status upload(uint32_t node, const NodeFrame& frame, const store::NodeData& data, std::span<const float> bounds = {});
+  // the node's data is inconsistent (nothing changes either).
+  Status upload(uint32_t node, const NodeFrame& frame, const store::NodeData& data, std::span<const float> bounds = {},
+                std::span<const uint16_t> particles = {});
   const PoolScene& scene() const { return scene_; }
   // Records this frame's gathered transfers and makes them visible to the shaders (after the
   // last upload/evict).

@@ -89,14 +89,16 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
                       format_bytes(ctx.limits().maxStorageBufferRange), format_bytes(c->pool_->budget().pool_bytes()),
                       largest_node, format_bytes(largest));
   c->table_ = std::make_unique<mds::streaming::ResidencyTable>(c->node_bytes_, settings.policy);
-  // The meshlet bounds of a node are computed by the reader thread that decoded it (node_pool.h
-  // meshlet_bounds), not by the render loop: most of NodePool::upload's 17 us per node on this
-  // VM (ablation 1M jumps, 320x180; docs/streaming.md, "Placing a node"). frames_ and the pool's
+  // The meshlet bounds of a node and its particle records are made by the reader thread that
+  // decoded it (node_pool.h meshlet_bounds, pack_particles), not by the render loop: most of
+  // NodePool::upload's per-node time on this VM (docs/streaming.md, "Placing a node"). frames_ and the pool's
   // scene are not changed after this; ~StreamCache stops the readers first.
   mds::streaming::IoOptions io = settings.io;
   const StreamCache* self = c.get();
-  io.prepare = [self](uint32_t node, const store::NodeData& data, std::vector<float>& out) {
-    return meshlet_bounds(self->pool_->scene(), node, self->frames_[node], data, out);
+  io.prepare = [self](uint32_t node, const store::NodeData& data, mds::streaming::PreparedNode& out) -> Status {
+    MDS_TRY(meshlet_bounds(self->pool_->scene(), node, self->frames_[node], data, out.meshlet_bounds));
+    pack_particles(data, out.particles);  // the staging copy becomes one memcpy
+    return Status{};
   };
   MDS_ASSIGN_OR_RETURN(c->io_, mds::streaming::IoPool::create(reader, io));
   // With waves each wave is sampled before the next, so the window starts smaller.
@@ -294,13 +296,12 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
   // Use: the resident nodes this frame draws are kept by the placement below (touch = drawn now),
   // and so are resident look-ahead nodes, except against nodes fetched before them (wanted ones:
   // ResidencyTable::displaces).
-  for (uint32_t i = 0; i < n_nodes; ++i)
-    if ((demanded(i) || table_->fetchable(i)) && table_->node(i).residency == Residency::resident)
-      table_->touch(i, frame);
+  for (const uint32_t i : table_->resident_nodes())
+    if (demanded(i) || table_->fetchable(i)) table_->touch(i, frame);
   // Class-blind policies keep every resident node in the frustum in use.
   if (table_->policy() != mds::streaming::Policy::occlusion)
-    for (uint32_t i = 0; i < n_nodes; ++i)
-      if (table_->node(i).residency == Residency::resident && table_->wanted(i)) table_->touch(i, frame);
+    for (const uint32_t i : table_->resident_nodes())
+      if (table_->wanted(i)) table_->touch(i, frame);
 
   // Place finished reads, front first, within the frame's upload budget.
   pool_->begin_frame();
@@ -336,7 +337,8 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
       ready_.erase(it);
       continue;
     }
-    Status st = pool_->upload(i, frames_[i], it->second.data, it->second.prepared);
+    Status st = pool_->upload(i, frames_[i], it->second.data, it->second.prepared.meshlet_bounds,
+                              it->second.prepared.particles);
     if (!st.ok()) {
       if (st.error().code == Errc::budget) break;  // staging full: next frame
       stats_.errors.push_back(reader_->path().string() + ": " + st.error().message);
@@ -402,9 +404,9 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
   bool wave_open = false;
   if (waves) {
     wave_open = !requested_.empty();
-    for (uint32_t i = 0; i < n_nodes; ++i) {
+    for (const uint32_t i : table_->resident_nodes()) {
       const auto& n = table_->node(i);
-      if (n.residency != Residency::resident || placed_late_[i] || frame > placed_frame_[i] + settle) continue;
+      if (placed_late_[i] || frame > placed_frame_[i] + settle) continue;
       if (frame == placed_frame_[i] + settle && n.in_frustum && n.cls == MDS_CULL_CLASS_O) ++occluded;
       if (frame < placed_frame_[i] + settle && demanded(i)) wave_open = true;
     }
