@@ -27,6 +27,7 @@
 #include <cstdint>
 #include <string_view>
 #include <span>
+#include <tuple>
 #include <vector>
 
 #include "core/result.h"
@@ -130,6 +131,18 @@ class ResidencyTable {
 
  private:
   bool evict_before(const NodeState& x, uint32_t a, const NodeState& y, uint32_t b) const;
+  // The fetch order as a key: group (wanted: P, L, M under the occlusion policy; look-ahead
+  // last), more next views first, nearer first, larger on screen first, then the index.
+  struct FetchKey {
+    int group, neg_ahead;
+    float distance, neg_projected;
+    uint32_t node;
+    bool operator<(const FetchKey& o) const {
+      return std::tie(group, neg_ahead, distance, neg_projected, node) <
+             std::tie(o.group, o.neg_ahead, o.distance, o.neg_projected, o.node);
+    }
+  };
+  FetchKey fetch_key(uint32_t i) const;
   bool fetch_before(uint32_t a, uint32_t b) const;
   // Node n was drawn in `frame` (touched then), and so is kept by an eviction in that frame:
   // class O under the occlusion policy is not drawn.

@@ -300,3 +300,34 @@ TEST(StreamingResidency, ResidentListFollowsEveryTransition) {
     for (size_t k = 0; k < victims.value().size(); ++k) ASSERT_EQ(victims.value()[k], order[k]) << "step " << step;
   }
 }
+
+TEST(StreamingResidency, PrefetchOrderWithALimitIsThePrefixOfTheWholeOrder) {
+  // prefetch_order(limit) selects the first `limit` candidates (nth_element on precomputed keys)
+  // and sorts only those: the same nodes in the same order as the whole order's prefix, which is
+  // sorted by the fetch order (displaces()).
+  uint64_t state = 4242;
+  auto next = [&](uint32_t n) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return uint32_t((state >> 33) % n);
+  };
+  for (Policy policy : {Policy::occlusion, Policy::lru, Policy::fifo}) {
+    for (int trial = 0; trial < 30; ++trial) {
+      const uint32_t n = 10 + next(400);
+      ResidencyTable t(std::vector<uint64_t>(n, 100), policy);
+      for (uint32_t i = 0; i < n; ++i) {
+        // Few distinct distances: ties decided by the later keys and the index.
+        t.set_view(i, float(next(6)), float(next(4)) / 4.0f, next(4) != 0);
+        t.set_class(i, uint8_t(next(4)));
+        t.set_ahead(i, uint8_t(next(3)));
+        if (next(5) == 0) ASSERT_TRUE(t.mark_requested(i).ok());
+      }
+      const auto whole = t.prefetch_order();
+      for (size_t k = 1; k < whole.size(); ++k) ASSERT_TRUE(t.displaces(whole[k - 1], whole[k])) << k;
+      for (size_t limit : {size_t(0), size_t(1), size_t(7), whole.size() / 2, whole.size(), whole.size() + 3}) {
+        const auto part = t.prefetch_order(limit);
+        ASSERT_EQ(part.size(), std::min(limit, whole.size()));
+        ASSERT_TRUE(std::equal(part.begin(), part.end(), whole.begin())) << "limit " << limit << " trial " << trial;
+      }
+    }
+  }
+}
