@@ -557,25 +557,15 @@ TEST_F(StreamingRender, MeshletBoundsMatchTheInMemoryScene) {
   const store::StoreReader& reader = *opened.value();
   auto scene = load_scene(reader);
   ASSERT_TRUE(scene.ok()) << scene.error().message;
-  const auto& h = reader.header();
-  streaming_gpu::PoolScene ps;
-  ps.origin = scene->origin;
-  for (const auto& t : reader.types()) ps.type_radius.push_back(t.radius);
-  ps.per_particle_radius = (h.flags & store::kFlagPerParticleRadius) != 0;
-  ps.radius_min = h.radius_min;
-  ps.radius_max = h.radius_max;
+  const streaming_gpu::PoolScene ps =
+      streaming_gpu::pool_scene_for(reader, streaming_gpu::pool_layout_for(reader.header()), scene->origin);
   store::NodeData d;
   std::vector<uint8_t> scratch;
   std::vector<float> b;
   size_t compared = 0;
   for (uint32_t i = 0; i < reader.nodes().size(); ++i) {
     ASSERT_TRUE(reader.read_node(i, d, scratch).ok());
-    streaming_gpu::NodeFrame f;
-    for (int a = 0; a < 3; ++a) {
-      f.center_min[a] = reader.nodes()[i].center_min[a];
-      f.center_max[a] = reader.nodes()[i].center_max[a];
-    }
-    ASSERT_TRUE(streaming_gpu::meshlet_bounds(ps, i, f, d, b).ok());
+    ASSERT_TRUE(streaming_gpu::meshlet_bounds(ps, i, streaming_gpu::node_frame(reader.nodes()[i]), d, b).ok());
     ASSERT_EQ(b.size(), 6 * d.meshlet_size.size());
     const uint32_t first = scene->nodes[i].first_meshlet;
     for (size_t k = 0; k < d.meshlet_size.size(); ++k, ++compared) {
@@ -603,13 +593,8 @@ TEST_F(StreamingRender, PoolTransfersOfOneFrameLandInOrder) {
   auto opened = store::StoreReader::open(store_path());
   ASSERT_TRUE(opened.ok());
   const store::StoreReader& reader = *opened.value();
-  const auto& h = reader.header();
-  const streaming_gpu::PoolLayout layout = streaming_gpu::pool_layout_for(h);
-  streaming_gpu::PoolScene ps;
-  for (const auto& t : reader.types()) ps.type_radius.push_back(t.radius);
-  ps.per_particle_radius = layout.radii;
-  ps.radius_min = h.radius_min;
-  ps.radius_max = h.radius_max;
+  const streaming_gpu::PoolLayout layout = streaming_gpu::pool_layout_for(reader.header());
+  const streaming_gpu::PoolScene ps = streaming_gpu::pool_scene_for(reader, layout, glm::dvec3(0.0));
   const auto& nodes = reader.nodes();
   // Two nodes of the same page count: the pool holds one of them at a time.
   const uint32_t a = 0;
@@ -626,14 +611,7 @@ TEST_F(StreamingRender, PoolTransfersOfOneFrameLandInOrder) {
   std::vector<uint8_t> scratch;
   ASSERT_TRUE(reader.read_node(a, da, scratch).ok());
   ASSERT_TRUE(reader.read_node(b, db, scratch).ok());
-  auto frame_of = [&](uint32_t i) {
-    streaming_gpu::NodeFrame f;
-    for (int k = 0; k < 3; ++k) {
-      f.center_min[k] = nodes[i].center_min[k];
-      f.center_max[k] = nodes[i].center_max[k];
-    }
-    return f;
-  };
+  auto frame_of = [&](uint32_t i) { return streaming_gpu::node_frame(nodes[i]); };
   // The slots: per node, its live meshlet records (particle_count > 0) and their classes.
   auto live = [&](uint32_t node) {
     const uint64_t slots = p.meshlet_slots();
@@ -683,13 +661,8 @@ TEST_F(StreamingRender, PreparedUploadStagesWhatTheInlineOneDoes) {
   auto opened = store::StoreReader::open(store_path());
   ASSERT_TRUE(opened.ok());
   const store::StoreReader& reader = *opened.value();
-  const auto& h = reader.header();
-  const streaming_gpu::PoolLayout layout = streaming_gpu::pool_layout_for(h);
-  streaming_gpu::PoolScene ps;
-  for (const auto& t : reader.types()) ps.type_radius.push_back(t.radius);
-  ps.per_particle_radius = layout.radii;
-  ps.radius_min = h.radius_min;
-  ps.radius_max = h.radius_max;
+  const streaming_gpu::PoolLayout layout = streaming_gpu::pool_layout_for(reader.header());
+  const streaming_gpu::PoolScene ps = streaming_gpu::pool_scene_for(reader, layout, glm::dvec3(0.0));
   const auto& nodes = reader.nodes();
   const uint32_t a = uint32_t(nodes.size() / 2);
   auto pool = streaming_gpu::NodePool::create(*ctx_, layout, ps, uint32_t(nodes.size()),
@@ -700,11 +673,7 @@ TEST_F(StreamingRender, PreparedUploadStagesWhatTheInlineOneDoes) {
   store::NodeData d;
   std::vector<uint8_t> scratch;
   ASSERT_TRUE(reader.read_node(a, d, scratch).ok());
-  streaming_gpu::NodeFrame f;
-  for (int k = 0; k < 3; ++k) {
-    f.center_min[k] = nodes[a].center_min[k];
-    f.center_max[k] = nodes[a].center_max[k];
-  }
+  const streaming_gpu::NodeFrame f = streaming_gpu::node_frame(nodes[a]);
   // Per live meshlet of node a, in slot order of its records: the record's bounds and count, then
   // its particles' records gathered through first_particle / split / second_particle.
   auto content = [&]() {

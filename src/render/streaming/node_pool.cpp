@@ -26,6 +26,26 @@ PoolLayout pool_layout_for(const store::FileHeader& h) {
   return l;
 }
 
+PoolScene pool_scene_for(const store::StoreReader& reader, const PoolLayout& layout, glm::dvec3 origin) {
+  const store::FileHeader& h = reader.header();
+  PoolScene ps;
+  ps.origin = origin;
+  for (const auto& t : reader.types()) ps.type_radius.push_back(t.radius);
+  ps.per_particle_radius = layout.radii;
+  ps.radius_min = h.radius_min;
+  ps.radius_max = h.radius_max;
+  return ps;
+}
+
+NodeFrame node_frame(const store::NodeEntry& e) {
+  NodeFrame f;
+  for (int a = 0; a < 3; ++a) {
+    f.center_min[a] = e.center_min[a];
+    f.center_max[a] = e.center_max[a];
+  }
+  return f;
+}
+
 Result<std::unique_ptr<NodePool>> NodePool::create(vk::Context& ctx, const PoolLayout& layout, PoolScene scene,
                                                    uint32_t node_count, uint64_t budget_bytes,
                                                    uint64_t store_pages, uint64_t staging_bytes) {

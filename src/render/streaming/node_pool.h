@@ -66,6 +66,12 @@ struct NodeFrame {  // a node's quantization frame (NodeEntry center_min / cente
   double center_max[3] = {0, 0, 0};
 };
 
+// A store's pool scene: its type radii and radius range, the per-particle radius flag of
+// `layout`, positions relative to `origin` (the renderer's).
+PoolScene pool_scene_for(const store::StoreReader& reader, const PoolLayout& layout, glm::dvec3 origin);
+// A node's quantization frame from its directory entry.
+NodeFrame node_frame(const store::NodeEntry& e);
+
 // The meshlet bounds of a decoded node into `out`: 6 floats per meshlet (min x, y, z, max x, y, z;
 // relative to scene.origin, grown by each particle's radius, as render::append_node computes
 // them). Reads its arguments only, so any thread may run it: the cache runs it on its reader

@@ -46,10 +46,7 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
     g.aabb_min = glm::vec3(cmin - origin - double(e.max_radius));
     g.aabb_max = glm::vec3(cmax - origin + double(e.max_radius));
     set_fine_occupancy(g, reader.occupancy(i).first<store::kOccupancyBytes>());  // the store's record (format.h)
-    for (int a = 0; a < 3; ++a) {
-      c->frames_[i].center_min[a] = e.center_min[a];
-      c->frames_[i].center_max[a] = e.center_max[a];
-    }
+    c->frames_[i] = node_frame(e);
     c->node_bytes_[i] = layout.node_bytes(e.particle_count, e.meshlet_count);
     c->node_meshlets_[i] = e.meshlet_count;
     {
@@ -73,12 +70,7 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
                       nodes[largest_node].particle_count, nodes[largest_node].meshlet_count, layout.page_bytes(),
                       format_bytes(largest));
 
-  PoolScene ps;
-  ps.origin = origin;
-  for (const auto& t : reader.types()) ps.type_radius.push_back(t.radius);
-  ps.per_particle_radius = layout.radii;
-  ps.radius_min = h.radius_min;
-  ps.radius_max = h.radius_max;
+  PoolScene ps = pool_scene_for(reader, layout, origin);
   const uint64_t staging = std::max<uint64_t>(settings.upload_bytes_per_frame, 2 * largest);
   uint64_t store_pages = 0;  // every node resident at once
   for (uint64_t b : c->node_bytes_) store_pages += b / layout.page_bytes();
