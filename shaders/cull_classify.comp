@@ -256,6 +256,66 @@ int box_texels(BoxTest b) {
   return e.x * e.y;
 }
 
+// Texels of a box test above which its subgroup shares it (MDS_COOPERATIVE_BOXES; default a
+// 16 x 16 rectangle of texels; a node's test covers up to kNodeExtent^2, a meshlet's up to
+// kMeshletExtent^2).
+layout(constant_id = 1) const int kCooperativeTexels = 256;
+
+#ifdef MDS_COOPERATIVE_BOXES
+// kSharedCells (constant_id 2): in a shared test (coop) of more than kCooperativeTexels
+// texels the occupied cells go one after the other in front-to-back order, and each cell's texels -- a refined cell's sub-cells' -- are
+// shared by the subgroup as a whole box's are (texels_in_front with coop). With one lane per
+// cell a round of cells lasts as long as its slowest lane's cell (up to 32 x 32 texels), and a
+// cell in front ends the loop only after that round; here a cell in front ends it within the
+// rounds of its own texels, and unoccupied cells cost nothing. Every lane calls with the same
+// arguments and gets the same result; csum, n and in_image are the subgroup's (no reduction
+// after). Returns true when a cell lies in front on a texel (the box is P).
+layout(constant_id = 2) const bool kSharedCells = false;
+
+bool cells_in_front_shared(vec3 bmin, vec3 bmax, uvec2 occupancy, int node, bool fine, uint level, float grow,
+                           bvec3 flip, int sub_flip, inout float csum, inout float n, inout bool in_image) {
+  const int kCells = MDS_OCCUPANCY_CELLS;
+  vec3 cell = (bmax - bmin) / float(kCells);
+  for (int j = 0; j < kCells * kCells * kCells; ++j) {
+    ivec3 ci = ivec3(j % kCells, (j / kCells) % kCells, j / (kCells * kCells));
+    ci = mix(ci, ivec3(kCells - 1) - ci, flip);
+    int c = ci.x + kCells * (ci.y + kCells * ci.z);
+    uint bits = c < 32 ? occupancy.x : occupancy.y;
+    if (((bits >> (c & 31)) & 1u) == 0u) continue;
+    vec3 cmin = bmin + cell * vec3(ci);
+    vec3 cmax = mix(bmin + cell * vec3(ci + 1), bmax, equal(ci, ivec3(kCells - 1)));
+    vec2 clo, chi;
+    project_rect(cmin, cmax, clo, chi);
+    ivec2 c0, c1;
+    if (!texel_rect(clo, chi, level, c0, c1)) continue;
+    in_image = true;
+    float cs = 0.0, cn = 0.0;
+    if (!texels_in_front(cmin, cmax, level, c0, c1, grow, cs, cn, true)) {
+      csum += cs;
+      n += cn;
+      continue;
+    }
+    // The cell lies in front somewhere: its occupied sub-cells decide, as in the lane loop.
+    uint sub = fine ? fine_cell_bits(uint(node), c) : 0u;
+    if (sub == 0u) return true;
+    vec3 half_cell = (cmax - cmin) * 0.5;
+    for (int t = 0; t < 8; ++t) {
+      int s = t ^ sub_flip;
+      if (((sub >> s) & 1u) == 0u) continue;
+      bvec3 upper = bvec3((s & 1) != 0, (s & 2) != 0, (s & 4) != 0);
+      vec3 smin = mix(cmin, cmin + half_cell, upper);
+      vec3 smax = mix(cmin + half_cell, cmax, upper);
+      vec2 slo, shi;
+      project_rect(smin, smax, slo, shi);
+      ivec2 s0, s1;
+      if (!texel_rect(slo, shi, level, s0, s1)) continue;
+      if (texels_in_front(smin, smax, level, s0, s1, grow, csum, n, true)) return true;
+    }
+  }
+  return false;
+}
+#endif
+
 // The texel part of classify_box, for a box box_setup returned kBoxTexelTest for.
 // node: the node whose occupancy is passed (its fine level is read from nodes[]), -1 for meshlets.
 // coop: see texels_in_front (every lane calls with the same box; the result is the subgroup's).
@@ -296,6 +356,16 @@ int box_test(vec3 bmin, vec3 bmax, BoxTest b, uvec2 occupancy, int node, bool co
                              : 0.5 * (bmin + bmax) - (cull.inv_view * vec4(0.0, 0.0, 0.0, 1.0)).xyz;
     bvec3 flip = lessThan(toward, vec3(0.0));
     int sub_flip = (flip.x ? 1 : 0) | (flip.y ? 2 : 0) | (flip.z ? 4 : 0);
+#ifdef MDS_COOPERATIVE_BOXES
+    // Shared cells only for a test of more than kCooperativeTexels texels: below it a cell
+    // covers a few texels, and 64 cells one after the other cost more rounds than lanes share.
+    if (coop && kSharedCells && box_texels(b) > kCooperativeTexels) {
+      if (cells_in_front_shared(bmin, bmax, occupancy, node, fine, level, grow, flip, sub_flip, csum, n, in_image))
+        return MDS_CULL_CLASS_P;
+      if (!in_image || n == 0.0) return -1;
+      return mds_classify_occlusion(MDS_CULL_CLASS_P, true, csum / n, cull.thresholds.x, cull.thresholds.y);
+    }
+#endif
     // coop: the subgroup shares the cells in rounds (lane l takes cell round * gl_SubgroupSize
     // + l of the front-to-back order, tested by its lane alone); the first round in which a lane
     // finds its cell in front ends the loop on every lane: the node is P.
@@ -379,10 +449,6 @@ void subtract_voxels(uint i) {  // Sect. 4.4: remove meshlet/node i's particles 
   counters.volume_dirty = 1u;
 }
 
-// Texels of a box test above which its subgroup shares it (MDS_COOPERATIVE_BOXES; default a
-// 16 x 16 rectangle of texels; a node's test covers up to kNodeExtent^2, a meshlet's up to
-// kMeshletExtent^2).
-layout(constant_id = 1) const int kCooperativeTexels = 256;
 
 // The class of box `index` (node: mode 0, meshlet: mode 1) without the upward rule, in `c` of
 // the lanes with `test`; -1: outside the image. Every lane of the subgroup calls this (no early

@@ -251,12 +251,17 @@ TEST_F(RenderCli, SharedBoxTestsClassifyLikeOneThreadPerBox) {
   const fs::path dump = dir_ / "porous.lammpstrj", porous = dir_ / "porous.mds";
   ASSERT_EQ(run("synth --scene porous --particles 60000 -q -o " + dump.string()), 0) << last_stderr();
   ASSERT_EQ(run("convert " + dump.string() + " --node-size 1000 -q -o " + porous.string()), 0) << last_stderr();
-  const char* variants[3] = {"MDSTREAM_CULL_COOP_BOXES=0 ", "MDSTREAM_CULL_COOP_BOXES=1 ",
-                             "MDSTREAM_CULL_COOP_BOXES=1 MDSTREAM_CULL_NODE_SUBGROUP=0 "};
+  // One thread per box; shared tests with a subgroup per node; shared tests with one thread per
+  // node; each of the two with the shared cells (kSharedCells: a node's occupied cells one after
+  // the other, each cell's texels over the subgroup).
+  const char* variants[5] = {"MDSTREAM_CULL_COOP_BOXES=0 ", "MDSTREAM_CULL_COOP_BOXES=1 ",
+                             "MDSTREAM_CULL_COOP_BOXES=1 MDSTREAM_CULL_NODE_SUBGROUP=0 ",
+                             "MDSTREAM_CULL_COOP_BOXES=1 MDSTREAM_CULL_SHARED_CELLS=1 ",
+                             "MDSTREAM_CULL_COOP_BOXES=1 MDSTREAM_CULL_NODE_SUBGROUP=0 MDSTREAM_CULL_SHARED_CELLS=1 "};
   for (int view : {0, 2}) {
     SCOPED_TRACE("view " + std::to_string(view));
-    nlohmann::json j[3];
-    for (int v = 0; v < 3; ++v) {
+    nlohmann::json j[5];
+    for (int v = 0; v < 5; ++v) {
       const fs::path png = dir_ / "shared.png", stats = dir_ / ("shared" + std::to_string(v) + ".json");
       ASSERT_EQ(run_env(std::string("MDSTREAM_CULL_COOP_TEXELS=1 ") + variants[v],
                         "render " + porous.string() + " -o " + png.string() + " --width 160 --height 120 --spp 8 --view " +
@@ -271,7 +276,9 @@ TEST_F(RenderCli, SharedBoxTestsClassifyLikeOneThreadPerBox) {
     if (!j[1]["parameters"]["shared_box_tests"].get<bool>()) GTEST_SKIP() << "no subgroup ballot + shuffle + add in compute";
     EXPECT_TRUE(j[1]["parameters"]["node_per_subgroup"].get<bool>());
     EXPECT_FALSE(j[2]["parameters"]["node_per_subgroup"].get<bool>());
-    for (int v : {1, 2}) {
+    for (int v : {0, 1, 2}) EXPECT_FALSE(j[v]["parameters"]["shared_cells"].get<bool>());
+    for (int v : {3, 4}) EXPECT_TRUE(j[v]["parameters"]["shared_cells"].get<bool>());
+    for (int v : {1, 2, 3, 4}) {
       SCOPED_TRACE(variants[v]);
       for (const char* k : {"changed_per_iteration", "culled_per_iteration", "class_counts", "iterations"})
         EXPECT_EQ(j[0][k], j[v][k]) << k;

@@ -499,6 +499,40 @@ TEST_F(StreamingRender, ResizeWithinCapacityAllocatesNothingAndMatchesAFreshRend
   }
 }
 
+TEST_F(StreamingRender, AFailedResizeRefusesFramesUntilTheNextOne) {
+  // A resize whose targets cannot be made (here: the visibility buffer beyond
+  // maxStorageBufferRange) fails naming the size, and the renderer then refuses frames and
+  // images instead of drawing into released targets; a resize to a size that fits restores it.
+  const uint64_t range = ctx_->limits().maxStorageBufferRange;
+  const uint32_t w = 16384, h = uint32_t(std::min<uint64_t>(16384, range / 8 / w + 1));
+  if (8ull * w * h <= range) GTEST_SKIP() << "no size up to 16384 x 16384 exceeds maxStorageBufferRange " << range;
+  auto reader = store::StoreReader::open(store_path());
+  ASSERT_TRUE(reader.ok());
+  auto scene = load_scene(*reader.value());
+  ASSERT_TRUE(scene.ok());
+  RenderSettings rs = settings(true);
+  rs.spp = 2;
+  rs.cull_settings.max_iterations = 6;
+  auto r = Renderer::create(*ctx_, scene.value(), rs);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const Camera cam = view(*reader.value(), 2);
+  auto before = r.value()->render(cam);
+  ASSERT_TRUE(before.ok());
+  if (!r.value()->stats().visibility_route) GTEST_SKIP() << "the attachments route has no buffer to exceed the range";
+  Status st = r.value()->resize(w, h);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.error().message.find(std::to_string(w) + "x" + std::to_string(h)), std::string::npos) << st.error().message;
+  ASSERT_TRUE(r.value()->set_view(cam).ok());
+  auto step = r.value()->step();
+  ASSERT_FALSE(step.ok());
+  EXPECT_NE(step.error().message.find("resize"), std::string::npos) << step.error().message;
+  EXPECT_FALSE(r.value()->read_image().ok());
+  ASSERT_TRUE(r.value()->resize(kW, kH).ok());
+  auto after = r.value()->render(cam);
+  ASSERT_TRUE(after.ok()) << after.error().message;
+  EXPECT_TRUE(before.value().rgba == after.value().rgba) << differing_pixels(before.value(), after.value()) << " pixels differ";
+}
+
 TEST_F(StreamingRender, CorruptedNodeIsSkippedWithAMessage) {
   const fs::path bad = dir_ / "bad.mds";
   fs::copy_file(store_path(), bad, fs::copy_options::overwrite_existing);

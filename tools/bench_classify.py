@@ -9,6 +9,8 @@ shared,subgroup):
             in a 64-node workgroup (MDSTREAM_CULL_NODE_SUBGROUP=0)
   subgroup  the same, but every node tested by a subgroup of its own (push.mode 2; the default
             where box tests are shared)
+  cells     subgroup, and a shared test's occupied cells one after the other, each cell's texels
+            over the subgroup (kSharedCells, MDSTREAM_CULL_SHARED_CELLS=1)
 They run alternately, --reps times each; the table shows medians over the runs, with the node and
 meshlet passes (`classify_nodes`, `classify_meshlets`) apart. The variants must classify alike: the
 script checks that every frame's hits, misses and reads are the same (column *same demand*).
@@ -45,6 +47,7 @@ VARIANT_ENV = {
     "thread": {"MDSTREAM_CULL_COOP_BOXES": "0"},
     "shared": {"MDSTREAM_CULL_COOP_BOXES": "1", "MDSTREAM_CULL_NODE_SUBGROUP": "0"},
     "subgroup": {"MDSTREAM_CULL_COOP_BOXES": "1", "MDSTREAM_CULL_NODE_SUBGROUP": "1"},
+    "cells": {"MDSTREAM_CULL_COOP_BOXES": "1", "MDSTREAM_CULL_NODE_SUBGROUP": "1", "MDSTREAM_CULL_SHARED_CELLS": "1"},
 }
 
 
@@ -90,7 +93,7 @@ def main():
     ap.add_argument("--height", type=int, default=None, help="default 360 (quick 90)")
     ap.add_argument("--reps", type=int, default=None, help="runs per variant (default 3; quick 1)")
     ap.add_argument("--texels", type=int, default=256, help="MDSTREAM_CULL_COOP_TEXELS (kCooperativeTexels)")
-    ap.add_argument("--variants", default="shared,subgroup", help="of thread, shared, subgroup; the first is the base")
+    ap.add_argument("--variants", default="shared,subgroup", help="of thread, shared, subgroup, cells; the first is the base")
     ap.add_argument("--scenes", default="porous,ablation")
     ap.add_argument("--paths", default="flythrough,jumps")
     ap.add_argument("--out", default=os.path.join(REPO, "docs", "results"))
@@ -108,7 +111,7 @@ def main():
     variants = args.variants.split(",")
     for v in variants:
         if v not in VARIANT_ENV:
-            ap.error(f"--variants: unknown variant '{v}' (thread, shared, subgroup)")
+            ap.error(f"--variants: unknown variant '{v}' (thread, shared, subgroup, cells)")
     rows = []
     device = "unknown"
     try:
@@ -157,7 +160,8 @@ def main():
          f"the occlusion policy. *thread* = one thread per box (`MDSTREAM_CULL_COOP_BOXES=0`), *shared* = "
          f"box tests of more than {args.texels} texels run by their subgroup (`=1`), nodes one thread each "
          "(`MDSTREAM_CULL_NODE_SUBGROUP=0`), *subgroup* = the same with a subgroup per node (the default where "
-         f"box tests are shared). {args.reps} runs per variant, "
+         "box tests are shared), *cells* = subgroup with a shared test's occupied cells one after the other, "
+         f"each cell's texels over the subgroup (`MDSTREAM_CULL_SHARED_CELLS=1`). {args.reps} runs per variant, "
          "alternating; medians. *classify* = GPU ms of the classification passes summed over "
          "the path's frames (*nodes* and *meshlets*: each pass's sum), and the largest frame's; GPU frame = the "
          "frame's timestamped passes; wall = CPU wall "

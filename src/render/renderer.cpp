@@ -574,6 +574,7 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     cs.sample_ms_raster = m.cull->sample_route_ms(culling::SampleRoute::raster);
     cs.shared_box_tests = m.cull->shared_box_tests();
     cs.node_per_subgroup = m.cull->node_per_subgroup();
+    cs.shared_cells = m.cull->shared_cells();
     cs.budget = m.cull->budget();
     if (!cs.class_counts.empty()) cs.meshlets_culled = cs.class_counts[MDS_CULL_CLASS_O];
     std::vector<double> during, after, cull_only, paired_culled, paired_all;

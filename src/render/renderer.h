@@ -178,6 +178,7 @@ struct CullStats {
   double sample_ms_compute = -1.0, sample_ms_raster = -1.0;  // last comparison, ms per pass (-1: none)
   bool shared_box_tests = false;        // box tests shared by subgroups (cull_classify_coop.comp)
   bool node_per_subgroup = false;       // a subgroup per node in the node classification (mode 2)
+  bool shared_cells = false;            // a shared test's occupied cells one at a time, texels shared (kSharedCells)
   uint32_t budget = 0;                  // occluder meshlets per sampling pass
   uint64_t meshlets_culled = 0;         // meshlets in O after the last classification
   std::vector<uint32_t> class_counts;   // P, L, M, O after the last classification

@@ -123,6 +123,9 @@ struct Renderer::Impl {
   Camera view_camera;
   std::vector<Camera> path_next;  // set_path_next(): the camera's next views, near/far fitted
   bool has_view = false;
+  // A resize failed part way (a target of the new size could not be allocated: some of the old
+  // ones are released already); step() and read_image() refuse until a resize succeeds.
+  bool targets_lost = false;
   bool view_stale = false;     // resize(), set_c_occ(): the view restarts at the next set_view()/step()
   uint32_t samples = 0;        // accumulated in the current image
   uint32_t quiet = 0;          // sampling passes of the iterations since the last class change

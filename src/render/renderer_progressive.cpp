@@ -237,6 +237,9 @@ Status Renderer::set_view(const Camera& camera_in) {
 Result<FrameReport> Renderer::step() {
   Impl& m = *impl_;
   if (!m.has_view) return make_error(Errc::internal, "Renderer::step() before set_view()");
+  if (m.targets_lost)
+    return make_error(Errc::budget, "Renderer::step(): the resize to {}x{} failed; resize again first", m.settings.width,
+                      m.settings.height);
   if (m.view_stale) MDS_TRY(set_view(m.view_camera));  // resized: restart the view at the new size
   const auto t0 = std::chrono::steady_clock::now();
   FrameReport rep;
@@ -326,13 +329,14 @@ Result<FrameReport> Renderer::step() {
 Status Renderer::Impl::resize(uint32_t w, uint32_t h) {
   if (w == 0 || h == 0 || w > 16384 || h > 16384)
     return make_error(Errc::invalid_argument, "resize to {}x{}: outside 1..16384", w, h);
-  if (w == settings.width && h == settings.height) return {};
+  if (w == settings.width && h == settings.height && !targets_lost) return {};
   MDS_TRY(slot.wait());  // the frame in flight uses the old targets
   // Its culling iteration still tells the cache what is occluded (as set_view does).
   if (pending_iteration && cache && cull) cache->set_classes(cull->node_classes(), false);
   pending_iteration = false;
   settings.width = w;
   settings.height = h;
+  targets_lost = true;  // until every target and descriptor of the new size is in place
   // Replaces (and releases) the old targets; the visibility route's buffer must fit the range.
   if (Status st = create_targets(); !st.ok())
     return make_error(st.error().code, "resize to {}", st.error().message);
@@ -343,6 +347,7 @@ Status Renderer::Impl::resize(uint32_t w, uint32_t h) {
   set.write_buffer(gpu::kBindVisibility, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, visibility.get());
   if (cull) MDS_TRY(cull->resize(w, h));
   write_occlusion_descriptor();
+  targets_lost = false;
   samples = 0;
   rendered = false;  // read_last_depth(): no frame at this size yet
   if (has_view) view_stale = true;
@@ -419,6 +424,7 @@ uint32_t Renderer::height() const { return impl_->settings.height; }
 
 Result<FrameImage> Renderer::read_image() {
   Impl& m = *impl_;
+  if (m.targets_lost) return make_error(Errc::budget, "Renderer::read_image(): the last resize failed; resize again first");
   MDS_TRY(m.slot.wait());
   FrameImage img;
   img.width = m.settings.width;
@@ -466,6 +472,7 @@ RenderStats Renderer::stats() const {
     s.cull.sample_ms_raster = m.cull->sample_route_ms(culling::SampleRoute::raster);
     s.cull.shared_box_tests = m.cull->shared_box_tests();
     s.cull.node_per_subgroup = m.cull->node_per_subgroup();
+    s.cull.shared_cells = m.cull->shared_cells();
     s.cull.budget = m.cull->budget();
     if (s.cull.class_counts.size() == 4) s.cull.meshlets_culled = s.cull.class_counts[MDS_CULL_CLASS_O];
   }

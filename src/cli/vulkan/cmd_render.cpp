@@ -256,6 +256,7 @@ Status run_render(const RenderOptions& o) {
                                                       {"raster", c.sample_ms_raster}}},
                          {"shared_box_tests", c.shared_box_tests},
                          {"node_per_subgroup", c.node_per_subgroup},
+                         {"shared_cells", c.shared_cells},
                          {"n_budget", o.cull.n_budget},
                          {"seed", o.cull.seed},
                          {"mesh_shaders", o.cull.mesh_shaders},

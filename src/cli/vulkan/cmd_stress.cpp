@@ -323,6 +323,7 @@ Status run_stress(const StressOptions& o) {
   j["device_type"] = vk::device_type_name(ctx->info().type);  // "cpu" on lavapipe
   j["cull_shared_box_tests"] = st.cull.shared_box_tests;  // cull_classify_coop.comp
   j["cull_node_per_subgroup"] = st.cull.node_per_subgroup;  // its push.mode 2
+  j["cull_shared_cells"] = st.cull.shared_cells;  // kSharedCells
   j["io"] = {{"threads", ss.io.threads}, {"latency_ms", ss.io.io_latency_ms}, {"bandwidth_bytes_per_s", bandwidth}};
   j["upload_bytes_per_frame"] = upload_budget;
   j["gpu_budget_bytes"] = c.gpu_budget_bytes ? c.gpu_budget_bytes : budget;

@@ -254,7 +254,10 @@ Status CullLoop::resize(uint32_t width, uint32_t height) {
   m.width = width;
   m.height = height;
   m.bins = bins;
-  MDS_TRY(m.create_pixel_buffers());  // the old ones are released here (the caller waited for the GPU)
+  if (Status st = m.create_pixel_buffers(); !st.ok()) {  // the old ones are released (the caller waited for the GPU)
+    m.width = m.height = 0;  // a retry at this size makes them again
+    return st;
+  }
   m.set_pixel_uniforms();
   m.write_pixel_descriptors();
   return {};

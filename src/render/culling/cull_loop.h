@@ -274,6 +274,9 @@ class CullLoop {
   bool shared_box_tests() const;
   // The node classification runs one subgroup per node (cull_classify_coop.comp push.mode 2).
   bool node_per_subgroup() const;
+  // A shared test's occupied cells go one after the other, each cell's texels over the subgroup
+  // (cull_classify.comp kSharedCells; MDSTREAM_CULL_SHARED_CELLS=1).
+  bool shared_cells() const;
   // GPU ms per sampling pass of the route in the last finished comparison (-1: none).
   double sample_route_ms(SampleRoute route) const;
   // After an iteration completed on the GPU (before the next is recorded): reads the timestamps

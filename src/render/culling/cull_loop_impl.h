@@ -89,6 +89,7 @@ struct CullLoop::Impl {
   vk::DescriptorSet set0_sample, set0_draw, set1;
   vk::UniquePipelineLayout layout;
   bool shared_box_tests = false;  // classify_pipe is cull_classify_coop.comp
+  bool shared_cells = false;      // its kSharedCells (a shared test's cells one at a time)
   // Nodes per 64-lane workgroup of the node classification with one subgroup per node
   // (cull_classify_coop.comp push.mode 2: 64 / subgroupSize); 0: one thread per node (mode 0).
   uint32_t nodes_per_group = 0;

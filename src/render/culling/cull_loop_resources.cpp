@@ -264,14 +264,20 @@ Status CullLoop::Impl::create_pipelines() {
     // kCooperativeTexels; MDSTREAM_CULL_COOP_TEXELS=N for A/B runs.
     const char* texels_env = std::getenv("MDSTREAM_CULL_COOP_TEXELS");
     const int32_t coop_texels = texels_env ? std::max(1, std::atoi(texels_env)) : 256;
+    // kSharedCells: a shared test's occupied cells one after the other, each cell's texels over
+    // the subgroup (cull_classify.comp cells_in_front_shared); MDSTREAM_CULL_SHARED_CELLS=1 / 0.
+    const char* cells_env = std::getenv("MDSTREAM_CULL_SHARED_CELLS");
+    shared_cells = coop && cells_env && std::string(cells_env) == "1";
     vk::SpecConstants spec;
     spec.add(0u, int32_t(node_extent));  // cull_classify.comp: kNodeExtent
     spec.add(1u, coop_texels);
+    spec.add(2u, VkBool32(shared_cells));
     MDS_ASSIGN_OR_RETURN(classify_pipe, vk::create_compute_pipeline(dev, layout, classify, &spec));
     if (node_extent != kNodeExtentInMemory) {
       vk::SpecConstants coarse;
       coarse.add(0u, int32_t(kNodeExtentInMemory));
       coarse.add(1u, coop_texels);
+      coarse.add(2u, VkBool32(shared_cells));
       MDS_ASSIGN_OR_RETURN(classify_coarse_pipe, vk::create_compute_pipeline(dev, layout, classify, &coarse));
     }
   }

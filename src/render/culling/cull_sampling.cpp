@@ -97,6 +97,7 @@ uint32_t CullLoop::Impl::probe_share() const {
 
 bool CullLoop::shared_box_tests() const { return impl_->shared_box_tests; }
 bool CullLoop::node_per_subgroup() const { return impl_->nodes_per_group > 0; }
+bool CullLoop::shared_cells() const { return impl_->shared_cells; }
 
 uint32_t CullLoop::sample_route_passes(SampleRoute route) const {
   return route == SampleRoute::compute ? impl_->route_passes[1]

@@ -279,8 +279,12 @@ Status NodePool::upload(uint32_t node, const NodeFrame& frame, const store::Node
   }
 
   // Commit.
+  if (Status st = budget_.reserve(bytes, "node pages"); !st.ok()) {  // fits() said it would
+    staging_head_ = staging_mark;
+    pages.clear();
+    return st;
+  }
   free_.resize(free_.size() - need);
-  MDS_TRY(budget_.reserve(bytes, "node pages"));
   if (particles.size() == 4 * n) {
     std::memcpy(base + part_off, particles.data(), n * 8);  // packed by a reader thread (prepare_node)
   } else {
