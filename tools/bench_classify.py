@@ -69,6 +69,7 @@ def run(mds, store, path, variant, args, work, log, rep):
         "device": j.get("device", "unknown"),
         "shared": j.get("cull_shared_box_tests", False),
         "node_per_subgroup": j.get("cull_node_per_subgroup", False),
+        "shared_cells": j.get("cull_shared_cells", False),
         "classify_sum": sum(classify),
         "nodes_sum": sum(nodes),
         "meshlets_sum": sum(meshlets),
@@ -126,6 +127,9 @@ def main():
                 if any(v != "thread" and not runs[v][0]["shared"] for v in variants):
                     print("bench_classify: the device has no subgroup ballot + shuffle + add: nothing to compare")
                     return 0
+                for v in variants:  # the variant's settings took effect
+                    if runs[v][0]["shared_cells"] != (v == "cells"):
+                        raise SystemExit(f"bench_classify: variant {v} ran with shared cells {runs[v][0]['shared_cells']}")
                 # Demand equal within each variant (reads that may or may not arrive within a
                 # frame make it vary between runs on a fast device), then across the variants.
                 steady = all(r["demand"] == rs[0]["demand"] for rs in runs.values() for r in rs)

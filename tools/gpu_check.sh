@@ -19,6 +19,8 @@
 #          run in docs/results/cache.md (1M particles, nodes of 1000, 320x180, 48 frames; ~50 s
 #          on an H100)
 #   cache_full  tools/bench_cache.py at its defaults (1.5M, nodes of 2000, 640x360; ~75 s)
+#   classify  tools/bench_classify.py --variants subgroup,cells (the shared cells candidate,
+#          docs/rendering.md) at 1M/320x180 and at its defaults (1.5M/640x360)
 #   sweep  tools/bench_mesh_path.py (1M) at 640x360 and 1920x1080 under the pixel-route settings
 #          MDSTREAM_PIXEL_ROUTE=attachments, MDSTREAM_SMALL_PX=0, =2 and the defaults (sweep/<cfg>_<w>)
 # OUT gets log.txt (everything) and results.tar (each step's files, appended as the step ends, so
@@ -140,18 +142,27 @@ cache_full() {
   local q=(); [ "$quick" = 1 ] && q=(--quick)
   "$py" "$repo/tools/bench_cache.py" "${q[@]}" --out "$work/cache_full" --work /tmp/gc_cache_full
 }
+classify() {
+  local q=(--particles 1000000 --node-size 1000 --frames 48 --width 320 --height 180)
+  [ "$quick" = 1 ] && q=(--quick)
+  "$py" "$repo/tools/bench_classify.py" "${q[@]}" --variants subgroup,cells --out "$work/classify/1m" \
+    --work /tmp/gc_classify_1m
+  [ "$quick" = 1 ] && return
+  "$py" "$repo/tools/bench_classify.py" --variants subgroup,cells --out "$work/classify/full" --work /tmp/gc_classify_full
+}
 big() {
   local q=(--particles 32M --width 1920 --height 1080 --budget 256MiB); [ "$quick" = 1 ] && q=(--quick)
   "$py" "$repo/tools/bench_mesh_path.py" "${q[@]}" --scenes porous --out "$work/big" --work /tmp/gc_big
 }
 
 export work repo mds py quick
-export -f smoke tests tests_mesh mesh render render_mesh cache cache_1m cache_full big sweep
+export -f smoke tests tests_mesh mesh render render_mesh cache cache_1m cache_full classify big sweep
 for s in $steps; do
   case $s in
     smoke) step smoke 90 smoke || { echo "smoke failed: no further steps (no driver found? GPU_CHECK_GL_DEBS)"; ldd "$mds" "$repo/build/libmdstream_vulkan.so" | grep -i "not found"; break; } ;;
     tests|tests_mesh) step "$s" 150 "$s" 140 ;;
     sweep) step sweep 300 sweep ;;
+    classify) step classify 300 classify ;;
     *) step "$s" 200 "$s" ;;
   esac
 done
