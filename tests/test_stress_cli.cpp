@@ -307,6 +307,33 @@ TEST_F(StressCli, EveryPolicyOnJumpsWritesConsistentJsonAndCsv) {
   EXPECT_NE(out.find("Belady"), std::string::npos) << out;
 }
 
+TEST_F(StressCli, PerFrameSampleRoutesFollowAForcedRoute) {
+  // per_frame.sample_route records what each frame's occlusion sampling ran: with the route
+  // forced (MDSTREAM_CULL_SAMPLE) every pass takes it and nothing is probed.
+  const uint64_t budget = fs::file_size(store()) / 4;
+  for (const char* route : {"raster", "compute"}) {
+    SCOPED_TRACE(route);
+    const fs::path js = dir_ / (std::string("route_") + route + ".json");
+    setenv("MDSTREAM_CULL_SAMPLE", route, 1);
+    const int rc = run("stress " + store() + " --gpu-budget " + std::to_string(budget) +
+                       " --path flythrough --frames 6 --settle-frames 6 --json " + js.string() + small());
+    unsetenv("MDSTREAM_CULL_SAMPLE");
+    ASSERT_EQ(rc, 0) << last_stderr();
+    std::ifstream f(js);
+    const auto j = nlohmann::json::parse(f);
+    const auto& routes = j["per_frame"]["sample_route"];
+    ASSERT_FALSE(routes.empty());
+    uint32_t taken = 0;
+    for (size_t i = 0; i < routes.size(); ++i) {
+      const std::string other = std::string(route) == "raster" ? "compute" : "raster";
+      EXPECT_EQ(routes[i][other].get<uint32_t>(), 0u) << "frame " << i;
+      EXPECT_EQ(routes[i]["probe"].get<std::string>(), "") << "frame " << i;
+      taken += routes[i][route].get<uint32_t>();
+    }
+    EXPECT_GE(taken, 6u);  // at least one pass in each moving frame
+  }
+}
+
 TEST_F(StressCli, ContinuousPathsSettleTheFinalViewAndAcceptSlowDiskOptions) {
   const uint64_t budget = fs::file_size(store()) / 4;
   for (const char* path : {"orbit", "flythrough"}) {
@@ -357,6 +384,17 @@ TEST_F(StressCli, ContinuousPathsSettleTheFinalViewAndAcceptSlowDiskOptions) {
         EXPECT_FALSE(passes[i].contains("view")) << "frame " << i;  // the held view goes on
       }
     }
+    // The occlusion sampling passes by route: one pass per iteration while the camera moves
+    // (Renderer::set_motion), and the automatic choice probes the other route at least once.
+    const auto& routes = j["per_frame"]["sample_route"];
+    ASSERT_EQ(routes.size(), gpu.size());
+    int probes = 0;
+    for (size_t i = 0; i < 12; ++i) {
+      EXPECT_EQ(routes[i]["raster"].get<uint32_t>() + routes[i]["compute"].get<uint32_t>(), 1u) << "frame " << i;
+      probes += routes[i]["probe"].get<std::string>().empty() ? 0 : 1;
+      EXPECT_TRUE(routes[i]["compared_ms"].contains("raster") && routes[i]["compared_ms"].contains("compute"));
+    }
+    EXPECT_GE(probes, 1);
     // Camera motion is not a held view: only the final camera (held after the path) is one.
     EXPECT_EQ(j["views_held"].get<uint32_t>(), 1u);
     const auto& v = j["final_view"];

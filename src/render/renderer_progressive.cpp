@@ -311,6 +311,14 @@ Result<FrameReport> Renderer::step() {
   rep.samples = m.samples;
   rep.accumulated = accumulate;
   rep.culling_active = m.pending_iteration;
+  if (m.cull) {
+    const culling::CullLoop::SampleRoutes routes = m.cull->take_sample_routes();
+    rep.sample_passes_raster = routes.raster;
+    rep.sample_passes_compute = routes.compute;
+    rep.sample_probe = routes.probe;
+    rep.sample_compared_ms_raster = m.cull->sample_route_ms(culling::SampleRoute::raster);
+    rep.sample_compared_ms_compute = m.cull->sample_route_ms(culling::SampleRoute::compute);
+  }
   rep.culling_converged = m.culling_converged;
   rep.complete = m.complete;
   rep.converged = (!m.cull || m.culling_converged) && m.complete;

@@ -196,7 +196,12 @@ Status run_stress(const StressOptions& o) {
     r.wall_ms = fr.wall_ms;
     r.gpu_ms = gpu.ms;
     r.gpu_passes = gpu.passes;
-    r.resize_ms = ms(t_view - t0).count();  // the pacer's scale and Renderer::resize (with set_motion)
+    r.resize_ms = ms(t_view - t0).count();
+    r.sample_raster = fr.sample_passes_raster;
+    r.sample_compute = fr.sample_passes_compute;
+    r.sample_probe = fr.sample_probe;
+    r.compared_raster_ms = fr.sample_compared_ms_raster;
+    r.compared_compute_ms = fr.sample_compared_ms_compute;  // the pacer's scale and Renderer::resize (with set_motion)
     r.view_ms = ms(t_step - t_view).count();
     r.step_ms = ms(t_finish - t_step).count();
     r.cache_ms = fr.cache_ms;
@@ -395,7 +400,8 @@ Status run_stress(const StressOptions& o) {
                                {"bytes_read_total", nlohmann::ordered_json::array()},
                                {"scale", nlohmann::ordered_json::array()},
                                {"gpu_passes", nlohmann::ordered_json::array()},
-                               {"cpu_parts", nlohmann::ordered_json::array()}};
+                               {"cpu_parts", nlohmann::ordered_json::array()},
+                               {"sample_route", nlohmann::ordered_json::array()}};
   for (const auto& f : frames) {
     pf["wall_ms"].push_back(f.wall_ms);
     pf["gpu_ms"].push_back(f.gpu_ms);
@@ -411,6 +417,12 @@ Status run_stress(const StressOptions& o) {
     pf["gpu_passes"].push_back(f.gpu_passes);  // pass -> GPU ms of this frame (summed over repeats)
     pf["cpu_parts"].push_back(  // wall ms of the frame's parts (FrameRecord)
         {{"resize", f.resize_ms}, {"set_view", f.view_ms}, {"step", f.step_ms}, {"cache", f.cache_ms}, {"finish", f.finish_ms}});
+    // The frame's occlusion sampling passes by route, its probe and the compared ms per pass
+    // (the automatic route choice's inputs: docs/rendering.md, "Occlusion sampling pass").
+    pf["sample_route"].push_back({{"raster", f.sample_raster},
+                                  {"compute", f.sample_compute},
+                                  {"probe", f.sample_probe < 0 ? "" : f.sample_probe == 1 ? "compute" : "raster"},
+                                  {"compared_ms", {{"raster", f.compared_raster_ms}, {"compute", f.compared_compute_ms}}}});
   }
   j["per_frame"] = pf;  // arrays: in the JSON only (the CSV keeps scalars)
 

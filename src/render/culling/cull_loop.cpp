@@ -333,6 +333,7 @@ Status CullLoop::warm_up(const Camera& camera) {
   const int best_route = m.best_route;
   const bool comparing = m.comparing, probing = m.probing, moving_comparison = m.moving_comparison;
   const uint32_t since_compare = m.since_compare, route_passes[2] = {m.route_passes[0], m.route_passes[1]};
+  const SampleRoutes routes_since = m.routes_since;
   const bool moving = m.moving;
   Status st;
   for (bool mv : {false, true}) {  // at rest and moving: their classify pipelines differ
@@ -350,6 +351,7 @@ Status CullLoop::warm_up(const Camera& camera) {
   m.since_compare = since_compare;
   m.route_passes[0] = route_passes[0];
   m.route_passes[1] = route_passes[1];
+  m.routes_since = routes_since;  // the warm-up's passes are no frame's
   m.compare_ms[0].clear();
   m.compare_ms[1].clear();
   m.histogram_pending = false;
@@ -386,12 +388,14 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
     // The probe of the other route (cull_loop.h kSampleRouteProbeShare): measured, not applied.
     m.sample_compute = m.best_route != 1;
     m.route_ts.begin(cmd, m.sample_compute ? "compute_probe" : "raster_probe");
+    m.routes_since.probe = m.sample_compute ? 1 : 0;
     m.record_sampling_pass(cmd, ts, iteration * m.max_passes(), m.probe_share());
     m.route_ts.end(cmd);
   }
   for (uint32_t p = 0; p < passes; ++p) {
     m.sample_compute = m.choose_compute_route(p, passes);
     ++m.route_passes[m.sample_compute ? 1 : 0];
+    ++(m.sample_compute ? m.routes_since.compute : m.routes_since.raster);
     const bool timed = (m.comparing || (m.moving && m.best_route >= 0)) && m.route_ts.enabled();
     if (timed)
       m.route_ts.begin(cmd, m.comparing ? (m.sample_compute ? "compute" : "raster")

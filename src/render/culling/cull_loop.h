@@ -279,6 +279,14 @@ class CullLoop {
   bool shared_cells() const;
   // GPU ms per sampling pass of the route in the last finished comparison (-1: none).
   double sample_route_ms(SampleRoute route) const;
+  // The sampling passes recorded since the last call, by route, and the probe among them
+  // (kSampleRouteProbeShare: a pass of the other route that only measures); then cleared. The
+  // renderer reports them per frame (FrameReport::sample_routes, `stress` per_frame.sample_route).
+  struct SampleRoutes {
+    uint32_t raster = 0, compute = 0;  // passes whose samples count
+    int probe = -1;                    // -1 none, 0 rasterized, 1 compute
+  };
+  SampleRoutes take_sample_routes();
   // After an iteration completed on the GPU (before the next is recorded): reads the timestamps
   // of a route comparison (automatic route choice). A no-op otherwise.
   Status collect_route_timings();

@@ -68,6 +68,7 @@ struct CullLoop::Impl {
   uint32_t since_compare = 0;       // iterations since the last comparison started
   uint32_t explore_interval = kSampleRouteExplore;  // iterations from one comparison to the next
   uint32_t route_passes[2] = {0, 0};
+  CullLoop::SampleRoutes routes_since;  // take_sample_routes()
   // While the camera moves: the winner's passes are timed too ("run_raster" / "run_compute"), and
   // one that slowed down past kSampleRouteClearCut x its compared time, and past the other
   // route's compared time, sets this: the next iteration compares (cull_sampling.cpp).

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <map>
 #include <string>
+#include <utility>
 
 #include "render/culling/cull_loop_impl.h"
 
@@ -103,6 +104,8 @@ uint32_t CullLoop::sample_route_passes(SampleRoute route) const {
   return route == SampleRoute::compute ? impl_->route_passes[1]
                                        : route == SampleRoute::raster ? impl_->route_passes[0] : 0u;
 }
+
+CullLoop::SampleRoutes CullLoop::take_sample_routes() { return std::exchange(impl_->routes_since, SampleRoutes{}); }
 
 double CullLoop::sample_route_ms(SampleRoute route) const {
   return route == SampleRoute::compute ? impl_->compared_ms[1]
