@@ -112,6 +112,41 @@ class StreamingRender : public ::testing::Test {
     return out;
   }
   static uint64_t file_size() { return fs::file_size(store_path()); }
+  // In-memory renders of the test store with 2 spp and at most 6 culling iterations (the
+  // culling state at the same iteration count, quickly), and view 2's camera.
+  static RenderSettings quick_settings() {
+    RenderSettings rs = settings(true);
+    rs.spp = 2;
+    rs.cull_settings.max_iterations = 6;
+    return rs;
+  }
+  struct QuickRenderer {
+    std::unique_ptr<Renderer> r;
+    Camera cam;
+  };
+  static Result<QuickRenderer> quick_renderer(const RenderSettings& rs = quick_settings()) {
+    MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(store_path()));
+    MDS_ASSIGN_OR_RETURN(auto scene, load_scene(*reader));
+    QuickRenderer q;
+    MDS_ASSIGN_OR_RETURN(q.r, Renderer::create(*ctx_, scene, rs));
+    q.cam = view(*reader, 2);
+    return q;
+  }
+  // A node pool over the test store (pool_layout_for, pool_scene_for at origin 0) for
+  // `budget` bytes, and one frame of its operations: begin_frame, body(cmd), end_frame, waited for.
+  static Result<std::unique_ptr<streaming_gpu::NodePool>> make_pool(const store::StoreReader& reader, uint64_t budget) {
+    const streaming_gpu::PoolLayout layout = streaming_gpu::pool_layout_for(reader.header());
+    return streaming_gpu::NodePool::create(*ctx_, layout, streaming_gpu::pool_scene_for(reader, layout, glm::dvec3(0.0)),
+                                           uint32_t(reader.nodes().size()), budget, 1000, 1 << 20);
+  }
+  template <class F>
+  static Status pool_frame(streaming_gpu::NodePool& p, F&& body) {
+    p.begin_frame();
+    return ctx_->submit_and_wait([&](VkCommandBuffer cmd) {
+      body(cmd);
+      p.end_frame(cmd);
+    });
+  }
 
   static fs::path dir_;
   static std::unique_ptr<vk::Context> ctx_;
@@ -410,27 +445,21 @@ TEST_F(StreamingRender, ResizeKeepsTheCacheAndReturnsToTheSameImage) {
 }
 
 TEST_F(StreamingRender, InMemoryResizeRoundTripIsPixelIdentical) {
-  auto reader = store::StoreReader::open(store_path());
-  ASSERT_TRUE(reader.ok());
-  auto scene = load_scene(*reader.value());
-  ASSERT_TRUE(scene.ok());
-  RenderSettings rs = settings(true);
-  rs.spp = 2;
-  rs.cull_settings.max_iterations = 6;  // the culling state at the same iteration count, quickly
-  auto r = Renderer::create(*ctx_, scene.value(), rs);
-  ASSERT_TRUE(r.ok()) << r.error().message;
-  const Camera cam = view(*reader.value(), 2);
-  auto a = r.value()->render(cam);
+  auto q = quick_renderer();
+  ASSERT_TRUE(q.ok()) << q.error().message;
+  Renderer& r = *q.value().r;
+  const Camera cam = q.value().cam;
+  auto a = r.render(cam);
   ASSERT_TRUE(a.ok());
-  ASSERT_TRUE(r.value()->resize(kW / 4, kH / 4).ok());
-  auto small = r.value()->render(cam);
+  ASSERT_TRUE(r.resize(kW / 4, kH / 4).ok());
+  auto small = r.render(cam);
   ASSERT_TRUE(small.ok()) << small.error().message;
   EXPECT_EQ(small.value().width, kW / 4);
-  ASSERT_TRUE(r.value()->resize(kW, kH).ok());
-  auto b = r.value()->render(cam);
+  ASSERT_TRUE(r.resize(kW, kH).ok());
+  auto b = r.render(cam);
   ASSERT_TRUE(b.ok());
   EXPECT_TRUE(a.value().rgba == b.value().rgba) << differing_pixels(a.value(), b.value()) << " pixels differ";
-  EXPECT_FALSE(r.value()->resize(0, kH).ok());
+  EXPECT_FALSE(r.resize(0, kH).ok());
 }
 
 TEST_F(StreamingRender, ResizeWithinCapacityAllocatesNothingAndMatchesAFreshRenderer) {
@@ -452,24 +481,19 @@ TEST_F(StreamingRender, ResizeWithinCapacityAllocatesNothingAndMatchesAFreshRend
         unsetenv("MDSTREAM_ACCUM");
       }
     } unset;
-    auto reader = store::StoreReader::open(store_path());
-    ASSERT_TRUE(reader.ok());
-    auto scene = load_scene(*reader.value());
-    ASSERT_TRUE(scene.ok());
-    RenderSettings rs = settings(true);
-    rs.spp = 2;
-    rs.cull_settings.max_iterations = 6;
-    auto r = Renderer::create(*ctx_, scene.value(), rs);
-    ASSERT_TRUE(r.ok()) << r.error().message;
-    const Camera cam = view(*reader.value(), 2);
-    ASSERT_TRUE(r.value()->render(cam).ok());
+    const RenderSettings rs = quick_settings();
+    auto q = quick_renderer(rs);
+    ASSERT_TRUE(q.ok()) << q.error().message;
+    Renderer& r = *q.value().r;
+    const Camera cam = q.value().cam;
+    ASSERT_TRUE(r.render(cam).ok());
     const vk::Allocator& alloc = ctx_->allocator();
     const uint32_t sw = kW / 2 + 3, sh = kH / 3 + 1;  // odd sizes: other pyramid levels and strides
     uint64_t before = alloc.allocation_count();
-    ASSERT_TRUE(r.value()->resize(sw, sh).ok());
+    ASSERT_TRUE(r.resize(sw, sh).ok());
     EXPECT_EQ(alloc.allocation_count(), before) << "a resize to a smaller size allocated";
     RenderStats st;
-    auto small = r.value()->render(cam, &st);
+    auto small = r.render(cam, &st);
     ASSERT_TRUE(small.ok()) << small.error().message;
     EXPECT_EQ(st.visibility_route, !attachments);
     EXPECT_EQ(st.accumulation_buffer, !attachments);
@@ -479,21 +503,21 @@ TEST_F(StreamingRender, ResizeWithinCapacityAllocatesNothingAndMatchesAFreshRend
     RenderSettings fs = rs;
     fs.width = sw;
     fs.height = sh;
-    auto fresh = Renderer::create(*ctx_, scene.value(), fs);
+    auto fresh = quick_renderer(fs);
     ASSERT_TRUE(fresh.ok()) << fresh.error().message;
-    auto ref = fresh.value()->render(cam);
+    auto ref = fresh.value().r->render(cam);
     ASSERT_TRUE(ref.ok());
     EXPECT_TRUE(small.value().rgba == ref.value().rgba) << differing_pixels(small.value(), ref.value()) << " pixels differ";
 
     // Back to the full size and a size between: still within the capacity.
     before = alloc.allocation_count();
-    ASSERT_TRUE(r.value()->resize(kW, kH).ok());
-    ASSERT_TRUE(r.value()->resize(kW - 5, kH - 7).ok());
+    ASSERT_TRUE(r.resize(kW, kH).ok());
+    ASSERT_TRUE(r.resize(kW - 5, kH - 7).ok());
     EXPECT_EQ(alloc.allocation_count(), before) << "a resize within the capacity allocated";
     // Wider than ever before: new targets.
-    ASSERT_TRUE(r.value()->resize(kW + 16, kH).ok());
+    ASSERT_TRUE(r.resize(kW + 16, kH).ok());
     EXPECT_GT(alloc.allocation_count(), before);
-    auto wide = r.value()->render(cam);
+    auto wide = r.render(cam);
     ASSERT_TRUE(wide.ok()) << wide.error().message;
     EXPECT_EQ(wide.value().width, kW + 16);
   }
@@ -506,29 +530,23 @@ TEST_F(StreamingRender, AFailedResizeRefusesFramesUntilTheNextOne) {
   const uint64_t range = ctx_->limits().maxStorageBufferRange;
   const uint32_t w = 16384, h = uint32_t(std::min<uint64_t>(16384, range / 8 / w + 1));
   if (8ull * w * h <= range) GTEST_SKIP() << "no size up to 16384 x 16384 exceeds maxStorageBufferRange " << range;
-  auto reader = store::StoreReader::open(store_path());
-  ASSERT_TRUE(reader.ok());
-  auto scene = load_scene(*reader.value());
-  ASSERT_TRUE(scene.ok());
-  RenderSettings rs = settings(true);
-  rs.spp = 2;
-  rs.cull_settings.max_iterations = 6;
-  auto r = Renderer::create(*ctx_, scene.value(), rs);
-  ASSERT_TRUE(r.ok()) << r.error().message;
-  const Camera cam = view(*reader.value(), 2);
-  auto before = r.value()->render(cam);
+  auto q = quick_renderer();
+  ASSERT_TRUE(q.ok()) << q.error().message;
+  Renderer& r = *q.value().r;
+  const Camera cam = q.value().cam;
+  auto before = r.render(cam);
   ASSERT_TRUE(before.ok());
-  if (!r.value()->stats().visibility_route) GTEST_SKIP() << "the attachments route has no buffer to exceed the range";
-  Status st = r.value()->resize(w, h);
+  if (!r.stats().visibility_route) GTEST_SKIP() << "the attachments route has no buffer to exceed the range";
+  Status st = r.resize(w, h);
   ASSERT_FALSE(st.ok());
   EXPECT_NE(st.error().message.find(std::to_string(w) + "x" + std::to_string(h)), std::string::npos) << st.error().message;
-  ASSERT_TRUE(r.value()->set_view(cam).ok());
-  auto step = r.value()->step();
+  ASSERT_TRUE(r.set_view(cam).ok());
+  auto step = r.step();
   ASSERT_FALSE(step.ok());
   EXPECT_NE(step.error().message.find("resize"), std::string::npos) << step.error().message;
-  EXPECT_FALSE(r.value()->read_image().ok());
-  ASSERT_TRUE(r.value()->resize(kW, kH).ok());
-  auto after = r.value()->render(cam);
+  EXPECT_FALSE(r.read_image().ok());
+  ASSERT_TRUE(r.resize(kW, kH).ok());
+  auto after = r.render(cam);
   ASSERT_TRUE(after.ok()) << after.error().message;
   EXPECT_TRUE(before.value().rgba == after.value().rgba) << differing_pixels(before.value(), after.value()) << " pixels differ";
 }
@@ -628,7 +646,6 @@ TEST_F(StreamingRender, PoolTransfersOfOneFrameLandInOrder) {
   ASSERT_TRUE(opened.ok());
   const store::StoreReader& reader = *opened.value();
   const streaming_gpu::PoolLayout layout = streaming_gpu::pool_layout_for(reader.header());
-  const streaming_gpu::PoolScene ps = streaming_gpu::pool_scene_for(reader, layout, glm::dvec3(0.0));
   const auto& nodes = reader.nodes();
   // Two nodes of the same page count: the pool holds one of them at a time.
   const uint32_t a = 0;
@@ -636,8 +653,7 @@ TEST_F(StreamingRender, PoolTransfersOfOneFrameLandInOrder) {
   auto pages = [&](uint32_t i) { return layout.pages_for(nodes[i].particle_count, nodes[i].meshlet_count); };
   while (b < nodes.size() && pages(b) != pages(a)) ++b;
   ASSERT_LT(b, nodes.size());
-  auto pool = streaming_gpu::NodePool::create(*ctx_, layout, ps, uint32_t(nodes.size()), layout.node_bytes(nodes[a].particle_count, nodes[a].meshlet_count),
-                                              1000, 1 << 20);
+  auto pool = make_pool(reader, layout.node_bytes(nodes[a].particle_count, nodes[a].meshlet_count));
   ASSERT_TRUE(pool.ok()) << pool.error().message;
   streaming_gpu::NodePool& p = **pool;
   ASSERT_EQ(p.page_count(), pages(a));
@@ -666,13 +682,11 @@ TEST_F(StreamingRender, PoolTransfersOfOneFrameLandInOrder) {
   };
   // A frame's operations in order: +node places it, -node evicts it.
   auto frame = [&](std::initializer_list<int> ops) {
-    p.begin_frame();
-    return ctx_->submit_and_wait([&](VkCommandBuffer cmd) {
+    return pool_frame(p, [&](VkCommandBuffer cmd) {
       for (int op : ops) {
         const uint32_t i = uint32_t(std::abs(op) - 1);
         EXPECT_TRUE((op > 0 ? p.upload(i, frame_of(i), i == a ? da : db) : p.evict(cmd, i)).ok()) << op;
       }
-      p.end_frame(cmd);
     });
   };
   const int A = int(a) + 1, B = int(b) + 1;
@@ -699,9 +713,7 @@ TEST_F(StreamingRender, PreparedUploadStagesWhatTheInlineOneDoes) {
   const streaming_gpu::PoolScene ps = streaming_gpu::pool_scene_for(reader, layout, glm::dvec3(0.0));
   const auto& nodes = reader.nodes();
   const uint32_t a = uint32_t(nodes.size() / 2);
-  auto pool = streaming_gpu::NodePool::create(*ctx_, layout, ps, uint32_t(nodes.size()),
-                                              2 * layout.node_bytes(nodes[a].particle_count, nodes[a].meshlet_count),
-                                              1000, 1 << 20);
+  auto pool = make_pool(reader, 2 * layout.node_bytes(nodes[a].particle_count, nodes[a].meshlet_count));
   ASSERT_TRUE(pool.ok()) << pool.error().message;
   streaming_gpu::NodePool& p = **pool;
   store::NodeData d;
@@ -738,13 +750,7 @@ TEST_F(StreamingRender, PreparedUploadStagesWhatTheInlineOneDoes) {
     std::sort(out.begin(), out.end());
     return out;
   };
-  auto frame = [&](auto&& body) {
-    p.begin_frame();
-    return ctx_->submit_and_wait([&](VkCommandBuffer cmd) {
-      body(cmd);
-      p.end_frame(cmd);
-    });
-  };
+  auto frame = [&](auto&& body) { return pool_frame(p, body); };
   ASSERT_TRUE(frame([&](VkCommandBuffer) { EXPECT_TRUE(p.upload(a, f, d).ok()); }).ok());
   const auto inline_content = content();
   ASSERT_EQ(inline_content.size(), nodes[a].meshlet_count);
