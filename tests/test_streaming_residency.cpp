@@ -274,7 +274,9 @@ TEST(StreamingResidency, ResidentListFollowsEveryTransition) {
       case Residency::absent: ASSERT_TRUE(t.mark_requested(i).ok()); break;
       case Residency::requested: ASSERT_TRUE((next(4) == 0 ? t.mark_cancelled(i) : t.mark_loaded(i)).ok()); break;
       case Residency::resident:
-        if (next(2) == 0) ASSERT_TRUE(t.mark_evicted(i).ok());
+        if (next(2) == 0) {
+          ASSERT_TRUE(t.mark_evicted(i).ok());
+        }
         break;
     }
     t.set_class(i, uint8_t(next(4)));
@@ -319,7 +321,9 @@ TEST(StreamingResidency, PrefetchOrderWithALimitIsThePrefixOfTheWholeOrder) {
         t.set_view(i, float(next(6)), float(next(4)) / 4.0f, next(4) != 0);
         t.set_class(i, uint8_t(next(4)));
         t.set_ahead(i, uint8_t(next(3)));
-        if (next(5) == 0) ASSERT_TRUE(t.mark_requested(i).ok());
+        if (next(5) == 0) {
+          ASSERT_TRUE(t.mark_requested(i).ok());
+        }
       }
       const auto whole = t.prefetch_order();
       for (size_t k = 1; k < whole.size(); ++k) ASSERT_TRUE(t.displaces(whole[k - 1], whole[k])) << k;
