@@ -45,7 +45,7 @@ struct IoOptions {
   bool start_paused = false; // workers take no request until resume() (batch submission)
   // Work on a decoded node that the reader thread does before it reports the node finished
   // (the cache's meshlet bounds and particle records, render/streaming/node_pool.h
-  // prepare_node), so that the render loop does not: fills IoCompletion::prepared. Runs on the reader threads, concurrently: it
+  // meshlet_bounds, pack_particles), so that the render loop does not: fills IoCompletion::prepared. Runs on the reader threads, concurrently: it
   // must only read shared state. An error makes the completion an error (prefixed with the
   // store's path), and the node is never read again, as after a failed decode. Empty: none.
   std::function<Status(uint32_t node, const store::NodeData& data, PreparedNode& out)> prepare;

@@ -703,9 +703,9 @@ TEST_F(StreamingRender, PoolTransfersOfOneFrameLandInOrder) {
 TEST_F(StreamingRender, PreparedUploadStagesWhatTheInlineOneDoes) {
   // The cache's reader threads pack a node's particle records and its meshlet bounds
   // (IoOptions::prepare: pack_particles, meshlet_bounds); NodePool::upload then copies them. The
-  // pool must end up with the same meshlets and particles as an upload that makes both itself
-  // (read back per meshlet, in its order: the pages differ). An inconsistent node changes
-  // nothing: its pages and staging return and a valid upload follows.
+  // pool must hold the node's particles, and the same meshlets and particles as an upload that
+  // makes both itself (read back per meshlet, in its order: the pages differ). An inconsistent
+  // node changes nothing: its pages and staging return and a valid upload follows.
   auto opened = store::StoreReader::open(store_path());
   ASSERT_TRUE(opened.ok());
   const store::StoreReader& reader = *opened.value();
@@ -754,6 +754,18 @@ TEST_F(StreamingRender, PreparedUploadStagesWhatTheInlineOneDoes) {
   ASSERT_TRUE(frame([&](VkCommandBuffer) { EXPECT_TRUE(p.upload(a, f, d).ok()); }).ok());
   const auto inline_content = content();
   ASSERT_EQ(inline_content.size(), nodes[a].meshlet_count);
+  // The pool holds the decoded node's particles, each as (x, y, z, type) (the GPU's record:
+  // gpu_types.h), whatever makes them.
+  {
+    std::vector<std::vector<float>> expect, got;
+    for (size_t i = 0; i < d.particle_count(); ++i)
+      expect.push_back({float(d.qpos[3 * i]), float(d.qpos[3 * i + 1]), float(d.qpos[3 * i + 2]), float(d.type_index[i])});
+    for (const auto& v : inline_content)
+      for (size_t q = 7; q + 4 <= v.size(); q += 4) got.push_back({v[q], v[q + 1], v[q + 2], v[q + 3]});
+    std::sort(expect.begin(), expect.end());
+    std::sort(got.begin(), got.end());
+    EXPECT_TRUE(got == expect) << "the pool's particle records are not the node's";
+  }
 
   std::vector<float> bounds;
   std::vector<uint16_t> packed;

@@ -233,6 +233,11 @@ Status NodePool::upload(uint32_t node, const NodeFrame& frame, const store::Node
     MDS_TRY(meshlet_bounds(scene_, node, frame, d, computed));
     bounds = computed;
   }
+  std::vector<uint16_t> packed;
+  if (particles.size() != 4 * n) {  // not prepared by the caller
+    pack_particles(d, packed);
+    particles = packed;
+  }
 
   // The staging area: particles (uint16 x, y, z, type), radii, meshlet records; one copy region
   // per page, recorded by flush(). The meshlet records are written straight into it, each built
@@ -285,21 +290,7 @@ Status NodePool::upload(uint32_t node, const NodeFrame& frame, const store::Node
     return st;
   }
   free_.resize(free_.size() - need);
-  if (particles.size() == 4 * n) {
-    std::memcpy(base + part_off, particles.data(), n * 8);  // packed by a reader thread (prepare_node)
-  } else {
-    uint16_t part[4 * 64];  // a block of 64 particles, then one copy into the staging area
-    for (uint64_t i0 = 0; i0 < n; i0 += 64) {
-      const uint64_t c = std::min<uint64_t>(64, n - i0);
-      for (uint64_t i = 0; i < c; ++i) {
-        part[4 * i + 0] = d.qpos[3 * (i0 + i) + 0];
-        part[4 * i + 1] = d.qpos[3 * (i0 + i) + 1];
-        part[4 * i + 2] = d.qpos[3 * (i0 + i) + 2];
-        part[4 * i + 3] = d.type_index[i0 + i];
-      }
-      std::memcpy(base + part_off + i0 * 8, part, c * 8);
-    }
-  }
+  std::memcpy(base + part_off, particles.data(), n * 8);
   if (layout_.radii) std::memcpy(base + rad_off, d.radius_q.data(), n * 2);
   for (uint32_t i = 0; i < need; ++i) {
     const uint64_t first = uint64_t(i) * P, count = first < n ? std::min<uint64_t>(P, n - first) : 0;
