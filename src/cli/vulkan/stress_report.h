@@ -25,8 +25,8 @@ struct FrameRecord {
   bool after_converged = false;  // extra frames after the final view converged (converged-frame cost)
   double wall_ms = 0.0;
   double gpu_ms = 0.0;                          // this frame's timestamped passes
-  // CPU wall time of the frame's parts: resize (--dynamic-resolution: the pacer's scale and
-  // Renderer::resize), set_view (a new camera: the cache's view, the culling reset), step (of
+  // CPU wall time of the frame's parts: resize (all before set_view: --dynamic-resolution's
+  // scale and Renderer::resize, the motion and path hints), set_view (a new camera: the cache's view, the culling reset), step (of
   // it: the cache's update), finish (waits for the frame's GPU work).
   double resize_ms = 0.0, view_ms = 0.0, step_ms = 0.0, cache_ms = 0.0, finish_ms = 0.0;
   std::map<std::string, double> gpu_passes;     // per pass (the sampling passes of an iteration summed)
