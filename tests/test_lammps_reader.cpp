@@ -333,6 +333,42 @@ TEST_F(LammpsReaderTest, NonFiniteCoordinates) {
   }
 }
 
+// A frame of 64,000 atoms (LAMMPS's 4,000 repeated) is parsed in parallel ranges of ~64 KiB by
+// several threads; with two bad lines in different ranges the error names the earlier one,
+// whichever range a thread finished first, and the particles of a good copy are the reference's.
+TEST_F(LammpsReaderTest, LargeFrameParsedInRangesMatchesAndNamesTheFirstBadLine) {
+  const auto base = first_frame_lines();
+  const size_t n0 = base.size() - 9, copies = 16, n = n0 * copies;
+  std::vector<std::string> lines(base.begin(), base.begin() + 9);
+  lines[3] = std::to_string(n);
+  for (size_t c = 0; c < copies; ++c) lines.insert(lines.end(), base.begin() + 9, base.end());
+  const fs::path good = scratch("large.lammpstrj", join_lines(lines));
+  const ReadAll all = read_all(open_lammps_reader(good, frame_opt(0)));
+  ASSERT_FALSE(all.error.has_value()) << all.error->message;
+  ASSERT_EQ(all.all.size(), n);
+  const auto ref = reference("dump.default.lammpstrj");
+  for (size_t i = 0; i < n; i += 997) {
+    ASSERT_EQ(all.all.id[i], static_cast<int64_t>(ref[0].col(i % n0, "id"))) << i;
+    ASSERT_EQ(all.all.x[i], ref[0].col(i % n0, "x")) << i;
+    ASSERT_EQ(all.all.z[i], ref[0].col(i % n0, "z")) << i;
+  }
+  // Atom indices of the two bad lines: far apart (other ranges), the early one a range error
+  // (non-finite) or a format error (a missing column), the late one the other kind.
+  const struct {
+    size_t early, late;
+    bool early_nonfinite;
+  } cases[] = {{5000, 60000, true}, {30000, 30500, false}, {100, 63999, false}, {41000, 41001, true}};
+  for (const auto& c : cases) {
+    SCOPED_TRACE(std::to_string(c.early) + " " + std::to_string(c.late));
+    auto bad = lines;
+    bad[9 + c.early] = c.early_nonfinite ? "1 1 nan 0 0" : "1 1 0.5 0.5";
+    bad[9 + c.late] = c.early_nonfinite ? "1 1 0.5 0.5" : "1 1 nan 0 0";
+    const fs::path p = scratch("large_bad.lammpstrj", join_lines(bad));
+    expect_error(read_all(open_lammps_reader(p, frame_opt(0))), c.early_nonfinite ? Errc::range : Errc::format, p,
+                 10 + c.early);
+  }
+}
+
 TEST_F(LammpsReaderTest, WrongAtomCount) {
   const std::string text = read_text(file("dump.default.lammpstrj"));
   auto lines = split_lines(text);

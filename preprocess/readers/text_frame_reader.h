@@ -2,7 +2,7 @@
 // frame (skipping earlier frames by counting newlines only, or scanning to the last one and
 // seeking back), and the ParticleReader base that streams a frame's atom lines from the
 // TextSource in large blocks which the concrete reader parses in parallel
-// (parallel_line_ranges, one range per hardware thread).
+// (parallel_line_ranges: ranges of ~64 KiB taken in turn by one thread per hardware thread).
 #pragma once
 
 #include <cstdint>
@@ -83,13 +83,14 @@ class TextFrameReader : public ParticleReader {
   virtual Status check_frame_end() = 0;
 
   // Runs fn(begin, end, first, lines, error) on ranges of blk in parallel (first = index of
-  // the range's first line within blk); returns the first error a range recorded.
+  // the range's first line within blk); returns the error of the earliest range that recorded
+  // one (each range stops at its first error, so that is the block's first error by line).
   template <class Fn>
   Status parse_parallel(const LineBlock& blk, Fn&& fn) {
-    std::vector<LineParseError> errs(line_parallelism());
-    parallel_line_ranges(blk, errs.size(), kMinLinesPerThread,
-                         [&](size_t part, const char* b, const char* e, size_t first, size_t lines) {
-                           fn(b, e, first, lines, errs[part]);
+    std::vector<LineParseError> errs(line_range_count(blk, line_parallelism(), kMinLinesPerThread));
+    parallel_line_ranges(blk, line_parallelism(), kMinLinesPerThread,
+                         [&](size_t range, const char* b, const char* e, size_t first, size_t lines) {
+                           fn(b, e, first, lines, errs[range]);
                          });
     for (auto& pe : errs)
       if (pe.set) return pe.error;

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <charconv>
 #include <cstring>
 #include <cstdint>
@@ -21,6 +22,10 @@
 #include <string_view>
 #include <thread>
 #include <vector>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "core/result.h"
 
@@ -125,10 +130,24 @@ std::string excerpt(std::string_view s, size_t max_chars = 60);
 
 namespace mds {
 
-// Number of '\n' bytes in [b, e); eight bytes at a time (exact zero-byte test on the XOR).
+// Number of '\n' bytes in [b, e). With SSE2 (every x86-64): 16 bytes a step, the compare masks
+// (0xff = -1 per '\n') subtracted into byte counters that are summed (psadbw) every 255 steps
+// before they can wrap; 31 GB/s on a cached LAMMPS dump against 9.3 GB/s for the eight-byte
+// SWAR loop it replaced, which stays as the fallback (exact zero-byte test on the XOR). The
+// text readers count every block twice (TextSource::take_lines, parallel_line_ranges).
 inline size_t count_newlines(const char* b, const char* e) {
-  constexpr uint64_t k7f = 0x7f7f7f7f7f7f7f7fULL, knl = 0x0a0a0a0a0a0a0a0aULL;
   size_t n = 0;
+#if defined(__SSE2__)
+  const __m128i nl = _mm_set1_epi8('\n');
+  while (e - b >= 16) {
+    __m128i acc = _mm_setzero_si128();
+    for (int k = 0; k < 255 && e - b >= 16; ++k, b += 16)
+      acc = _mm_sub_epi8(acc, _mm_cmpeq_epi8(_mm_loadu_si128(reinterpret_cast<const __m128i*>(b)), nl));
+    const __m128i sums = _mm_sad_epu8(acc, _mm_setzero_si128());  // two 64-bit byte sums
+    n += static_cast<size_t>(_mm_cvtsi128_si64(sums)) + static_cast<size_t>(_mm_cvtsi128_si64(_mm_unpackhi_epi64(sums, sums)));
+  }
+#else
+  constexpr uint64_t k7f = 0x7f7f7f7f7f7f7f7fULL, knl = 0x0a0a0a0a0a0a0a0aULL;
   while (e - b >= 8) {
     uint64_t w;
     std::memcpy(&w, b, 8);
@@ -138,6 +157,7 @@ inline size_t count_newlines(const char* b, const char* e) {
     n += static_cast<size_t>((ones * 0x0101010101010101ULL) >> 56);  // byte sum (<= 8)
     b += 8;
   }
+#endif
   for (; b < e; ++b) n += (*b == '\n');
   return n;
 }
@@ -145,40 +165,76 @@ inline size_t count_newlines(const char* b, const char* e) {
 // Parts worth using for parallel parsing on this machine (hardware threads, capped at 8).
 size_t line_parallelism();
 
-// Splits `blk` at line boundaries into up to `max_parts` ranges of at least
-// `min_lines_per_part` lines and calls fn(part, begin, end, first_index, lines) for each,
-// the first on the calling thread and the others on their own threads; returns the
-// number of parts. first_index is the index of the range's first line within the block.
+// Parallel parsing cuts a block into ranges of about kLineRangeBytes (at most kMaxLineRanges),
+// which the threads take in order from a shared counter: a thread that gets a core late (the
+// block's other threads share the cores with the reader pipeline's consumer) takes fewer ranges
+// instead of holding up the block. 64 KiB is ~1,800 LAMMPS atom lines, ~80 us of parsing.
+inline constexpr size_t kLineRangeBytes = size_t(64) << 10;
+inline constexpr size_t kMaxLineRanges = 256;
+
+// Threads parallel_line_ranges uses for blk: min(max_threads, lines / min_lines_per_thread),
+// at least 1.
+inline size_t line_threads(const LineBlock& blk, size_t max_threads, size_t min_lines_per_thread) {
+  return std::max<size_t>(1, std::min(max_threads, blk.lines / std::max<size_t>(1, min_lines_per_thread)));
+}
+
+// Ranges parallel_line_ranges cuts blk into: 1 when it runs on one thread, else about one per
+// kLineRangeBytes, at least one per thread, at most kMaxLineRanges.
+inline size_t line_range_count(const LineBlock& blk, size_t max_threads, size_t min_lines_per_thread) {
+  const size_t threads = line_threads(blk, max_threads, min_lines_per_thread);
+  if (threads <= 1) return 1;
+  const size_t bytes = static_cast<size_t>(blk.end - blk.begin);
+  return std::clamp(bytes / kLineRangeBytes, threads, kMaxLineRanges);
+}
+
+// Cuts `blk` at line boundaries into line_range_count(blk, ...) ranges and calls
+// fn(range, begin, end, first_index, lines) once for each, on line_threads(blk, ...) threads
+// (the calling thread and others of their own); returns the number of ranges. first_index is
+// the index of the range's first line within the block. A range may hold no line. The threads
+// first count the ranges' lines (taking ranges from a shared counter), then parse them in the
+// same way; a range's first index is the sum of the counts before it, so parsing waits only
+// until every range has been counted (a few tens of us), not for the other threads to start.
+// Precondition: blk.lines is the number of '\n' in [blk.begin, blk.end).
 template <class Fn>
-size_t parallel_line_ranges(const LineBlock& blk, size_t max_parts, size_t min_lines_per_part, Fn&& fn) {
-  size_t parts = std::max<size_t>(1, std::min(max_parts, blk.lines / std::max<size_t>(1, min_lines_per_part)));
-  if (parts <= 1) {
+size_t parallel_line_ranges(const LineBlock& blk, size_t max_threads, size_t min_lines_per_thread, Fn&& fn) {
+  const size_t threads = line_threads(blk, max_threads, min_lines_per_thread);
+  const size_t ranges = line_range_count(blk, max_threads, min_lines_per_thread);
+  if (ranges <= 1) {
     fn(size_t{0}, blk.begin, blk.end, size_t{0}, blk.lines);
     return 1;
   }
   // Cut points: split the bytes evenly, then move each cut past the next '\n'.
-  std::vector<const char*> cut(parts + 1);
-  std::vector<size_t> first(parts + 1);
+  std::vector<const char*> cut(ranges + 1);
   cut[0] = blk.begin;
-  cut[parts] = blk.end;
+  cut[ranges] = blk.end;
   const size_t bytes = static_cast<size_t>(blk.end - blk.begin);
-  for (size_t i = 1; i < parts; ++i) {
-    const char* p = std::max(cut[i - 1], blk.begin + bytes * i / parts);
+  for (size_t i = 1; i < ranges; ++i) {
+    const char* p = std::max(cut[i - 1], blk.begin + bytes * i / ranges);
     // p > begin; step to just after the '\n' that ends the line containing p[-1].
     const char* nl = static_cast<const char*>(std::memchr(p - 1, '\n', static_cast<size_t>(blk.end - (p - 1))));
     cut[i] = nl + 1;
   }
-  first[0] = 0;
-  for (size_t i = 1; i <= parts; ++i) {
-    first[i] = first[i - 1] + count_newlines(cut[i - 1], cut[i]);
-  }
-  std::vector<std::thread> threads;
-  threads.reserve(parts - 1);
-  for (size_t i = 1; i < parts; ++i)
-    threads.emplace_back([&, i] { fn(i, cut[i], cut[i + 1], first[i], first[i + 1] - first[i]); });
-  fn(size_t{0}, cut[0], cut[1], first[0], first[1] - first[0]);
-  for (auto& t : threads) t.join();
-  return parts;
+  std::vector<size_t> count(ranges);
+  std::atomic<size_t> next_count{0}, counted{0}, next_parse{0};
+  auto run = [&] {
+    for (size_t i; (i = next_count.fetch_add(1, std::memory_order_relaxed)) < ranges;) {
+      count[i] = count_newlines(cut[i], cut[i + 1]);
+      if (counted.fetch_add(1, std::memory_order_acq_rel) + 1 == ranges) counted.notify_all();
+    }
+    // Every range taken for counting; wait for the ones still being counted.
+    for (size_t c; (c = counted.load(std::memory_order_acquire)) < ranges;) counted.wait(c, std::memory_order_acquire);
+    size_t first = 0, summed = 0;  // first index of range i: the counts of ranges [0, i), summed as i grows
+    for (size_t i; (i = next_parse.fetch_add(1, std::memory_order_relaxed)) < ranges;) {
+      for (; summed < i; ++summed) first += count[summed];
+      fn(i, cut[i], cut[i + 1], first, count[i]);
+    }
+  };
+  std::vector<std::thread> pool;
+  pool.reserve(threads - 1);
+  for (size_t t = 1; t < threads; ++t) pool.emplace_back(run);
+  run();
+  for (auto& t : pool) t.join();
+  return ranges;
 }
 
 }  // namespace mds
