@@ -33,21 +33,41 @@ IoPool::~IoPool() {
   for (auto& t : threads_) t.join();
 }
 
-bool IoPool::submit(uint32_t node, double priority) {
-  std::lock_guard lock(mutex_);
-  if (stop_ || node >= reader_.nodes().size() || failed_.count(node) || busy_.count(node)) return false;
+int IoPool::submit_locked(uint32_t node, double priority) {
+  if (stop_ || node >= reader_.nodes().size() || failed_.count(node) || busy_.count(node)) return 0;
   if (auto it = queued_.find(node); it != queued_.end()) {
     queue_.erase(it->second);
     it->second = Key{priority, seq_++, node};
     queue_.insert(it->second);
-    return true;
+    return 2;
   }
   Key k{priority, seq_++, node};
   queue_.insert(k);
   queued_.emplace(node, k);
   ++stats_.submitted;
-  work_cv_.notify_one();
-  return true;
+  return 1;
+}
+
+bool IoPool::submit(uint32_t node, double priority) {
+  int r;
+  {
+    std::lock_guard lock(mutex_);
+    r = submit_locked(node, priority);
+  }
+  if (r == 1) work_cv_.notify_one();
+  return r != 0;
+}
+
+bool IoPool::Batch::submit(uint32_t node, double priority) {
+  const int r = pool_.submit_locked(node, priority);
+  if (r == 1) ++added_;
+  return r != 0;
+}
+
+IoPool::Batch::~Batch() {
+  lock_.unlock();
+  if (added_ == 1) pool_.work_cv_.notify_one();
+  else if (added_ > 1) pool_.work_cv_.notify_all();
 }
 
 void IoPool::resume() {

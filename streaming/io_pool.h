@@ -81,6 +81,28 @@ class IoPool {
   // queue, is not queued again. Returns false (nothing queued) for such nodes, for nodes that
   // failed before (never retried), for out-of-range nodes and after shutdown.
   bool submit(uint32_t node, double priority);
+
+  // Several submits under one lock, the workers woken once when the batch ends: a plan that
+  // queues dozens of reads wakes the readers once, not after every request (each wake had the
+  // woken reader block on the lock that submit() still held: about 10 us a request on the
+  // 2-core VM while a frame queued 52). Precondition: while a Batch lives, its thread makes no
+  // other call on the pool (it holds the pool's lock). Not movable: make one with
+  // `IoPool::Batch b(pool);`.
+  class Batch {
+   public:
+    explicit Batch(IoPool& pool) : pool_(pool), lock_(pool.mutex_) {}
+    ~Batch();  // unlocks, then wakes the workers if a request was queued
+    Batch(const Batch&) = delete;
+    Batch& operator=(const Batch&) = delete;
+    // As IoPool::submit.
+    bool submit(uint32_t node, double priority);
+
+   private:
+    IoPool& pool_;
+    std::unique_lock<std::mutex> lock_;
+    size_t added_ = 0;  // new requests (not re-prioritised ones)
+  };
+
   // Removes a queued (not yet started) request. Returns true if it was queued.
   bool cancel(uint32_t node);
   // Cancels every queued request; returns how many.
@@ -100,6 +122,8 @@ class IoPool {
 
  private:
   IoPool(const store::StoreReader& reader, const IoOptions& options);
+  // submit()'s work under mutex_: 0 = refused, 1 = queued, 2 = re-prioritised.
+  int submit_locked(uint32_t node, double priority);
   void worker();
   void simulate_delay(uint64_t bytes);
 

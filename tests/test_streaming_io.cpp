@@ -121,6 +121,51 @@ TEST(StreamingIo, PriorityOrderWithOneThread) {
   std::filesystem::remove_all(dir);
 }
 
+// IoPool::Batch queues like submit() (new, re-prioritised, refused) and wakes the sleeping
+// workers once it ends: without that wake the reads below would never start.
+TEST(StreamingIo, BatchQueuesLikeSubmitAndWakesTheWorkersAtItsEnd) {
+  auto dir = mds::testing::temp_dir("streaming_io_batch", true);
+  auto reader = make_store(dir / "b.mds", 4, 1000);
+  ASSERT_TRUE(reader);
+  const uint32_t n = uint32_t(reader->nodes().size());
+  ASSERT_GT(n, 8u);
+  {
+    IoOptions opt;
+    opt.threads = 1;
+    opt.start_paused = true;
+    auto pool = IoPool::create(*reader, opt);
+    ASSERT_TRUE(pool.ok());
+    auto key = [](uint32_t i) { return double(i % 3) * 1000.0 + double(i); };
+    {
+      IoPool::Batch batch(**pool);
+      for (uint32_t i = 0; i < n; ++i) ASSERT_TRUE(batch.submit(i, 1e9));
+      for (uint32_t i = 0; i < n; ++i) ASSERT_TRUE(batch.submit(i, key(i)));  // re-prioritised
+      EXPECT_FALSE(batch.submit(n, 0.0));                                      // no such node
+    }
+    EXPECT_EQ((*pool)->queued(), n);
+    EXPECT_EQ((*pool)->stats().submitted, n);
+    (*pool)->resume();
+    auto done = drain(**pool, n);
+    ASSERT_EQ(done.size(), n);
+    for (size_t k = 1; k < done.size(); ++k) EXPECT_LT(key(done[k - 1].node), key(done[k].node));
+  }
+  for (const uint32_t count : {1u, n}) {  // one request (notify_one) and many (notify_all)
+    IoOptions opt;
+    opt.threads = 3;
+    auto pool = IoPool::create(*reader, opt);
+    ASSERT_TRUE(pool.ok());
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));  // the workers are asleep by then
+    {
+      IoPool::Batch batch(**pool);
+      for (uint32_t i = 0; i < count; ++i) ASSERT_TRUE(batch.submit(i, double(i)));
+    }
+    auto done = drain(**pool, count);
+    ASSERT_EQ(done.size(), count);
+    for (const auto& c : done) EXPECT_TRUE(c.status.ok());
+  }
+  std::filesystem::remove_all(dir);
+}
+
 TEST(StreamingIo, CorruptedPayloadReportedOnceNeverRetried) {
   auto dir = mds::testing::temp_dir("streaming_io_corrupt", true);
   const auto path = dir / "c.mds";

@@ -423,6 +423,7 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
     double coverage = 0.0;  // images covered by this wave's bounding spheres (screen_share)
     double rank = 0.0;  // this frame's order (a re-submitted queued node gets its new rank)
     size_t skipped = 0;  // candidates passed over (a reader busy with them): still absent
+    mds::streaming::IoPool::Batch batch(*io_);  // the readers wake once, after the plan
     for (size_t k = 0;; ++k) {
       if (k == order_next.size()) {
         if (!truncated) break;
@@ -447,7 +448,7 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
         pending = true;
         break;
       }
-      if (!io_->submit(i, rank)) {
+      if (!batch.submit(i, rank)) {
         ++skipped;
         continue;
       }
