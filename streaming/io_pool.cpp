@@ -30,6 +30,7 @@ IoPool::~IoPool() {
     queued_.clear();
   }
   work_cv_.notify_all();
+  delay_cv_.notify_all();
   for (auto& t : threads_) t.join();
 }
 
@@ -149,7 +150,7 @@ void IoPool::simulate_delay(uint64_t bytes) {
   if (options_.io_bandwidth > 0) seconds += double(bytes) / options_.io_bandwidth;
   if (seconds <= 0) return;
   std::unique_lock lock(mutex_);
-  work_cv_.wait_for(lock, std::chrono::duration<double>(seconds), [&] { return stop_; });
+  delay_cv_.wait_for(lock, std::chrono::duration<double>(seconds), [&] { return stop_; });
 }
 
 void IoPool::worker() {

@@ -132,6 +132,8 @@ class IoPool {
 
   mutable std::mutex mutex_;               // requests, in-flight set, failed set, stats
   std::condition_variable work_cv_;        // workers wait for requests / stop
+  std::condition_variable delay_cv_;       // simulated delays wait for stop (not on work_cv_: a
+                                           // notify_one for a new request must reach an idle worker)
   std::condition_variable idle_cv_;        // wait_idle
   bool stop_ = false;
   bool paused_ = false;

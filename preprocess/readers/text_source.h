@@ -144,7 +144,8 @@ inline size_t count_newlines(const char* b, const char* e) {
     for (int k = 0; k < 255 && e - b >= 16; ++k, b += 16)
       acc = _mm_sub_epi8(acc, _mm_cmpeq_epi8(_mm_loadu_si128(reinterpret_cast<const __m128i*>(b)), nl));
     const __m128i sums = _mm_sad_epu8(acc, _mm_setzero_si128());  // two 64-bit byte sums
-    n += static_cast<size_t>(_mm_cvtsi128_si64(sums)) + static_cast<size_t>(_mm_cvtsi128_si64(_mm_unpackhi_epi64(sums, sums)));
+    // Each half is at most 8 x 255: the low 32 bits hold it (and _mm_cvtsi128_si32 exists on 32-bit x86 too).
+    n += static_cast<size_t>(_mm_cvtsi128_si32(sums)) + static_cast<size_t>(_mm_cvtsi128_si32(_mm_unpackhi_epi64(sums, sums)));
   }
 #else
   constexpr uint64_t k7f = 0x7f7f7f7f7f7f7f7fULL, knl = 0x0a0a0a0a0a0a0a0aULL;
@@ -184,7 +185,7 @@ inline size_t line_range_count(const LineBlock& blk, size_t max_threads, size_t 
   const size_t threads = line_threads(blk, max_threads, min_lines_per_thread);
   if (threads <= 1) return 1;
   const size_t bytes = static_cast<size_t>(blk.end - blk.begin);
-  return std::clamp(bytes / kLineRangeBytes, threads, kMaxLineRanges);
+  return std::clamp(bytes / kLineRangeBytes, std::min(threads, kMaxLineRanges), kMaxLineRanges);
 }
 
 // Cuts `blk` at line boundaries into line_range_count(blk, ...) ranges and calls
