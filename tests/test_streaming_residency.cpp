@@ -8,6 +8,15 @@ using namespace mds;
 using namespace mds::streaming;
 
 namespace {
+// Deterministic random tables: next(n) is in [0, n) (a 64-bit LCG, Knuth's MMIX constants).
+struct Lcg {
+  uint64_t state;
+  uint32_t operator()(uint32_t n) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return uint32_t((state >> 33) % n);
+  }
+};
+
 void load(ResidencyTable& t, uint32_t i) {
   ASSERT_TRUE(t.mark_requested(i).ok());
   ASSERT_TRUE(t.mark_loaded(i).ok());
@@ -225,11 +234,7 @@ TEST(StreamingResidency, OccludedNodesOutsideTheViewEvictedBeforeOccludedNodesIn
 // equals evictable_bytes for every candidate of the prefetch order, on random tables of every
 // policy: classes, distances, sizes, look-ahead counts, frustum flags, drawn and not drawn.
 TEST(StreamingResidency, EvictableBytesInOrderEqualsPerCandidate) {
-  uint64_t state = 12345;
-  auto next = [&](uint32_t n) {
-    state = state * 6364136223846793005ull + 1442695040888963407ull;
-    return uint32_t((state >> 33) % n);
-  };
+  Lcg next{12345};
   for (Policy policy : {Policy::occlusion, Policy::lru, Policy::fifo}) {
     for (int trial = 0; trial < 40; ++trial) {
       const uint32_t n = 20 + next(200);
@@ -258,11 +263,7 @@ TEST(StreamingResidency, ResidentListFollowsEveryTransition) {
   // resident_nodes() is kept by mark_loaded / mark_evicted (swap-remove) instead of a scan of
   // every node: after any sequence of transitions it holds exactly the resident nodes, once each,
   // and choose_victims (which walks it) picks the same victims as the sorted eviction order.
-  uint64_t state = 777;
-  auto next = [&](uint32_t n) {
-    state = state * 6364136223846793005ull + 1442695040888963407ull;
-    return uint32_t((state >> 33) % n);
-  };
+  Lcg next{777};
   const uint32_t n = 300;
   std::vector<uint64_t> bytes(n);
   for (auto& b : bytes) b = 100 * (1 + next(8));
@@ -307,11 +308,7 @@ TEST(StreamingResidency, PrefetchOrderWithALimitIsThePrefixOfTheWholeOrder) {
   // prefetch_order(limit) selects the first `limit` candidates (nth_element on precomputed keys)
   // and sorts only those: the same nodes in the same order as the whole order's prefix, which is
   // sorted by the fetch order (displaces()).
-  uint64_t state = 4242;
-  auto next = [&](uint32_t n) {
-    state = state * 6364136223846793005ull + 1442695040888963407ull;
-    return uint32_t((state >> 33) % n);
-  };
+  Lcg next{4242};
   for (Policy policy : {Policy::occlusion, Policy::lru, Policy::fifo}) {
     for (int trial = 0; trial < 30; ++trial) {
       const uint32_t n = 10 + next(400);
