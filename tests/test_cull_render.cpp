@@ -254,6 +254,27 @@ TEST(SampleRouteChoice, ClearCutRuleDecidesOnlyOnAClearGap) {
   EXPECT_EQ(sample_route_clear_winner(std::vector<double>{10.0}, std::vector<double>{19.9}), -1);
 }
 
+// A probe at rest selects a smaller share of the budget the slower the other route was found:
+// about kSampleRouteProbeCost of the winner's pass, within [kSampleRouteProbeShare,
+// kSampleRouteMovingProbeShare]; a moving probe always the moving share.
+TEST(SampleRouteChoice, ProbeShareFollowsTheLastComparedRatio) {
+  using namespace mds::render::culling;
+  EXPECT_EQ(sample_route_probe_share(-1.0, -1.0, false), kSampleRouteProbeShare);  // nothing compared yet
+  EXPECT_EQ(sample_route_probe_share(10.0, -1.0, false), kSampleRouteProbeShare);
+  EXPECT_EQ(sample_route_probe_share(0.0, 5.0, false), kSampleRouteProbeShare);
+  EXPECT_EQ(sample_route_probe_share(10.0, 12.0, false), kSampleRouteProbeShare);  // routes close: a quarter
+  EXPECT_EQ(sample_route_probe_share(10.0, 20.0, false), 4u);                      // 2x: 2 / 0.5
+  EXPECT_EQ(sample_route_probe_share(10.0, 30.0, false), 6u);                      // 3x: a sixth costs half a pass
+  EXPECT_EQ(sample_route_probe_share(10.0, 30.5, false), 7u);                      // rounded up
+  EXPECT_EQ(sample_route_probe_share(1.1, 9.74, false), kSampleRouteMovingProbeShare);  // 8.9x: capped
+  EXPECT_EQ(sample_route_probe_share(1.1, 9.74, true), kSampleRouteMovingProbeShare);
+  EXPECT_EQ(sample_route_probe_share(10.0, 12.0, true), kSampleRouteMovingProbeShare);  // moving: always 1/16
+  for (double r = 0.5; r < 40.0; r *= 1.3) {  // a probe at rest costs at most half a winner's pass, or 1/16
+    const uint32_t s = sample_route_probe_share(10.0, 10.0 * r, false);
+    EXPECT_TRUE(r / s <= kSampleRouteProbeCost + 1e-12 || s == kSampleRouteMovingProbeShare) << r;
+  }
+}
+
 TEST_F(CullRender, AutomaticSamplingRouteComparesBothRoutes) {
   if (!ctx_->int64_atomics()) GTEST_SKIP() << "no 64-bit buffer atomics: only the rasterized route exists";
   RenderRun r = render_scene(*ctx_, *scene_, true, MDS_CULL_ACCEPT_NORMAL, 10);

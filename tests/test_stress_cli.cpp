@@ -391,10 +391,18 @@ TEST_F(StressCli, ContinuousPathsSettleTheFinalViewAndAcceptSlowDiskOptions) {
     int probes = 0;
     for (size_t i = 0; i < 12; ++i) {
       EXPECT_EQ(routes[i]["raster"].get<uint32_t>() + routes[i]["compute"].get<uint32_t>(), 1u) << "frame " << i;
-      probes += routes[i]["probe"].get<std::string>().empty() ? 0 : 1;
+      const bool probed = !routes[i]["probe"].get<std::string>().empty();
+      probes += probed ? 1 : 0;
+      // A moving probe selects 1/16 of the budget (cull_loop.h kSampleRouteMovingProbeShare).
+      EXPECT_EQ(routes[i]["probe_share"].get<uint32_t>(), probed ? 16u : 0u) << "frame " << i;
       EXPECT_TRUE(routes[i]["compared_ms"].contains("raster") && routes[i]["compared_ms"].contains("compute"));
     }
     EXPECT_GE(probes, 1);
+    for (size_t i = 12; i < routes.size(); ++i) {  // at rest: 1/4 to 1/16 (sample_route_probe_share)
+      const uint32_t share = routes[i]["probe_share"];
+      if (routes[i]["probe"].get<std::string>().empty()) EXPECT_EQ(share, 0u) << "frame " << i;
+      else EXPECT_TRUE(share >= 4u && share <= 16u) << "frame " << i << ": " << share;
+    }
     // Camera motion is not a held view: only the final camera (held after the path) is one.
     EXPECT_EQ(j["views_held"].get<uint32_t>(), 1u);
     const auto& v = j["final_view"];

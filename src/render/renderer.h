@@ -276,10 +276,11 @@ struct FrameReport {
   std::vector<uint32_t> wanted;   // StreamSettings::record_trace: this frame's wanted nodes
   std::vector<uint8_t> wanted_hit;  // parallel to wanted: 1 = resident when this frame drew (a hit)
   // The occlusion sampling passes this frame recorded by route, the probe among them (-1 none,
-  // 0 rasterized, 1 compute), and each route's GPU ms per pass in the last finished comparison
-  // (-1: none; what the automatic route choice decides by: docs/rendering.md).
+  // 0 rasterized, 1 compute) and its budget divisor, and each route's GPU ms per pass in the last
+  // finished comparison (-1: none; what the automatic route choice decides by: docs/rendering.md).
   uint32_t sample_passes_raster = 0, sample_passes_compute = 0;
   int sample_probe = -1;
+  uint32_t sample_probe_share = 0;
   double sample_compared_ms_raster = -1.0, sample_compared_ms_compute = -1.0;
 
   // What the frame pacer needs of this frame (FramePacer::observe).

@@ -316,6 +316,7 @@ Result<FrameReport> Renderer::step() {
     rep.sample_passes_raster = routes.raster;
     rep.sample_passes_compute = routes.compute;
     rep.sample_probe = routes.probe;
+    rep.sample_probe_share = routes.probe_share;
     rep.sample_compared_ms_raster = m.cull->sample_route_ms(culling::SampleRoute::raster);
     rep.sample_compared_ms_compute = m.cull->sample_route_ms(culling::SampleRoute::compute);
   }

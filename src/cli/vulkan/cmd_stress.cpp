@@ -200,6 +200,7 @@ Status run_stress(const StressOptions& o) {
     r.sample_raster = fr.sample_passes_raster;
     r.sample_compute = fr.sample_passes_compute;
     r.sample_probe = fr.sample_probe;
+    r.sample_probe_share = fr.sample_probe_share;
     r.compared_raster_ms = fr.sample_compared_ms_raster;
     r.compared_compute_ms = fr.sample_compared_ms_compute;  // the pacer's scale and Renderer::resize (with set_motion)
     r.view_ms = ms(t_step - t_view).count();
@@ -422,6 +423,7 @@ Status run_stress(const StressOptions& o) {
     pf["sample_route"].push_back({{"raster", f.sample_raster},
                                   {"compute", f.sample_compute},
                                   {"probe", f.sample_probe < 0 ? "" : f.sample_probe == 1 ? "compute" : "raster"},
+                                  {"probe_share", f.sample_probe_share},
                                   {"compared_ms", {{"raster", f.compared_raster_ms}, {"compute", f.compared_compute_ms}}}});
   }
   j["per_frame"] = pf;  // arrays: in the JSON only (the CSV keeps scalars)

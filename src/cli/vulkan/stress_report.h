@@ -30,10 +30,11 @@ struct FrameRecord {
   // it: the cache's update), finish (waits for the frame's GPU work).
   double resize_ms = 0.0, view_ms = 0.0, step_ms = 0.0, cache_ms = 0.0, finish_ms = 0.0;
   std::map<std::string, double> gpu_passes;     // per pass (the sampling passes of an iteration summed)
-  // The frame's occlusion sampling passes by route, its probe (-1 none, 0 raster, 1 compute),
-  // and the routes' compared ms per pass (FrameReport::sample_*).
+  // The frame's occlusion sampling passes by route, its probe (-1 none, 0 raster, 1 compute) and
+  // the probe's budget divisor, and the routes' compared ms per pass (FrameReport::sample_*).
   uint32_t sample_raster = 0, sample_compute = 0;
   int sample_probe = -1;
+  uint32_t sample_probe_share = 0;
   double compared_raster_ms = -1.0, compared_compute_ms = -1.0;
   bool converged = false;
   bool complete = false;

@@ -389,7 +389,9 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
     m.sample_compute = m.best_route != 1;
     m.route_ts.begin(cmd, m.sample_compute ? "compute_probe" : "raster_probe");
     m.routes_since.probe = m.sample_compute ? 1 : 0;
-    m.record_sampling_pass(cmd, ts, iteration * m.max_passes(), m.probe_share());
+    m.probe_share_recorded = m.probe_share();
+    m.routes_since.probe_share = m.probe_share_recorded;
+    m.record_sampling_pass(cmd, ts, iteration * m.max_passes(), m.probe_share_recorded);
     m.route_ts.end(cmd);
   }
   for (uint32_t p = 0; p < passes; ++p) {

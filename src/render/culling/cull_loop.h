@@ -108,6 +108,19 @@ inline constexpr double kSampleRouteMovingHysteresis = 1.5;
 // and 50-62 -> 44-49 ms (ablation), medians of 8-10 runs (docs/rendering.md "Occlusion
 // sampling pass").
 inline constexpr uint32_t kSampleRouteMovingProbeShare = 16;
+// A probe at rest (a repeat comparison) costs about kSampleRouteProbeCost x the running route's
+// pass at most: when the last comparison found the other route r times slower, the probe
+// selects 1/ceil(r / kSampleRouteProbeCost) of the budget, between kSampleRouteProbeShare and
+// kSampleRouteMovingProbeShare. The probe only has to tell whether the other route came within
+// kSampleRouteClearCut of the winner; with r = 9 (lavapipe's raster route on the cache
+// benchmark's views) a quarter-budget probe took 2.2 passes of the running route, 45-50 ms in one
+// frame, the ablation jumps' p99 (docs/rendering.md, "Occlusion sampling pass"). A smaller share
+// counts the pass's fixed cost more times, which errs toward keeping the winner.
+inline constexpr double kSampleRouteProbeCost = 0.5;
+// The probe share above: moving, kSampleRouteMovingProbeShare; at rest from the last compared
+// ms per pass of the winner and of the other route (kSampleRouteProbeShare when either is
+// unknown, <= 0).
+uint32_t sample_route_probe_share(double winner_ms, double other_ms, bool moving);
 // The clear-cut rule: 0 (raster) or 1 (compute) when every timed pass of the other route took at
 // least kSampleRouteClearCut times the winner's slowest pass; -1 otherwise (or when either
 // route has no pass yet).
@@ -285,6 +298,7 @@ class CullLoop {
   struct SampleRoutes {
     uint32_t raster = 0, compute = 0;  // passes whose samples count
     int probe = -1;                    // -1 none, 0 rasterized, 1 compute
+    uint32_t probe_share = 0;          // the probe's budget divisor (sample_route_probe_share)
   };
   SampleRoutes take_sample_routes();
   // After an iteration completed on the GPU (before the next is recorded): reads the timestamps

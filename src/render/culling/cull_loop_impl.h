@@ -63,6 +63,7 @@ struct CullLoop::Impl {
   int best_route = -1;              // winner of the last comparison (-1: none yet)
   bool comparing = false;           // the iterations being recorded time both routes
   bool probing = false;             // comparing, first iteration of a repeat: a probe of the other route
+  uint32_t probe_share_recorded = 1;  // the budget divisor of the probe recorded last (its time counts this many times)
   std::vector<double> compare_ms[2];     // GPU ms per pass of the comparison so far
   double compared_ms[2] = {-1.0, -1.0};  // the last finished comparison: median ms per pass
   uint32_t since_compare = 0;       // iterations since the last comparison started

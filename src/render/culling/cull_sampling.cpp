@@ -2,6 +2,7 @@
 // rasterized (shaders/cull_sample.vert/.frag) and compute (shaders/cull_sample.comp), chosen by
 // measurement (docs/rendering.md "Occlusion sampling pass").
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <map>
@@ -37,8 +38,8 @@ bool CullLoop::Impl::sampled_list_wanted() const {
 // route, and a clear-cut repeat of the same winner doubles the interval (cull_loop.h).
 // A repeat comparison (a winner exists) with several passes per iteration starts as a probe:
 // the iteration's passes on the winner, timed, and before them one extra pass of the other route
-// over a quarter of the budget whose samples are dropped (kSampleRouteProbeShare, its time
-// counted four times); when it took at least kSampleRouteClearCut times the winner's slowest,
+// over a quarter of the budget or less whose samples are dropped (sample_route_probe_share: 1/4,
+// or less when the other route was much slower; its time counted as many times); when it took at least kSampleRouteClearCut times the winner's slowest,
 // the winner stays, and that iteration paid for a quarter pass of the slower route instead of
 // half of its passes (on lavapipe's close-ups the slower route's pass takes up to 8x the
 // other's: 100-210 ms frames at every repeat). Otherwise the comparison goes on alternating as
@@ -93,7 +94,16 @@ uint32_t CullLoop::Impl::probe_share() const {
     const int v = std::atoi(e);
     if (v >= 1) return uint32_t(v);
   }
-  return moving_comparison ? kSampleRouteMovingProbeShare : kSampleRouteProbeShare;
+  const double winner = best_route < 0 ? -1.0 : compared_ms[best_route];
+  const double other = best_route < 0 ? -1.0 : compared_ms[1 - best_route];
+  return sample_route_probe_share(winner, other, moving_comparison);
+}
+
+uint32_t sample_route_probe_share(double winner_ms, double other_ms, bool moving) {
+  if (moving) return kSampleRouteMovingProbeShare;
+  if (!(winner_ms > 0.0) || !(other_ms > 0.0)) return kSampleRouteProbeShare;
+  const double share = std::ceil(other_ms / winner_ms / kSampleRouteProbeCost);
+  return uint32_t(std::clamp(share, double(kSampleRouteProbeShare), double(kSampleRouteMovingProbeShare)));
 }
 
 bool CullLoop::shared_box_tests() const { return impl_->shared_box_tests; }
@@ -143,7 +153,7 @@ Status CullLoop::collect_route_timings() {
     if (name.starts_with("run_")) continue;
     // "compute" / "raster", "_probe" for a probe (its time counts probe_share() times).
     const int r = name.rfind("compute", 0) == 0 ? 1 : 0;
-    const double scale = name.ends_with("_probe") ? double(m.probe_share()) : 1.0;
+    const double scale = name.ends_with("_probe") ? double(m.probe_share_recorded) : 1.0;
     for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i) m.compare_ms[r].push_back(scale * v[i]);
   }
   if (m.probing && m.moving_comparison) {
