@@ -42,7 +42,9 @@ def machine_info(repo):
     try:
         commit = subprocess.run(["git", "-C", repo, "rev-parse", "--short", "HEAD"], capture_output=True,
                                 text=True, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "-C", repo, "status", "--porcelain", "--untracked-files=no"],
+        # The benchmarks' own outputs (docs/results) do not make the measured code dirty.
+        dirty = subprocess.run(["git", "-C", repo, "status", "--porcelain", "--untracked-files=no", "--", ".",
+                                ":(exclude)docs/results"],
                                capture_output=True, text=True).stdout.strip()
         if dirty:
             commit += " (with uncommitted changes)"
