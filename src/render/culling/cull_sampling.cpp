@@ -38,12 +38,13 @@ bool CullLoop::Impl::sampled_list_wanted() const {
 // route, and a clear-cut repeat of the same winner doubles the interval (cull_loop.h).
 // A repeat comparison (a winner exists) with several passes per iteration starts as a probe:
 // the iteration's passes on the winner, timed, and before them one extra pass of the other route
-// over a quarter of the budget or less whose samples are dropped (sample_route_probe_share: 1/4,
-// or less when the other route was much slower; its time counted as many times); when it took at least kSampleRouteClearCut times the winner's slowest,
-// the winner stays, and that iteration paid for a quarter pass of the slower route instead of
-// half of its passes (on lavapipe's close-ups the slower route's pass takes up to 8x the
-// other's: 100-210 ms frames at every repeat). Otherwise the comparison goes on alternating as
-// above (whole passes: both routes give the same samples).
+// over a share of the budget whose samples are dropped (sample_route_probe_share: a quarter, less
+// when the other route was much slower; its time counted as many times); when it took at least
+// kSampleRouteClearCut times the winner's slowest, the winner stays, and that iteration paid for
+// a quarter pass of the slower route or less instead of half of its passes (on lavapipe's
+// close-ups the slower route's pass takes up to 8x the other's: 100-210 ms frames at every
+// repeat). Otherwise the comparison goes on alternating as above (whole passes: both routes give
+// the same samples).
 void CullLoop::Impl::begin_route_choice(VkCommandBuffer cmd) {
   if (!compute_available || forced_route() != SampleRoute::automatic) {
     comparing = false;
@@ -151,7 +152,7 @@ Status CullLoop::collect_route_timings() {
   }
   for (const auto& [name, v] : m.route_ts.samples()) {
     if (name.starts_with("run_")) continue;
-    // "compute" / "raster", "_probe" for a probe (its time counts probe_share() times).
+    // "compute" / "raster", "_probe" for a probe (its time counts probe_share_recorded times).
     const int r = name.rfind("compute", 0) == 0 ? 1 : 0;
     const double scale = name.ends_with("_probe") ? double(m.probe_share_recorded) : 1.0;
     for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i) m.compare_ms[r].push_back(scale * v[i]);
