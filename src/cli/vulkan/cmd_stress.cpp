@@ -196,13 +196,13 @@ Status run_stress(const StressOptions& o) {
     r.wall_ms = fr.wall_ms;
     r.gpu_ms = gpu.ms;
     r.gpu_passes = gpu.passes;
-    r.resize_ms = ms(t_view - t0).count();
+    r.resize_ms = ms(t_view - t0).count();  // the pacer's scale and Renderer::resize (with set_motion)
     r.sample_raster = fr.sample_passes_raster;
     r.sample_compute = fr.sample_passes_compute;
     r.sample_probe = fr.sample_probe;
     r.sample_probe_share = fr.sample_probe_share;
     r.compared_raster_ms = fr.sample_compared_ms_raster;
-    r.compared_compute_ms = fr.sample_compared_ms_compute;  // the pacer's scale and Renderer::resize (with set_motion)
+    r.compared_compute_ms = fr.sample_compared_ms_compute;
     r.view_ms = ms(t_step - t_view).count();
     r.step_ms = ms(t_finish - t_step).count();
     r.cache_ms = fr.cache_ms;
