@@ -199,6 +199,62 @@ TEST_F(RenderCli, VisibleReferenceCountsVisibleMeshlets) {
   EXPECT_FALSE(jnc.contains("node_granularity"));  // --no-cull: no classes
 }
 
+// --type-color, in memory and streamed: the same view with every type black and then red. A
+// sprite's colour is type colour * diffuse + white specular (sphere_shading.h), so green, blue and
+// coverage stay the same to the bit, and red grows exactly where a sphere covers the pixel. A key
+// that names no type, or a bad colour, fails before any image is written.
+TEST_F(RenderCli, TypeColorsRecolourEveryPath) {
+  const std::string all_types[2] = {"#000000", "#ff0000"};
+  for (const std::string mode : {"", "--gpu-budget 64MiB "}) {
+    std::vector<float> img[2];
+    for (int k = 0; k < 2; ++k) {
+      const fs::path exr = dir_ / ("tc" + std::to_string(k) + ".exr");
+      std::string colors;
+      for (int t = 1; t <= 4; ++t) colors += " --type-color " + std::to_string(t) + "=" + all_types[k];
+      ASSERT_EQ(run("render " + store() + " -o " + exr.string() + " --no-cull --spp 2 --width 80 --height 60 " + mode +
+                    colors),
+                0)
+          << last_stderr();
+      float* rgba = nullptr;
+      int w = 0, h = 0;
+      const char* err = nullptr;
+      ASSERT_EQ(LoadEXR(&rgba, &w, &h, exr.c_str(), &err), TINYEXR_SUCCESS) << (err ? err : "");
+      img[k].assign(rgba, rgba + 4 * w * h);
+      std::free(rgba);
+    }
+    ASSERT_EQ(img[0].size(), img[1].size());
+    size_t covered = 0, redder = 0;
+    for (size_t p = 0; p < img[0].size() / 4; ++p) {
+      const float* a = &img[0][4 * p];
+      const float* b = &img[1][4 * p];
+      ASSERT_EQ(a[1], b[1]) << mode << "pixel " << p;
+      ASSERT_EQ(a[2], b[2]) << mode << "pixel " << p;
+      ASSERT_EQ(a[3], b[3]) << mode << "pixel " << p;
+      if (a[3] == 0.0f) {
+        EXPECT_EQ(a[0], b[0]) << mode << "background pixel " << p;
+      } else {
+        ++covered;
+        redder += b[0] > a[0];
+      }
+    }
+    EXPECT_GT(covered, 80u * 60u / 20u) << mode;
+    EXPECT_EQ(redder, covered) << mode;
+  }
+  const fs::path png = dir_ / "tc_bad.png";
+  EXPECT_EQ(run("render " + store() + " -o " + png.string() + " --no-cull --type-color 9=#ff0000"), 2);
+  EXPECT_NE(last_stderr().find("--type-color: no type '9' in the store (its types: 1, 2, 3, 4)"), std::string::npos)
+      << last_stderr();
+  EXPECT_EQ(run("render " + store() + " -o " + png.string() + " --no-cull --type-color 1=#ff00"), 2);
+  EXPECT_NE(last_stderr().find("'#ff00'"), std::string::npos) << last_stderr();
+  EXPECT_FALSE(fs::exists(png));
+  // `info` lists the colour each type takes by default.
+  ASSERT_EQ(run("info " + store() + " --json > " + (dir_ / "info.json").string()), 0) << last_stderr();
+  std::ifstream f(dir_ / "info.json");
+  const nlohmann::json info = nlohmann::json::parse(f);
+  EXPECT_EQ(info["types"][0]["color"].get<std::string>(), "#4e79a7");
+  EXPECT_EQ(info["types"][2]["color"].get<std::string>(), "#e15759");
+}
+
 // A streaming render whose pool cannot hold the view says so on stderr (the image lacks the
 // nodes that did not fit) and in its stats; one whose pool holds the view says nothing.
 TEST_F(RenderCli, StreamingRenderWarnsWhenThePoolCannotHoldTheView) {

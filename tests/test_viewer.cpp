@@ -17,6 +17,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -33,6 +34,7 @@
 #include "viewer/camera_controller.h"
 #include "viewer/canvas.h"
 #include "viewer/debug_views.h"
+#include "viewer/hud.h"
 #include "viewer/path_recorder.h"
 
 namespace fs = std::filesystem;
@@ -136,6 +138,41 @@ TEST(ViewerCanvas, SrgbMatchesWritePngAndRoundTrips) {
       if (t.at(x, y).r) (int(x) <= size.x + 1 && int(y) <= size.y + 1 ? lit : outside)++;
   EXPECT_GT(lit, 10);
   EXPECT_EQ(outside, 0);
+}
+
+// The HUD's legend: a swatch of each type's colour, at most kHudLegendMax of them; type_legend
+// labels a type by its name, else its input id, with the renderer's colour or the palette's.
+TEST(ViewerHud, LegendShowsASwatchPerType) {
+  auto entry = [](int32_t id, const char* name) {
+    store::TypeEntry t{};
+    t.input_id = id;
+    std::strncpy(t.name, name, sizeof(t.name) - 1);
+    return t;
+  };
+  const std::vector<store::TypeEntry> types = {entry(1, ""), entry(2, "Cu")};
+  const std::vector<glm::vec3> colors = {{1.0f, 0.0f, 0.0f}};
+  const auto legend = viewer::type_legend(types, colors);
+  ASSERT_EQ(legend.size(), 2u);
+  EXPECT_EQ(legend[0].label, "1");
+  EXPECT_EQ(legend[0].color, viewer::Rgba8(255, 0, 0, 255));
+  EXPECT_EQ(legend[1].label, "Cu");
+  const glm::vec3 p1 = render::type_color_srgb(1);
+  EXPECT_EQ(legend[1].color, viewer::Rgba8(uint8_t(std::lround(p1.r * 255)), uint8_t(std::lround(p1.g * 255)),
+                                           uint8_t(std::lround(p1.b * 255)), 255));
+
+  auto swatches = [](size_t count) {
+    viewer::HudState s;
+    for (size_t i = 0; i < count; ++i) s.legend.push_back({std::to_string(i + 1), {0, 255, 0, 255}});
+    viewer::Canvas c(640, 400, {0, 0, 0, 255});  // below 800 px: scale 1, 7 x 7 swatches
+    viewer::draw_hud(c, s);
+    size_t green = 0;
+    for (uint32_t y = 0; y < c.height(); ++y)
+      for (uint32_t x = 0; x < c.width(); ++x) green += c.at(x, y) == viewer::Rgba8(0, 255, 0, 255);
+    return green;
+  };
+  EXPECT_EQ(swatches(0), 0u);
+  EXPECT_EQ(swatches(2), 2u * 49u);
+  EXPECT_EQ(swatches(viewer::kHudLegendMax + 5), viewer::kHudLegendMax * 49u);
 }
 
 // The classes debug view (in memory over meshlet boxes, streaming over node boxes): a box's
@@ -305,9 +342,11 @@ TEST_F(ViewerWindow, PlayedPathScreenshotMatchesHeadlessRender) {
   // smallest scale, upscaled to the window; at rest the full size returns, so the final
   // screenshot must still equal the headless render.
   const fs::path log = dir_ / "frames.csv";
+  // Colours other than the defaults: the viewer must hand them to its renderer as `render` does.
+  const std::string look = "--background '#203040' --type-color 1=0.9,0.1,0.1";
   ASSERT_EQ(sh(fmt::format("{}timeout 50 {} view {} --width {} --height {} --spp 4 --play {} --no-hud --screenshot {} "
-                           "--dynamic-resolution --frame-ms-target 1 --min-scale 0.25 --frame-log {} 2>{}",
-                           env(), MDSTREAM_BIN, store(), W, H, path_file.string(), shot.string(), log.string(),
+                           "--dynamic-resolution --frame-ms-target 1 --min-scale 0.25 --frame-log {} {} 2>{}",
+                           env(), MDSTREAM_BIN, store(), W, H, path_file.string(), shot.string(), log.string(), look,
                            (dir_ / "err.txt").string())),
             0)
       << err();
@@ -348,8 +387,8 @@ TEST_F(ViewerWindow, PlayedPathScreenshotMatchesHeadlessRender) {
   const render::Camera last = path.at(path.frame_count() - 1);
   const std::string cam = fmt::format("{},{},{},{},{},{},{},{},{}", last.eye.x, last.eye.y, last.eye.z, last.target.x,
                                       last.target.y, last.target.z, last.up.x, last.up.y, last.up.z);
-  ASSERT_EQ(mdstream(fmt::format("render {} -o {} --width {} --height {} --spp 4 --fov {} --camera {}", store(),
-                                 ref.string(), W, H, last.fov_y_deg, cam)),
+  ASSERT_EQ(mdstream(fmt::format("render {} -o {} --width {} --height {} --spp 4 --fov {} --camera {} {}", store(),
+                                 ref.string(), W, H, last.fov_y_deg, cam, look)),
             0)
       << err();
 

@@ -13,6 +13,7 @@
 
 #include "cli/command.h"
 #include "store/store_reader.h"
+#include "store/type_colors.h"
 
 namespace mds::cli {
 namespace {
@@ -81,7 +82,8 @@ Result<nlohmann::json> store_info(const store::StoreReader& r) {
                      {"id", ts[i].input_id},
                      {"name", std::string(ts[i].name)},
                      {"radius", ts[i].radius},
-                     {"count", ts[i].particle_count}});
+                     {"count", ts[i].particle_count},
+                     {"color", store::srgb_hex(store::default_type_color(uint32_t(i)))}});  // render's default
   j["types"] = types;
   return j;
 }
@@ -126,9 +128,9 @@ std::string human(const nlohmann::json& j, bool verified) {
                    100.0 * j["occupancy"]["cells_set_fraction"].get<double>(), j["occupancy"]["full_nodes"].get<uint64_t>());
   s += fmt::format("types            {}\n", j["types"].size());
   for (const auto& t : j["types"])
-    s += fmt::format("  [{}] id {:<6} name {:<10} radius {:<8.4g} particles {}\n", t["index"].get<size_t>(),
+    s += fmt::format("  [{}] id {:<6} name {:<10} radius {:<8.4g} colour {} particles {}\n", t["index"].get<size_t>(),
                      t["id"].get<int32_t>(), t["name"].get<std::string>().empty() ? "-" : t["name"].get<std::string>(),
-                     t["radius"].get<double>(), t["count"].get<uint64_t>());
+                     t["radius"].get<double>(), t["color"].get<std::string>(), t["count"].get<uint64_t>());
   if (verified) s += "verify           every node payload read, hash-checked and decoded, occupancy checked: ok\n";
   return s;
 }

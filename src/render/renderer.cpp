@@ -58,7 +58,9 @@ Status Renderer::Impl::upload(const SceneData& scene) {
   MDS_TRY(ring.upload_span(nodes, 0, std::span<const gpu::GpuNode>(scene.nodes)));
   MDS_TRY(ring.upload_span(meshlets, 0, std::span<const gpu::GpuMeshlet>(scene.meshlets)));
   MDS_TRY(ring.upload_span(particles, 0, std::span<const uint16_t>(scene.particles)));
-  MDS_TRY(ring.upload_span(types, 0, std::span<const gpu::GpuType>(scene.types)));
+  std::vector<gpu::GpuType> type_table = scene.types;
+  set_type_colors(type_table, settings.type_colors_srgb);
+  MDS_TRY(ring.upload_span(types, 0, std::span<const gpu::GpuType>(type_table)));
   MDS_TRY(ring.upload_span(radii, 0, std::span<const uint16_t>(radii_padded)));
   MDS_TRY(ring.flush());
   upload_bytes = ring.bytes_uploaded();

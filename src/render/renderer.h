@@ -111,6 +111,9 @@ struct RenderSettings {
   uint32_t height = 1080;
   uint32_t spp = 64;
   glm::vec3 background_srgb{0.12f, 0.12f, 0.13f};  // default: dark grey
+  // Colour per type index (sRGB), replacing the palette's (store::type_colors resolves a
+  // user's --type-color against the store's types); shorter or empty: the rest keep the palette.
+  std::vector<glm::vec3> type_colors_srgb;
   bool cull = false;                                 // probabilistic occlusion culling (false: --no-cull)
   culling::CullSettings cull_settings;               // used when cull is set
   std::shared_ptr<const culling::DensityVolume> density;  // from the store; null: built from the scene

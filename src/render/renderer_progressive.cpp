@@ -46,7 +46,9 @@ Status Renderer::Impl::upload_streaming(const SceneData& dir) {
   MDS_TRY(create_draw_buffers(pool.meshlet_slots()));
   MDS_ASSIGN_OR_RETURN(vk::StagingRing ring, vk::StagingRing::create(*ctx));
   MDS_TRY(ring.upload_span(nodes, 0, std::span<const gpu::GpuNode>(dir.nodes)));
-  MDS_TRY(ring.upload_span(types, 0, std::span<const gpu::GpuType>(dir.types)));
+  std::vector<gpu::GpuType> type_table = dir.types;
+  set_type_colors(type_table, settings.type_colors_srgb);
+  MDS_TRY(ring.upload_span(types, 0, std::span<const gpu::GpuType>(type_table)));
   MDS_TRY(ring.flush());
   upload_bytes = ring.bytes_uploaded();
   return {};

@@ -6,14 +6,29 @@
 #include <limits>
 
 #include "culling/node_occupancy.h"
+#include "store/type_colors.h"
 
 namespace mds::render {
 
 glm::vec3 type_color_srgb(uint32_t type_index) {
-  static const uint32_t kTableau10[10] = {0x4E79A7, 0xF28E2B, 0xE15759, 0x76B7B2, 0x59A14F,
-                                          0xEDC948, 0xB07AA1, 0xFF9DA7, 0x9C755F, 0xBAB0AC};
-  uint32_t c = kTableau10[type_index % 10];
-  return {float((c >> 16) & 0xff) / 255.0f, float((c >> 8) & 0xff) / 255.0f, float(c & 0xff) / 255.0f};
+  const store::Srgb c = store::default_type_color(type_index);
+  return {c.r, c.g, c.b};
+}
+
+void set_type_colors(std::vector<gpu::GpuType>& types, std::span<const glm::vec3> colors_srgb) {
+  for (size_t i = 0; i < types.size() && i < colors_srgb.size(); ++i) {
+    const glm::vec3 c = colors_srgb[i];
+    types[i].color = glm::vec4(srgb_to_linear(c.r), srgb_to_linear(c.g), srgb_to_linear(c.b), 1.0f);
+  }
+}
+
+Result<std::vector<glm::vec3>> resolve_type_colors(std::span<const store::TypeEntry> types,
+                                                   std::span<const store::TypeColorSpec> specs) {
+  MDS_ASSIGN_OR_RETURN(const std::vector<store::Srgb> colors, store::type_colors(types, specs));
+  std::vector<glm::vec3> out;
+  out.reserve(colors.size());
+  for (const store::Srgb& c : colors) out.emplace_back(c.r, c.g, c.b);
+  return out;
 }
 
 float srgb_to_linear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }

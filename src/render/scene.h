@@ -18,6 +18,7 @@
 #include "render/camera.h"
 #include "store/format.h"
 #include "store/store_reader.h"
+#include "store/type_colors.h"
 
 namespace mds::render {
 
@@ -49,8 +50,15 @@ void set_fine_occupancy(gpu::GpuNode& g, std::span<const uint8_t, 64> fine);  //
 // else the smallest of the type table's radii (0 for an empty table).
 float smallest_radius(const SceneData& scene);
 
-// Distinct per-type colour (Tableau 10 qualitative palette, cycled), as sRGB in [0, 1].
+// Distinct per-type colour (store::default_type_color: Tableau 10, cycled), as sRGB in [0, 1].
 glm::vec3 type_color_srgb(uint32_t type_index);
+// Replaces the colour of types[i] by colors_srgb[i] (sRGB, stored linear) for the types both
+// cover; the others keep theirs (RenderSettings::type_colors_srgb, empty: all keep).
+void set_type_colors(std::vector<gpu::GpuType>& types, std::span<const glm::vec3> colors_srgb);
+// Every type's colour (sRGB) for RenderSettings::type_colors_srgb: the palette, with the
+// user's TYPE=COLOR specs resolved against the store's types (store::type_colors: its errors).
+Result<std::vector<glm::vec3>> resolve_type_colors(std::span<const store::TypeEntry> types,
+                                                   std::span<const store::TypeColorSpec> specs);
 float srgb_to_linear(float c);
 float linear_to_srgb(float c);
 

@@ -1,8 +1,12 @@
 #include "viewer/hud.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstring>
 
 #include <fmt/format.h>
+
+#include "render/scene.h"
 
 namespace mds::viewer {
 
@@ -48,18 +52,45 @@ std::vector<std::string> hud_lines(const HudState& s) {
   return l;
 }
 
+std::vector<LegendEntry> type_legend(std::span<const store::TypeEntry> types, std::span<const glm::vec3> colors_srgb) {
+  std::vector<LegendEntry> l;
+  for (size_t i = 0; i < types.size(); ++i) {
+    const std::string name(types[i].name, strnlen(types[i].name, sizeof(types[i].name)));
+    const glm::vec3 c = i < colors_srgb.size() ? colors_srgb[i] : render::type_color_srgb(uint32_t(i));
+    auto byte = [](float x) { return uint8_t(std::lround(std::clamp(x, 0.0f, 1.0f) * 255.0f)); };
+    l.push_back({name.empty() ? std::to_string(types[i].input_id) : name, Rgba8(byte(c.r), byte(c.g), byte(c.b), 255)});
+  }
+  return l;
+}
+
 void draw_hud(Canvas& canvas, const HudState& s) {
   const auto lines = hud_lines(s);
   const int scale = canvas.width() >= 800 ? 2 : 1;
   const int line_h = 10 * scale;
-  int w = 0;
+  const Rgba8 text_color{235, 235, 235, 255};
+  // The legend row: per type a swatch of the text's height, a gap, the label, a wider gap.
+  const int swatch = 7 * scale, gap = 3 * scale, sep = 8 * scale;
+  const size_t shown = std::min(s.legend.size(), kHudLegendMax);
+  const std::string more = s.legend.size() > shown ? fmt::format("+{}", s.legend.size() - shown) : std::string();
+  int legend_w = 0;
+  for (size_t i = 0; i < shown; ++i) legend_w += swatch + gap + Canvas::text_size(s.legend[i].label, scale).x + sep;
+  if (!more.empty()) legend_w += Canvas::text_size(more, scale).x;
+  int w = legend_w;
   for (const auto& t : lines) w = std::max(w, Canvas::text_size(t, scale).x);
-  canvas.fill_rect(0, 0, w + 8 * scale, int(lines.size()) * line_h + 4 * scale, {0, 0, 0, 150});
+  const int rows = int(lines.size()) + (shown > 0 ? 1 : 0);
+  canvas.fill_rect(0, 0, w + 8 * scale, rows * line_h + 4 * scale, {0, 0, 0, 150});
   int y = 3 * scale;
   for (const auto& t : lines) {
-    canvas.text(4 * scale, y, t, {235, 235, 235, 255}, scale);
+    canvas.text(4 * scale, y, t, text_color, scale);
     y += line_h;
   }
+  int x = 4 * scale;
+  for (size_t i = 0; i < shown; ++i) {
+    canvas.fill_rect(x, y, x + swatch, y + swatch, s.legend[i].color);
+    x += swatch + gap;
+    x += canvas.text(x, y, s.legend[i].label, text_color, scale).x + sep;
+  }
+  if (!more.empty()) canvas.text(x, y, more, text_color, scale);
 }
 
 }  // namespace mds::viewer

@@ -1,15 +1,26 @@
 // Heads-up display of the viewer: a text block (stb_easy_font) over the top-left of the frame
-// with frame time, samples, culling, convergence, cache residency and class counts.
+// with frame time, samples, culling, convergence, cache residency and class counts, and a legend
+// of the particle types' colours.
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "render/renderer.h"
+#include "store/format.h"
 #include "viewer/canvas.h"
 
 namespace mds::viewer {
+
+struct LegendEntry {
+  std::string label;  // the type's name, else its input id (as `mdstream info` lists it)
+  Rgba8 color;        // sRGB 8-bit, as drawn (RenderSettings::type_colors_srgb)
+};
+
+// The HUD's legend shows this many types at most, then "+N".
+inline constexpr size_t kHudLegendMax = 12;
 
 struct HudState {
   std::string store_name;
@@ -38,10 +49,14 @@ struct HudState {
   uint32_t render_width = 0, render_height = 0;
   double render_scale = 1.0;
   double frame_ms_target = 0.0;
+  std::vector<LegendEntry> legend;  // one per particle type, in type order (empty: no legend row)
 };
 
 std::vector<std::string> hud_lines(const HudState& s);
-// Draws the lines over a translucent box at the top-left; scale 1 below 800 px width, else 2.
+// The legend entries of the store's types with the colours the renderer uses.
+std::vector<LegendEntry> type_legend(std::span<const store::TypeEntry> types, std::span<const glm::vec3> colors_srgb);
+// Draws the lines, then the legend row (a swatch and a label per type), over a translucent box
+// at the top-left; scale 1 below 800 px width, else 2.
 void draw_hud(Canvas& canvas, const HudState& s);
 
 }  // namespace mds::viewer

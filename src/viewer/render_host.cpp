@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "render/culling/density_volume.h"
+#include "render/scene.h"
 
 namespace mds::viewer {
 
@@ -13,6 +14,9 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
   h->stream_ = options.stream;
   h->stream_.gpu_budget = options.gpu_budget;
   MDS_ASSIGN_OR_RETURN(h->reader_, store::StoreReader::open(options.store));
+  auto colors = render::resolve_type_colors(h->reader_->types(), options.type_colors);
+  if (!colors) return make_error(Errc::invalid_argument, "--type-color: {}", colors.error().message);
+  h->settings_.type_colors_srgb = std::move(*colors);
   // Bounds of the particle centres and the largest radius, from the node directory (the
   // in-memory scene replaces them with its decoded bounds).
   h->bounds_.min = glm::dvec3(1e300);

@@ -8,10 +8,12 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "core/result.h"
 #include "render/frame_pacer.h"
 #include "render/renderer.h"
+#include "store/type_colors.h"
 
 namespace mds::viewer {
 
@@ -19,6 +21,7 @@ struct ViewerOptions {
   std::string store;
   uint64_t gpu_budget = 0;  // 0: in memory
   render::RenderSettings render;  // width/height = initial window size; spp = samples to accumulate at rest
+  std::vector<store::TypeColorSpec> type_colors;  // --type-color, resolved against the store's types
   render::StreamSettings stream;
   std::string camera;       // --camera spec, empty: default view `view`
   int view = 0;

@@ -46,6 +46,7 @@ struct BenchOptions {
   std::vector<std::string> coverages = {"expected", "exact"};
   uint32_t reference_spp = 64;
   CullingOptions cull;  // --no-cull: the "all" rows only
+  AppearanceOptions look;  // --background, --type-color
   int device = -1;
   std::string csv, json, reference_image;
   std::string images;  // --images DIR: each row's image as DIR/<mode>_<spp>spp.png
@@ -64,6 +65,7 @@ struct BenchRow {
 Status run_bench(const BenchOptions& o) {
   if (o.fov <= 0.0 || o.fov >= 180.0)
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.fov);
+  MDS_ASSIGN_OR_RETURN(const Appearance look, parse_appearance_options(o.look));
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
   MDS_ASSIGN_OR_RETURN(render::SceneData scene, render::load_scene(*reader));
   MDS_ASSIGN_OR_RETURN(render::Camera camera,
@@ -76,6 +78,7 @@ Status run_bench(const BenchOptions& o) {
   CullingOptions co = o.cull;
   co.no_cull = true;
   MDS_TRY(apply_culling_options(co, all));
+  MDS_TRY(apply_appearance(look, reader->types(), all));
   all.width = o.width;
   all.height = o.height;
   // The rows' modes: every particle, then per coverage meshlets only and, unless it is off, with
@@ -222,6 +225,7 @@ void setup_bench(CLI::App& sub, int& exit_code) {
       ->delimiter(',')
       ->check(CLI::IsMember({"auto", "expected", "exact"}))
       ->capture_default_str();
+  add_appearance_options(sub, opt->look);
   sub.add_option("--device", opt->device, "Vulkan device index (default: automatic, discrete GPU first)");
   sub.add_option("--csv", opt->csv, "Write the rows as CSV");
   sub.add_option("--json", opt->json, "Write the rows and the reference as JSON");

@@ -11,7 +11,6 @@
 #include <memory>
 #include <optional>
 #include <span>
-#include <sstream>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -39,7 +38,7 @@ struct RenderOptions {
   std::string output;
   std::string stats;
   std::string camera;
-  std::string background = "0.12,0.12,0.13";
+  AppearanceOptions look;  // --background, --type-color
   int view = 0;
   bool ortho = false;
   CullingOptions cull;
@@ -88,27 +87,6 @@ NodeGranularity node_granularity(const store::StoreReader& reader, std::span<con
   return g;
 }
 
-Result<glm::vec3> parse_rgb(const std::string& s) {
-  glm::vec3 c(0.0f);
-  std::stringstream ss(s);
-  std::string item;
-  int i = 0;
-  while (std::getline(ss, item, ',')) {
-    if (i >= 3) break;
-    try {
-      size_t used = 0;
-      c[i] = std::stof(item, &used);
-      if (used != item.size() || !(c[i] >= 0.0f && c[i] <= 1.0f)) throw std::invalid_argument(item);
-    } catch (const std::exception&) {
-      return make_error(Errc::invalid_argument, "--background '{}': '{}' is not a number in [0, 1]", s, item);
-    }
-    ++i;
-  }
-  if (i != 3 || ss.rdbuf()->in_avail() > 0)
-    return make_error(Errc::invalid_argument, "--background '{}': expected r,g,b (sRGB, 0..1)", s);
-  return c;
-}
-
 nlohmann::json vec3_json(const glm::dvec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); }
 
 
@@ -117,8 +95,9 @@ Status run_render(const RenderOptions& o) {
   MDS_TRY(apply_culling_options(o.cull, rs));
   if (o.fov <= 0.0 || o.fov >= 180.0)
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.fov);
-  MDS_ASSIGN_OR_RETURN(glm::vec3 background, parse_rgb(o.background));
+  MDS_ASSIGN_OR_RETURN(const Appearance look, parse_appearance_options(o.look));
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
+  MDS_TRY(apply_appearance(look, reader->types(), rs));
   const bool streaming = !o.stream.gpu_budget.empty();
   render::StreamSettings ss;
   if (streaming) {
@@ -153,7 +132,6 @@ Status run_render(const RenderOptions& o) {
   rs.width = o.width;
   rs.height = o.height;
   rs.spp = o.spp;
-  rs.background_srgb = background;
   rs.paired_frames = o.paired_frames;
   if (rs.cull) {
     MDS_ASSIGN_OR_RETURN(render::culling::DensityVolume vol, render::culling::density_from_store(*reader, scene));
@@ -325,7 +303,10 @@ Status run_render(const RenderOptions& o) {
                    {"up", vec3_json(camera.up)},     {"fov_y_deg", camera.fov_y_deg},
                    {"ortho", camera.ortho},          {"near", stats.near},
                    {"far", stats.far},               {"view", o.camera.empty() ? o.view : -1}};
-    j["background_srgb"] = {background.r, background.g, background.b};
+    j["background_srgb"] = {rs.background_srgb.r, rs.background_srgb.g, rs.background_srgb.b};
+    nlohmann::json type_colors = nlohmann::json::array();
+    for (const glm::vec3& c : rs.type_colors_srgb) type_colors.push_back(store::srgb_hex({c.r, c.g, c.b}));
+    j["type_colors_srgb"] = type_colors;
     j["validation"] = ctx->validation_enabled();
     j["validation_messages"] = ctx->validation_messages();
     MDS_TRY(write_text_atomically(o.stats, j.dump(2) + "\n"));
@@ -359,7 +340,7 @@ void setup_render(CLI::App& sub, int& exit_code) {
   sub.add_flag("--ortho", opt->ortho, "Orthographic projection (default perspective)");
   sub.add_option("--fov", opt->fov, "Vertical field of view in degrees (ortho: sets the height at the target)")
       ->capture_default_str();
-  sub.add_option("--background", opt->background, "Background colour r,g,b (sRGB, 0..1)")->capture_default_str();
+  add_appearance_options(sub, opt->look);
   sub.add_option("--device", opt->device, "Vulkan device index (default: automatic, discrete GPU first)");
   sub.add_option("--stats", opt->stats, "Write statistics (counts, GPU pass times) as JSON");
   add_stream_options(sub, opt->stream, false);

@@ -19,6 +19,7 @@ struct ViewCliOptions {
   StreamOptions stream;
   PacingOptions pacing;
   CullingOptions cull;
+  AppearanceOptions look;  // --background, --type-color
   uint32_t width = 960, height = 540, spp = 16;
 };
 
@@ -29,6 +30,9 @@ Status run_view(ViewCliOptions& o) {
     v.gpu_budget = v.stream.gpu_budget;
   }
   MDS_TRY(apply_culling_options(o.cull, v.render));
+  MDS_ASSIGN_OR_RETURN(const Appearance look, parse_appearance_options(o.look));
+  v.render.background_srgb = look.background_srgb;
+  v.type_colors = look.type_colors;  // resolved when the viewer has opened the store
   if (o.v.fov_y_deg <= 0.0 || o.v.fov_y_deg >= 180.0)
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.v.fov_y_deg);
   v.render.width = o.width;
@@ -55,6 +59,7 @@ void setup_view(CLI::App& sub, int& exit_code) {
       ->capture_default_str();
   sub.add_option("--fov", opt->v.fov_y_deg, "Vertical field of view in degrees")->capture_default_str();
   sub.add_flag("--ortho", opt->v.ortho, "Start with an orthographic projection");
+  add_appearance_options(sub, opt->look);
   add_culling_options(sub, opt->cull,
                       "Start with occlusion culling off (key C toggles; keys [ ] change --cocc, K cycles --coverage)");
   sub.add_option("--play", opt->v.play,

@@ -1,6 +1,8 @@
 // The rendering options shared by `render`, `view` and `stress`; see render_options.h.
 #include "cli/vulkan/render_options.h"
 
+#include "render/scene.h"
+
 namespace mds::cli {
 
 void add_culling_options(CLI::App& sub, CullingOptions& o, const std::string& no_cull_help, bool coverage_option) {
@@ -91,6 +93,35 @@ Status apply_culling_options(const CullingOptions& o, render::RenderSettings& rs
   c.n_budget = o.n_budget;
   c.seed = o.seed;
   c.coverage = *coverage;
+  return {};
+}
+
+void add_appearance_options(CLI::App& sub, AppearanceOptions& o) {
+  sub.add_option("--background", o.background, "Background colour r,g,b (sRGB, 0..1) or #rrggbb")->capture_default_str();
+  sub.add_option("--type-color", o.type_colors,
+                 "Colour of a particle type, TYPE=COLOR: TYPE its name or input id as `mdstream info` lists them, "
+                 "COLOR #rrggbb or r,g,b (sRGB, 0..1); once per type (default: a palette by type index)")
+      ->allow_extra_args(false);
+}
+
+Result<Appearance> parse_appearance_options(const AppearanceOptions& o) {
+  Appearance a;
+  auto bg = store::parse_srgb(o.background);
+  if (!bg) return make_error(Errc::invalid_argument, "--background {}", bg.error().message);
+  a.background_srgb = {bg->r, bg->g, bg->b};
+  for (const std::string& t : o.type_colors) {
+    auto spec = store::parse_type_color(t);
+    if (!spec) return make_error(Errc::invalid_argument, "--type-color {}", spec.error().message);
+    a.type_colors.push_back(std::move(*spec));
+  }
+  return a;
+}
+
+Status apply_appearance(const Appearance& a, std::span<const store::TypeEntry> types, render::RenderSettings& rs) {
+  rs.background_srgb = a.background_srgb;
+  auto colors = render::resolve_type_colors(types, a.type_colors);
+  if (!colors) return make_error(Errc::invalid_argument, "--type-color: {}", colors.error().message);
+  rs.type_colors_srgb = std::move(*colors);
   return {};
 }
 

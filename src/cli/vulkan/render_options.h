@@ -4,12 +4,15 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
 #include "core/result.h"
 #include "render/renderer.h"
+#include "store/type_colors.h"
 
 namespace mds::cli {
 
@@ -38,5 +41,26 @@ void add_culling_options(CLI::App& sub, CullingOptions& o, const std::string& no
 // Sets rs.cull, rs.cull_settings and rs.mesh_shaders; Errc::invalid_argument naming the option
 // for a bad value.
 Status apply_culling_options(const CullingOptions& o, render::RenderSettings& rs);
+
+// The look of the image, shared by `render`, `view` and `bench`: the background and the colour
+// of each particle type (store/type_colors.h).
+struct AppearanceOptions {
+  std::string background = "0.12,0.12,0.13";  // --background r,g,b or #rrggbb
+  std::vector<std::string> type_colors;        // --type-color TYPE=COLOR, once per type
+};
+
+struct Appearance {
+  glm::vec3 background_srgb{0.0f};
+  std::vector<store::TypeColorSpec> type_colors;
+};
+
+// Adds --background and --type-color (repeatable).
+void add_appearance_options(CLI::App& sub, AppearanceOptions& o);
+// Parses both without the store (a bad colour fails before any Vulkan work);
+// Errc::invalid_argument naming the option.
+Result<Appearance> parse_appearance_options(const AppearanceOptions& o);
+// Sets rs.background_srgb and rs.type_colors_srgb, the colours resolved against the store's
+// types; Errc::invalid_argument naming --type-color for a key that names no type.
+Status apply_appearance(const Appearance& a, std::span<const store::TypeEntry> types, render::RenderSettings& rs);
 
 }  // namespace mds::cli
