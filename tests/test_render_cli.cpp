@@ -255,6 +255,62 @@ TEST_F(RenderCli, TypeColorsRecolourEveryPath) {
   EXPECT_EQ(info["types"][2]["color"].get<std::string>(), "#e15759");
 }
 
+// --hide-type: the hidden type's particles are neither drawn nor occlude. The shell scene's type 1
+// is the shell around types 2-4. Drawn red on black with the other types black, an image without
+// type 1 has no red at all (a black sprite adds the same white highlight to every channel); with
+// it, red shows. Culled, the view of the interior converges to its every-particle reference
+// (bench: the culled row's pixels beyond the tolerance), which needs the culling's occluders and
+// density volume to hold the shown types only. Streaming or every type hidden is a usage error.
+TEST_F(RenderCli, HiddenTypesNeitherDrawNorOcclude) {
+  const std::string look = " --background 0,0,0 --type-color 1=#ff0000 --type-color 2=#000000 --type-color 3=#000000 "
+                           "--type-color 4=#000000";
+  size_t red[2] = {0, 0};
+  for (int hide = 0; hide < 2; ++hide) {
+    const fs::path exr = dir_ / ("hide" + std::to_string(hide) + ".exr");
+    ASSERT_EQ(run("render " + store() + " -o " + exr.string() + " --no-cull --spp 2 --width 80 --height 60" + look +
+                  (hide ? " --hide-type 1" : "")),
+              0)
+        << last_stderr();
+    float* rgba = nullptr;
+    int w = 0, h = 0;
+    const char* err = nullptr;
+    ASSERT_EQ(LoadEXR(&rgba, &w, &h, exr.c_str(), &err), TINYEXR_SUCCESS) << (err ? err : "");
+    size_t covered = 0;
+    for (int p = 0; p < w * h; ++p) {
+      red[hide] += rgba[4 * p] != rgba[4 * p + 1];
+      covered += rgba[4 * p + 3] > 0.0f;
+    }
+    std::free(rgba);
+    EXPECT_GT(covered, size_t(w * h) / 20) << "hide " << hide;
+  }
+  EXPECT_GT(red[0], 80u * 60u / 20u);
+  EXPECT_EQ(red[1], 0u);
+
+  const fs::path json = dir_ / "bench_hidden.json";
+  ASSERT_EQ(run("bench " + store() + " --view 0 --width 64 --height 48 --spp-list 4 --reference-spp 4 --coverage exact "
+                "--hide-type 1 --json " + json.string() + " > /dev/null"),
+            0)
+      << last_stderr();
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
+  size_t checked = 0;
+  for (const auto& r : j.at("rows")) {
+    if (r.at("mode").get<std::string>() != "culled") continue;
+    ++checked;
+    EXPECT_TRUE(r.at("converged").get<bool>());
+    EXPECT_LE(r.at("differing_fraction").get<double>(), 0.01) << r.dump();
+  }
+  EXPECT_EQ(checked, 1u) << j.dump();
+
+  const fs::path png = dir_ / "hide_bad.png";
+  EXPECT_EQ(run("render " + store() + " -o " + png.string() + " --hide-type 1 --gpu-budget 64MiB"), 2);
+  EXPECT_NE(last_stderr().find("--hide-type needs the whole store in memory"), std::string::npos) << last_stderr();
+  EXPECT_EQ(run("render " + store() + " -o " + png.string() +
+                " --hide-type 1 --hide-type 2 --hide-type 3 --hide-type 4"),
+            2);
+  EXPECT_NE(last_stderr().find("every type of the store is hidden"), std::string::npos) << last_stderr();
+  EXPECT_FALSE(fs::exists(png));
+}
+
 // A streaming render whose pool cannot hold the view says so on stderr (the image lacks the
 // nodes that did not fit) and in its stats; one whose pool holds the view says nothing.
 TEST_F(RenderCli, StreamingRenderWarnsWhenThePoolCannotHoldTheView) {

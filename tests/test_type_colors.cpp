@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "render/culling/density_volume.h"
 #include "render/scene.h"
 #include "store/type_colors.h"
 
@@ -129,4 +130,78 @@ TEST(TypeColors, RendererTableTakesTheResolvedColours) {
   EXPECT_EQ(table[1].color, glm::vec4(1.0f, render::srgb_to_linear(0.5f), 0.0f, 1.0f));
   EXPECT_EQ(table[0].color.b, render::srgb_to_linear(render::type_color_srgb(0).b));
   EXPECT_EQ(table[2].color, glm::vec4(0.25f));
+}
+
+// --hide-type's keys: the same lookup; hiding every type is an error.
+TEST(HiddenTypes, ShownTypesFromKeys) {
+  const std::vector<TypeEntry> types = {type(1), type(2, "Cu"), type(3)};
+  auto none = shown_types(types, {});
+  ASSERT_TRUE(none.ok());
+  EXPECT_TRUE(none->empty());
+  const std::vector<std::string> keys = {"Cu", "3"};
+  auto some = shown_types(types, keys);
+  ASSERT_TRUE(some.ok()) << some.error().message;
+  EXPECT_EQ(*some, (std::vector<uint8_t>{1, 0, 0}));
+  const std::vector<std::string> all = {"1", "2", "3"};
+  auto e = shown_types(types, all);
+  ASSERT_FALSE(e.ok());
+  EXPECT_NE(e.error().message.find("every type"), std::string::npos);
+  const std::vector<std::string> unknown = {"Fe"};
+  EXPECT_FALSE(shown_types(types, unknown).ok());
+}
+
+// load_scene's filter: per meshlet the shown particles in order (positions, types, radii), a
+// meshlet left empty dropped; a malformed node is passed on whole for append_node to report.
+TEST(HiddenTypes, FilterKeepsShownParticlesMeshletByMeshlet) {
+  store::NodeData in;
+  in.type_index = {0, 1, 0, 1, 1, 2, 0};
+  in.meshlet_size = {3, 2, 2};
+  for (uint16_t i = 0; i < 7; ++i) {
+    in.qpos.insert(in.qpos.end(), {uint16_t(10 * i), uint16_t(10 * i + 1), uint16_t(10 * i + 2)});
+    in.radius_q.push_back(uint16_t(100 + i));
+  }
+  const std::vector<uint8_t> shown = {1, 0, 1};
+  store::NodeData out;
+  render::filter_types(in, shown, out);
+  EXPECT_EQ(out.meshlet_size, (std::vector<uint8_t>{2, 2}));
+  EXPECT_EQ(out.type_index, (std::vector<uint8_t>{0, 0, 2, 0}));
+  EXPECT_EQ(out.radius_q, (std::vector<uint16_t>{100, 102, 105, 106}));
+  EXPECT_EQ(out.qpos, (std::vector<uint16_t>{0, 1, 2, 20, 21, 22, 50, 51, 52, 60, 61, 62}));
+  // Without radii; every type shown keeps the node as it is.
+  in.radius_q.clear();
+  const std::vector<uint8_t> every = {1, 1, 1};
+  render::filter_types(in, every, out);
+  EXPECT_EQ(out.type_index, in.type_index);
+  EXPECT_EQ(out.meshlet_size, in.meshlet_size);
+  EXPECT_TRUE(out.radius_q.empty());
+  // Meshlet sizes that overrun the node: passed on whole.
+  in.meshlet_size = {3, 2, 9};
+  render::filter_types(in, shown, out);
+  EXPECT_EQ(out.meshlet_size, in.meshlet_size);
+  EXPECT_EQ(out.type_index, in.type_index);
+}
+
+// The culling's density volume of a scene without some types: the store's grid, the scene's counts.
+TEST(HiddenTypes, DensityOnTheStoreGridCountsTheScene) {
+  std::vector<glm::dvec3> pos;
+  std::vector<uint8_t> types;
+  for (int i = 0; i < 500; ++i) {
+    pos.emplace_back(i % 10, (i / 10) % 10, i / 100);
+    types.push_back(uint8_t(i % 3 == 0));
+  }
+  const std::vector<float> radius = {0.4f, 0.4f};
+  auto scene = render::scene_from_particles(pos, types, radius, 64, 8);
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  render::culling::DensityVolume grid;
+  grid.dims = {3, 2, 2};
+  grid.origin = {-0.5, -0.5, -0.5};
+  grid.cell = {4.0, 6.0, 3.0};
+  grid.counts.assign(12, 1000);
+  const render::culling::DensityVolume v = render::culling::density_on_grid(*scene, grid);
+  EXPECT_EQ(v.dims, grid.dims);
+  EXPECT_EQ(v.cell, grid.cell);
+  EXPECT_EQ(v.origin, grid.origin);
+  EXPECT_EQ(v.total(), 500u);
+  // x in [-0.5, 3.5) -> cell 0: 4 of every 10 columns, y in [-0.5, 5.5) -> 6 of 10, z in [-0.5, 2.5) -> 3 of 5.
+  EXPECT_EQ(v.counts[0], 4 * 6 * 3);
 }

@@ -158,7 +158,35 @@ void set_fine_occupancy(gpu::GpuNode& g, std::span<const uint8_t, 64> fine) {
   }
 }
 
-Result<SceneData> load_scene(const store::StoreReader& reader) {
+void filter_types(const store::NodeData& in, std::span<const uint8_t> shown, store::NodeData& out) {
+  out.qpos.clear();
+  out.type_index.clear();
+  out.radius_q.clear();
+  out.meshlet_size.clear();
+  const bool radius = !in.radius_q.empty();
+  size_t total = 0;
+  for (const uint8_t size : in.meshlet_size) total += size;
+  if (total != in.particle_count() || in.qpos.size() != 3 * total || (radius && in.radius_q.size() != total)) {
+    out = in;  // malformed: left whole for append_node to report
+    return;
+  }
+  size_t p = 0;
+  for (const uint8_t size : in.meshlet_size) {
+    uint8_t kept = 0;
+    for (size_t i = p; i < p + size; ++i) {
+      const uint8_t t = in.type_index[i];
+      if (t < shown.size() && !shown[t]) continue;
+      out.qpos.insert(out.qpos.end(), in.qpos.begin() + ptrdiff_t(3 * i), in.qpos.begin() + ptrdiff_t(3 * i + 3));
+      out.type_index.push_back(t);
+      if (radius) out.radius_q.push_back(in.radius_q[i]);
+      ++kept;
+    }
+    if (kept > 0) out.meshlet_size.push_back(kept);
+    p += size;
+  }
+}
+
+Result<SceneData> load_scene(const store::StoreReader& reader, std::span<const uint8_t> shown) {
   const store::FileHeader& h = reader.header();
   std::vector<float> radii;
   for (const auto& t : reader.types()) radii.push_back(t.radius);
@@ -170,9 +198,15 @@ Result<SceneData> load_scene(const store::StoreReader& reader) {
   store::NodeData node;
   std::vector<uint8_t> scratch;
   const auto nodes = reader.nodes();
+  const bool filter = std::any_of(shown.begin(), shown.end(), [](uint8_t v) { return v == 0; });
+  store::NodeData kept;
   for (uint32_t i = 0; i < nodes.size(); ++i) {
     MDS_TRY(reader.read_node(i, node, scratch));
-    Status st = append_node(s, nodes[i].center_min, nodes[i].center_max, node);
+    if (filter) {
+      filter_types(node, shown, kept);
+      if (kept.particle_count() == 0) continue;
+    }
+    Status st = append_node(s, nodes[i].center_min, nodes[i].center_max, filter ? kept : node);
     if (!st.ok()) return make_error(st.error().code, "{}: {}", reader.path().string(), st.error().message);
   }
   return s;

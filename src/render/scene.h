@@ -69,8 +69,16 @@ SceneData begin_scene(const glm::dvec3& bounds_min, const glm::dvec3& bounds_max
 Status append_node(SceneData& scene, const double center_min[3], const double center_max[3],
                    const store::NodeData& node);
 
-// Decodes every node of the store (the store must fit in memory).
-Result<SceneData> load_scene(const store::StoreReader& reader);
+// Decodes every node of the store (the store must fit in memory). With `shown` (one entry per
+// type index, 0 = hidden; empty: every type) only the particles of shown types: meshlets keep
+// their shown particles in order, a meshlet or node left empty is dropped, so scene nodes no
+// longer match the store's node by node, and the store's density volume (which counts every
+// type) no longer describes the scene: cull with culling::density_from_scene. The bounds and
+// the type table stay the store's.
+Result<SceneData> load_scene(const store::StoreReader& reader, std::span<const uint8_t> shown = {});
+// The particles of `in` whose type index t has shown[t] != 0 (an index past `shown` is kept),
+// meshlet by meshlet, into `out`; meshlets left empty are dropped.
+void filter_types(const store::NodeData& in, std::span<const uint8_t> shown, store::NodeData& out);
 
 // Quantizes in-memory particles into nodes of <= node_size particles (consecutive runs, in the
 // given order) and meshlets of <= meshlet_size, exactly as a store would hold them.

@@ -1,5 +1,6 @@
 #include "store/type_colors.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstring>
@@ -104,6 +105,18 @@ Result<std::vector<Srgb>> type_colors(std::span<const TypeEntry> types, std::spa
     colors[t] = s.color;
   }
   return colors;
+}
+
+Result<std::vector<uint8_t>> shown_types(std::span<const TypeEntry> types, std::span<const std::string> hidden_keys) {
+  if (hidden_keys.empty()) return std::vector<uint8_t>{};
+  std::vector<uint8_t> shown(types.size(), 1);
+  for (const std::string& key : hidden_keys) {
+    MDS_ASSIGN_OR_RETURN(const uint32_t t, find_type(types, key));
+    shown[t] = 0;
+  }
+  if (std::none_of(shown.begin(), shown.end(), [](uint8_t v) { return v != 0; }))
+    return make_error(Errc::invalid_argument, "every type of the store is hidden: nothing to draw");
+  return shown;
 }
 
 }  // namespace mds::store

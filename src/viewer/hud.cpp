@@ -52,9 +52,11 @@ std::vector<std::string> hud_lines(const HudState& s) {
   return l;
 }
 
-std::vector<LegendEntry> type_legend(std::span<const store::TypeEntry> types, std::span<const glm::vec3> colors_srgb) {
+std::vector<LegendEntry> type_legend(std::span<const store::TypeEntry> types, std::span<const glm::vec3> colors_srgb,
+                                     std::span<const uint8_t> shown) {
   std::vector<LegendEntry> l;
   for (size_t i = 0; i < types.size(); ++i) {
+    if (i < shown.size() && !shown[i]) continue;
     const std::string name(types[i].name, strnlen(types[i].name, sizeof(types[i].name)));
     const glm::vec3 c = i < colors_srgb.size() ? colors_srgb[i] : render::type_color_srgb(uint32_t(i));
     auto byte = [](float x) { return uint8_t(std::lround(std::clamp(x, 0.0f, 1.0f) * 255.0f)); };

@@ -53,8 +53,10 @@ struct HudState {
 };
 
 std::vector<std::string> hud_lines(const HudState& s);
-// The legend entries of the store's types with the colours the renderer uses.
-std::vector<LegendEntry> type_legend(std::span<const store::TypeEntry> types, std::span<const glm::vec3> colors_srgb);
+// The legend entries of the store's types with the colours the renderer uses; a type with
+// shown[t] == 0 (--hide-type) is left out (empty `shown`: every type).
+std::vector<LegendEntry> type_legend(std::span<const store::TypeEntry> types, std::span<const glm::vec3> colors_srgb,
+                                     std::span<const uint8_t> shown = {});
 // Draws the lines, then the legend row (a swatch and a label per type), over a translucent box
 // at the top-left; scale 1 below 800 px width, else 2.
 void draw_hud(Canvas& canvas, const HudState& s);

@@ -17,6 +17,12 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
   auto colors = render::resolve_type_colors(h->reader_->types(), options.type_colors);
   if (!colors) return make_error(Errc::invalid_argument, "--type-color: {}", colors.error().message);
   h->settings_.type_colors_srgb = std::move(*colors);
+  auto shown = store::shown_types(h->reader_->types(), options.hide_types);
+  if (!shown) return make_error(Errc::invalid_argument, "--hide-type: {}", shown.error().message);
+  h->shown_types_ = std::move(*shown);
+  if (!h->shown_types_.empty() && h->streaming())
+    return make_error(Errc::invalid_argument, "--hide-type needs the whole store in memory (no --gpu-budget): the "
+                      "cache streams whole nodes and the store's density volume counts every type");
   // Bounds of the particle centres and the largest radius, from the node directory (the
   // in-memory scene replaces them with its decoded bounds).
   h->bounds_.min = glm::dvec3(1e300);
@@ -33,11 +39,12 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
     h->node_boxes_.push_back(b);
   }
   if (!h->streaming()) {
-    MDS_ASSIGN_OR_RETURN(render::SceneData scene, render::load_scene(*h->reader_));
+    MDS_ASSIGN_OR_RETURN(render::SceneData scene, render::load_scene(*h->reader_, h->shown_types_));
     h->scene_ = std::make_unique<render::SceneData>(std::move(scene));
     h->bounds_ = h->scene_->bounds;
     MDS_ASSIGN_OR_RETURN(render::culling::DensityVolume vol,
                          render::culling::density_from_store(*h->reader_, *h->scene_));
+    if (!h->shown_types_.empty()) vol = render::culling::density_on_grid(*h->scene_, std::move(vol));
     h->density_ = std::make_shared<const render::culling::DensityVolume>(std::move(vol));
   }
   return h;

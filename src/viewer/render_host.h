@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <vector>
 
 #include "core/result.h"
@@ -32,6 +33,8 @@ class RenderHost {
   const render::Bounds& bounds() const { return bounds_; }
   const render::SceneData* scene() const { return scene_ ? scene_.get() : nullptr; }
   const store::StoreReader& reader() const { return *reader_; }
+  // One entry per type, 0 = hidden (--hide-type); empty: every type drawn.
+  std::span<const uint8_t> shown_types() const { return shown_types_; }
   uint64_t meshlets() const;
   // Node boxes in world coordinates (from the store's node directory).
   const std::vector<Box>& node_boxes() const { return node_boxes_; }
@@ -40,6 +43,7 @@ class RenderHost {
   RenderHost() = default;
   vk::Context* ctx_ = nullptr;
   std::unique_ptr<store::StoreReader> reader_;
+  std::vector<uint8_t> shown_types_;
   std::unique_ptr<render::SceneData> scene_;
   std::shared_ptr<const render::culling::DensityVolume> density_;
   render::RenderSettings settings_;

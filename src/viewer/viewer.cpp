@@ -147,7 +147,7 @@ Status Viewer::setup() {
   hud_.store_name = std::filesystem::path(o_.store).filename().string();
   hud_.streaming = host_->streaming();
   hud_.meshlets = host_->meshlets();
-  hud_.legend = type_legend(host_->reader().types(), host_->settings().type_colors_srgb);
+  hud_.legend = type_legend(host_->reader().types(), host_->settings().type_colors_srgb, host_->shown_types());
   return {};
 }
 

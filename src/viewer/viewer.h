@@ -22,6 +22,7 @@ struct ViewerOptions {
   uint64_t gpu_budget = 0;  // 0: in memory
   render::RenderSettings render;  // width/height = initial window size; spp = samples to accumulate at rest
   std::vector<store::TypeColorSpec> type_colors;  // --type-color, resolved against the store's types
+  std::vector<std::string> hide_types;            // --hide-type keys (in memory only)
   render::StreamSettings stream;
   std::string camera;       // --camera spec, empty: default view `view`
   int view = 0;

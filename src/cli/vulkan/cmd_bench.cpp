@@ -67,7 +67,8 @@ Status run_bench(const BenchOptions& o) {
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.fov);
   MDS_ASSIGN_OR_RETURN(const Appearance look, parse_appearance_options(o.look));
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
-  MDS_ASSIGN_OR_RETURN(render::SceneData scene, render::load_scene(*reader));
+  MDS_ASSIGN_OR_RETURN(const std::vector<uint8_t> shown, shown_types(look, reader->types()));
+  MDS_ASSIGN_OR_RETURN(render::SceneData scene, render::load_scene(*reader, shown));
   MDS_ASSIGN_OR_RETURN(render::Camera camera,
                        render::default_view(o.view, scene.bounds, o.fov, double(o.width) / double(o.height)));
   vk::ContextOptions copt = vk::ContextOptions::from_env();
@@ -90,6 +91,8 @@ Status run_bench(const BenchOptions& o) {
   std::vector<Mode> modes = {{"all", "", all}};
   if (!o.cull.no_cull) {
     MDS_ASSIGN_OR_RETURN(render::culling::DensityVolume vol, render::culling::density_from_store(*reader, scene));
+    // With hidden types the store's counts include particles the scene lacks: its grid, the scene's counts.
+    if (!shown.empty()) vol = render::culling::density_on_grid(scene, std::move(vol));
     auto density = std::make_shared<const render::culling::DensityVolume>(std::move(vol));
     for (const std::string& coverage : o.coverages) {
       co = o.cull;

@@ -98,7 +98,13 @@ Status run_render(const RenderOptions& o) {
   MDS_ASSIGN_OR_RETURN(const Appearance look, parse_appearance_options(o.look));
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
   MDS_TRY(apply_appearance(look, reader->types(), rs));
+  MDS_ASSIGN_OR_RETURN(const std::vector<uint8_t> shown, shown_types(look, reader->types()));
   const bool streaming = !o.stream.gpu_budget.empty();
+  if (!shown.empty() && streaming)
+    return make_error(Errc::invalid_argument, "--hide-type needs the whole store in memory (no --gpu-budget): the cache "
+                      "streams whole nodes and the store's density volume counts every type");
+  if (!shown.empty() && o.visible_reference)
+    return make_error(Errc::invalid_argument, "--visible-reference counts the store's particles: not with --hide-type");
   render::StreamSettings ss;
   if (streaming) {
     MDS_ASSIGN_OR_RETURN(ss, stream_settings(o.stream));
@@ -106,7 +112,7 @@ Status run_render(const RenderOptions& o) {
   // In memory the whole store is decoded; streaming, only the directory is read here.
   render::SceneData scene;
   if (!streaming) {
-    MDS_ASSIGN_OR_RETURN(scene, render::load_scene(*reader));
+    MDS_ASSIGN_OR_RETURN(scene, render::load_scene(*reader, shown));
   } else {
     const auto& h = reader->header();
     std::vector<float> radii;
@@ -135,6 +141,8 @@ Status run_render(const RenderOptions& o) {
   rs.paired_frames = o.paired_frames;
   if (rs.cull) {
     MDS_ASSIGN_OR_RETURN(render::culling::DensityVolume vol, render::culling::density_from_store(*reader, scene));
+    // With hidden types the store's counts include particles the scene lacks: its grid, the scene's counts.
+    if (!shown.empty()) vol = render::culling::density_on_grid(scene, std::move(vol));
     rs.density = std::make_shared<const render::culling::DensityVolume>(std::move(vol));
   }
   std::unique_ptr<render::Renderer> renderer;
@@ -307,6 +315,10 @@ Status run_render(const RenderOptions& o) {
     nlohmann::json type_colors = nlohmann::json::array();
     for (const glm::vec3& c : rs.type_colors_srgb) type_colors.push_back(store::srgb_hex({c.r, c.g, c.b}));
     j["type_colors_srgb"] = type_colors;
+    nlohmann::json hidden = nlohmann::json::array();
+    for (size_t t = 0; t < shown.size(); ++t)
+      if (!shown[t]) hidden.push_back(reader->types()[t].input_id);
+    j["hidden_types"] = hidden;  // input ids
     j["validation"] = ctx->validation_enabled();
     j["validation_messages"] = ctx->validation_messages();
     MDS_TRY(write_text_atomically(o.stats, j.dump(2) + "\n"));

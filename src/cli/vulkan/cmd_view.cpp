@@ -33,6 +33,7 @@ Status run_view(ViewCliOptions& o) {
   MDS_ASSIGN_OR_RETURN(const Appearance look, parse_appearance_options(o.look));
   v.render.background_srgb = look.background_srgb;
   v.type_colors = look.type_colors;  // resolved when the viewer has opened the store
+  v.hide_types = look.hide_types;
   if (o.v.fov_y_deg <= 0.0 || o.v.fov_y_deg >= 180.0)
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.v.fov_y_deg);
   v.render.width = o.width;

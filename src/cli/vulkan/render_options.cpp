@@ -102,6 +102,10 @@ void add_appearance_options(CLI::App& sub, AppearanceOptions& o) {
                  "Colour of a particle type, TYPE=COLOR: TYPE its name or input id as `mdstream info` lists them, "
                  "COLOR #rrggbb or r,g,b (sRGB, 0..1); once per type (default: a palette by type index)")
       ->allow_extra_args(false);
+  sub.add_option("--hide-type", o.hide_types,
+                 "Leave out the particles of a type (its name or input id), once per type: they are neither drawn "
+                 "nor occlude (the whole store in memory: not with --gpu-budget)")
+      ->allow_extra_args(false);
 }
 
 Result<Appearance> parse_appearance_options(const AppearanceOptions& o) {
@@ -114,6 +118,7 @@ Result<Appearance> parse_appearance_options(const AppearanceOptions& o) {
     if (!spec) return make_error(Errc::invalid_argument, "--type-color {}", spec.error().message);
     a.type_colors.push_back(std::move(*spec));
   }
+  a.hide_types = o.hide_types;
   return a;
 }
 
@@ -123,6 +128,12 @@ Status apply_appearance(const Appearance& a, std::span<const store::TypeEntry> t
   if (!colors) return make_error(Errc::invalid_argument, "--type-color: {}", colors.error().message);
   rs.type_colors_srgb = std::move(*colors);
   return {};
+}
+
+Result<std::vector<uint8_t>> shown_types(const Appearance& a, std::span<const store::TypeEntry> types) {
+  auto shown = store::shown_types(types, a.hide_types);
+  if (!shown) return make_error(Errc::invalid_argument, "--hide-type: {}", shown.error().message);
+  return std::move(*shown);
 }
 
 }  // namespace mds::cli

@@ -42,19 +42,21 @@ void add_culling_options(CLI::App& sub, CullingOptions& o, const std::string& no
 // for a bad value.
 Status apply_culling_options(const CullingOptions& o, render::RenderSettings& rs);
 
-// The look of the image, shared by `render`, `view` and `bench`: the background and the colour
-// of each particle type (store/type_colors.h).
+// The look of the image, shared by `render`, `view` and `bench`: the background, the colour of
+// each particle type (store/type_colors.h) and the types left out.
 struct AppearanceOptions {
   std::string background = "0.12,0.12,0.13";  // --background r,g,b or #rrggbb
   std::vector<std::string> type_colors;        // --type-color TYPE=COLOR, once per type
+  std::vector<std::string> hide_types;         // --hide-type TYPE (in memory only)
 };
 
 struct Appearance {
   glm::vec3 background_srgb{0.0f};
   std::vector<store::TypeColorSpec> type_colors;
+  std::vector<std::string> hide_types;  // type keys (store::find_type)
 };
 
-// Adds --background and --type-color (repeatable).
+// Adds --background, --type-color and --hide-type (both repeatable).
 void add_appearance_options(CLI::App& sub, AppearanceOptions& o);
 // Parses both without the store (a bad colour fails before any Vulkan work);
 // Errc::invalid_argument naming the option.
@@ -62,5 +64,8 @@ Result<Appearance> parse_appearance_options(const AppearanceOptions& o);
 // Sets rs.background_srgb and rs.type_colors_srgb, the colours resolved against the store's
 // types; Errc::invalid_argument naming --type-color for a key that names no type.
 Status apply_appearance(const Appearance& a, std::span<const store::TypeEntry> types, render::RenderSettings& rs);
+// The types render::load_scene draws (store::shown_types of --hide-type's keys); errors name
+// --hide-type.
+Result<std::vector<uint8_t>> shown_types(const Appearance& a, std::span<const store::TypeEntry> types);
 
 }  // namespace mds::cli

@@ -63,6 +63,14 @@ DensityVolume density_from_scene(const SceneData& scene, int max_dim) {
   return v;
 }
 
+DensityVolume density_on_grid(const SceneData& scene, DensityVolume grid) {
+  grid.counts.assign(size_t(grid.dims.x) * grid.dims.y * grid.dims.z, 0);
+  for (const auto& m : scene.meshlets)
+    for (uint32_t i = 0; i < m.particle_count; ++i)
+      grid.counts[voxel_of(grid, decoded_position(scene, m.node, uint64_t(m.first_particle) + i))]++;
+  return grid;
+}
+
 MeshletVoxels meshlet_voxels(const SceneData& scene, const DensityVolume& volume) {
   MeshletVoxels mv;
   mv.first.reserve(scene.meshlets.size() + 1);

@@ -30,6 +30,10 @@ Result<DensityVolume> density_from_store(const store::StoreReader& reader, const
 // Bins the scene's decoded particle centres into a grid over the centre bounds whose longest
 // axis has `max_dim` cells (cubic cells).
 DensityVolume density_from_scene(const SceneData& scene, int max_dim = 64);
+// The scene's decoded particle centres binned into `grid`'s cells (its counts replaced): the
+// store's grid for a scene that holds only some of the store's particles (load_scene's shown
+// types), whose own counts would include the particles left out.
+DensityVolume density_on_grid(const SceneData& scene, DensityVolume grid);
 
 // Per-meshlet voxel contributions (CSR): meshlet m holds refs[first[m] .. first[m+1]) as
 // (voxel index, particle count), from the decoded particle positions (the positions the GPU
