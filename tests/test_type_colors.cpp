@@ -36,6 +36,10 @@ TEST(TypeColors, ParsesHexAndDecimalTriples) {
   auto c = parse_srgb("0,0.5,1");
   ASSERT_TRUE(c.ok()) << c.error().message;
   EXPECT_EQ(*c, (Srgb{0.0f, 0.5f, 1.0f}));
+  auto spaced = parse_srgb(" 0, 0.5 ,1 ");
+  ASSERT_TRUE(spaced.ok()) << spaced.error().message;
+  EXPECT_EQ(*spaced, *c);
+  EXPECT_EQ(*parse_srgb(" #ff8000 "), *a);
   // Every byte survives the hex round trip.
   for (int v = 0; v < 256; ++v) {
     const std::string hex = srgb_hex({v / 255.0f, (255 - v) / 255.0f, (v * 7 % 256) / 255.0f});
@@ -48,7 +52,7 @@ TEST(TypeColors, ParsesHexAndDecimalTriples) {
 
 TEST(TypeColors, RejectsMalformedColours) {
   for (const char* bad : {"", "#", "#fff", "#ff00000", "#gg0000", "#ff 000", "1,0", "1,0,0,0", "0.5,,1", "2,0,0",
-                          "-0.1,0,0", "nan,0,0", "0.1x,0,0", " 1,0,0", "red"}) {
+                          "-0.1,0,0", "nan,0,0", "0.1x,0,0", "0. 1,0,0", "red"}) {
     auto r = parse_srgb(bad);
     ASSERT_FALSE(r.ok()) << "'" << bad << "' parsed";
     EXPECT_EQ(r.error().code, Errc::invalid_argument);
@@ -204,4 +208,16 @@ TEST(HiddenTypes, DensityOnTheStoreGridCountsTheScene) {
   EXPECT_EQ(v.total(), 500u);
   // x in [-0.5, 3.5) -> cell 0: 4 of every 10 columns, y in [-0.5, 5.5) -> 6 of 10, z in [-0.5, 2.5) -> 3 of 5.
   EXPECT_EQ(v.counts[0], 4 * 6 * 3);
+}
+
+// The culling's footprint radius (the smallest particle) comes from the types drawn: a hidden
+// small type (a solvent) must not shrink it.
+TEST(HiddenTypes, SmallestRadiusOfTheShownTypes) {
+  const std::vector<float> radius = {0.1f, 0.5f, 0.3f};
+  render::SceneData s = render::begin_scene(glm::dvec3(0.0), glm::dvec3(1.0), radius, false, 0.0f, 0.0f);
+  EXPECT_EQ(render::smallest_radius(s), 0.1f);
+  s.shown_types = {0, 1, 1};
+  EXPECT_EQ(render::smallest_radius(s), 0.3f);
+  s.shown_types = {0, 1, 0};
+  EXPECT_EQ(render::smallest_radius(s), 0.5f);
 }

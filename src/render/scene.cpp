@@ -40,7 +40,12 @@ float linear_to_srgb(float c) {
 float smallest_radius(const SceneData& s) {
   if (s.per_particle_radius) return s.radius_min;
   float r = 0.0f;
-  for (size_t i = 0; i < s.types.size(); ++i) r = i == 0 ? s.types[i].radius : std::min(r, s.types[i].radius);
+  bool first = true;
+  for (size_t i = 0; i < s.types.size(); ++i) {
+    if (i < s.shown_types.size() && !s.shown_types[i]) continue;
+    r = first ? s.types[i].radius : std::min(r, s.types[i].radius);
+    first = false;
+  }
   return r;
 }
 
@@ -199,6 +204,7 @@ Result<SceneData> load_scene(const store::StoreReader& reader, std::span<const u
   std::vector<uint8_t> scratch;
   const auto nodes = reader.nodes();
   const bool filter = std::any_of(shown.begin(), shown.end(), [](uint8_t v) { return v == 0; });
+  if (filter) s.shown_types.assign(shown.begin(), shown.end());
   store::NodeData kept;
   for (uint32_t i = 0; i < nodes.size(); ++i) {
     MDS_TRY(reader.read_node(i, node, scratch));
@@ -207,7 +213,10 @@ Result<SceneData> load_scene(const store::StoreReader& reader, std::span<const u
       if (kept.particle_count() == 0) continue;
     }
     Status st = append_node(s, nodes[i].center_min, nodes[i].center_max, filter ? kept : node);
-    if (!st.ok()) return make_error(st.error().code, "{}: {}", reader.path().string(), st.error().message);
+    if (!st.ok())
+      return filter ? make_error(st.error().code, "{}: store node {} (types left out): {}", reader.path().string(), i,
+                                 st.error().message)
+                    : make_error(st.error().code, "{}: {}", reader.path().string(), st.error().message);
   }
   return s;
 }

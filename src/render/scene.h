@@ -33,6 +33,7 @@ struct SceneData {
   std::vector<uint16_t> particles;  // 4 per particle: x, y, z, type
   std::vector<uint16_t> radius_q;   // 1 per particle, or empty
   std::vector<gpu::GpuType> types;
+  std::vector<uint8_t> shown_types;  // per type, 0 = left out by load_scene; empty: every type
 
   uint64_t particle_count() const { return particles.size() / 4; }
 };
@@ -47,7 +48,7 @@ inline uint64_t occupancy(const gpu::GpuNode& g) { return uint64_t(g.occupancy_l
 void set_fine_occupancy(gpu::GpuNode& g, std::span<const uint8_t, 64> fine);  // culling::FineOccupancy
 
 // The smallest particle radius of the scene (world units): radius_min with per-particle radii,
-// else the smallest of the type table's radii (0 for an empty table).
+// else the smallest radius of the type table's shown types (0 for an empty table).
 float smallest_radius(const SceneData& scene);
 
 // Distinct per-type colour (store::default_type_color: Tableau 10, cycled), as sRGB in [0, 1].
@@ -73,8 +74,8 @@ Status append_node(SceneData& scene, const double center_min[3], const double ce
 // type index, 0 = hidden; empty: every type) only the particles of shown types: meshlets keep
 // their shown particles in order, a meshlet or node left empty is dropped, so scene nodes no
 // longer match the store's node by node, and the store's density volume (which counts every
-// type) no longer describes the scene: cull with culling::density_from_scene. The bounds and
-// the type table stay the store's.
+// type) no longer describes the scene: cull with culling::density_on_grid (the store's grid, the
+// scene's counts). The bounds and the type table stay the store's; shown_types records `shown`.
 Result<SceneData> load_scene(const store::StoreReader& reader, std::span<const uint8_t> shown = {});
 // The particles of `in` whose type index t has shown[t] != 0 (an index past `shown` is kept),
 // meshlet by meshlet, into `out`; meshlets left empty are dropped.

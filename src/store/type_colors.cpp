@@ -21,6 +21,12 @@ std::string type_list(std::span<const TypeEntry> types) {
   return s.empty() ? "none" : s;
 }
 
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
+  return s;
+}
+
 int hex_digit(char c) {
   if (c >= '0' && c <= '9') return c - '0';
   if (c >= 'a' && c <= 'f') return c - 'a' + 10;
@@ -37,7 +43,8 @@ Srgb default_type_color(uint32_t type_index) {
   return {float((c >> 16) & 0xff) / 255.0f, float((c >> 8) & 0xff) / 255.0f, float(c & 0xff) / 255.0f};
 }
 
-Result<Srgb> parse_srgb(std::string_view text) {
+Result<Srgb> parse_srgb(std::string_view given) {
+  const std::string_view text = trim(given);  // spaces around the colour and its numbers are allowed
   if (!text.empty() && text.front() == '#') {
     if (text.size() != 7)
       return make_error(Errc::invalid_argument, "colour '{}': expected #rrggbb (6 hex digits)", text);
@@ -54,7 +61,7 @@ Result<Srgb> parse_srgb(std::string_view text) {
   std::string_view rest = text;
   for (int i = 0; i < 3; ++i) {
     const size_t comma = rest.find(',');
-    const std::string_view item = rest.substr(0, comma);
+    const std::string_view item = trim(rest.substr(0, comma));
     if ((i < 2) != (comma != std::string_view::npos))
       return make_error(Errc::invalid_argument, "colour '{}': expected #rrggbb or r,g,b (sRGB, 0..1)", text);
     double x = 0.0;

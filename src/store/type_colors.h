@@ -24,7 +24,8 @@ struct Srgb {
 // The default colour of the type with this index: the Tableau 10 qualitative palette, cycled.
 Srgb default_type_color(uint32_t type_index);
 
-// "#rrggbb" (hex digits, either case) or "r,g,b" (three decimal numbers in [0, 1]).
+// "#rrggbb" (hex digits, either case) or "r,g,b" (three decimal numbers in [0, 1]); spaces
+// around the colour and around each number are ignored.
 // Errc::invalid_argument naming the text on anything else.
 Result<Srgb> parse_srgb(std::string_view text);
 

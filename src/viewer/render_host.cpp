@@ -45,6 +45,18 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
     MDS_ASSIGN_OR_RETURN(render::culling::DensityVolume vol,
                          render::culling::density_from_store(*h->reader_, *h->scene_));
     if (!h->shown_types_.empty()) vol = render::culling::density_on_grid(*h->scene_, std::move(vol));
+    if (!h->shown_types_.empty()) {
+      // Types left out: the scene's nodes and boxes (some store nodes are gone, others shrank).
+      h->node_boxes_.clear();
+      for (const gpu::GpuNode& g : h->scene_->nodes) {
+        Box b;
+        for (int k = 0; k < 3; ++k) {
+          b.min[k] = h->scene_->origin[k] + double(g.aabb_min[k]);
+          b.max[k] = h->scene_->origin[k] + double(g.aabb_max[k]);
+        }
+        h->node_boxes_.push_back(b);
+      }
+    }
     h->density_ = std::make_shared<const render::culling::DensityVolume>(std::move(vol));
   }
   return h;

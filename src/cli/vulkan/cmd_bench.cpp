@@ -46,7 +46,7 @@ struct BenchOptions {
   std::vector<std::string> coverages = {"expected", "exact"};
   uint32_t reference_spp = 64;
   CullingOptions cull;  // --no-cull: the "all" rows only
-  AppearanceOptions look;  // --background, --type-color
+  AppearanceOptions look;  // --background, --type-color, --hide-type
   int device = -1;
   std::string csv, json, reference_image;
   std::string images;  // --images DIR: each row's image as DIR/<mode>_<spp>spp.png

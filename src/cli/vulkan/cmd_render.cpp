@@ -38,7 +38,7 @@ struct RenderOptions {
   std::string output;
   std::string stats;
   std::string camera;
-  AppearanceOptions look;  // --background, --type-color
+  AppearanceOptions look;  // --background, --type-color, --hide-type
   int view = 0;
   bool ortho = false;
   CullingOptions cull;
@@ -192,7 +192,7 @@ Status run_render(const RenderOptions& o) {
                       {"compute_raster", stats.sprites_small}};
   if (!stats.mesh_sprites) j["sprite_chunks"] = stats.sprite_chunks;  // RenderSettings::sprite_capacity
     j["meshlets"] = stats.meshlets;
-    j["nodes"] = reader->nodes().size();
+    j["nodes"] = streaming ? reader->nodes().size() : scene.nodes.size();  // hidden types may drop nodes
     j["spp"] = stats.spp;
     j["width"] = stats.width;
     j["height"] = stats.height;

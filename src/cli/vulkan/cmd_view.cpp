@@ -19,7 +19,7 @@ struct ViewCliOptions {
   StreamOptions stream;
   PacingOptions pacing;
   CullingOptions cull;
-  AppearanceOptions look;  // --background, --type-color
+  AppearanceOptions look;  // --background, --type-color, --hide-type
   uint32_t width = 960, height = 540, spp = 16;
 };
 
