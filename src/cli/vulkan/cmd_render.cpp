@@ -18,6 +18,7 @@
 #include "core/text_file.h"
 #include "cli/command.h"
 #include "cli/vulkan/render_options.h"
+#include "cli/vulkan/render_path.h"
 #include "cli/vulkan/stream_options.h"
 #include "core/byte_size.h"
 #include "culling/culling_constants.h"
@@ -48,6 +49,8 @@ struct RenderOptions {
   StreamOptions stream;  // --gpu-budget empty: in memory
   bool visible_reference = false;
   uint32_t paired_frames = 0;
+  std::string path;           // --path: a built-in camera path or a path file (render_path.h)
+  uint32_t path_frames = 60;  // --frames of a built-in path
 };
 
 // What a streaming cache that reads whole nodes would read for this converged view, at two
@@ -96,6 +99,21 @@ Status run_render(const RenderOptions& o) {
   if (o.fov <= 0.0 || o.fov >= 180.0)
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.fov);
   MDS_ASSIGN_OR_RETURN(const Appearance look, parse_appearance_options(o.look));
+  // --path: an animation (render_path.h). A path file is read before any other work.
+  std::optional<render::BuiltinPath> builtin;
+  render::CameraPath path;
+  if (!o.path.empty()) {
+    if (!o.camera.empty()) return make_error(Errc::invalid_argument, "--path and --camera: give one of them");
+    if (o.visible_reference || o.paired_frames > 0)
+      return make_error(Errc::invalid_argument, "--visible-reference and --paired-frames measure one view: not with --path");
+    MDS_TRY(frame_file_name(o.output, 0));
+    if (auto b = render::parse_builtin_path(o.path); b.ok()) {
+      builtin = *b;
+    } else {
+      MDS_ASSIGN_OR_RETURN(path, render::CameraPath::load(o.path));
+      if (path.empty()) return make_error(Errc::invalid_argument, "--path {}: no camera keyframes", o.path);
+    }
+  }
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
   MDS_TRY(apply_appearance(look, reader->types(), rs));
   MDS_ASSIGN_OR_RETURN(const std::vector<uint8_t> shown, shown_types(look, reader->types()));
@@ -150,6 +168,18 @@ Status run_render(const RenderOptions& o) {
     MDS_ASSIGN_OR_RETURN(renderer, render::Renderer::create_streaming(*ctx, *reader, rs, ss));
   } else {
     MDS_ASSIGN_OR_RETURN(renderer, render::Renderer::create(*ctx, scene, rs));
+  }
+  if (!o.path.empty()) {
+    if (builtin) {
+      path = render::builtin_path(*builtin, scene.bounds, o.path_frames, o.fov, aspect);
+      if (o.ortho) {
+        std::vector<render::CameraKey> keys = path.keys();
+        for (auto& k : keys) k.camera.ortho = true;
+        path = render::CameraPath(std::move(keys));
+      }
+    }
+    return render_path(*renderer, path,
+                       {o.output, o.stats, streaming, uint64_t(ctx->limits().maxStorageBufferRange)});
   }
   render::RenderStats stats;
   MDS_ASSIGN_OR_RETURN(render::FrameImage image, renderer->render(camera, &stats));
@@ -359,6 +389,13 @@ void setup_render(CLI::App& sub, int& exit_code) {
   sub.add_flag("--visible-reference", opt->visible_reference,
                "Also compute, on the CPU, which meshlets hold a visible particle of the last frame "
                "(stats: visible_meshlets, visible_meshlet_fraction, kept_over_visible_meshlets)");
+  sub.add_option("--path", opt->path,
+                 "Render an animation: one image per frame of a camera path, a built-in one (orbit, flythrough, "
+                 "jumps) or a path file (docs/camera-path.md); -o names the frames with %d or %04d "
+                 "(frame_%04d.png); each frame converges, the GPU cache stays warm between frames");
+  sub.add_option("--frames", opt->path_frames, "Frames of a built-in --path")
+      ->check(CLI::Range(1u, 1000000u))
+      ->capture_default_str();
   sub.add_option("--paired-frames", opt->paired_frames,
                  "In-memory culled renders: after convergence, this many frames of every meshlet and of the "
                  "potentially visible set, "
