@@ -311,6 +311,48 @@ TEST_F(RenderCli, HiddenTypesNeitherDrawNorOcclude) {
   EXPECT_FALSE(fs::exists(png));
 }
 
+// --type-radius: the particles of a type drawn at another radius, in memory. Smaller spheres leave
+// gaps in the shell scene's dense surfaces; the culling (meshlet boxes, occupancy and footprint radius from the new
+// radii) converges to the every-particle reference at those radii; streaming is a usage error.
+TEST_F(RenderCli, TypeRadiiResizeDrawingAndCulling) {
+  double coverage[2] = {0.0, 0.0};
+  for (int k = 0; k < 2; ++k) {
+    const fs::path exr = dir_ / ("radius" + std::to_string(k) + ".exr");
+    ASSERT_EQ(run("render " + store() + " -o " + exr.string() + " --no-cull --spp 2 --width 80 --height 60" +
+                  (k ? " --type-radius 1=0.15 --type-radius 2=0.15 --type-radius 3=0.15 --type-radius 4=0.15" : "")),
+              0)
+        << last_stderr();
+    float* rgba = nullptr;
+    int w = 0, h = 0;
+    const char* err = nullptr;
+    ASSERT_EQ(LoadEXR(&rgba, &w, &h, exr.c_str(), &err), TINYEXR_SUCCESS) << (err ? err : "");
+    for (int p = 0; p < w * h; ++p) coverage[k] += rgba[4 * p + 3];
+    std::free(rgba);
+  }
+  EXPECT_LT(coverage[1], 0.8 * coverage[0]) << "radius 0.15 against the store's 0.5: gaps between the spheres";
+  EXPECT_GT(coverage[1], 0.0);
+
+  const fs::path json = dir_ / "bench_radius.json";
+  ASSERT_EQ(run("bench " + store() + " --view 2 --width 64 --height 48 --spp-list 4 --reference-spp 4 --coverage exact "
+                "--type-radius 1=0.3 --type-radius 3=1.1 --json " + json.string() + " > /dev/null"),
+            0)
+      << last_stderr();
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
+  size_t checked = 0;
+  for (const auto& r : j.at("rows")) {
+    if (r.at("mode").get<std::string>() != "culled") continue;
+    ++checked;
+    EXPECT_TRUE(r.at("converged").get<bool>());
+    EXPECT_LE(r.at("differing_fraction").get<double>(), 0.01) << r.dump();
+  }
+  EXPECT_EQ(checked, 1u) << j.dump();
+  const fs::path png = dir_ / "radius_bad.png";
+  EXPECT_EQ(run("render " + store() + " -o " + png.string() + " --type-radius 1=0.3 --gpu-budget 64MiB"), 2);
+  EXPECT_NE(last_stderr().find("--type-radius needs the whole store in memory"), std::string::npos) << last_stderr();
+  EXPECT_EQ(run("render " + store() + " -o " + png.string() + " --type-radius 1=0"), 2);
+  EXPECT_FALSE(fs::exists(png));
+}
+
 // A streaming render whose pool cannot hold the view says so on stderr (the image lacks the
 // nodes that did not fit) and in its stats; one whose pool holds the view says nothing.
 TEST_F(RenderCli, StreamingRenderWarnsWhenThePoolCannotHoldTheView) {

@@ -342,9 +342,9 @@ TEST_F(ViewerWindow, PlayedPathScreenshotMatchesHeadlessRender) {
   // smallest scale, upscaled to the window; at rest the full size returns, so the final
   // screenshot must still equal the headless render.
   const fs::path log = dir_ / "frames.csv";
-  // Colours other than the defaults and a hidden type: the viewer must hand them to its renderer
-  // and scene as `render` does.
-  const std::string look = "--background '#203040' --type-color 1=0.9,0.1,0.1 --hide-type 2";
+  // Colours other than the defaults, a hidden type and another radius: the viewer must hand them
+  // to its renderer and scene as `render` does.
+  const std::string look = "--background '#203040' --type-color 1=0.9,0.1,0.1 --hide-type 2 --type-radius 1=0.6";
   ASSERT_EQ(sh(fmt::format("{}timeout 50 {} view {} --width {} --height {} --spp 4 --play {} --no-hud --screenshot {} "
                            "--dynamic-resolution --frame-ms-target 1 --min-scale 0.25 --frame-log {} {} 2>{}",
                            env(), MDSTREAM_BIN, store(), W, H, path_file.string(), shot.string(), log.string(), look,

@@ -13,7 +13,7 @@
 
 #include "cli/command.h"
 #include "store/store_reader.h"
-#include "store/type_colors.h"
+#include "store/type_style.h"
 
 namespace mds::cli {
 namespace {

@@ -6,7 +6,7 @@
 #include <limits>
 
 #include "culling/node_occupancy.h"
-#include "store/type_colors.h"
+#include "store/type_style.h"
 
 namespace mds::render {
 
@@ -191,11 +191,21 @@ void filter_types(const store::NodeData& in, std::span<const uint8_t> shown, sto
   }
 }
 
-Result<SceneData> load_scene(const store::StoreReader& reader, std::span<const uint8_t> shown) {
+Result<SceneData> load_scene(const store::StoreReader& reader, const SceneOptions& o) {
   const store::FileHeader& h = reader.header();
+  const std::span<const uint8_t> shown = o.shown_types;
   std::vector<float> radii;
   for (const auto& t : reader.types()) radii.push_back(t.radius);
   const bool ppr = (h.flags & store::kFlagPerParticleRadius) != 0;
+  if (!o.type_radius.empty()) {
+    if (o.type_radius.size() != radii.size())
+      return make_error(Errc::invalid_argument, "{}: {} type radii for {} types", reader.path().string(),
+                        o.type_radius.size(), radii.size());
+    if (ppr)
+      return make_error(Errc::invalid_argument, "{}: the store has per-particle radii: type radii do not apply",
+                        reader.path().string());
+    radii = o.type_radius;
+  }
   SceneData s = begin_scene({h.bounds_min[0], h.bounds_min[1], h.bounds_min[2]},
                             {h.bounds_max[0], h.bounds_max[1], h.bounds_max[2]}, radii, ppr, h.radius_min, h.radius_max);
   s.particles.reserve(4 * h.particle_count);
@@ -219,6 +229,29 @@ Result<SceneData> load_scene(const store::StoreReader& reader, std::span<const u
                     : make_error(st.error().code, "{}: {}", reader.path().string(), st.error().message);
   }
   return s;
+}
+
+Result<SceneOptions> resolve_scene_options(const store::StoreReader& reader, std::span<const std::string> hide_keys,
+                                           std::span<const store::TypeRadiusSpec> radii, bool streaming) {
+  SceneOptions o;
+  if (hide_keys.empty() && radii.empty()) return o;
+  const char* option = hide_keys.empty() ? "--type-radius" : "--hide-type";
+  if (streaming)
+    return make_error(Errc::invalid_argument, "{} needs the whole store in memory (no --gpu-budget): the cache streams "
+                      "whole nodes, and the store's density volume and node boxes describe every type at its radius",
+                      option);
+  auto shown = store::shown_types(reader.types(), hide_keys);
+  if (!shown) return make_error(Errc::invalid_argument, "--hide-type: {}", shown.error().message);
+  o.shown_types = std::move(*shown);
+  if (!radii.empty()) {
+    if (reader.header().flags & store::kFlagPerParticleRadius)
+      return make_error(Errc::invalid_argument, "--type-radius: {} has per-particle radii, which type radii do not change",
+                        reader.path().string());
+    auto r = store::type_radii(reader.types(), radii);
+    if (!r) return make_error(Errc::invalid_argument, "--type-radius: {}", r.error().message);
+    o.type_radius = std::move(*r);
+  }
+  return o;
 }
 
 Result<SceneData> scene_from_particles(std::span<const glm::dvec3> positions, std::span<const uint8_t> types,

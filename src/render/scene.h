@@ -18,7 +18,7 @@
 #include "render/camera.h"
 #include "store/format.h"
 #include "store/store_reader.h"
-#include "store/type_colors.h"
+#include "store/type_style.h"
 
 namespace mds::render {
 
@@ -70,13 +70,29 @@ SceneData begin_scene(const glm::dvec3& bounds_min, const glm::dvec3& bounds_max
 Status append_node(SceneData& scene, const double center_min[3], const double center_max[3],
                    const store::NodeData& node);
 
-// Decodes every node of the store (the store must fit in memory). With `shown` (one entry per
-// type index, 0 = hidden; empty: every type) only the particles of shown types: meshlets keep
-// their shown particles in order, a meshlet or node left empty is dropped, so scene nodes no
-// longer match the store's node by node, and the store's density volume (which counts every
-// type) no longer describes the scene: cull with culling::density_on_grid (the store's grid, the
-// scene's counts). The bounds and the type table stay the store's; shown_types records `shown`.
-Result<SceneData> load_scene(const store::StoreReader& reader, std::span<const uint8_t> shown = {});
+// What load_scene keeps of a store and how large it draws the particles (--hide-type,
+// --type-radius; store/type_style.h).
+struct SceneOptions {
+  std::vector<uint8_t> shown_types;  // one per type index, 0 = left out; empty: every type
+  std::vector<float> type_radius;    // one per type index, replacing the store's; empty: the store's
+};
+
+// Decodes every node of the store (the store must fit in memory). With o.shown_types only the
+// particles of shown types: meshlets keep their shown particles in order, a meshlet or node left
+// empty is dropped, so scene nodes no longer match the store's node by node, and the store's
+// density volume (which counts every type) no longer describes the scene: cull with
+// culling::density_on_grid (the store's grid, the scene's counts). The bounds (of the centres)
+// and the type table's order stay the store's; SceneData::shown_types records o.shown_types.
+// With o.type_radius the particles take those radii (without per-particle radii): the meshlet
+// and node boxes and occupancy are computed from them, as they are from the store's.
+Result<SceneData> load_scene(const store::StoreReader& reader, const SceneOptions& o = {});
+// The SceneOptions of a user's --hide-type keys and --type-radius specs against the store's
+// types (store::shown_types, store::type_radii). Both change what the renderer holds, so they
+// need the store in memory: Errc::invalid_argument when `streaming` (the cache streams whole
+// nodes, and the store's density volume and node boxes describe every type at the store's
+// radii), and for --type-radius on a store with per-particle radii. Errors name the option.
+Result<SceneOptions> resolve_scene_options(const store::StoreReader& reader, std::span<const std::string> hide_keys,
+                                           std::span<const store::TypeRadiusSpec> radii, bool streaming);
 // The particles of `in` whose type index t has shown[t] != 0 (an index past `shown` is kept),
 // meshlet by meshlet, into `out`; meshlets left empty are dropped.
 void filter_types(const store::NodeData& in, std::span<const uint8_t> shown, store::NodeData& out);

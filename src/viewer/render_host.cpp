@@ -17,12 +17,9 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
   auto colors = render::resolve_type_colors(h->reader_->types(), options.type_colors);
   if (!colors) return make_error(Errc::invalid_argument, "--type-color: {}", colors.error().message);
   h->settings_.type_colors_srgb = std::move(*colors);
-  auto shown = store::shown_types(h->reader_->types(), options.hide_types);
-  if (!shown) return make_error(Errc::invalid_argument, "--hide-type: {}", shown.error().message);
-  h->shown_types_ = std::move(*shown);
-  if (!h->shown_types_.empty() && h->streaming())
-    return make_error(Errc::invalid_argument, "--hide-type needs the whole store in memory (no --gpu-budget): the "
-                      "cache streams whole nodes and the store's density volume counts every type");
+  MDS_ASSIGN_OR_RETURN(const render::SceneOptions so, render::resolve_scene_options(*h->reader_, options.hide_types,
+                                                                                   options.type_radii, h->streaming()));
+  h->shown_types_ = so.shown_types;
   // Bounds of the particle centres and the largest radius, from the node directory (the
   // in-memory scene replaces them with its decoded bounds).
   h->bounds_.min = glm::dvec3(1e300);
@@ -39,14 +36,14 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
     h->node_boxes_.push_back(b);
   }
   if (!h->streaming()) {
-    MDS_ASSIGN_OR_RETURN(render::SceneData scene, render::load_scene(*h->reader_, h->shown_types_));
+    MDS_ASSIGN_OR_RETURN(render::SceneData scene, render::load_scene(*h->reader_, so));
     h->scene_ = std::make_unique<render::SceneData>(std::move(scene));
     h->bounds_ = h->scene_->bounds;
     MDS_ASSIGN_OR_RETURN(render::culling::DensityVolume vol,
                          render::culling::density_from_store(*h->reader_, *h->scene_));
     if (!h->shown_types_.empty()) vol = render::culling::density_on_grid(*h->scene_, std::move(vol));
-    if (!h->shown_types_.empty()) {
-      // Types left out: the scene's nodes and boxes (some store nodes are gone, others shrank).
+    if (!h->shown_types_.empty() || !so.type_radius.empty()) {
+      // Types left out or other radii: the scene's nodes and boxes (nodes gone, shrunk or grown).
       h->node_boxes_.clear();
       for (const gpu::GpuNode& g : h->scene_->nodes) {
         Box b;

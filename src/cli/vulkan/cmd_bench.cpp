@@ -46,7 +46,7 @@ struct BenchOptions {
   std::vector<std::string> coverages = {"expected", "exact"};
   uint32_t reference_spp = 64;
   CullingOptions cull;  // --no-cull: the "all" rows only
-  AppearanceOptions look;  // --background, --type-color, --hide-type
+  AppearanceOptions look;  // --background, --type-color, --type-radius, --hide-type
   int device = -1;
   std::string csv, json, reference_image;
   std::string images;  // --images DIR: each row's image as DIR/<mode>_<spp>spp.png
@@ -67,8 +67,9 @@ Status run_bench(const BenchOptions& o) {
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.fov);
   MDS_ASSIGN_OR_RETURN(const Appearance look, parse_appearance_options(o.look));
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
-  MDS_ASSIGN_OR_RETURN(const std::vector<uint8_t> shown, shown_types(look, reader->types()));
-  MDS_ASSIGN_OR_RETURN(render::SceneData scene, render::load_scene(*reader, shown));
+  MDS_ASSIGN_OR_RETURN(const render::SceneOptions so, scene_options(look, *reader, false));
+  const std::vector<uint8_t>& shown = so.shown_types;
+  MDS_ASSIGN_OR_RETURN(render::SceneData scene, render::load_scene(*reader, so));
   MDS_ASSIGN_OR_RETURN(render::Camera camera,
                        render::default_view(o.view, scene.bounds, o.fov, double(o.width) / double(o.height)));
   vk::ContextOptions copt = vk::ContextOptions::from_env();

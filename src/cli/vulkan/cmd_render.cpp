@@ -39,7 +39,7 @@ struct RenderOptions {
   std::string output;
   std::string stats;
   std::string camera;
-  AppearanceOptions look;  // --background, --type-color, --hide-type
+  AppearanceOptions look;  // --background, --type-color, --type-radius, --hide-type
   int view = 0;
   bool ortho = false;
   CullingOptions cull;
@@ -116,13 +116,12 @@ Status run_render(const RenderOptions& o) {
   }
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
   MDS_TRY(apply_appearance(look, reader->types(), rs));
-  MDS_ASSIGN_OR_RETURN(const std::vector<uint8_t> shown, shown_types(look, reader->types()));
   const bool streaming = !o.stream.gpu_budget.empty();
-  if (!shown.empty() && streaming)
-    return make_error(Errc::invalid_argument, "--hide-type needs the whole store in memory (no --gpu-budget): the cache "
-                      "streams whole nodes and the store's density volume counts every type");
-  if (!shown.empty() && o.visible_reference)
-    return make_error(Errc::invalid_argument, "--visible-reference counts the store's particles: not with --hide-type");
+  MDS_ASSIGN_OR_RETURN(const render::SceneOptions so, scene_options(look, *reader, streaming));
+  const std::vector<uint8_t>& shown = so.shown_types;
+  if ((!shown.empty() || !so.type_radius.empty()) && o.visible_reference)
+    return make_error(Errc::invalid_argument, "--visible-reference counts the store's particles at the store's radii: "
+                      "not with --hide-type or --type-radius");
   render::StreamSettings ss;
   if (streaming) {
     MDS_ASSIGN_OR_RETURN(ss, stream_settings(o.stream));
@@ -130,7 +129,7 @@ Status run_render(const RenderOptions& o) {
   // In memory the whole store is decoded; streaming, only the directory is read here.
   render::SceneData scene;
   if (!streaming) {
-    MDS_ASSIGN_OR_RETURN(scene, render::load_scene(*reader, shown));
+    MDS_ASSIGN_OR_RETURN(scene, render::load_scene(*reader, so));
   } else {
     const auto& h = reader->header();
     std::vector<float> radii;
@@ -349,6 +348,7 @@ Status run_render(const RenderOptions& o) {
     for (size_t t = 0; t < shown.size(); ++t)
       if (!shown[t]) hidden.push_back(reader->types()[t].input_id);
     j["hidden_types"] = hidden;  // input ids
+    if (!so.type_radius.empty()) j["type_radius"] = so.type_radius;  // per type index, as drawn
     j["validation"] = ctx->validation_enabled();
     j["validation_messages"] = ctx->validation_messages();
     MDS_TRY(write_text_atomically(o.stats, j.dump(2) + "\n"));

@@ -19,7 +19,7 @@ struct ViewCliOptions {
   StreamOptions stream;
   PacingOptions pacing;
   CullingOptions cull;
-  AppearanceOptions look;  // --background, --type-color, --hide-type
+  AppearanceOptions look;  // --background, --type-color, --type-radius, --hide-type
   uint32_t width = 960, height = 540, spp = 16;
 };
 
@@ -34,6 +34,7 @@ Status run_view(ViewCliOptions& o) {
   v.render.background_srgb = look.background_srgb;
   v.type_colors = look.type_colors;  // resolved when the viewer has opened the store
   v.hide_types = look.hide_types;
+  v.type_radii = look.type_radii;
   if (o.v.fov_y_deg <= 0.0 || o.v.fov_y_deg >= 180.0)
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.v.fov_y_deg);
   v.render.width = o.width;

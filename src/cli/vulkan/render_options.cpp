@@ -102,6 +102,10 @@ void add_appearance_options(CLI::App& sub, AppearanceOptions& o) {
                  "Colour of a particle type, TYPE=COLOR: TYPE its name or input id as `mdstream info` lists them, "
                  "COLOR #rrggbb or r,g,b (sRGB, 0..1); once per type (default: a palette by type index)")
       ->allow_extra_args(false);
+  sub.add_option("--type-radius", o.type_radii,
+                 "Radius of a particle type, TYPE=R (its name or input id), instead of the store's; once per type "
+                 "(the whole store in memory: not with --gpu-budget, nor on a store with per-particle radii)")
+      ->allow_extra_args(false);
   sub.add_option("--hide-type", o.hide_types,
                  "Leave out the particles of a type (its name or input id), once per type: they are neither drawn "
                  "nor occlude (the whole store in memory: not with --gpu-budget)")
@@ -118,6 +122,11 @@ Result<Appearance> parse_appearance_options(const AppearanceOptions& o) {
     if (!spec) return make_error(Errc::invalid_argument, "--type-color {}", spec.error().message);
     a.type_colors.push_back(std::move(*spec));
   }
+  for (const std::string& t : o.type_radii) {
+    auto spec = store::parse_type_radius(t);
+    if (!spec) return make_error(Errc::invalid_argument, "--type-radius {}", spec.error().message);
+    a.type_radii.push_back(std::move(*spec));
+  }
   a.hide_types = o.hide_types;
   return a;
 }
@@ -130,10 +139,8 @@ Status apply_appearance(const Appearance& a, std::span<const store::TypeEntry> t
   return {};
 }
 
-Result<std::vector<uint8_t>> shown_types(const Appearance& a, std::span<const store::TypeEntry> types) {
-  auto shown = store::shown_types(types, a.hide_types);
-  if (!shown) return make_error(Errc::invalid_argument, "--hide-type: {}", shown.error().message);
-  return std::move(*shown);
+Result<render::SceneOptions> scene_options(const Appearance& a, const store::StoreReader& reader, bool streaming) {
+  return render::resolve_scene_options(reader, a.hide_types, a.type_radii, streaming);
 }
 
 }  // namespace mds::cli

@@ -12,7 +12,8 @@
 
 #include "core/result.h"
 #include "render/renderer.h"
-#include "store/type_colors.h"
+#include "render/scene.h"
+#include "store/type_style.h"
 
 namespace mds::cli {
 
@@ -43,20 +44,22 @@ void add_culling_options(CLI::App& sub, CullingOptions& o, const std::string& no
 Status apply_culling_options(const CullingOptions& o, render::RenderSettings& rs);
 
 // The look of the image, shared by `render`, `view` and `bench`: the background, the colour of
-// each particle type (store/type_colors.h) and the types left out.
+// each particle type (store/type_style.h) and the types left out.
 struct AppearanceOptions {
   std::string background = "0.12,0.12,0.13";  // --background r,g,b or #rrggbb
   std::vector<std::string> type_colors;        // --type-color TYPE=COLOR, once per type
+  std::vector<std::string> type_radii;         // --type-radius TYPE=R (in memory only)
   std::vector<std::string> hide_types;         // --hide-type TYPE (in memory only)
 };
 
 struct Appearance {
   glm::vec3 background_srgb{0.0f};
   std::vector<store::TypeColorSpec> type_colors;
+  std::vector<store::TypeRadiusSpec> type_radii;
   std::vector<std::string> hide_types;  // type keys (store::find_type)
 };
 
-// Adds --background, --type-color and --hide-type (both repeatable).
+// Adds --background, and --type-color, --type-radius and --hide-type (repeatable).
 void add_appearance_options(CLI::App& sub, AppearanceOptions& o);
 // Parses both without the store (a bad colour fails before any Vulkan work);
 // Errc::invalid_argument naming the option.
@@ -64,8 +67,8 @@ Result<Appearance> parse_appearance_options(const AppearanceOptions& o);
 // Sets rs.background_srgb and rs.type_colors_srgb, the colours resolved against the store's
 // types; Errc::invalid_argument naming --type-color for a key that names no type.
 Status apply_appearance(const Appearance& a, std::span<const store::TypeEntry> types, render::RenderSettings& rs);
-// The types render::load_scene draws (store::shown_types of --hide-type's keys); errors name
-// --hide-type.
-Result<std::vector<uint8_t>> shown_types(const Appearance& a, std::span<const store::TypeEntry> types);
+// What render::load_scene keeps and how large it draws it (--hide-type, --type-radius):
+// render::resolve_scene_options.
+Result<render::SceneOptions> scene_options(const Appearance& a, const store::StoreReader& reader, bool streaming);
 
 }  // namespace mds::cli

@@ -1,4 +1,4 @@
-#include "store/type_colors.h"
+#include "store/type_style.h"
 
 #include <algorithm>
 #include <charconv>
@@ -112,6 +112,34 @@ Result<std::vector<Srgb>> type_colors(std::span<const TypeEntry> types, std::spa
     colors[t] = s.color;
   }
   return colors;
+}
+
+Result<TypeRadiusSpec> parse_type_radius(std::string_view text) {
+  const size_t eq = text.find('=');
+  if (eq == std::string_view::npos || eq == 0)
+    return make_error(Errc::invalid_argument, "'{}': expected TYPE=RADIUS, e.g. 1=0.7 or Cu=1.28", text);
+  const std::string_view value = trim(text.substr(eq + 1));
+  double r = 0.0;
+  const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), r);
+  if (value.empty() || ec != std::errc() || end != value.data() + value.size() || !std::isfinite(r) || r <= 0.0 ||
+      r > 3.0e38)
+    return make_error(Errc::invalid_argument, "'{}': the radius must be a finite number > 0", text);
+  return TypeRadiusSpec{std::string(text.substr(0, eq)), float(r)};
+}
+
+Result<std::vector<float>> type_radii(std::span<const TypeEntry> types, std::span<const TypeRadiusSpec> specs) {
+  std::vector<float> radii(types.size());
+  for (size_t i = 0; i < types.size(); ++i) radii[i] = types[i].radius;
+  std::vector<const TypeRadiusSpec*> given(types.size(), nullptr);
+  for (const TypeRadiusSpec& s : specs) {
+    MDS_ASSIGN_OR_RETURN(const uint32_t t, find_type(types, s.key));
+    if (given[t])
+      return make_error(Errc::invalid_argument, "type {} is given two radii ('{}' and '{}')", types[t].input_id,
+                        given[t]->key, s.key);
+    given[t] = &s;
+    radii[t] = s.radius;
+  }
+  return radii;
 }
 
 Result<std::vector<uint8_t>> shown_types(std::span<const TypeEntry> types, std::span<const std::string> hidden_keys) {

@@ -1,4 +1,4 @@
-// The colours of particle types (store/type_colors.h): the TYPE=COLOR syntax of --type-color and
+// The colours of particle types (store/type_style.h): the TYPE=COLOR syntax of --type-color and
 // --background, the lookup of a type by name or input id, and the resolved table the renderer
 // uploads (render::resolve_type_colors, render::set_type_colors).
 #include <gtest/gtest.h>
@@ -9,7 +9,7 @@
 
 #include "render/culling/density_volume.h"
 #include "render/scene.h"
-#include "store/type_colors.h"
+#include "store/type_style.h"
 
 using namespace mds;
 using namespace mds::store;
@@ -220,4 +220,31 @@ TEST(HiddenTypes, SmallestRadiusOfTheShownTypes) {
   EXPECT_EQ(render::smallest_radius(s), 0.3f);
   s.shown_types = {0, 1, 0};
   EXPECT_EQ(render::smallest_radius(s), 0.5f);
+}
+
+TEST(TypeRadii, ParsesAndResolvesOverrides) {
+  auto a = parse_type_radius("Cu=1.28");
+  ASSERT_TRUE(a.ok()) << a.error().message;
+  EXPECT_EQ(a->key, "Cu");
+  EXPECT_EQ(a->radius, 1.28f);
+  auto b = parse_type_radius("2= 0.5 ");
+  ASSERT_TRUE(b.ok()) << b.error().message;
+  EXPECT_EQ(b->radius, 0.5f);
+  for (const char* bad : {"2", "=1", "2=", "2=0", "2=-1", "2=nan", "2=inf", "2=1e39", "2=x", "2=1.5.1"}) {
+    auto r = parse_type_radius(bad);
+    ASSERT_FALSE(r.ok()) << bad;
+    EXPECT_NE(r.error().message.find(bad), std::string::npos) << r.error().message;
+  }
+  std::vector<TypeEntry> types = {type(1), type(2, "Cu"), type(3)};
+  types[2].radius = 0.9f;
+  const std::vector<TypeRadiusSpec> specs = {{"Cu", 1.25f}, {"1", 0.1f}};
+  auto r = type_radii(types, specs);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(*r, (std::vector<float>{0.1f, 1.25f, 0.9f}));
+  const std::vector<TypeRadiusSpec> twice = {{"2", 1.0f}, {"Cu", 2.0f}};
+  auto e = type_radii(types, twice);
+  ASSERT_FALSE(e.ok());
+  EXPECT_NE(e.error().message.find("two radii"), std::string::npos);
+  const std::vector<TypeRadiusSpec> unknown = {{"4", 1.0f}};
+  EXPECT_FALSE(type_radii(types, unknown).ok());
 }

@@ -1,8 +1,9 @@
-// Particle types as a user names them: their colours -- a default palette by type index and the
-// overrides given as TYPE=COLOR (`--type-color` of render, view and bench) -- and the types left
-// out (`--hide-type`). TYPE names a type as `mdstream info` lists it: its species name, or the id
-// the input gave it (the LAMMPS type); COLOR is "#rrggbb" or "r,g,b" (sRGB, each in [0, 1]). No
-// Vulkan: `info` prints the colours, the renderer uploads them (render/scene.h).
+// Particle types as a user styles them: their colours -- a default palette by type index and the
+// overrides given as TYPE=COLOR (`--type-color` of render, view and bench) --, their radii
+// (TYPE=R, `--type-radius`) and the types left out (`--hide-type`). TYPE names a type as
+// `mdstream info` lists it: its species name, or the id the input gave it (the LAMMPS type);
+// COLOR is "#rrggbb" or "r,g,b" (sRGB, each in [0, 1]). No Vulkan: `info` prints the colours, the
+// renderer uploads them (render/scene.h).
 #pragma once
 
 #include <cstdint>
@@ -49,6 +50,18 @@ Result<uint32_t> find_type(std::span<const TypeEntry> types, std::string_view ke
 // One colour per type of `types`: the default palette, then each spec in order; a type named
 // twice is an error (Errc::invalid_argument), as is a key that names no type.
 Result<std::vector<Srgb>> type_colors(std::span<const TypeEntry> types, std::span<const TypeColorSpec> specs);
+
+struct TypeRadiusSpec {
+  std::string key;  // as TypeColorSpec::key
+  float radius = 0.0f;
+};
+
+// "KEY=R", R a finite number > 0. Errc::invalid_argument naming the text otherwise.
+Result<TypeRadiusSpec> parse_type_radius(std::string_view text);
+
+// One radius per type of `types`: the store's, then each spec in order; a type named twice or a
+// key that names no type is an error (Errc::invalid_argument).
+Result<std::vector<float>> type_radii(std::span<const TypeEntry> types, std::span<const TypeRadiusSpec> specs);
 
 // Which types to draw when the keys (find_type) name the hidden ones: one entry per type, 0 =
 // hidden; empty when no key is given. Errc::invalid_argument for a key that names no type, or
