@@ -15,28 +15,39 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cli_test_util.h"
+
 namespace fs = std::filesystem;
 
 namespace {
 
-// CTest runs test cases as parallel processes: each keeps its stderr capture to itself.
-std::string stderr_path() { return "/tmp/mds_render_cli_err." + std::to_string(::getpid()) + ".txt"; }
-
-int run(const std::string& args) {
-  std::string cmd = std::string(MDSTREAM_BIN) + " " + args + " 2>" + stderr_path();
-  int r = std::system(cmd.c_str());
-  return WIFEXITED(r) ? WEXITSTATUS(r) : -1;
-}
+int run(const std::string& args) { return mds::testing::run_mdstream(args); }
 
 int run_env(const std::string& env, const std::string& args) {
-  std::string cmd = env + std::string(MDSTREAM_BIN) + " " + args + " 2>" + stderr_path() + " >/dev/null";
-  int r = std::system(cmd.c_str());
-  return WIFEXITED(r) ? WEXITSTATUS(r) : -1;
+  return mds::testing::run_mdstream(args + " >/dev/null", env);
 }
 
-std::string last_stderr() {
-  std::ifstream f(stderr_path());
-  return std::string(std::istreambuf_iterator<char>(f), {});
+std::string last_stderr() { return mds::testing::cli_stderr(); }
+
+using mds::testing::load_exr;
+
+// Runs `bench ARGS --spp-list 4 --reference-spp 4 --coverage exact --json JSON`: its one culled
+// row must have converged with at most 1 % of its pixels beyond the renderer's tolerance of the
+// every-particle reference.
+void expect_culled_row_matches_reference(const std::string& args, const fs::path& json) {
+  ASSERT_EQ(run("bench " + args + " --spp-list 4 --reference-spp 4 --coverage exact --json " + json.string() +
+                " > /dev/null"),
+            0)
+      << last_stderr();
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
+  size_t checked = 0;
+  for (const auto& r : j.at("rows")) {
+    if (r.at("mode").get<std::string>() != "culled") continue;
+    ++checked;
+    EXPECT_TRUE(r.at("converged").get<bool>()) << args;
+    EXPECT_LE(r.at("differing_fraction").get<double>(), 0.01) << args << ": " << r.dump();
+  }
+  EXPECT_EQ(checked, 1u) << j.dump();
 }
 
 class RenderCli : public ::testing::Test {
@@ -215,13 +226,9 @@ TEST_F(RenderCli, TypeColorsRecolourEveryPath) {
                     colors),
                 0)
           << last_stderr();
-      float* rgba = nullptr;
-      int w = 0, h = 0;
-      const char* err = nullptr;
-      ASSERT_EQ(LoadEXR(&rgba, &w, &h, exr.c_str(), &err), TINYEXR_SUCCESS) << (err ? err : "");
-      img[k].assign(rgba, rgba + 4 * w * h);
-      std::free(rgba);
+      img[k] = load_exr(exr);
     }
+    ASSERT_EQ(img[0].size(), size_t(4) * 80 * 60);
     ASSERT_EQ(img[0].size(), img[1].size());
     size_t covered = 0, redder = 0;
     for (size_t p = 0; p < img[0].size() / 4; ++p) {
@@ -271,35 +278,20 @@ TEST_F(RenderCli, HiddenTypesNeitherDrawNorOcclude) {
                   (hide ? " --hide-type 1" : "")),
               0)
         << last_stderr();
-    float* rgba = nullptr;
-    int w = 0, h = 0;
-    const char* err = nullptr;
-    ASSERT_EQ(LoadEXR(&rgba, &w, &h, exr.c_str(), &err), TINYEXR_SUCCESS) << (err ? err : "");
+    const std::vector<float> rgba = load_exr(exr);
+    ASSERT_EQ(rgba.size(), size_t(4) * 80 * 60);
     size_t covered = 0;
-    for (int p = 0; p < w * h; ++p) {
-      red[hide] += rgba[4 * p] != rgba[4 * p + 1];
-      covered += rgba[4 * p + 3] > 0.0f;
+    for (size_t p = 0; p < rgba.size(); p += 4) {
+      red[hide] += rgba[p] != rgba[p + 1];
+      covered += rgba[p + 3] > 0.0f;
     }
-    std::free(rgba);
-    EXPECT_GT(covered, size_t(w * h) / 20) << "hide " << hide;
+    EXPECT_GT(covered, size_t(80 * 60) / 20) << "hide " << hide;
   }
   EXPECT_GT(red[0], 80u * 60u / 20u);
   EXPECT_EQ(red[1], 0u);
 
-  const fs::path json = dir_ / "bench_hidden.json";
-  ASSERT_EQ(run("bench " + store() + " --view 0 --width 64 --height 48 --spp-list 4 --reference-spp 4 --coverage exact "
-                "--hide-type 1 --json " + json.string() + " > /dev/null"),
-            0)
-      << last_stderr();
-  const nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
-  size_t checked = 0;
-  for (const auto& r : j.at("rows")) {
-    if (r.at("mode").get<std::string>() != "culled") continue;
-    ++checked;
-    EXPECT_TRUE(r.at("converged").get<bool>());
-    EXPECT_LE(r.at("differing_fraction").get<double>(), 0.01) << r.dump();
-  }
-  EXPECT_EQ(checked, 1u) << j.dump();
+  expect_culled_row_matches_reference(store() + " --view 0 --width 64 --height 48 --hide-type 1",
+                                      dir_ / "bench_hidden.json");
 
   const fs::path png = dir_ / "hide_bad.png";
   EXPECT_EQ(run("render " + store() + " -o " + png.string() + " --hide-type 1 --gpu-budget 64MiB"), 2);
@@ -312,8 +304,9 @@ TEST_F(RenderCli, HiddenTypesNeitherDrawNorOcclude) {
 }
 
 // --type-radius: the particles of a type drawn at another radius, in memory. Smaller spheres leave
-// gaps in the shell scene's dense surfaces; the culling (meshlet boxes, occupancy and footprint radius from the new
-// radii) converges to the every-particle reference at those radii; streaming is a usage error.
+// gaps in the shell scene's dense surfaces; the culling (meshlet boxes, occupancy and footprint
+// radius from the new radii) converges to the every-particle reference at those radii; streaming
+// is a usage error.
 TEST_F(RenderCli, TypeRadiiResizeDrawingAndCulling) {
   double coverage[2] = {0.0, 0.0};
   for (int k = 0; k < 2; ++k) {
@@ -322,30 +315,14 @@ TEST_F(RenderCli, TypeRadiiResizeDrawingAndCulling) {
                   (k ? " --type-radius 1=0.15 --type-radius 2=0.15 --type-radius 3=0.15 --type-radius 4=0.15" : "")),
               0)
         << last_stderr();
-    float* rgba = nullptr;
-    int w = 0, h = 0;
-    const char* err = nullptr;
-    ASSERT_EQ(LoadEXR(&rgba, &w, &h, exr.c_str(), &err), TINYEXR_SUCCESS) << (err ? err : "");
-    for (int p = 0; p < w * h; ++p) coverage[k] += rgba[4 * p + 3];
-    std::free(rgba);
+    const std::vector<float> rgba = load_exr(exr);
+    for (size_t p = 3; p < rgba.size(); p += 4) coverage[k] += rgba[p];
   }
   EXPECT_LT(coverage[1], 0.8 * coverage[0]) << "radius 0.15 against the store's 0.5: gaps between the spheres";
   EXPECT_GT(coverage[1], 0.0);
 
-  const fs::path json = dir_ / "bench_radius.json";
-  ASSERT_EQ(run("bench " + store() + " --view 2 --width 64 --height 48 --spp-list 4 --reference-spp 4 --coverage exact "
-                "--type-radius 1=0.3 --type-radius 3=1.1 --json " + json.string() + " > /dev/null"),
-            0)
-      << last_stderr();
-  const nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
-  size_t checked = 0;
-  for (const auto& r : j.at("rows")) {
-    if (r.at("mode").get<std::string>() != "culled") continue;
-    ++checked;
-    EXPECT_TRUE(r.at("converged").get<bool>());
-    EXPECT_LE(r.at("differing_fraction").get<double>(), 0.01) << r.dump();
-  }
-  EXPECT_EQ(checked, 1u) << j.dump();
+  expect_culled_row_matches_reference(store() + " --view 2 --width 64 --height 48 --type-radius 1=0.3 --type-radius 3=1.1",
+                                      dir_ / "bench_radius.json");
   const fs::path png = dir_ / "radius_bad.png";
   EXPECT_EQ(run("render " + store() + " -o " + png.string() + " --type-radius 1=0.3 --gpu-budget 64MiB"), 2);
   EXPECT_NE(last_stderr().find("--type-radius needs the whole store in memory"), std::string::npos) << last_stderr();

@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "cli_test_util.h"
 #include "render/camera_path.h"
 #include "render/scene.h"
 #include "store/store_reader.h"
@@ -24,31 +25,9 @@ using namespace mds;
 
 namespace {
 
-std::string stderr_path() { return "/tmp/mds_render_path_err." + std::to_string(::getpid()) + ".txt"; }
-
-int run(const std::string& args) {
-  const std::string cmd = std::string(MDSTREAM_BIN) + " " + args + " 2>" + stderr_path();
-  const int r = std::system(cmd.c_str());
-  return WIFEXITED(r) ? WEXITSTATUS(r) : -1;
-}
-
-std::string last_stderr() {
-  std::ifstream f(stderr_path());
-  return std::string(std::istreambuf_iterator<char>(f), {});
-}
-
-std::vector<float> load_exr(const fs::path& p) {
-  float* rgba = nullptr;
-  int w = 0, h = 0;
-  const char* err = nullptr;
-  if (LoadEXR(&rgba, &w, &h, p.c_str(), &err) != TINYEXR_SUCCESS) {
-    ADD_FAILURE() << p << ": " << (err ? err : "unreadable");
-    return {};
-  }
-  std::vector<float> v(rgba, rgba + 4 * w * h);
-  std::free(rgba);
-  return v;
-}
+int run(const std::string& args) { return mds::testing::run_mdstream(args); }
+std::string last_stderr() { return mds::testing::cli_stderr(); }
+using mds::testing::load_exr;
 
 class RenderPath : public ::testing::Test {
  protected:

@@ -1,0 +1,49 @@
+// Running the `mdstream` executable from a test: the command line, its exit code, its stderr, and
+// the EXR images it writes. Header-only, for the CLI suites (test_render_cli, test_render_path).
+#pragma once
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <tinyexr.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+namespace mds::testing {
+
+// CTest runs test cases as parallel processes: each keeps its stderr capture to itself.
+inline std::string cli_stderr_path() { return "/tmp/mds_cli_err." + std::to_string(::getpid()) + ".txt"; }
+
+// Runs `env mdstream args` (env: "NAME=value " assignments or empty) with stderr captured for
+// cli_stderr(); stdout as the args redirect it. The exit code, -1 when killed.
+inline int run_mdstream(const std::string& args, const std::string& env = "") {
+  const std::string cmd = env + std::string(MDSTREAM_BIN) + " " + args + " 2>" + cli_stderr_path();
+  const int r = std::system(cmd.c_str());
+  return WIFEXITED(r) ? WEXITSTATUS(r) : -1;
+}
+
+// The stderr of the last run_mdstream of this process.
+inline std::string cli_stderr() {
+  std::ifstream f(cli_stderr_path());
+  return std::string(std::istreambuf_iterator<char>(f), {});
+}
+
+// An EXR's float RGBA pixels (4 per pixel), empty with a test failure when unreadable.
+inline std::vector<float> load_exr(const std::filesystem::path& p) {
+  float* rgba = nullptr;
+  int w = 0, h = 0;
+  const char* err = nullptr;
+  if (LoadEXR(&rgba, &w, &h, p.c_str(), &err) != TINYEXR_SUCCESS) {
+    ADD_FAILURE() << p << ": " << (err ? err : "unreadable");
+    return {};
+  }
+  std::vector<float> v(rgba, rgba + size_t(4) * size_t(w) * size_t(h));
+  std::free(rgba);
+  return v;
+}
+
+}  // namespace mds::testing
