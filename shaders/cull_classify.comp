@@ -270,7 +270,7 @@ layout(constant_id = 1) const int kCooperativeTexels = 256;
 // rounds of its own texels, and unoccupied cells cost nothing. Every lane calls with the same
 // arguments and gets the same result; csum, n and in_image are the subgroup's (no reduction
 // after). Returns true when a cell lies in front on a texel (the box is P).
-layout(constant_id = 2) const bool kSharedCells = false;
+layout(constant_id = 2) const bool kSharedCells = false;  // the host sets it: on where box tests are shared
 
 bool cells_in_front_shared(vec3 bmin, vec3 bmax, uvec2 occupancy, int node, bool fine, uint level, float grow,
                            bvec3 flip, int sub_flip, inout float csum, inout float n, inout bool in_image) {

@@ -383,12 +383,12 @@ TEST_F(RenderCli, SharedBoxTestsClassifyLikeOneThreadPerBox) {
   ASSERT_EQ(run("synth --scene porous --particles 60000 -q -o " + dump.string()), 0) << last_stderr();
   ASSERT_EQ(run("convert " + dump.string() + " --node-size 1000 -q -o " + porous.string()), 0) << last_stderr();
   // One thread per box; shared tests with a subgroup per node; shared tests with one thread per
-  // node; each of the two with the shared cells (kSharedCells: a node's occupied cells one after
-  // the other, each cell's texels over the subgroup).
-  const char* variants[5] = {"MDSTREAM_CULL_COOP_BOXES=0 ", "MDSTREAM_CULL_COOP_BOXES=1 ",
-                             "MDSTREAM_CULL_COOP_BOXES=1 MDSTREAM_CULL_NODE_SUBGROUP=0 ",
-                             "MDSTREAM_CULL_COOP_BOXES=1 MDSTREAM_CULL_SHARED_CELLS=1 ",
-                             "MDSTREAM_CULL_COOP_BOXES=1 MDSTREAM_CULL_NODE_SUBGROUP=0 MDSTREAM_CULL_SHARED_CELLS=1 "};
+  // node; each of the two with the shared cells (kSharedCells, the default where tests are shared:
+  // a node's occupied cells one after the other, each cell's texels over the subgroup).
+  const char* variants[5] = {"MDSTREAM_CULL_COOP_BOXES=0 ", "MDSTREAM_CULL_COOP_BOXES=1 MDSTREAM_CULL_SHARED_CELLS=0 ",
+                             "MDSTREAM_CULL_COOP_BOXES=1 MDSTREAM_CULL_NODE_SUBGROUP=0 MDSTREAM_CULL_SHARED_CELLS=0 ",
+                             "MDSTREAM_CULL_COOP_BOXES=1 ",
+                             "MDSTREAM_CULL_COOP_BOXES=1 MDSTREAM_CULL_NODE_SUBGROUP=0 "};
   for (int view : {0, 2}) {
     SCOPED_TRACE("view " + std::to_string(view));
     nlohmann::json j[5];

@@ -7,10 +7,10 @@ shared,subgroup):
   shared    cull_classify_coop.comp (MDS_COOPERATIVE_BOXES): a box test of more than
             kCooperativeTexels pyramid texels is run by its whole subgroup, nodes one thread each
             in a 64-node workgroup (MDSTREAM_CULL_NODE_SUBGROUP=0)
-  subgroup  the same, but every node tested by a subgroup of its own (push.mode 2; the default
-            where box tests are shared)
+  subgroup  the same, but every node tested by a subgroup of its own (push.mode 2)
   cells     subgroup, and a shared test's occupied cells one after the other, each cell's texels
-            over the subgroup (kSharedCells, MDSTREAM_CULL_SHARED_CELLS=1)
+            over the subgroup (kSharedCells, MDSTREAM_CULL_SHARED_CELLS=1; the default where box
+            tests are shared, since the H200's run 13; the other variants set it to 0)
 They run alternately, --reps times each; the table shows medians over the runs, with the node and
 meshlet passes (`classify_nodes`, `classify_meshlets`) apart. The variants must classify alike: the
 script checks that every frame's hits, misses and reads are the same (column *same demand*).
@@ -45,8 +45,8 @@ def quantile(v, q):
 
 VARIANT_ENV = {
     "thread": {"MDSTREAM_CULL_COOP_BOXES": "0"},
-    "shared": {"MDSTREAM_CULL_COOP_BOXES": "1", "MDSTREAM_CULL_NODE_SUBGROUP": "0"},
-    "subgroup": {"MDSTREAM_CULL_COOP_BOXES": "1", "MDSTREAM_CULL_NODE_SUBGROUP": "1"},
+    "shared": {"MDSTREAM_CULL_COOP_BOXES": "1", "MDSTREAM_CULL_NODE_SUBGROUP": "0", "MDSTREAM_CULL_SHARED_CELLS": "0"},
+    "subgroup": {"MDSTREAM_CULL_COOP_BOXES": "1", "MDSTREAM_CULL_NODE_SUBGROUP": "1", "MDSTREAM_CULL_SHARED_CELLS": "0"},
     "cells": {"MDSTREAM_CULL_COOP_BOXES": "1", "MDSTREAM_CULL_NODE_SUBGROUP": "1", "MDSTREAM_CULL_SHARED_CELLS": "1"},
 }
 
@@ -163,9 +163,10 @@ def main():
          f"`mdstream stress --path P --frames {args.frames}` at {args.width}x{args.height}, GPU budget = store / 8, "
          f"the occlusion policy. *thread* = one thread per box (`MDSTREAM_CULL_COOP_BOXES=0`), *shared* = "
          f"box tests of more than {args.texels} texels run by their subgroup (`=1`), nodes one thread each "
-         "(`MDSTREAM_CULL_NODE_SUBGROUP=0`), *subgroup* = the same with a subgroup per node (the default where "
-         "box tests are shared), *cells* = subgroup with a shared test's occupied cells one after the other, "
-         f"each cell's texels over the subgroup (`MDSTREAM_CULL_SHARED_CELLS=1`). {args.reps} runs per variant, "
+         "(`MDSTREAM_CULL_NODE_SUBGROUP=0`), *subgroup* = the same with a subgroup per node, "
+         "*cells* = subgroup with a shared test's occupied cells one after the other, "
+         "each cell's texels over the subgroup (`MDSTREAM_CULL_SHARED_CELLS=1`, the default where box tests are "
+         f"shared; the other variants set it to 0). {args.reps} runs per variant, "
          "alternating; medians. *classify* = GPU ms of the classification passes summed over "
          "the path's frames (*nodes* and *meshlets*: each pass's sum), and the largest frame's; GPU frame = the "
          "frame's timestamped passes; wall = CPU wall "

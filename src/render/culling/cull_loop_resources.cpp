@@ -264,10 +264,12 @@ Status CullLoop::Impl::create_pipelines() {
     // kCooperativeTexels; MDSTREAM_CULL_COOP_TEXELS=N for A/B runs.
     const char* texels_env = std::getenv("MDSTREAM_CULL_COOP_TEXELS");
     const int32_t coop_texels = texels_env ? std::max(1, std::atoi(texels_env)) : 256;
-    // kSharedCells: a shared test's occupied cells one after the other, each cell's texels over
-    // the subgroup (cull_classify.comp cells_in_front_shared); MDSTREAM_CULL_SHARED_CELLS=1 / 0.
+    // kSharedCells where box tests are shared: a shared test's occupied cells one after the
+    // other, each cell's texels over the subgroup (cull_classify.comp cells_in_front_shared; the
+    // H200's node pass 0.49-0.64x on the jumps, docs/rendering.md "Shared cells");
+    // MDSTREAM_CULL_SHARED_CELLS=0 for A/B runs.
     const char* cells_env = std::getenv("MDSTREAM_CULL_SHARED_CELLS");
-    shared_cells = coop && cells_env && std::string(cells_env) == "1";
+    shared_cells = coop && !(cells_env && std::string(cells_env) == "0");
     vk::SpecConstants spec;
     spec.add(0u, int32_t(node_extent));  // cull_classify.comp: kNodeExtent
     spec.add(1u, coop_texels);
