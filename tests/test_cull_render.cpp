@@ -239,42 +239,6 @@ TEST_F(CullRender, SampledPixelListUpdatesLikeTheFullScreenUpdate) {
   }
 }
 
-// The comparison of the sampling routes ends early only when one route is clearly slower: every
-// pass of it at least kSampleRouteClearCut times the other's slowest.
-TEST(SampleRouteChoice, ClearCutRuleDecidesOnlyOnAClearGap) {
-  using mds::render::culling::sample_route_clear_winner;
-  const std::vector<double> none, fast{18.0, 19.5}, slow{140.0, 205.0}, close{25.0, 60.0};
-  EXPECT_EQ(sample_route_clear_winner(fast, slow), 0);   // raster fast, compute slow
-  EXPECT_EQ(sample_route_clear_winner(slow, fast), 1);   // compute fast
-  EXPECT_EQ(sample_route_clear_winner(fast, close), -1);  // a compute pass within 2x of raster's slowest
-  EXPECT_EQ(sample_route_clear_winner(close, fast), -1);
-  EXPECT_EQ(sample_route_clear_winner(fast, fast), -1);
-  EXPECT_EQ(sample_route_clear_winner(none, slow), -1);
-  EXPECT_EQ(sample_route_clear_winner(std::vector<double>{10.0}, std::vector<double>{20.0}), 0);  // 2x exactly
-  EXPECT_EQ(sample_route_clear_winner(std::vector<double>{10.0}, std::vector<double>{19.9}), -1);
-}
-
-// A probe at rest selects a smaller share of the budget the slower the other route was found:
-// about kSampleRouteProbeCost of the winner's pass, within [kSampleRouteProbeShare,
-// kSampleRouteMovingProbeShare]; a moving probe always the moving share.
-TEST(SampleRouteChoice, ProbeShareFollowsTheLastComparedRatio) {
-  using namespace mds::render::culling;
-  EXPECT_EQ(sample_route_probe_share(-1.0, -1.0, false), kSampleRouteProbeShare);  // nothing compared yet
-  EXPECT_EQ(sample_route_probe_share(10.0, -1.0, false), kSampleRouteProbeShare);
-  EXPECT_EQ(sample_route_probe_share(0.0, 5.0, false), kSampleRouteProbeShare);
-  EXPECT_EQ(sample_route_probe_share(10.0, 12.0, false), kSampleRouteProbeShare);  // routes close: a quarter
-  EXPECT_EQ(sample_route_probe_share(10.0, 20.0, false), 4u);                      // 2x: 2 / 0.5
-  EXPECT_EQ(sample_route_probe_share(10.0, 30.0, false), 6u);                      // 3x: a sixth costs half a pass
-  EXPECT_EQ(sample_route_probe_share(10.0, 30.5, false), 7u);                      // rounded up
-  EXPECT_EQ(sample_route_probe_share(1.1, 9.74, false), kSampleRouteMovingProbeShare);  // 8.9x: capped
-  EXPECT_EQ(sample_route_probe_share(1.1, 9.74, true), kSampleRouteMovingProbeShare);
-  EXPECT_EQ(sample_route_probe_share(10.0, 12.0, true), kSampleRouteMovingProbeShare);  // moving: always 1/16
-  for (double r = 0.5; r < 40.0; r *= 1.3) {  // a probe at rest costs at most half a winner's pass, or 1/16
-    const uint32_t s = sample_route_probe_share(10.0, 10.0 * r, false);
-    EXPECT_TRUE(r / s <= kSampleRouteProbeCost + 1e-12 || s == kSampleRouteMovingProbeShare) << r;
-  }
-}
-
 TEST_F(CullRender, AutomaticSamplingRouteComparesBothRoutes) {
   if (!ctx_->int64_atomics()) GTEST_SKIP() << "no 64-bit buffer atomics: only the rasterized route exists";
   RenderRun r = render_scene(*ctx_, *scene_, true, MDS_CULL_ACCEPT_NORMAL, 10);

@@ -167,7 +167,7 @@ TEST(RendererControls, ResidencyAndLiveSettingsOnAStreamedStore) {
 }
 
 // While the camera moves every frame is a new view of one sampling pass, so the automatic
-// sampling route compares by probes only (cull_loop.h kSampleRouteMovingHysteresis): the running
+// sampling route compares by probes only (sample_route.h kSampleRouteMovingHysteresis): the running
 // route (compute when none has won) samples, one pass of the other over a quarter of the budget
 // is timed beside it, and no whole pass of the other route is paid in a moving frame. The
 // comparison completes while moving (until 2026-11-26 a comparison begun in motion was never

@@ -281,7 +281,7 @@ TEST_F(StressCli, ContinuousPathsSettleTheFinalViewAndAcceptSlowDiskOptions) {
       EXPECT_EQ(routes[i]["raster"].get<uint32_t>() + routes[i]["compute"].get<uint32_t>(), 1u) << "frame " << i;
       const bool probed = !routes[i]["probe"].get<std::string>().empty();
       probes += probed ? 1 : 0;
-      // A moving probe selects 1/16 of the budget (cull_loop.h kSampleRouteMovingProbeShare).
+      // A moving probe selects 1/16 of the budget (sample_route.h kSampleRouteMovingProbeShare).
       EXPECT_EQ(routes[i]["probe_share"].get<uint32_t>(), probed ? 16u : 0u) << "frame " << i;
       EXPECT_TRUE(routes[i]["compared_ms"].contains("raster") && routes[i]["compared_ms"].contains("compute"));
     }

@@ -109,7 +109,7 @@ struct Renderer::Impl {
   std::function<void(uint32_t)> iteration_hook;
 
   // Named passes per frame: 3 per occlusion sampling pass and 2 of a route probe (select, sample;
-  // cull_loop.h kSampleRouteProbeShare), view (CullLoop::prepare_view)/pyramid/classify/histogram,
+  // sample_route.h kSampleRouteProbeShare), view (CullLoop::prepare_view)/pyramid/classify/histogram,
   // 4 drawing.
   uint32_t timestamp_capacity() const {
     return 25 + 3 * std::max(1u, settings.cull_settings.samples_per_iteration);

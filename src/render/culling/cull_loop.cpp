@@ -267,7 +267,7 @@ Status CullLoop::resize(uint32_t width, uint32_t height) {
 Status CullLoop::prepare_view(const Camera& camera, uint32_t live_meshlets) {
   impl_->sampled_fraction = -1.0;  // the new view probes its sampled fraction again
   Impl& m = *impl_;
-  m.explore_interval = kSampleRouteExplore;  // a new view may favour the other sampling route
+  m.route.new_view();  // a new view may favour the other sampling route
   m.histogram_pending = false;  // cast below for the new view
   m.histogram_recast = false;
   m.view_stride = m.moving ? std::max(m.configured_stride(), kMovingHistogramStride) : m.configured_stride();
@@ -330,9 +330,8 @@ Status CullLoop::begin_view(const Camera& camera, uint32_t live_meshlets) {
 
 Status CullLoop::warm_up(const Camera& camera) {
   Impl& m = *impl_;
-  const int best_route = m.best_route;
-  const bool comparing = m.comparing, probing = m.probing, moving_comparison = m.moving_comparison;
-  const uint32_t since_compare = m.since_compare, route_passes[2] = {m.route_passes[0], m.route_passes[1]};
+  const SampleRouteChooser route = m.route;  // the warm-up's passes choose nothing
+  const uint32_t route_passes[2] = {m.route_passes[0], m.route_passes[1]};
   const SampleRoutes routes_since = m.routes_since;
   const bool moving = m.moving;
   Status st;
@@ -343,17 +342,10 @@ Status CullLoop::warm_up(const Camera& camera) {
     if (!st.ok()) break;
   }
   m.moving = moving;
-  m.best_route = best_route;
-  m.comparing = comparing;
-  m.probing = probing;
-  m.moving_comparison = moving_comparison;
-  m.route_trigger = false;
-  m.since_compare = since_compare;
+  m.route = route;
   m.route_passes[0] = route_passes[0];
   m.route_passes[1] = route_passes[1];
   m.routes_since = routes_since;  // the warm-up's passes are no frame's
-  m.compare_ms[0].clear();
-  m.compare_ms[1].clear();
   m.histogram_pending = false;
   return st;
 }
@@ -384,9 +376,9 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
   }
   const uint32_t passes = m.passes;
   m.begin_route_choice(cmd);
-  if (m.probing && m.route_ts.enabled()) {
-    // The probe of the other route (cull_loop.h kSampleRouteProbeShare): measured, not applied.
-    m.sample_compute = m.best_route != 1;
+  if (m.route.probing() && m.route_ts.enabled()) {
+    // The probe of the other route (sample_route.h kSampleRouteProbeShare): measured, not applied.
+    m.sample_compute = m.route.probe_route() == SampleRouteChooser::kCompute;
     m.route_ts.begin(cmd, m.sample_compute ? "compute_probe" : "raster_probe");
     m.routes_since.probe = m.sample_compute ? 1 : 0;
     m.probe_share_recorded = m.probe_share();
@@ -398,10 +390,10 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
     m.sample_compute = m.choose_compute_route(p, passes);
     ++m.route_passes[m.sample_compute ? 1 : 0];
     ++(m.sample_compute ? m.routes_since.compute : m.routes_since.raster);
-    const bool timed = (m.comparing || (m.moving && m.best_route >= 0)) && m.route_ts.enabled();
+    const bool timed = m.route.times_passes() && m.route_ts.enabled();
     if (timed)
-      m.route_ts.begin(cmd, m.comparing ? (m.sample_compute ? "compute" : "raster")
-                                        : (m.sample_compute ? "run_compute" : "run_raster"));
+      m.route_ts.begin(cmd, m.route.comparing() ? (m.sample_compute ? "compute" : "raster")
+                                                : (m.sample_compute ? "run_compute" : "run_raster"));
     m.record_sampling_pass(cmd, ts, iteration * m.max_passes() + p);
     if (timed) m.route_ts.end(cmd);
   }

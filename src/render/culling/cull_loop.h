@@ -46,6 +46,7 @@
 #include "culling/culling_constants.h"
 #include "render/camera.h"
 #include "render/culling/density_volume.h"
+#include "render/culling/sample_route.h"
 #include "render/scene.h"
 #include "vk/context.h"
 #include "vk/timestamps.h"
@@ -66,65 +67,7 @@ inline constexpr uint32_t kDefaultMaxIterations = 256;
 // share of the candidates to hit every pixel's front layer within a few dozen passes.
 uint32_t default_budget(uint32_t nodes, uint32_t meshlets);
 
-enum class SampleRoute : uint8_t { automatic, compute, raster };
-// Iterations from one route comparison to the next (automatic route choice). After a comparison
-// that ended early (the clear-cut rule below) with the same winner as the one before, the next
-// waits twice as long, up to kSampleRouteExploreMax; any other outcome, and every new view,
-// return to kSampleRouteExplore.
-inline constexpr uint32_t kSampleRouteExplore = 16;
-inline constexpr uint32_t kSampleRouteExploreMax = 128;
-// Timed sampling passes per route in one comparison (their median decides: robust against a
-// pass that pays a one-time cost; with 4 passes per iteration, the first two iterations).
-inline constexpr uint32_t kSampleRouteCompare = 4;
-// A comparison ends early, once each route has kSampleRouteEarly timed passes, when every pass of
-// one route took at least kSampleRouteClearCut times the slowest pass of the other: the other
-// route wins, and the loser's remaining passes (up to ~200 ms each on a close-up at rest) are
-// not paid. Two passes per route is one iteration of 4 passes.
-inline constexpr uint32_t kSampleRouteEarly = 2;
-inline constexpr double kSampleRouteClearCut = 2.0;
-// The probe of a repeat comparison is an extra pass on the other route that only measures: it
-// selects 1/kSampleRouteProbeShare of the occluder budget, samples them, and its samples are
-// dropped (no update), while the iteration's passes all run on the winner; its time counts
-// kSampleRouteProbeShare times (a pass's cost grows with its occluders: one glyph setup or
-// invocation each, and their pixels). So the loop's state never depends on the timings (both
-// routes give the same samples, and the probe gives none), and the probe costs a quarter of the
-// slower route's pass instead of a whole one: on lavapipe up to 220 ms on the cache benchmark's
-// views, where the running route's took 30-60, the frames that paid for it a path's p99.
-inline constexpr uint32_t kSampleRouteProbeShare = 4;
-// While the camera moves (set_moving) there are no whole passes of both routes: every view lasts
-// one frame of one pass, and a comparison that alternated routes paid the slower one's pass in
-// its frames. A moving comparison is one probe (above) next to the running route's pass, at the
-// first moving iteration without a winner (compute running) and whenever a pass of the running
-// route took more than kSampleRouteClearCut x its compared time and more than the other route's
-// compared time (the view changed: a camera entering dense data makes the compute route's
-// glyphs large). The probed route takes over when kSampleRouteMovingHysteresis x its estimate
-// is below the running route's pass.
-inline constexpr double kSampleRouteMovingHysteresis = 1.5;
-// The probe of a moving comparison selects 1/kSampleRouteMovingProbeShare of the budget (its
-// time counts as many times): its cost lands in a moving frame, which the frame pacer holds near
-// its target, and a 1.5x gap needs no finer estimate. On lavapipe a quarter-budget raster probe
-// took 28 ms next to a 20 ms compute pass (porous fly-through, 320x180 at scale 0.5); the
-// slowest of frames 3-9 of the dynamic-resolution fly-throughs went 56-64 -> 45-48 ms (porous)
-// and 50-62 -> 44-49 ms (ablation), medians of 8-10 runs (docs/rendering.md "Occlusion
-// sampling pass").
-inline constexpr uint32_t kSampleRouteMovingProbeShare = 16;
-// A probe at rest (a repeat comparison) costs about kSampleRouteProbeCost x the running route's
-// pass at most: when the last comparison found the other route r times slower, the probe
-// selects 1/ceil(r / kSampleRouteProbeCost) of the budget, between kSampleRouteProbeShare and
-// kSampleRouteMovingProbeShare. The probe only has to tell whether the other route came within
-// kSampleRouteClearCut of the winner; with r = 9 (lavapipe's raster route on the cache
-// benchmark's views) a quarter-budget probe took 2.2 passes of the running route, 45-50 ms in one
-// frame, the ablation jumps' p99 (docs/rendering.md, "Occlusion sampling pass"). A smaller share
-// counts the pass's fixed cost more times, which errs toward keeping the winner.
-inline constexpr double kSampleRouteProbeCost = 0.5;
-// The probe share above: moving, kSampleRouteMovingProbeShare; at rest from the last compared
-// ms per pass of the winner and of the other route (kSampleRouteProbeShare when either is
-// unknown, <= 0).
-uint32_t sample_route_probe_share(double winner_ms, double other_ms, bool moving);
-// The clear-cut rule: 0 (raster) or 1 (compute) when every timed pass of the other route took at
-// least kSampleRouteClearCut times the winner's slowest pass; -1 otherwise (or when either
-// route has no pass yet).
-int sample_route_clear_winner(std::span<const double> raster_ms, std::span<const double> compute_ms);
+// SampleRoute, the route choice and its constants: render/culling/sample_route.h.
 
 enum class Coverage { expected, exact, automatic };
 // The CLI's names: "expected", "exact", "auto".
@@ -288,7 +231,7 @@ class CullLoop {
   // The node classification runs one subgroup per node (cull_classify_coop.comp push.mode 2).
   bool node_per_subgroup() const;
   // A shared test's occupied cells go one after the other, each cell's texels over the subgroup
-  // (cull_classify.comp kSharedCells; MDSTREAM_CULL_SHARED_CELLS=1).
+  // (cull_classify.comp kSharedCells; on where box tests are shared, MDSTREAM_CULL_SHARED_CELLS=0 off).
   bool shared_cells() const;
   // GPU ms per sampling pass of the route in the last finished comparison (-1: none).
   double sample_route_ms(SampleRoute route) const;

@@ -59,23 +59,12 @@ struct CullLoop::Impl {
   // route (cull_sample.comp) writes sample_buf, 8 B per pixel (16 B when unavailable).
   bool compute_available = false;  // 64-bit atomics, W*H*8 fits, not forced to raster
   bool sample_compute = false;     // the route of the sampling pass recorded last
-  // Automatic route choice (cull_sampling.cpp): index 0 rasterized, 1 compute.
-  int best_route = -1;              // winner of the last comparison (-1: none yet)
-  bool comparing = false;           // the iterations being recorded time both routes
-  bool probing = false;             // comparing, first iteration of a repeat: a probe of the other route
+  // Automatic route choice (sample_route.h; cull_sampling.cpp times the passes).
+  SampleRouteChooser route;
   uint32_t probe_share_recorded = 1;  // the budget divisor of the probe recorded last (its time counts this many times)
-  std::vector<double> compare_ms[2];     // GPU ms per pass of the comparison so far
-  double compared_ms[2] = {-1.0, -1.0};  // the last finished comparison: median ms per pass
-  uint32_t since_compare = 0;       // iterations since the last comparison started
-  uint32_t explore_interval = kSampleRouteExplore;  // iterations from one comparison to the next
   uint32_t route_passes[2] = {0, 0};
   CullLoop::SampleRoutes routes_since;  // take_sample_routes()
-  // While the camera moves: the winner's passes are timed too ("run_raster" / "run_compute"), and
-  // one that slowed down past kSampleRouteClearCut x its compared time, and past the other
-  // route's compared time, sets this: the next iteration compares (cull_sampling.cpp).
-  bool route_trigger = false;
-  bool moving_comparison = false;   // comparing: begun while moving (one probe decides)
-  vk::TimestampPool route_ts;       // "raster" / "compute" around the passes of a comparison
+  vk::TimestampPool route_ts;       // around the timed sampling passes (collect_route_timings)
   vk::Image sample_image, depth;
   vk::Buffer sample_buf;
   // Compute route: the pixels with a sample of the pass (cull_sample_compact.comp), so that the
@@ -132,7 +121,7 @@ struct CullLoop::Impl {
   // (timestamped "view"), or submitted at once by begin_view.
   void record_view_start(VkCommandBuffer cmd, vk::TimestampPool* ts);
   void write_frame_uniforms(uint32_t iteration);
-  // probe_share > 0: a probe (cull_loop.h kSampleRouteProbeShare) -- 1 / probe_share of the
+  // probe_share > 0: a probe (sample_route.h kSampleRouteProbeShare) -- 1 / probe_share of the
   // occluder budget, sampled and not applied (no update).
   void record_sampling_pass(VkCommandBuffer cmd, vk::TimestampPool* ts, uint32_t pass, uint32_t probe_share = 0);
   void record_update(VkCommandBuffer cmd, uint32_t pass);

@@ -27,54 +27,19 @@ bool CullLoop::Impl::sampled_list_wanted() const {
   return settings.sampled_pixel_list;
 }
 
-// Automatic route choice: which route samples faster depends on the view -- far views with
-// glyphs of a few pixels favour compute, close-ups with glyphs of hundreds of pixels the
-// rasterizer's depth test (docs/rendering.md). So the two are compared side by side: the
-// sampling passes of the comparison iterations alternate between the routes (with one pass per
-// iteration, consecutive iterations alternate), each pass timed on the GPU (route_ts), until
-// each route has kSampleRouteCompare passes; the route with the smaller median time per pass
-// runs until the next comparison, kSampleRouteExplore iterations later (the view's occluders
-// change as it converges). A clear-cut gap ends a comparison after kSampleRouteEarly passes per
-// route, and a clear-cut repeat of the same winner doubles the interval (cull_loop.h).
-// A repeat comparison (a winner exists) with several passes per iteration starts as a probe:
-// the iteration's passes on the winner, timed, and before them one extra pass of the other route
-// over a share of the budget whose samples are dropped (sample_route_probe_share: a quarter, less
-// when the other route was much slower; its time counted as many times); when it took at least
-// kSampleRouteClearCut times the winner's slowest, the winner stays, and that iteration paid for
-// a quarter pass of the slower route or less instead of half of its passes (on lavapipe's
-// close-ups the slower route's pass takes up to 8x the other's: 100-210 ms frames at every
-// repeat). Otherwise the comparison goes on alternating as above (whole passes: both routes give
-// the same samples).
+// Automatic route choice (SampleRouteChooser, sample_route.h, decides from the timings): which
+// route samples faster depends on the view -- far views with glyphs of a few pixels favour
+// compute, close-ups with glyphs of hundreds of pixels the rasterizer's depth test
+// (docs/rendering.md). A comparison's passes are timed on the GPU (route_ts) under the route's
+// name, a probe's as "<route>_probe" (its time counted probe_share_recorded times), and the
+// running route's passes outside a comparison as "run_<route>".
 void CullLoop::Impl::begin_route_choice(VkCommandBuffer cmd) {
   if (!compute_available || forced_route() != SampleRoute::automatic) {
-    comparing = false;
-    probing = false;
+    route.stop();
     return;
   }
-  if (!comparing && moving && (best_route < 0 || route_trigger)) {
-    // While the camera moves a comparison is one probe (cull_loop.h kSampleRouteMovingHysteresis):
-    // the running route -- compute when none has won yet -- samples, and one pass of the other
-    // route over 1/probe_share() of the budget is timed.
-    if (best_route < 0) best_route = 1;
-    comparing = true;
-    probing = true;
-    moving_comparison = true;
-    compare_ms[0].clear();
-    compare_ms[1].clear();
-  } else if (!comparing && !moving && (best_route < 0 || since_compare >= explore_interval)) {
-    comparing = true;
-    // A repeat comparison starts as a probe, whatever the pass count: with one pass per iteration
-    // (paced sampling at rest, render/sample_pacer.h) an alternating comparison would run whole
-    // passes of the slower route.
-    probing = best_route >= 0;
-    moving_comparison = false;
-    since_compare = 0;
-    compare_ms[0].clear();
-    compare_ms[1].clear();
-  }
-  route_trigger = false;
-  ++since_compare;
-  if ((comparing || moving) && route_ts.enabled()) route_ts.reset(cmd);
+  route.begin_iteration(moving);
+  if (route.times_passes() && route_ts.enabled()) route_ts.reset(cmd);
 }
 
 bool CullLoop::Impl::choose_compute_route(uint32_t p, uint32_t pass_count) {
@@ -82,12 +47,7 @@ bool CullLoop::Impl::choose_compute_route(uint32_t p, uint32_t pass_count) {
   const SampleRoute forced = forced_route();
   if (forced != SampleRoute::automatic) return forced == SampleRoute::compute;
   if (!route_ts.enabled()) return true;  // no timestamps on this queue: compute, unmeasured
-  if (comparing) {
-    if (probing) return best_route == 1;  // the probe of the other route is an extra pass
-    if (pass_count >= 2) return p % 2 == 0;
-    return compare_ms[1].size() <= compare_ms[0].size();  // one pass per iteration: alternate
-  }
-  return best_route != 0;
+  return route.pass_route(p, pass_count) == SampleRouteChooser::kCompute;
 }
 
 uint32_t CullLoop::Impl::probe_share() const {
@@ -95,16 +55,7 @@ uint32_t CullLoop::Impl::probe_share() const {
     const int v = std::atoi(e);
     if (v >= 1) return uint32_t(v);
   }
-  const double winner = best_route < 0 ? -1.0 : compared_ms[best_route];
-  const double other = best_route < 0 ? -1.0 : compared_ms[1 - best_route];
-  return sample_route_probe_share(winner, other, moving_comparison);
-}
-
-uint32_t sample_route_probe_share(double winner_ms, double other_ms, bool moving) {
-  if (moving) return kSampleRouteMovingProbeShare;
-  if (!(winner_ms > 0.0) || !(other_ms > 0.0)) return kSampleRouteProbeShare;
-  const double share = std::ceil(other_ms / winner_ms / kSampleRouteProbeCost);
-  return uint32_t(std::clamp(share, double(kSampleRouteProbeShare), double(kSampleRouteMovingProbeShare)));
+  return route.probe_share();
 }
 
 bool CullLoop::shared_box_tests() const { return impl_->shared_box_tests; }
@@ -119,81 +70,26 @@ uint32_t CullLoop::sample_route_passes(SampleRoute route) const {
 CullLoop::SampleRoutes CullLoop::take_sample_routes() { return std::exchange(impl_->routes_since, SampleRoutes{}); }
 
 double CullLoop::sample_route_ms(SampleRoute route) const {
-  return route == SampleRoute::compute ? impl_->compared_ms[1]
-                                       : route == SampleRoute::raster ? impl_->compared_ms[0] : -1.0;
-}
-
-int sample_route_clear_winner(std::span<const double> raster_ms, std::span<const double> compute_ms) {
-  if (raster_ms.empty() || compute_ms.empty()) return -1;
-  const auto [r_lo, r_hi] = std::minmax_element(raster_ms.begin(), raster_ms.end());
-  const auto [c_lo, c_hi] = std::minmax_element(compute_ms.begin(), compute_ms.end());
-  if (*c_lo >= kSampleRouteClearCut * *r_hi) return 0;
-  if (*r_lo >= kSampleRouteClearCut * *c_hi) return 1;
-  return -1;
+  return route == SampleRoute::compute ? impl_->route.compared_ms(SampleRouteChooser::kCompute)
+         : route == SampleRoute::raster ? impl_->route.compared_ms(SampleRouteChooser::kRaster)
+                                        : -1.0;
 }
 
 Status CullLoop::collect_route_timings() {
   Impl& m = *impl_;
-  if (!m.route_ts.enabled() || (!m.comparing && !(m.moving && m.best_route >= 0))) return {};
+  if (!m.route_ts.enabled() || !m.route.times_passes()) return {};
   std::map<std::string, size_t> before;
   for (const auto& [name, v] : m.route_ts.samples()) before[name] = v.size();
   MDS_TRY(m.route_ts.collect());
-  if (!m.comparing) {
-    // While the camera moves, the running route's passes ("run_*"): one slower than
-    // kSampleRouteClearCut x its compared time and than the other route's compared time
-    // triggers a probe (a camera entering dense data makes the compute route's glyphs large).
-    const int best = m.best_route, other = 1 - best;
-    for (const auto& [name, v] : m.route_ts.samples()) {
-      if (!name.starts_with("run_")) continue;
-      for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i)
-        if (v[i] > kSampleRouteClearCut * m.compared_ms[best] && v[i] > m.compared_ms[other]) m.route_trigger = true;
-    }
-    return {};
-  }
+  std::vector<SampleRouteChooser::Timing> timings;
   for (const auto& [name, v] : m.route_ts.samples()) {
-    if (name.starts_with("run_")) continue;
-    // "compute" / "raster", "_probe" for a probe (its time counts probe_share_recorded times).
-    const int r = name.rfind("compute", 0) == 0 ? 1 : 0;
-    const double scale = name.ends_with("_probe") ? double(m.probe_share_recorded) : 1.0;
-    for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i) m.compare_ms[r].push_back(scale * v[i]);
+    using Kind = SampleRouteChooser::Kind;
+    const Kind kind = name.starts_with("run_") ? Kind::run : name.ends_with("_probe") ? Kind::probe : Kind::compared;
+    const int r = name.find("compute") != std::string::npos ? SampleRouteChooser::kCompute : SampleRouteChooser::kRaster;
+    const double scale = kind == Kind::probe ? double(m.probe_share_recorded) : 1.0;
+    for (size_t i = before.count(name) ? before[name] : 0; i < v.size(); ++i) timings.push_back({r, kind, scale * v[i]});
   }
-  if (m.probing && m.moving_comparison) {
-    // A moving comparison (decided here even when the camera has stopped since): the probed
-    // route takes over when its estimate beats the running route's passes by
-    // kSampleRouteMovingHysteresis (no whole passes of a slower route).
-    m.probing = false;
-    m.comparing = false;
-    m.moving_comparison = false;
-    const int best = m.best_route, other = 1 - best;
-    if (m.compare_ms[0].empty() || m.compare_ms[1].empty()) return {};  // not timed: try again later
-    m.compared_ms[best] = vk::median(m.compare_ms[best]);
-    m.compared_ms[other] = vk::median(m.compare_ms[other]);
-    if (kSampleRouteMovingHysteresis * m.compared_ms[other] < m.compared_ms[best]) m.best_route = other;
-    return {};
-  }
-  if (m.probing) {
-    m.probing = false;
-    const int best = m.best_route, other = 1 - best;
-    if (sample_route_clear_winner(m.compare_ms[0], m.compare_ms[1]) == best) {
-      m.compared_ms[best] = vk::median(m.compare_ms[best]);
-      m.compared_ms[other] = vk::median(m.compare_ms[other]);
-      m.comparing = false;
-      m.explore_interval = std::min(2 * m.explore_interval, kSampleRouteExploreMax);
-      return {};
-    }
-    // Not clear-cut: the comparison continues with alternating passes (the probe's samples count).
-  }
-  const bool full = m.compare_ms[0].size() >= kSampleRouteCompare && m.compare_ms[1].size() >= kSampleRouteCompare;
-  const bool early = m.compare_ms[0].size() >= kSampleRouteEarly && m.compare_ms[1].size() >= kSampleRouteEarly &&
-                     sample_route_clear_winner(m.compare_ms[0], m.compare_ms[1]) >= 0;
-  if (full || early) {
-    for (int r = 0; r < 2; ++r) m.compared_ms[r] = vk::median(m.compare_ms[r]);
-    const int previous = m.best_route;
-    m.best_route = m.compared_ms[1] <= m.compared_ms[0] ? 1 : 0;
-    m.comparing = false;
-    m.explore_interval = early && m.best_route == previous ? std::min(2 * m.explore_interval, kSampleRouteExploreMax)
-                                                         : kSampleRouteExplore;
-  }
+  m.route.collect(timings);
   return {};
 }
 
