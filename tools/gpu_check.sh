@@ -133,14 +133,22 @@ cache() {
   "$py" "$repo/tools/bench_cache.py" "${q[@]}" --scenes porous --paths flythrough,orbit --policies occlusion,lru \
     --no-scale --out "$work/cache" --work /tmp/gc_cache
 }
+# stress_jsons WORK DIR: the occlusion-policy stress JSONs of a cache run (per_frame.gpu_passes,
+# cpu_parts, sample_route), xz-compressed into DIR (~0.4 MB instead of ~37: the lent machine
+# returns a few files of limited size).
+stress_jsons() {
+  find "$1" -name '*occlusion*.json' | tar cJf "$2/stress_json.tar.xz" -T - 2>/dev/null
+}
 cache_1m() {
   local q=(--particles 1000000 --node-size 1000 --frames 48 --width 320 --height 180 --settle-frames 160)
   [ "$quick" = 1 ] && q=(--quick)
   "$py" "$repo/tools/bench_cache.py" "${q[@]}" --out "$work/cache_1m" --work /tmp/gc_cache_1m
+  stress_jsons /tmp/gc_cache_1m "$work/cache_1m"
 }
 cache_full() {
   local q=(); [ "$quick" = 1 ] && q=(--quick)
   "$py" "$repo/tools/bench_cache.py" "${q[@]}" --out "$work/cache_full" --work /tmp/gc_cache_full
+  stress_jsons /tmp/gc_cache_full "$work/cache_full"
 }
 classify() {
   local q=(--particles 1000000 --node-size 1000 --frames 48 --width 320 --height 180)
@@ -156,7 +164,7 @@ big() {
 }
 
 export work repo mds py quick
-export -f smoke tests tests_mesh mesh render render_mesh cache cache_1m cache_full classify big sweep
+export -f stress_jsons smoke tests tests_mesh mesh render render_mesh cache cache_1m cache_full classify big sweep
 for s in $steps; do
   case $s in
     smoke) step smoke 90 smoke || { echo "smoke failed: no further steps (no driver found? GPU_CHECK_GL_DEBS)"; ldd "$mds" "$repo/build/libmdstream_vulkan.so" | grep -i "not found"; break; } ;;
