@@ -410,6 +410,70 @@ TEST_F(StreamingRender, PoolTransfersOfOneFrameLandInOrder) {
   EXPECT_FALSE(p.resident(b));
 }
 
+// Copy regions whose source and destination both continue the previous one merge; the rest,
+// and the order, stay.
+TEST(StreamingPool, CoalesceMergesOnlyRegionsContinuingBothSides) {
+  std::vector<VkBufferCopy> r = {{0, 100, 8}, {8, 108, 8}, {16, 116, 4},  // one run
+                                 {20, 200, 8},                            // source continues, destination jumps
+                                 {0, 208, 8},                             // destination continues, source jumps
+                                 {8, 216, 8}};                            // both continue the one before
+  streaming_gpu::coalesce_copies(r);
+  ASSERT_EQ(r.size(), 3u);
+  EXPECT_EQ(r[0].srcOffset, 0u);
+  EXPECT_EQ(r[0].dstOffset, 100u);
+  EXPECT_EQ(r[0].size, 20u);
+  EXPECT_EQ(r[1].srcOffset, 20u);
+  EXPECT_EQ(r[1].size, 8u);
+  EXPECT_EQ(r[2].srcOffset, 0u);
+  EXPECT_EQ(r[2].dstOffset, 208u);
+  EXPECT_EQ(r[2].size, 16u);
+  std::vector<VkBufferCopy> none;
+  streaming_gpu::coalesce_copies(none);
+  EXPECT_TRUE(none.empty());
+}
+
+// A node's pages are handed out in ascending order, also after an eviction freed them, so its
+// copies take one region per buffer: particles (+ radii), meshlet records and the classes'
+// reset; its eviction one region of zeros. A GPU may pay per region (the H200's upload pass,
+// docs/results/gpu-h200.md run 13). Before, every page took its own region in each buffer.
+TEST_F(StreamingRender, PoolCopiesANodesPagesAsOneRegionPerBuffer) {
+  auto opened = store::StoreReader::open(store_path());
+  ASSERT_TRUE(opened.ok());
+  const store::StoreReader& reader = *opened.value();
+  const streaming_gpu::PoolLayout layout = streaming_gpu::pool_layout_for(reader.header());
+  const auto& nodes = reader.nodes();
+  auto pages = [&](uint32_t i) { return layout.pages_for(nodes[i].particle_count, nodes[i].meshlet_count); };
+  uint32_t a = 0;
+  while (a < nodes.size() && pages(a) < 2) ++a;
+  ASSERT_LT(a, nodes.size()) << "no node spans two pages";
+  uint32_t b = a + 1;
+  while (b < nodes.size() && pages(b) < 2) ++b;
+  ASSERT_LT(b, nodes.size());
+  auto pool = make_pool(reader, layout.node_bytes(nodes[a].particle_count, nodes[a].meshlet_count) +
+                                    layout.node_bytes(nodes[b].particle_count, nodes[b].meshlet_count));
+  ASSERT_TRUE(pool.ok()) << pool.error().message;
+  streaming_gpu::NodePool& p = **pool;
+  store::NodeData da, db;
+  std::vector<uint8_t> scratch;
+  ASSERT_TRUE(reader.read_node(a, da, scratch).ok());
+  ASSERT_TRUE(reader.read_node(b, db, scratch).ok());
+  const uint32_t per_node = layout.radii ? 4u : 3u;  // particles, (radii), meshlet records, classes
+  ASSERT_TRUE(pool_frame(p, [&](VkCommandBuffer) {
+                EXPECT_TRUE(p.upload(a, streaming_gpu::node_frame(nodes[a]), da).ok());
+              }).ok());
+  EXPECT_EQ(p.take_copy_regions(), per_node) << pages(a) << " pages of node " << a;
+  // Evicted, then b placed in a's pages and the ones after: a's zeros are one region, b's
+  // copies one per buffer.
+  ASSERT_TRUE(pool_frame(p, [&](VkCommandBuffer cmd) {
+                EXPECT_TRUE(p.evict(cmd, a).ok());
+                EXPECT_TRUE(p.upload(b, streaming_gpu::node_frame(nodes[b]), db).ok());
+              }).ok());
+  EXPECT_EQ(p.take_copy_regions(), 1 + per_node);
+  EXPECT_EQ(p.take_copy_regions(), 0u);
+  EXPECT_TRUE(p.resident(b));
+  EXPECT_FALSE(p.resident(a));
+}
+
 TEST_F(StreamingRender, PreparedUploadStagesWhatTheInlineOneDoes) {
   // The cache's reader threads pack a node's particle records and its meshlet bounds
   // (IoOptions::prepare: pack_particles, meshlet_bounds); NodePool::upload then copies them. The

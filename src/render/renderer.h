@@ -274,6 +274,7 @@ struct FrameReport {
   uint64_t bytes_uploaded = 0;    // this frame
   uint32_t frame_hits = 0, frame_misses = 0;  // this frame's wanted nodes resident / not
   uint32_t reads_requested = 0;   // node reads this frame's prefetch submitted
+  uint32_t upload_regions = 0;    // copy regions of the pool's transfers this frame (pass "upload")
   bool upload_stall = false;
   bool budget_exhausted = false;  // streaming: this frame wanted more nodes than the pool holds
   std::vector<uint32_t> wanted;   // StreamSettings::record_trace: this frame's wanted nodes

@@ -273,6 +273,7 @@ Result<FrameReport> Renderer::step() {
     rep.frame_hits = cf.hits;
     rep.frame_misses = cf.misses;
     rep.reads_requested = cf.reads_requested;
+    rep.upload_regions = cf.copy_regions;
     rep.upload_stall = cf.upload_stall;
     rep.budget_exhausted = cf.exhausted;
     rep.wanted = std::move(cf.wanted);

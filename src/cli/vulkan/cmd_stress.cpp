@@ -213,6 +213,7 @@ Status run_stress(const StressOptions& o) {
     r.hits = fr.frame_hits;
     r.misses = fr.frame_misses;
     r.reads_requested = fr.reads_requested;
+    r.upload_regions = fr.upload_regions;
     r.bytes_uploaded = fr.bytes_uploaded;
     r.bytes_read_total = renderer->stats().cache.bytes_read;
     r.wanted_nodes = uint32_t(fr.wanted.size());
@@ -398,6 +399,7 @@ Status run_stress(const StressOptions& o) {
                                {"complete", nlohmann::ordered_json::array()}, {"converged", nlohmann::ordered_json::array()},
                                {"hits", nlohmann::ordered_json::array()},    {"misses", nlohmann::ordered_json::array()},
                                {"reads_requested", nlohmann::ordered_json::array()},
+                               {"upload_regions", nlohmann::ordered_json::array()},
                                {"bytes_read_total", nlohmann::ordered_json::array()},
                                {"scale", nlohmann::ordered_json::array()},
                                {"gpu_passes", nlohmann::ordered_json::array()},
@@ -413,6 +415,7 @@ Status run_stress(const StressOptions& o) {
     pf["hits"].push_back(f.hits);
     pf["misses"].push_back(f.misses);
     pf["reads_requested"].push_back(f.reads_requested);
+    pf["upload_regions"].push_back(f.upload_regions);
     pf["bytes_read_total"].push_back(f.bytes_read_total);
     pf["scale"].push_back(f.scale);
     pf["gpu_passes"].push_back(f.gpu_passes);  // pass -> GPU ms of this frame (summed over repeats)

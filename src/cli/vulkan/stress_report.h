@@ -41,6 +41,7 @@ struct FrameRecord {
   bool upload_stall = false;
   uint32_t hits = 0, misses = 0;
   uint32_t reads_requested = 0;       // node reads submitted by this frame's prefetch
+  uint32_t upload_regions = 0;        // copy regions of the frame's pool transfers (after merging)
   uint64_t bytes_uploaded = 0;
   uint64_t bytes_read_total = 0;      // cumulative compressed bytes read after this frame
   uint32_t wanted_nodes = 0;

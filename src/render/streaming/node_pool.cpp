@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <utility>
 
 #include "culling/culling_constants.h"
 #include "vk/commands.h"
@@ -86,8 +87,8 @@ Result<std::unique_ptr<NodePool>> NodePool::create(vk::Context& ctx, const PoolL
                                                            "pool: upload staging"));
   p->staging_ = {static_cast<std::byte*>(p->staging_buf_.mapped()), size_t(p->staging_buf_.size())};
   static_assert(MDS_CULL_CLASS_P == 0, "classes are reset to P by copying zeros");
-  // One page's meshlet records of zeros: 32 slots x 48 B = 1.5 KiB at the default page.
-  MDS_ASSIGN_OR_RETURN(p->zeros_, vk::Buffer::create(alloc, uint64_t(layout.page_meshlets) * sizeof(gpu::GpuMeshlet),
+  // kZeroPages pages' meshlet records of zeros: 16 x 32 slots x 48 B = 24 KiB at the default page.
+  MDS_ASSIGN_OR_RETURN(p->zeros_, vk::Buffer::create(alloc, uint64_t(kZeroPages) * layout.page_meshlets * sizeof(gpu::GpuMeshlet),
                                                      VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                                      vk::MemoryIntent::device_local, "pool: zeros"));
   p->page_pending_.assign(pages, 0);
@@ -106,6 +107,23 @@ Result<std::unique_ptr<NodePool>> NodePool::create(vk::Context& ctx, const PoolL
 
 NodePool::~NodePool() = default;
 
+void coalesce_copies(std::vector<VkBufferCopy>& regions) {
+  size_t out = 0;
+  for (size_t i = 0; i < regions.size(); ++i) {
+    if (out > 0) {
+      VkBufferCopy& last = regions[out - 1];
+      if (last.srcOffset + last.size == regions[i].srcOffset && last.dstOffset + last.size == regions[i].dstOffset) {
+        last.size += regions[i].size;
+        continue;
+      }
+    }
+    regions[out++] = regions[i];
+  }
+  regions.resize(out);
+}
+
+uint32_t NodePool::take_copy_regions() { return std::exchange(copy_regions_, 0u); }
+
 void NodePool::begin_frame() {
   staging_head_ = 0;
   transfers_ = false;
@@ -122,10 +140,11 @@ Status NodePool::evict(VkCommandBuffer cmd, uint32_t node) {
       flush(cmd);
       break;
     }
-  for (uint32_t page : node_pages_[node]) {
-    zero_meshlets_.push_back({0, uint64_t(page) * rec, rec});
-    free_.push_back(page);
-  }
+  const std::vector<uint32_t>& pages = node_pages_[node];
+  for (size_t j = 0; j < pages.size(); ++j) zero_meshlets_.push_back({(j % kZeroPages) * rec, uint64_t(pages[j]) * rec, rec});
+  // Freed last page first, so that the stack hands them out again in ascending order: a node
+  // placed in them gets contiguous pages, whose copies merge (coalesce_copies).
+  for (auto it = pages.rbegin(); it != pages.rend(); ++it) free_.push_back(*it);
   MDS_TRY(budget_.release(uint64_t(node_pages_[node].size()) * layout_.page_bytes()));
   node_pages_[node].clear();
   transfers_ = true;
@@ -141,7 +160,9 @@ void NodePool::flush(VkCommandBuffer cmd) {
   };
   if (flushed_) transfer_barrier();  // after this frame's earlier copies to the same pages
   auto record = [&](VkBuffer src, VkBuffer dst, std::vector<VkBufferCopy>& regions) {
+    coalesce_copies(regions);
     if (!regions.empty()) vkCmdCopyBuffer(cmd, src, dst, uint32_t(regions.size()), regions.data());
+    copy_regions_ += uint32_t(regions.size());
     regions.clear();
   };
   if (!zero_meshlets_.empty()) {
@@ -302,7 +323,7 @@ Status NodePool::upload(uint32_t node, const NodeFrame& frame, const store::Node
     if (mcount > 0) {
       const uint64_t rs = sizeof(gpu::GpuMeshlet);
       copy_meshlets_.push_back({rec_off + mfirst * rs, uint64_t(pages[i]) * M * rs, mcount * rs});
-      zero_classes_.push_back({0, uint64_t(pages[i]) * M * 4, mcount * 4});
+      zero_classes_.push_back({(i % kZeroPages) * M * 4, uint64_t(pages[i]) * M * 4, mcount * 4});
     }
     page_pending_[pages[i]] = 1;
     pending_pages_.push_back(pages[i]);

@@ -37,6 +37,9 @@ namespace mds::render::streaming_gpu {
 // 512 particle slots per page: 512 * 8 B = 4 KiB of positions+types (+1 KiB of radii); a node of
 // 10^4 particles spans 20 pages and wastes at most one partly filled page (< 5 % at 10^4).
 inline constexpr uint32_t kPageParticles = 512;
+// Pages of zeros the evictions and class resets copy from: the i-th page of a node from zeros
+// page i mod kZeroPages, so that a node's contiguous pages take one region (coalesce_copies).
+inline constexpr uint32_t kZeroPages = 16;
 
 struct PoolLayout {
   uint32_t page_particles = kPageParticles;
@@ -83,6 +86,10 @@ Status meshlet_bounds(const PoolScene& scene, uint32_t node, const NodeFrame& fr
 // y, z quantized in the node's frame, type index), the bytes NodePool::upload stages. Any
 // thread may run it (the cache's reader threads). Precondition: data.qpos holds 3 per particle.
 void pack_particles(const store::NodeData& data, std::vector<uint16_t>& out);
+
+// Merges each region into the one before it where both its source and its destination continue
+// that region's (order kept; regions of one vkCmdCopyBuffer never overlap, so neither do merged ones).
+void coalesce_copies(std::vector<VkBufferCopy>& regions);
 
 class NodePool {
  public:
@@ -135,6 +142,9 @@ class NodePool {
   // Records this frame's gathered transfers and makes them visible to the shaders (after the
   // last upload/evict).
   void end_frame(VkCommandBuffer cmd);
+  // Copy regions recorded since the last call (after merging): a GPU may pay per region, so
+  // the stress report gives them per frame (per_frame.upload_regions).
+  uint32_t take_copy_regions();
 
  private:
   NodePool() = default;
@@ -155,7 +165,8 @@ class NodePool {
 
   bool transfers_ = false;  // transfers gathered or recorded since begin_frame
   bool flushed_ = false;    // flush() recorded copies this frame
-  vk::Buffer zeros_;        // page_meshlets GpuMeshlet records of zero bytes (also P = 0 classes)
+  vk::Buffer zeros_;        // kZeroPages x page_meshlets GpuMeshlet records of zero bytes (also P = 0 classes)
+  uint32_t copy_regions_ = 0;  // take_copy_regions()
   std::vector<VkBufferCopy> zero_meshlets_, zero_classes_;  // from zeros_
   std::vector<VkBufferCopy> copy_particles_, copy_radii_, copy_meshlets_;  // from the staging area
   std::vector<uint8_t> page_pending_;  // page has an upload region not yet flushed

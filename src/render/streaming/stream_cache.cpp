@@ -350,6 +350,7 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
     ready_.erase(it);
   }
   pool_->end_frame(cmd);
+  out.copy_regions = pool_->take_copy_regions();
   // Demand of this frame: hits and misses, counted after the placement because the frame draws
   // after it (the uploads are recorded into the same command buffer before the draw): a node
   // placed now is drawn by this frame.

@@ -57,6 +57,7 @@ struct CacheFrame {
   uint64_t bytes_uploaded = 0;
   uint32_t hits = 0, misses = 0;
   uint32_t reads_requested = 0;  // node reads submitted by this frame's prefetch (step 4)
+  uint32_t copy_regions = 0;     // the pool's copy regions recorded this frame (NodePool::take_copy_regions)
   bool upload_stall = false;
   bool exhausted = false;      // wanted nodes do not fit the pool
   bool complete = false;       // every wanted node resident (or failed / beyond the budget), nothing in flight
