@@ -8,6 +8,7 @@
 // Small sprites (kSpriteSmall) are rasterized by the pre-pass (sprite_raster.h), not here.
 #extension GL_GOOGLE_include_directive : require
 #include "bindings.h"
+#include "particle_color.h"
 
 layout(location = 0) flat out vec4 v_center_radius;  // view space
 layout(location = 1) flat out vec3 v_color;
@@ -27,6 +28,6 @@ void main() {
   gl_Position = vec4(0.5 * (s.rect.xy + s.rect.zw), s.zndc, 1.0);
   gl_PointSize = max(side_px.x, side_px.y) + 1.0;
   v_center_radius = s.center_radius;
-  v_color = types[s.flags & 0xffu].color.rgb;
+  v_color = mds_particle_color(s.flags & 0xffu, s.center_radius.xyz);
   v_sprite = s.vis_id;
 }

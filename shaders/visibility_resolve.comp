@@ -17,6 +17,7 @@
 #extension GL_GOOGLE_include_directive : require
 #define MDS_VISIBILITY
 #include "bindings.h"
+#include "particle_color.h"
 #include "sphere_shading.h"
 #include "sprite_make.h"
 #include "accumulation.h"
@@ -51,5 +52,5 @@ void main() {
   float depth;
   if (!ray_sphere(vec2(p) + 0.5, center_radius, hit, n, d, depth)) return;
   float weight = (frame.counts.z & kFrameTimingOnly) != 0u ? 0.0 : 1.0;
-  accumulate_pixel(p, weight * shade_sphere(n, d, types[type].color.rgb));
+  accumulate_pixel(p, weight * shade_sphere(n, d, mds_particle_color(type, center_radius.xyz)));
 }

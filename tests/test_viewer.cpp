@@ -175,6 +175,21 @@ TEST(ViewerHud, LegendShowsASwatchPerType) {
   EXPECT_EQ(swatches(viewer::kHudLegendMax + 5), viewer::kHudLegendMax * 49u);
 }
 
+// With --color-by the legend is the colormap: five swatches from viridis(0) to viridis(1), the
+// first labelled with the axis, each with its coordinate.
+TEST(ViewerHud, ColormapLegendLabelsTheRange) {
+  const auto legend = viewer::colormap_legend(2, {-10.0, 30.0});
+  ASSERT_EQ(legend.size(), 5u);
+  EXPECT_EQ(legend[0].label, "z -10");
+  EXPECT_EQ(legend[2].label, "10");
+  EXPECT_EQ(legend[4].label, "30");
+  for (int k : {0, 4}) {
+    const glm::dvec3 c = render::viridis_srgb(0.25 * k);
+    EXPECT_EQ(legend[k].color, viewer::Rgba8(uint8_t(std::lround(c.r * 255)), uint8_t(std::lround(c.g * 255)),
+                                             uint8_t(std::lround(c.b * 255)), 255));
+  }
+}
+
 // The classes debug view (in memory over meshlet boxes, streaming over node boxes): a box's
 // projection takes its class colour, pixels outside every box are only dimmed, and a pixel
 // covered by boxes of two classes mixes them.
@@ -296,6 +311,32 @@ Png read_png(const fs::path& path) {
   return out;
 }
 
+// The viewer's screenshot against the headless render of the same camera and look: the same
+// image within 8/255 on all but 1 % of the pixels (the window's swapchain path and PNG rounding).
+void expect_screenshot_matches(const fs::path& shot, const fs::path& ref, uint32_t W, uint32_t H) {
+  const Png a = read_png(shot), b = read_png(ref);
+  ASSERT_EQ(a.width, W);
+  ASSERT_EQ(a.height, H);
+  ASSERT_EQ(b.width, W);
+  ASSERT_EQ(b.height, H);
+  double sum = 0.0;
+  size_t differing = 0, lit = 0;
+  for (size_t p = 0; p < size_t(W) * H; ++p) {
+    int maxd = 0;
+    for (int c = 0; c < 3; ++c) {
+      const int d = std::abs(int(a.rgb[3 * p + c]) - int(b.rgb[3 * p + c]));
+      sum += d;
+      maxd = std::max(maxd, d);
+    }
+    if (maxd > 8) ++differing;
+    if (b.rgb[3 * p] != b.rgb[0] || b.rgb[3 * p + 2] != b.rgb[2]) ++lit;  // not background
+  }
+  EXPECT_GT(lit, size_t(W) * H / 10) << "the reference shows almost nothing: a wrong camera?";
+  EXPECT_LT(sum / (3.0 * W * H), 2.0) << "mean absolute difference (of 255)";
+  EXPECT_LT(double(differing) / (W * H), 0.01) << differing << " pixels differ by more than 8/255";
+}
+
+
 class ViewerWindow : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -319,6 +360,23 @@ class ViewerWindow : public ::testing::Test {
   std::string err() const { return slurp(dir_ / "err.txt"); }
   std::string store() const { return (dir_ / "p.mds").string(); }
   std::string env() const { return "DISPLAY=" + xvfb_->display() + " "; }
+  // A 6-frame orbit of the store for a W x H window, saved to path.txt.
+  render::CameraPath orbit(uint32_t W, uint32_t H) {
+    auto reader = store::StoreReader::open(store());
+    EXPECT_TRUE(reader.ok()) << reader.error().message;
+    auto scene = render::load_scene(**reader);
+    EXPECT_TRUE(scene.ok()) << scene.error().message;
+    render::CameraPath path = render::builtin_path(render::BuiltinPath::orbit, scene->bounds, 6, 40.0, double(W) / H);
+    EXPECT_EQ(path.frame_count(), 6u);
+    EXPECT_TRUE(path.save(dir_ / "path.txt").ok());
+    return path;
+  }
+  // `render` options for the path's last camera (--fov, --camera).
+  static std::string last_camera(const render::CameraPath& path) {
+    const render::Camera last = path.at(path.frame_count() - 1);
+    return fmt::format("--fov {} --camera {},{},{},{},{},{},{},{},{}", last.fov_y_deg, last.eye.x, last.eye.y,
+                       last.eye.z, last.target.x, last.target.y, last.target.z, last.up.x, last.up.y, last.up.z);
+  }
 
   fs::path dir_;
   std::unique_ptr<Xvfb> xvfb_;
@@ -327,16 +385,9 @@ class ViewerWindow : public ::testing::Test {
 // The window shows exactly what the headless renderer makes: a short path replayed to
 // convergence, its screenshot against `mdstream render` of the path's last camera.
 TEST_F(ViewerWindow, PlayedPathScreenshotMatchesHeadlessRender) {
-  auto reader = store::StoreReader::open(store());
-  ASSERT_TRUE(reader.ok()) << reader.error().message;
-  auto scene = render::load_scene(**reader);
-  ASSERT_TRUE(scene.ok()) << scene.error().message;
   const uint32_t W = 160, H = 120;
-  const render::CameraPath path =
-      render::builtin_path(render::BuiltinPath::orbit, scene->bounds, 6, 40.0, double(W) / H);
-  ASSERT_EQ(path.frame_count(), 6u);
+  const render::CameraPath path = orbit(W, H);
   const fs::path path_file = dir_ / "path.txt", shot = dir_ / "view.png", ref = dir_ / "render.png";
-  ASSERT_TRUE(path.save(path_file).ok());
 
   // Dynamic resolution with an unreachable target (1 ms): the moving frames render at the
   // smallest scale, upscaled to the window; at rest the full size returns, so the final
@@ -385,34 +436,38 @@ TEST_F(ViewerWindow, PlayedPathScreenshotMatchesHeadlessRender) {
     EXPECT_EQ(std::stoul(rows.back()[c_w]), W);
     EXPECT_EQ(std::stoul(rows.back()[c_h]), H);
   }
-  const render::Camera last = path.at(path.frame_count() - 1);
-  const std::string cam = fmt::format("{},{},{},{},{},{},{},{},{}", last.eye.x, last.eye.y, last.eye.z, last.target.x,
-                                      last.target.y, last.target.z, last.up.x, last.up.y, last.up.z);
-  ASSERT_EQ(mdstream(fmt::format("render {} -o {} --width {} --height {} --spp 4 --fov {} --camera {} {}", store(),
-                                 ref.string(), W, H, last.fov_y_deg, cam, look)),
+  ASSERT_EQ(mdstream(fmt::format("render {} -o {} --width {} --height {} --spp 4 {} {}", store(), ref.string(), W, H,
+                                 last_camera(path), look)),
             0)
       << err();
 
-  const Png a = read_png(shot), b = read_png(ref);
-  ASSERT_EQ(a.width, W);
-  ASSERT_EQ(a.height, H);
-  ASSERT_EQ(b.width, W);
-  ASSERT_EQ(b.height, H);
-  double sum = 0.0;
-  size_t differing = 0, lit = 0;
-  for (size_t p = 0; p < size_t(W) * H; ++p) {
-    int maxd = 0;
-    for (int c = 0; c < 3; ++c) {
-      const int d = std::abs(int(a.rgb[3 * p + c]) - int(b.rgb[3 * p + c]));
-      sum += d;
-      maxd = std::max(maxd, d);
-    }
-    if (maxd > 8) ++differing;
-    if (b.rgb[3 * p] != b.rgb[0] || b.rgb[3 * p + 2] != b.rgb[2]) ++lit;  // not background
-  }
-  EXPECT_GT(lit, size_t(W) * H / 10) << "the reference shows almost nothing: a wrong camera?";
-  EXPECT_LT(sum / (3.0 * W * H), 2.0) << "mean absolute difference (of 255)";
-  EXPECT_LT(double(differing) / (W * H), 0.01) << differing << " pixels differ by more than 8/255";
+  expect_screenshot_matches(shot, ref, W, H);
+}
+
+// Colour by coordinate in the window: the viewer hands --color-by and --color-range to its
+// renderer as `render` does, and the image is not the type colours' one.
+TEST_F(ViewerWindow, ColourByCoordinateScreenshotMatchesHeadlessRender) {
+  const uint32_t W = 160, H = 120;
+  const render::CameraPath path = orbit(W, H);
+  const fs::path shot = dir_ / "view.png", ref = dir_ / "render.png", typed = dir_ / "typed.png";
+  const std::string look = "--color-by z --color-range 5:35";
+  ASSERT_EQ(sh(fmt::format("{}timeout 50 {} view {} --width {} --height {} --spp 4 --play {} --no-hud --screenshot {} {} "
+                           "2>{}",
+                           env(), MDSTREAM_BIN, store(), W, H, (dir_ / "path.txt").string(), shot.string(), look,
+                           (dir_ / "err.txt").string())),
+            0)
+      << err();
+  for (const auto& [out, args] : {std::pair{ref, look}, std::pair{typed, std::string()}})
+    ASSERT_EQ(mdstream(fmt::format("render {} -o {} --width {} --height {} --spp 4 {} {}", store(), out.string(), W, H,
+                                   last_camera(path), args)),
+              0)
+        << err();
+  expect_screenshot_matches(shot, ref, W, H);
+  const Png a = read_png(shot), t = read_png(typed);
+  ASSERT_EQ(a.rgb.size(), t.rgb.size());
+  size_t differing = 0;
+  for (size_t i = 0; i < a.rgb.size(); ++i) differing += std::abs(int(a.rgb[i]) - int(t.rgb[i])) > 24;
+  EXPECT_GT(differing, a.rgb.size() / 20) << "the colormap's image looks like the type colours'";
 }
 
 // Input events (X11, through xdotool) move the camera: a left drag orbits, the wheel zooms,

@@ -53,6 +53,7 @@ MDS_CONST(uint, kFramePerParticleRadius, 2u);
 MDS_CONST(uint, kFrameExactCoverage, 8u);  // occlusion samples: alpha_s by exact clipping (CullSettings::coverage exact or automatic)
 MDS_CONST(uint, kFrameMixedCoverage, 16u);  // with kFrameExactCoverage: exact only below kMixedExactBelowPx (Coverage::automatic)
 MDS_CONST(uint, kFrameTimingOnly, 4u);  // accumulate adds 0 x colour: full cost, the image keeps its spp samples
+MDS_CONST(uint, kFrameColorMap, 32u);  // colour by coordinate: viridis of color_plane (particle_color.h), not the type's
 
 // Per-frame constants (std140 uniform block).
 MDS_STRUCT(FrameUniforms) {
@@ -63,6 +64,7 @@ MDS_STRUCT(FrameUniforms) {
   vec4 radius_range;  // radius_min, radius_max - radius_min (per-particle radii), near, far
   uvec4 counts;       // meshlet_count, max_meshlet_particles, flags, sample index
   vec4 occlusion;     // particle occlusion test (particle_occlusion.h): C_occ, C_medium, pyramid levels (0: off), 0
+  vec4 color_plane;   // with kFrameColorMap: colormap coordinate t = dot(xyz, view-space centre) + w (render/colormap.h)
 };
 
 // One store node: quantization frame relative to the scene origin (float is enough there).
@@ -207,7 +209,8 @@ static_assert(offsetof(SpriteDrawHeader, raster_x) == 56);
 static_assert(offsetof(SpriteDrawHeader, occluded) == 48);
 static_assert(offsetof(SpriteDrawHeader, quad_vertex_count) == 16);
 static_assert(offsetof(SpriteDrawHeader, dispatch_x) == 32);
-static_assert(sizeof(FrameUniforms) == 256);
+static_assert(sizeof(FrameUniforms) == 272);
+static_assert(offsetof(FrameUniforms, color_plane) == 256);
 static_assert(offsetof(FrameUniforms, viewport) == 192);
 static_assert(offsetof(FrameUniforms, counts) == 224);
 static_assert(offsetof(FrameUniforms, occlusion) == 240);

@@ -35,6 +35,7 @@
 
 #include "core/result.h"
 #include "render/camera.h"
+#include "render/colormap.h"
 #include "render/frame_pacer.h"
 #include "render/culling/cull_loop.h"
 #include "render/culling/density_volume.h"
@@ -114,6 +115,9 @@ struct RenderSettings {
   // Colour per type index (sRGB), replacing the palette's (store::type_colors resolves a
   // user's --type-color against the store's types); shorter or empty: the rest keep the palette.
   std::vector<glm::vec3> type_colors_srgb;
+  // Colour by coordinate instead (--color-by, render/colormap.h): viridis along a world axis
+  // over [lo, hi]; lo == hi: the scene's bounds along the axis (Renderer::color_range).
+  ColorBy color_by;
   bool cull = false;                                 // probabilistic occlusion culling (false: --no-cull)
   culling::CullSettings cull_settings;               // used when cull is set
   std::shared_ptr<const culling::DensityVolume> density;  // from the store; null: built from the scene
@@ -399,6 +403,10 @@ class Renderer {
   // Statistics so far (pass times over the frames since the last set_view()).
   RenderStats stats() const;
   const Bounds& bounds() const;
+  // The colormap's [lo, hi] with RenderSettings::color_by along an axis: the settings' range, or
+  // the bounds of the particle centres along the axis when unset (a flat axis widened by 1e-9
+  // of the extent so that lo < hi); (0, 0) when colouring by type.
+  glm::dvec2 color_range() const;
   // Streaming: device bytes each node occupies when resident (the cache's unit of accounting,
   // for offline simulations of the same budget); empty when in memory.
   std::vector<uint64_t> node_device_bytes() const;

@@ -158,6 +158,7 @@ struct Renderer::Impl {
   Status change_culling(const std::function<void(culling::CullLoop&)>& apply);  // set_c_occ, set_coverage
   // The frame uniforms of one jittered sample of `camera` (render() and the progressive step()).
   // all_meshlets: a frame of every meshlet (no particle occlusion test).
+  glm::dvec2 color_range() const;  // Renderer::color_range
   void write_frame_uniforms(const Camera& camera, uint32_t sample, uint32_t extra_flags = 0,
                             bool all_meshlets = false);
   // Collects the timestamps of the frame that completed last (0 when none was timed); sets

@@ -121,13 +121,20 @@ void Renderer::Impl::write_frame_uniforms(const Camera& camera, uint32_t sample,
   const glm::dvec2 jitter_px = halton_jitter(sample);
   const glm::dmat4 proj = projection_matrix(camera, aspect, {2.0 * jitter_px.x / w, 2.0 * jitter_px.y / h});
   gpu::FrameUniforms fu{};
-  fu.view = glm::mat4(view_matrix(camera, origin));
+  const glm::dmat4 view = view_matrix(camera, origin);
+  fu.view = glm::mat4(view);
   fu.proj = glm::mat4(proj);
   fu.inv_proj = glm::mat4(glm::inverse(proj));
   fu.viewport = glm::vec4(float(w), float(h), 1.0f / float(w), 1.0f / float(h));
   fu.radius_range = glm::vec4(radius_min, radius_max - radius_min, float(camera.near), float(camera.far));
-  fu.counts = glm::uvec4(meshlet_count, max_meshlet, flags | extra_flags | (camera.ortho ? gpu::kFrameOrtho : 0u),
-                         sample);
+  uint32_t color_flag = 0;
+  if (!settings.color_by.by_type()) {  // colour by coordinate (render/colormap.h)
+    const glm::dvec2 range = color_range();
+    fu.color_plane = glm::vec4(color_plane(view, origin, settings.color_by.axis, range.x, range.y));
+    color_flag = gpu::kFrameColorMap;
+  }
+  fu.counts = glm::uvec4(meshlet_count, max_meshlet,
+                         flags | extra_flags | color_flag | (camera.ortho ? gpu::kFrameOrtho : 0u), sample);
   // The particle occlusion test (particle_occlusion.h) once the view's culling has stopped: the
   // pyramid is then final and the frame draws the potentially visible set.
   const bool occlusion_test = settings.particle_occlusion && cull && !cull_active && cull_iteration > 0 &&
@@ -499,6 +506,19 @@ RenderStats Renderer::stats() const {
 }
 
 const Bounds& Renderer::bounds() const { return impl_->bounds; }
+glm::dvec2 Renderer::color_range() const { return impl_->color_range(); }
+glm::dvec2 Renderer::Impl::color_range() const {
+  const ColorBy& c = settings.color_by;
+  if (c.by_type()) return glm::dvec2(0.0);
+  if (c.lo < c.hi) return glm::dvec2(c.lo, c.hi);
+  double lo = bounds.min[c.axis], hi = bounds.max[c.axis];
+  if (!(lo < hi)) {  // all centres in one plane: t = 0.5 for every particle
+    const double pad = std::max(1e-9 * glm::length(bounds.max - bounds.min), 1e-12 * (1.0 + std::abs(lo)));
+    lo -= pad;
+    hi += pad;
+  }
+  return glm::dvec2(lo, hi);
+}
 std::vector<uint64_t> Renderer::node_device_bytes() const {
   return impl_->cache ? impl_->cache->node_device_bytes() : std::vector<uint64_t>{};
 }

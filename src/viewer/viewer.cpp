@@ -147,7 +147,11 @@ Status Viewer::setup() {
   hud_.store_name = std::filesystem::path(o_.store).filename().string();
   hud_.streaming = host_->streaming();
   hud_.meshlets = host_->meshlets();
-  hud_.legend = type_legend(host_->reader().types(), host_->settings().type_colors_srgb, host_->shown_types());
+  const render::ColorBy& color_by = host_->settings().color_by;
+  if (!color_by.by_type() && host_->renderer())
+    hud_.legend = colormap_legend(color_by.axis, host_->renderer()->color_range());
+  else
+    hud_.legend = type_legend(host_->reader().types(), host_->settings().type_colors_srgb, host_->shown_types());
   return {};
 }
 

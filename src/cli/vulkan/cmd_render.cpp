@@ -344,6 +344,13 @@ Status run_render(const RenderOptions& o) {
     nlohmann::json type_colors = nlohmann::json::array();
     for (const glm::vec3& c : rs.type_colors_srgb) type_colors.push_back(store::srgb_hex({c.r, c.g, c.b}));
     j["type_colors_srgb"] = type_colors;
+    if (!rs.color_by.by_type()) {  // the range as drawn (the data's bounds unless --color-range)
+      const glm::dvec2 range = renderer->color_range();
+      j["color_by"] = {{"axis", render::color_axis_name(rs.color_by.axis)}, {"range", {range.x, range.y}},
+                       {"colormap", "viridis"}};
+    } else {
+      j["color_by"] = {{"axis", "type"}};
+    }
     nlohmann::json hidden = nlohmann::json::array();
     for (size_t t = 0; t < shown.size(); ++t)
       if (!shown[t]) hidden.push_back(reader->types()[t].input_id);

@@ -32,6 +32,7 @@ Status run_view(ViewCliOptions& o) {
   MDS_TRY(apply_culling_options(o.cull, v.render));
   MDS_ASSIGN_OR_RETURN(const Appearance look, parse_appearance_options(o.look));
   v.render.background_srgb = look.background_srgb;
+  v.render.color_by = look.color_by;
   v.type_colors = look.type_colors;  // resolved when the viewer has opened the store
   v.hide_types = look.hide_types;
   v.type_radii = look.type_radii;

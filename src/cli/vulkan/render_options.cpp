@@ -106,6 +106,13 @@ void add_appearance_options(CLI::App& sub, AppearanceOptions& o) {
                  "Radius of a particle type, TYPE=R (its name or input id), instead of the store's; once per type "
                  "(the whole store in memory: not with --gpu-budget, nor on a store with per-particle radii)")
       ->allow_extra_args(false);
+  sub.add_option("--color-by", o.color_by,
+                 "Colour the particles by their type or by a coordinate: type, x, y or z (viridis over "
+                 "--color-range)")
+      ->capture_default_str();
+  sub.add_option("--color-range", o.color_range,
+                 "LO:HI, the coordinates --color-by maps to the two ends of the colormap (world units; beyond: "
+                 "clamped; default: the bounds of the particle centres)");
   sub.add_option("--hide-type", o.hide_types,
                  "Leave out the particles of a type (its name or input id), once per type: they are neither drawn "
                  "nor occlude (the whole store in memory: not with --gpu-budget)")
@@ -128,11 +135,22 @@ Result<Appearance> parse_appearance_options(const AppearanceOptions& o) {
     a.type_radii.push_back(std::move(*spec));
   }
   a.hide_types = o.hide_types;
+  auto axis = render::parse_color_axis(o.color_by);
+  if (!axis) return make_error(Errc::invalid_argument, "--color-by {}", axis.error().message);
+  a.color_by.axis = *axis;
+  if (!o.color_range.empty()) {
+    if (a.color_by.by_type()) return make_error(Errc::invalid_argument, "--color-range needs --color-by x, y or z");
+    auto range = render::parse_color_range(o.color_range);
+    if (!range) return make_error(Errc::invalid_argument, "--color-range {}", range.error().message);
+    a.color_by.lo = range->x;
+    a.color_by.hi = range->y;
+  }
   return a;
 }
 
 Status apply_appearance(const Appearance& a, std::span<const store::TypeEntry> types, render::RenderSettings& rs) {
   rs.background_srgb = a.background_srgb;
+  rs.color_by = a.color_by;
   auto colors = render::resolve_type_colors(types, a.type_colors);
   if (!colors) return make_error(Errc::invalid_argument, "--type-color: {}", colors.error().message);
   rs.type_colors_srgb = std::move(*colors);

@@ -50,6 +50,8 @@ struct AppearanceOptions {
   std::vector<std::string> type_colors;        // --type-color TYPE=COLOR, once per type
   std::vector<std::string> type_radii;         // --type-radius TYPE=R (in memory only)
   std::vector<std::string> hide_types;         // --hide-type TYPE (in memory only)
+  std::string color_by = "type";               // --color-by type|x|y|z
+  std::string color_range;                     // --color-range LO:HI (default: the data's bounds)
 };
 
 struct Appearance {
@@ -57,14 +59,16 @@ struct Appearance {
   std::vector<store::TypeColorSpec> type_colors;
   std::vector<store::TypeRadiusSpec> type_radii;
   std::vector<std::string> hide_types;  // type keys (store::find_type)
+  render::ColorBy color_by;             // --color-by, --color-range
 };
 
-// Adds --background, and --type-color, --type-radius and --hide-type (repeatable).
+// Adds --background, --color-by, --color-range, and --type-color, --type-radius and --hide-type
+// (repeatable).
 void add_appearance_options(CLI::App& sub, AppearanceOptions& o);
 // Parses both without the store (a bad colour fails before any Vulkan work);
 // Errc::invalid_argument naming the option.
 Result<Appearance> parse_appearance_options(const AppearanceOptions& o);
-// Sets rs.background_srgb and rs.type_colors_srgb, the colours resolved against the store's
+// Sets rs.background_srgb, rs.color_by and rs.type_colors_srgb, the colours resolved against the store's
 // types; Errc::invalid_argument naming --type-color for a key that names no type.
 Status apply_appearance(const Appearance& a, std::span<const store::TypeEntry> types, render::RenderSettings& rs);
 // What render::load_scene keeps and how large it draws it (--hide-type, --type-radius):

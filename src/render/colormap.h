@@ -1,0 +1,39 @@
+// Colour by coordinate (`--color-by x|y|z`, OVITO's "color coding" of a position component):
+// each particle takes the viridis colour of t = (its coordinate along a world axis - lo) /
+// (hi - lo), clamped to [0, 1], instead of its type's colour. The double-precision originals of
+// the shaders' shaders/include/particle_color.h (mds_viridis_srgb, mds_particle_color's plane).
+#pragma once
+
+#include <string>
+#include <string_view>
+
+#include <glm/glm.hpp>
+
+#include "core/result.h"
+
+namespace mds::render {
+
+// Matplotlib's viridis at t (clamped to [0, 1]) as sRGB in [0, 1]: a degree-6 polynomial
+// (Matt Zucker's least-squares fit, CC0), within 0.018 of matplotlib 3.6's 256-entry table.
+glm::dvec3 viridis_srgb(double t);
+
+// What colours the particles: their type (axis -1) or a world axis 0/1/2 over [lo, hi]; lo ==
+// hi (the default) takes the scene's bounds of the particle centres along the axis.
+struct ColorBy {
+  int axis = -1;
+  double lo = 0.0, hi = 0.0;
+  bool by_type() const { return axis < 0; }
+};
+
+// "type", "x", "y" or "z"; Errc::invalid_argument otherwise.
+Result<int> parse_color_axis(std::string_view s);
+// "LO:HI" with LO < HI (finite numbers); Errc::invalid_argument otherwise.
+Result<glm::dvec2> parse_color_range(std::string_view s);
+std::string color_axis_name(int axis);  // "type", "x", "y", "z"
+
+// The plane of FrameUniforms.color_plane: t = dot(plane.xyz, p_view) + plane.w for a view-space
+// point p_view, where view maps (world - origin) to view space (camera.h view_matrix).
+// Precondition: axis in 0..2, lo < hi.
+glm::dvec4 color_plane(const glm::dmat4& view, const glm::dvec3& origin, int axis, double lo, double hi);
+
+}  // namespace mds::render
