@@ -69,6 +69,13 @@ TEST_F(RenderPath, EachFrameIsTheRenderOfItsCamera) {
   ASSERT_EQ(j.at("frame_stats").size(), frames);
   EXPECT_EQ(j.at("frame_stats")[2].at("file").get<std::string>(), (dir_ / "o_02.exr").string());
   EXPECT_TRUE(j.at("frame_stats")[2].at("culling_converged").get<bool>());
+  for (const auto& r : j.at("frame_stats")) {  // per-pass GPU times of each frame, summed in gpu_ms
+    double sum = 0.0;
+    for (const auto& [pass, ms] : r.at("pass_ms_median").items()) sum += ms.get<double>();
+    EXPECT_TRUE(r.at("pass_ms_median").contains("draw")) << r.dump();
+    EXPECT_GT(r.at("gpu_ms").get<double>(), 0.0);
+    EXPECT_NEAR(r.at("gpu_ms").get<double>(), sum, 1e-6 * sum);
+  }
 
   auto reader = store::StoreReader::open(store());
   ASSERT_TRUE(reader.ok()) << reader.error().message;

@@ -63,7 +63,13 @@ Status render_path(render::Renderer& renderer, const render::CameraPath& path, c
     if (st.cull.iterations > 0) line += fmt::format(", culled {:.1f} %", 100.0 * culled);
     if (o.streaming) line += fmt::format(", {:.2f} MB read so far", double(st.cache.bytes_read) / 1e6);
     std::fprintf(stderr, "%s\n", line.c_str());
-    nlohmann::json r = {{"frame", f}, {"file", file}, {"wall_ms", st.wall_ms}};
+    // GPU time per pass of the frame's render (median over its passes) and their sum, as the
+    // stats of a single render give them (pass_ms_median, frame_ms_median).
+    nlohmann::json r = {{"frame", f},
+                        {"file", file},
+                        {"wall_ms", st.wall_ms},
+                        {"gpu_ms", st.frame_ms_median},
+                        {"pass_ms_median", st.pass_ms_median}};
     if (st.cull.iterations > 0) {
       r["culled_fraction"] = culled;
       r["culling_converged"] = st.cull.converged;
