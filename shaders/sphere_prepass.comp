@@ -15,6 +15,7 @@
 // the point size are drawn as points (one vertex each); the rest are appended to the quad list.
 #extension GL_GOOGLE_include_directive : require
 #define MDS_SPRITES_WRITABLE
+#define MDS_COLOR_KEY  // sprite_make.h: colour keys carry the property (kBindProperty)
 #include "bindings.h"
 #include "sphere_shading.h"
 #include "sprite_make.h"

@@ -16,6 +16,7 @@
 // device lacks subgroup ballots in compute, one thread per pixel of the viewport (16x16 tiles).
 #extension GL_GOOGLE_include_directive : require
 #define MDS_VISIBILITY
+#define MDS_COLOR_KEY  // sprite_make.h: colour keys carry the property (kBindProperty)
 #include "bindings.h"
 #include "particle_color.h"
 #include "sphere_shading.h"
@@ -46,7 +47,7 @@ void main() {
   } else {
     GpuSprite s = sprites[id];
     center_radius = s.center_radius;
-    type = s.flags & 0xffu;
+    type = s.flags;  // colour key: type and property (sprite_make.h)
   }
   vec3 hit, n, d;
   float depth;

@@ -79,6 +79,7 @@ struct AllParticles {
   std::vector<double> x, y, z;
   std::vector<int32_t> type;
   std::vector<float> radius;
+  std::vector<float> property;
   size_t calls = 0;
 };
 
@@ -98,6 +99,7 @@ inline Result<AllParticles> read_all(ParticleReader& reader, size_t batch) {
     all.z.insert(all.z.end(), b.z.begin(), b.z.end());
     all.type.insert(all.type.end(), b.type.begin(), b.type.end());
     all.radius.insert(all.radius.end(), b.radius.begin(), b.radius.end());
+    all.property.insert(all.property.end(), b.property.begin(), b.property.end());
   }
   return all;
 }

@@ -246,7 +246,10 @@ TEST_F(Corruption, HeaderLies) {
     expect_open_error(im, Errc::checksum, {"header_hash", "byte 504"});
   }
   expect_open_error(with([](Image& im) { im.h.flags |= 4; }), Errc::unsupported, {"flags"});
-  expect_open_error(with([](Image& im) { im.h.reserved[10] = 1; }), Errc::format, {"reserved", "byte 370"});
+  expect_open_error(with([](Image& im) { im.h.reserved[10] = 1; }), Errc::format, {"reserved", "byte 426"});
+  // The property's fields are reserved bytes without kFlagProperty.
+  expect_open_error(with([](Image& im) { im.h.property_name[3] = 'a'; }), Errc::format, {"property_name", "byte 363"});
+  expect_open_error(with([](Image& im) { im.h.property_max = 1.0f; }), Errc::format, {"property_max", "byte 414"});
   expect_open_error(with([](Image& im) { im.h.node_count = 1u << 31; }), Errc::range, {"particle_count"});
   expect_open_error(with([](Image& im) {
                       im.h.node_count = 1u << 31;

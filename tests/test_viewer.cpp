@@ -178,11 +178,12 @@ TEST(ViewerHud, LegendShowsASwatchPerType) {
 // With --color-by the legend is the colormap: five swatches from viridis(0) to viridis(1), the
 // first labelled with the axis, each with its coordinate.
 TEST(ViewerHud, ColormapLegendLabelsTheRange) {
-  const auto legend = viewer::colormap_legend(2, {-10.0, 30.0});
+  const auto legend = viewer::colormap_legend(render::color_axis_name(2), {-10.0, 30.0});
   ASSERT_EQ(legend.size(), 5u);
   EXPECT_EQ(legend[0].label, "z -10");
   EXPECT_EQ(legend[2].label, "10");
   EXPECT_EQ(legend[4].label, "30");
+  EXPECT_EQ(viewer::colormap_legend("c_pe", {-7.0, -5.0})[0].label, "c_pe -7");
   for (int k : {0, 4}) {
     const glm::dvec3 c = render::viridis_srgb(0.25 * k);
     EXPECT_EQ(legend[k].color, viewer::Rgba8(uint8_t(std::lround(c.r * 255)), uint8_t(std::lround(c.g * 255)),

@@ -139,6 +139,7 @@ inline ReadAll read_all(Result<std::unique_ptr<ParticleReader>> opened, size_t b
     r.all.type.insert(r.all.type.end(), b.type.begin(), b.type.end());
     r.all.radius.insert(r.all.radius.end(), b.radius.begin(), b.radius.end());
     r.all.id.insert(r.all.id.end(), b.id.begin(), b.id.end());
+    r.all.property.insert(r.all.property.end(), b.property.begin(), b.property.end());
   }
   r.type_names = reader.type_names();
   return r;

@@ -31,10 +31,24 @@ Status scatter(TempDir& tmp, const Bin& source, const MortonGrid& grid, const Pa
   MDS_ASSIGN_OR_RETURN(SpillReader reader, SpillReader::open(source.path));
   std::vector<std::optional<SpillWriter>> writers(nbins);
   std::vector<SpillRecord> chunk(std::min<uint64_t>(chunk_records, std::max<uint64_t>(1, source.count)));
+  // The property column, read in step with the records and scattered alike (a quarter-size buffer).
+  const bool property = !source.property_path.empty();
+  std::optional<PropertySpillReader> preader;
+  std::vector<std::optional<PropertySpillWriter>> pwriters(property ? nbins : 0);
+  std::vector<float> pchunk(property ? chunk.size() : 0);
+  if (property) {
+    MDS_ASSIGN_OR_RETURN(PropertySpillReader pr, PropertySpillReader::open(source.property_path));
+    preader.emplace(std::move(pr));
+  }
   const uint64_t mask = nbins - 1;
   ++stats.passes;
   for (;;) {
     MDS_ASSIGN_OR_RETURN(size_t n, reader.read(chunk));
+    if (property) {
+      MDS_ASSIGN_OR_RETURN(size_t pn, preader->read(pchunk));
+      if (pn != n)
+        return make_error(Errc::internal, "{}: {} property values for {} records", source.property_path.string(), pn, n);
+    }
     if (n == 0) break;
     for (size_t i = 0; i < n; ++i) {
       const SpillRecord& r = chunk[i];
@@ -45,8 +59,14 @@ Status scatter(TempDir& tmp, const Bin& source, const MortonGrid& grid, const Pa
                                                              (source.prefix << bits) | b, stats.passes)));
         MDS_ASSIGN_OR_RETURN(SpillWriter created, SpillWriter::create(path, bin_buffer));
         w.emplace(std::move(created));
+        if (property) {
+          MDS_ASSIGN_OR_RETURN(PropertySpillWriter pcreated,
+                               PropertySpillWriter::create(path.string() + ".prop", bin_buffer / 8));
+          pwriters[b].emplace(std::move(pcreated));
+        }
       }
       MDS_TRY(w->append(r));
+      if (property) MDS_TRY(pwriters[b]->append(pchunk[i]));
     }
     stats.records_read += n;
     if (on_records) on_records(n);
@@ -55,18 +75,26 @@ Status scatter(TempDir& tmp, const Bin& source, const MortonGrid& grid, const Pa
     return make_error(Errc::internal, "{}: expected {} records, found {}", source.path.string(), source.count,
                       reader.count());
   reader = SpillReader();
+  preader.reset();
   std::error_code ec;
   std::filesystem::remove(source.path, ec);
+  if (property) std::filesystem::remove(source.property_path, ec);
 
   // Close every bin first (frees the write buffers), then recurse into oversized ones.
   std::vector<Bin> bins;
   for (uint32_t b = 0; b < nbins; ++b) {
     if (!writers[b]) continue;
     MDS_TRY(writers[b]->close());
-    bins.push_back({writers[b]->path(), writers[b]->count(), (source.prefix << bits) | b, source.prefix_bits + bits});
+    bins.push_back({writers[b]->path(), writers[b]->count(), (source.prefix << bits) | b, source.prefix_bits + bits, {}});
+    if (property) {
+      MDS_TRY(pwriters[b]->close());
+      bins.back().property_path = pwriters[b]->path();
+      pwriters[b].reset();
+    }
     writers[b].reset();
   }
   writers.clear();
+  pwriters.clear();
   writers.shrink_to_fit();
   chunk = {};
   for (auto& bin : bins) {

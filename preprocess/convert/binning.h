@@ -23,6 +23,7 @@ struct Bin {
   uint64_t count = 0;
   uint64_t prefix = 0;         // Morton key prefix shared by all records of the bin
   int prefix_bits = 0;         // multiple of 3: the bin is the octree cell at depth prefix_bits/3
+  std::filesystem::path property_path;  // temporary file of one float per record; empty without a property
 };
 
 struct PartitionOptions {

@@ -43,11 +43,16 @@ double process_cpu_seconds() {
 
 // Memory model of the budget (bytes per particle of each working set). The readers' and the
 // store writer's own fixed I/O buffers (about 8 MiB each) are outside this model.
-constexpr uint64_t kBinBytesPerParticle = sizeof(SpillRecord) + 2 * (8 + 4);  // records + keys/perm + sort scratch
+// `extra`: bytes a particle carries beside its record (4 with the property column).
+constexpr uint64_t bin_bytes_per_particle(uint64_t extra) {  // records + keys/perm + sort scratch
+  return sizeof(SpillRecord) + extra + 2 * (8 + 4);
+}
 // Out of core, the next bin is loaded and sorted while the current one is built: two bins of
 // records + keys/perm, one sort scratch.
-constexpr uint64_t kOverlappedBinBytesPerParticle = 2 * (sizeof(SpillRecord) + 8 + 4) + (8 + 4);
-constexpr uint64_t kBatchBytesPerParticle = 48;           // ParticleBatch (x,y,z,type,radius,id)
+constexpr uint64_t overlapped_bin_bytes_per_particle(uint64_t extra) {
+  return 2 * (sizeof(SpillRecord) + extra + 8 + 4) + (8 + 4);
+}
+constexpr uint64_t kBatchBytesPerParticle = 52;           // ParticleBatch (x,y,z,type,radius,id,property)
 constexpr uint64_t kWorkerBytesPerParticle = 192;         // per-node scratch: xyz, qpos, types, voxels, payload, ...
 constexpr uint64_t kInFlightBytesPerParticle = 24;        // an encoded node waiting to be appended
 constexpr uint64_t kMaxBinRecords = std::numeric_limits<uint32_t>::max();  // permutation indices are uint32
@@ -74,6 +79,10 @@ Status check_options(const ConvertOptions& o) {
   for (const auto& [id, r] : o.radius_by_type)
     if (!(r > 0) || !std::isfinite(r))
       return make_error(Errc::invalid_argument, "--radius-by-type {}={}: radius must be positive and finite", id, r);
+  if (o.reader.property.size() >= store::kPropertyNameBytes ||
+      o.reader.property.find_first_of(std::string_view("\0 \t\n\r", 5)) != std::string::npos)
+    return make_error(Errc::invalid_argument, "--property '{}': a name of 1..{} bytes without blanks", o.reader.property,
+                      store::kPropertyNameBytes - 1);
   if (o.threads < 1 || o.threads > 256)
     return make_error(Errc::invalid_argument, "--threads {} outside 1..256", o.threads);
   if (o.memory_budget == 0) return make_error(Errc::invalid_argument, "--memory-budget must be positive");
@@ -100,14 +109,15 @@ Result<BudgetPlan> plan_budget(const ConvertOptions& o, uint64_t density_voxels)
   const uint64_t in_flight = uint64_t(o.threads) * kWindowPerThread * o.node_size * kInFlightBytesPerParticle;
   const uint64_t fixed = density_bytes + workers + in_flight +
                          kReadAheadBatches * p.batch_particles * kBatchBytesPerParticle + p.spill_buffer_bytes;
-  const uint64_t need = fixed + 2 * kOverlappedBinBytesPerParticle * o.node_size;
+  const uint64_t extra = o.reader.property.empty() ? 0 : sizeof(float);  // the property column
+  const uint64_t need = fixed + 2 * overlapped_bin_bytes_per_particle(extra) * o.node_size;
   if (b < need)
     return make_error(Errc::budget,
                       "--memory-budget {} bytes is too small: node size {}, {} threads and {} density voxels need at "
                       "least {} bytes ({:.1f} MiB)",
                       b, o.node_size, o.threads, density_voxels, need, double(need) / (1 << 20));
-  p.max_memory_records = std::min((b - fixed) / kBinBytesPerParticle, kMaxBinRecords);
-  p.max_bin_records = std::min((b - fixed) / kOverlappedBinBytesPerParticle, kMaxBinRecords);
+  p.max_memory_records = std::min((b - fixed) / bin_bytes_per_particle(extra), kMaxBinRecords);
+  p.max_bin_records = std::min((b - fixed) / overlapped_bin_bytes_per_particle(extra), kMaxBinRecords);
   return p;
 }
 
@@ -159,15 +169,25 @@ SortTimes key_and_sort(const Recs& recs, const MortonGrid& grid, unsigned thread
   return st;
 }
 
-Status load_bin(const Bin& bin, BigVector<SpillRecord>& recs) {
-  MDS_ASSIGN_OR_RETURN(SpillReader reader, SpillReader::open(bin.path));
-  if (reader.count() != bin.count)
-    return make_error(Errc::internal, "{}: expected {} records, found {}", bin.path.string(), bin.count,
-                      reader.count());
-  recs.resize(size_t(bin.count));
-  MDS_ASSIGN_OR_RETURN(size_t n, reader.read(recs));
-  if (n != recs.size()) return make_error(Errc::internal, "{}: bin is short", bin.path.string());
+template <class T>
+Status load_file(const std::filesystem::path& path, uint64_t count, BigVector<T>& out) {
+  MDS_ASSIGN_OR_RETURN(SpillReaderOf<T> reader, SpillReaderOf<T>::open(path));
+  if (reader.count() != count)
+    return make_error(Errc::internal, "{}: expected {} records, found {}", path.string(), count, reader.count());
+  out.resize(size_t(count));
+  MDS_ASSIGN_OR_RETURN(size_t n, reader.read(out));
+  if (n != out.size()) return make_error(Errc::internal, "{}: bin is short", path.string());
   return {};
+}
+
+// The bin's records, and its property column where it has one.
+Status load_bin(const Bin& bin, BigVector<SpillRecord>& recs, BigVector<float>& property) {
+  MDS_TRY(load_file(bin.path, bin.count, recs));
+  if (bin.property_path.empty()) {
+    property = {};
+    return {};
+  }
+  return load_file(bin.property_path, bin.count, property);
 }
 
 // Contiguous stages of the calling thread: lap() closes the running stage (wall and process
@@ -199,6 +219,7 @@ class StageMeter {
 // A bin loaded, keyed and sorted (possibly on a helper thread while the previous bin is built).
 struct PreparedBin {
   BigVector<SpillRecord> recs;
+  BigVector<float> property;  // with a property: parallel to recs
   SortBuffers sb;
   SortTimes times;
   double load_seconds = 0;
@@ -207,9 +228,10 @@ struct PreparedBin {
 
 void prepare_bin(const Bin& bin, const MortonGrid& grid, unsigned threads, PreparedBin& pb, SortBuffers& scratch) {
   const auto t = Clock::now();
-  pb.status = load_bin(bin, pb.recs);
+  pb.status = load_bin(bin, pb.recs, pb.property);
   std::error_code ec;
   std::filesystem::remove(bin.path, ec);
+  if (!bin.property_path.empty()) std::filesystem::remove(bin.property_path, ec);
   pb.load_seconds = seconds_since(t);
   if (!pb.status.ok()) return;
   // The sort scratch is shared by both slots (only one bin is sorted at a time).
@@ -299,6 +321,7 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   so.inputs = o.inputs;
   so.radius = o.radius;
   so.radius_by_type = o.radius_by_type;
+  so.property = !o.reader.property.empty();
   so.batch_particles = plan.batch_particles;
   so.spill_buffer_bytes = plan.spill_buffer_bytes;
   so.max_memory_records = plan.max_memory_records;
@@ -341,6 +364,11 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   ctx.per_particle_radius = scan.per_particle_radius;
   ctx.radius_min = scan.prad_min;
   ctx.radius_max = scan.prad_max;
+  ctx.property = so.property;
+  if (ctx.property && scan.count > 0) {
+    ctx.property_min = scan.property_min;
+    ctx.property_max = scan.property_max;
+  }
 
   BuildTotals tot;
   tot.density.assign(size_t(ctx.density.voxel_count()), 0);
@@ -376,7 +404,8 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
       rep.seconds_keys = st.keys;
       rep.seconds_radix = st.radix;
       rep.seconds_sort = meter.lap("sort");
-      MDS_TRY(build_bin(ctx, workers, sb.keys, sb.perm, scan.memory, 0, *writer, tot, progress));
+      MDS_TRY(build_bin(ctx, workers, sb.keys, sb.perm, SpillRecords{scan.memory, scan.memory_property}, 0, *writer,
+                        tot, progress));
     }
     scan.memory = {};
     sb.release();
@@ -393,7 +422,7 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
     uint64_t scattered = 0;
     MDS_ASSIGN_OR_RETURN(
         std::vector<Bin> bins,
-        partition(tmp, Bin{scan.spill_path, scan.count, 0, 0}, grid, popt, pstats, [&](uint64_t n) {
+        partition(tmp, Bin{scan.spill_path, scan.count, 0, 0, scan.spill_property_path}, grid, popt, pstats, [&](uint64_t n) {
           scattered += n;
           progress.update(std::min(scattered, scan.count));
         }));
@@ -424,8 +453,8 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
       MDS_TRY(cur.status);
       if (k + 1 < bins.size())
         prep = std::thread([&, k] { prepare_bin(bins[k + 1], grid, o.threads, slots[(k + 1) % 2], scratch); });
-      MDS_TRY(build_bin(ctx, workers, cur.sb.keys, cur.sb.perm, cur.recs, bins[k].prefix_bits / 3, *writer, tot,
-                        progress));
+      MDS_TRY(build_bin(ctx, workers, cur.sb.keys, cur.sb.perm, SpillRecords{cur.recs, cur.property},
+                        bins[k].prefix_bits / 3, *writer, tot, progress));
       rep.seconds_nodes += meter.lap("nodes");
     }
     join_prep();
@@ -441,7 +470,13 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
 
   // ---- summary and finish
   store::StoreSummary sum;
-  sum.flags = scan.per_particle_radius ? uint32_t(store::kFlagPerParticleRadius) : 0u;
+  sum.flags = (scan.per_particle_radius ? uint32_t(store::kFlagPerParticleRadius) : 0u) |
+              (ctx.property ? uint32_t(store::kFlagProperty) : 0u);
+  if (ctx.property) {
+    sum.property_name = o.reader.property;
+    sum.property_min = ctx.property_min;
+    sum.property_max = ctx.property_max;
+  }
   sum.node_size_max = o.node_size;
   sum.meshlet_size_max = o.meshlet_size;
   for (int a = 0; a < 3; ++a) {
@@ -493,6 +528,11 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
     rep.density_dims[a] = ctx.density.dims()[a];
   }
   rep.per_particle_radius = scan.per_particle_radius;
+  if (ctx.property) {
+    rep.property = o.reader.property;
+    rep.property_min = ctx.property_min;
+    rep.property_max = ctx.property_max;
+  }
   rep.seconds_gather = tot.t_gather;
   rep.seconds_meshlets = tot.t_meshlets;
   rep.seconds_encode = tot.t_encode;

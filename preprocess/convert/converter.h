@@ -68,6 +68,8 @@ struct ConvertReport {
   double bounds_max[3] = {0, 0, 0};
   uint32_t density_dims[3] = {0, 0, 0};
   bool per_particle_radius = false;
+  std::string property;                      // the per-particle scalar kept (--property), or empty
+  float property_min = 0, property_max = 0;  // its range in the store
   bool spilled = false;                      // records went through temporary files
   uint64_t bins = 0;                         // bins built (1 when everything fitted in memory)
   uint64_t partition_passes = 0;

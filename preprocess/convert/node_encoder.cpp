@@ -114,6 +114,7 @@ void gather(const BuildContext& ctx, NodeWorker& w, const PermSource<Recs>& src,
     } else {
       max_radius = std::max(max_radius, ctx.type_radius[t]);
     }
+    if (ctx.property) w.property_q[i] = quantize_property(recs.property[perm[i]], ctx.property_min, ctx.property_max);
     const double p[3] = {r.x, r.y, r.z};
     for (int a = 0; a < 3; ++a) {
       const uint32_t c = ctx.density.cell(a, p[a]);
@@ -213,6 +214,7 @@ Result<NodeResult> build_node(const BuildContext& ctx, NodeWorker& w, const Sour
   w.xyz.resize(3 * n);
   w.type_index.resize(n);
   w.radius_q.resize(ctx.per_particle_radius ? n : 0);
+  w.property_q.resize(ctx.property ? n : 0);
   w.vcoords.resize(3 * n);
   uint32_t vlo[3] = {UINT32_MAX, UINT32_MAX, UINT32_MAX}, vhi[3] = {0, 0, 0};
   double lo[3], hi[3];
@@ -243,6 +245,10 @@ Result<NodeResult> build_node(const BuildContext& ctx, NodeWorker& w, const Sour
       for (size_t k = 0; k < n; ++k) s[k] = w.radius_q[w.order[k]];
       for (size_t k = 0; k < n; ++k) w.radius_q[k] = uint16_t(s[k]);
     }
+    if (ctx.property) {
+      for (size_t k = 0; k < n; ++k) s[k] = w.property_q[w.order[k]];
+      for (size_t k = 0; k < n; ++k) w.property_q[k] = s[k];
+    }
   }
   voxel_refs_in_box(w.vcoords, ctx.density.dims(), vlo, vhi, w.voxel_scratch, w.refs);
 
@@ -250,6 +256,7 @@ Result<NodeResult> build_node(const BuildContext& ctx, NodeWorker& w, const Sour
   in.qpos = w.qpos;
   in.type_index = w.type_index;
   in.radius_q = w.radius_q;
+  in.property_q = w.property_q;
   in.meshlet_size = w.sizes;
   for (int a = 0; a < 3; ++a) {
     in.center_min[a] = lo[a];
@@ -350,17 +357,19 @@ Status build_bin_impl(const BuildContext& ctx, std::vector<std::unique_ptr<NodeW
 }  // namespace
 
 Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
-                 std::span<const uint64_t> keys, std::span<const uint32_t> perm, std::span<const SpillRecord> recs,
+                 std::span<const uint64_t> keys, std::span<const uint32_t> perm, const SpillRecords& recs,
                  int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress) {
-  const SpillRecords r{recs};
+  if (ctx.property && recs.property.size() != recs.size())
+    return make_error(Errc::internal, "build_bin: {} property values for {} records", recs.property.size(), recs.size());
   return build_bin_impl(ctx, workers, build_nodes(keys, start_level, ctx.node_size),
-                        PermSource<SpillRecords>{keys, perm, &r}, writer, tot, progress);
+                        PermSource<SpillRecords>{keys, perm, &recs}, writer, tot, progress);
 }
 
 Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
                  const SortedXyzRecords& recs, const MortonGrid& grid, int start_level, store::StoreWriter& writer,
                  BuildTotals& tot, Progress& progress) {
-  if (ctx.per_particle_radius) return make_error(Errc::internal, "build_bin: sorted raw positions carry no radii");
+  if (ctx.per_particle_radius || ctx.property)
+    return make_error(Errc::internal, "build_bin: sorted raw positions carry no radii or properties");
   return build_bin_impl(ctx, workers, build_nodes(XyzMortonKeys{recs.xyz, recs.n, &grid}, start_level, ctx.node_size),
                         SortedSource{recs.xyz, recs.n, recs.type, recs.radius, &grid}, writer, tot, progress);
 }

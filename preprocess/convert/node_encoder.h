@@ -47,6 +47,8 @@ struct BuildContext {
   std::vector<float> type_radius;  // by type index
   bool per_particle_radius = false;
   float radius_min = 0, radius_max = 0;
+  bool property = false;  // records carry SpillRecord::property, quantized into [property_min, property_max]
+  float property_min = 0, property_max = 0;
 };
 
 struct BuildTotals {
@@ -68,6 +70,7 @@ struct NodeWorker {
   std::vector<uint16_t> qpos;
   std::vector<uint8_t> type_index;
   std::vector<uint16_t> radius_q;
+  std::vector<uint16_t> property_q;
   std::vector<uint32_t> vcoords;  // density voxel coordinates, 3 per particle
   std::vector<store::VoxelRef> refs;
   std::vector<uint32_t> voxel_scratch;
@@ -76,9 +79,10 @@ struct NodeWorker {
 };
 
 // Builds and appends the nodes of one bin: `keys` sorted, `perm[i]` the record of keys[i],
-// all keys inside the octree cell of depth `start_level`.
+// all keys inside the octree cell of depth `start_level`. With ctx.property, recs.property
+// holds one value per record.
 Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
-                 std::span<const uint64_t> keys, std::span<const uint32_t> perm, std::span<const SpillRecord> recs,
+                 std::span<const uint64_t> keys, std::span<const uint32_t> perm, const SpillRecords& recs,
                  int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress);
 // The same over the raw positions sorted by their keys in `grid` (xyz_sort.h; identity
 // permutation). The keys are computed where needed (nodes, meshlets), not read from an array.

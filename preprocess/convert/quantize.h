@@ -68,5 +68,8 @@ inline uint16_t quantize_radius(float r, float rmin, float rmax) {
   const double q = std::nearbyint((double(r) - rmin) / (double(rmax) - rmin) * double(store::kQuantMax));
   return uint16_t(std::clamp(q, 0.0, double(store::kQuantMax)));
 }
+// A per-particle property value v in [vmin, vmax] the same way (store::property_value is the
+// inverse): error at most half a step, (vmax - vmin) / 131070.
+inline uint16_t quantize_property(float v, float vmin, float vmax) { return quantize_radius(v, vmin, vmax); }
 
 }  // namespace mds::convert

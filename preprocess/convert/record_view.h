@@ -15,6 +15,7 @@ namespace mds::convert {
 
 struct SpillRecords {
   std::span<const SpillRecord> recs;
+  std::span<const float> property = {};  // the property column, parallel to recs; empty without one
   size_t size() const { return recs.size(); }
   const SpillRecord& operator[](size_t i) const { return recs[i]; }
   const void* address(size_t i) const { return &recs[i]; }

@@ -58,13 +58,16 @@ Result<std::filesystem::path> TempDir::file(const std::string& name) {
   return dir_ / name;
 }
 
-SpillWriter::~SpillWriter() {
+template <class T>
+SpillWriterOf<T>::~SpillWriterOf() {
   if (fd_ >= 0) ::close(fd_);
 }
 
-SpillWriter::SpillWriter(SpillWriter&& o) noexcept { *this = std::move(o); }
+template <class T>
+SpillWriterOf<T>::SpillWriterOf(SpillWriterOf&& o) noexcept { *this = std::move(o); }
 
-SpillWriter& SpillWriter::operator=(SpillWriter&& o) noexcept {
+template <class T>
+SpillWriterOf<T>& SpillWriterOf<T>::operator=(SpillWriterOf&& o) noexcept {
   if (this != &o) {
     if (fd_ >= 0) ::close(fd_);
     fd_ = o.fd_;
@@ -77,29 +80,33 @@ SpillWriter& SpillWriter::operator=(SpillWriter&& o) noexcept {
   return *this;
 }
 
-Result<SpillWriter> SpillWriter::create(const std::filesystem::path& path, size_t buffer_bytes) {
-  SpillWriter w;
+template <class T>
+Result<SpillWriterOf<T>> SpillWriterOf<T>::create(const std::filesystem::path& path, size_t buffer_bytes) {
+  SpillWriterOf w;
   w.fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
   if (w.fd_ < 0) return make_error(Errc::io, "{}: cannot create temporary file: {}", path.string(), std::strerror(errno));
   w.path_ = path;
-  w.cap_ = std::max<size_t>(1, buffer_bytes / sizeof(SpillRecord));
+  w.cap_ = std::max<size_t>(1, buffer_bytes / sizeof(T));
   w.buf_.reserve(w.cap_);
   return w;
 }
 
-Status SpillWriter::append(std::span<const SpillRecord> rs) {
+template <class T>
+Status SpillWriterOf<T>::append(std::span<const T> rs) {
   for (const auto& r : rs) MDS_TRY(append(r));
   return {};
 }
 
-Status SpillWriter::flush() {
+template <class T>
+Status SpillWriterOf<T>::flush() {
   if (buf_.empty()) return {};
-  MDS_TRY(write_all(fd_, buf_.data(), buf_.size() * sizeof(SpillRecord), path_));
+  MDS_TRY(write_all(fd_, buf_.data(), buf_.size() * sizeof(T), path_));
   buf_.clear();
   return {};
 }
 
-Status SpillWriter::close() {
+template <class T>
+Status SpillWriterOf<T>::close() {
   if (fd_ < 0) return {};
   MDS_TRY(flush());
   int fd = fd_;
@@ -109,13 +116,16 @@ Status SpillWriter::close() {
   return {};
 }
 
-SpillReader::~SpillReader() {
+template <class T>
+SpillReaderOf<T>::~SpillReaderOf() {
   if (fd_ >= 0) ::close(fd_);
 }
 
-SpillReader::SpillReader(SpillReader&& o) noexcept { *this = std::move(o); }
+template <class T>
+SpillReaderOf<T>::SpillReaderOf(SpillReaderOf&& o) noexcept { *this = std::move(o); }
 
-SpillReader& SpillReader::operator=(SpillReader&& o) noexcept {
+template <class T>
+SpillReaderOf<T>& SpillReaderOf<T>::operator=(SpillReaderOf&& o) noexcept {
   if (this != &o) {
     if (fd_ >= 0) ::close(fd_);
     fd_ = o.fd_;
@@ -127,26 +137,28 @@ SpillReader& SpillReader::operator=(SpillReader&& o) noexcept {
   return *this;
 }
 
-Result<SpillReader> SpillReader::open(const std::filesystem::path& path) {
-  SpillReader r;
+template <class T>
+Result<SpillReaderOf<T>> SpillReaderOf<T>::open(const std::filesystem::path& path) {
+  SpillReaderOf r;
   r.fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (r.fd_ < 0) return make_error(Errc::io, "{}: cannot open temporary file: {}", path.string(), std::strerror(errno));
   r.path_ = path;
   struct stat st {};
   if (::fstat(r.fd_, &st) != 0) return make_error(Errc::io, "{}: stat failed: {}", path.string(), std::strerror(errno));
-  if (uint64_t(st.st_size) % sizeof(SpillRecord) != 0)
+  if (uint64_t(st.st_size) % sizeof(T) != 0)
     return make_error(Errc::internal, "{}: temporary file size {} is not a multiple of {}", path.string(),
-                      uint64_t(st.st_size), sizeof(SpillRecord));
-  r.count_ = uint64_t(st.st_size) / sizeof(SpillRecord);
+                      uint64_t(st.st_size), sizeof(T));
+  r.count_ = uint64_t(st.st_size) / sizeof(T);
 #ifdef POSIX_FADV_SEQUENTIAL
   ::posix_fadvise(r.fd_, 0, 0, POSIX_FADV_SEQUENTIAL);
 #endif
   return r;
 }
 
-Result<size_t> SpillReader::read(std::span<SpillRecord> out) {
+template <class T>
+Result<size_t> SpillReaderOf<T>::read(std::span<T> out) {
   char* p = reinterpret_cast<char*>(out.data());
-  size_t want = out.size() * sizeof(SpillRecord);
+  size_t want = out.size() * sizeof(T);
   size_t got = 0;
   while (got < want) {
     ssize_t n = ::read(fd_, p + got, want - got);
@@ -158,10 +170,15 @@ Result<size_t> SpillReader::read(std::span<SpillRecord> out) {
     if (n == 0) break;
     got += size_t(n);
   }
-  if (got % sizeof(SpillRecord) != 0)
+  if (got % sizeof(T) != 0)
     return make_error(Errc::io, "{}: temporary file truncated at byte {}", path_.string(), offset_ + got);
   offset_ += got;
-  return got / sizeof(SpillRecord);
+  return got / sizeof(T);
 }
+
+template class SpillWriterOf<SpillRecord>;
+template class SpillReaderOf<SpillRecord>;
+template class SpillWriterOf<float>;
+template class SpillReaderOf<float>;
 
 }  // namespace mds::convert

@@ -185,6 +185,7 @@ struct H5mdReader::Handles {
   Hid file;
   Dataset position;
   Dataset species;
+  Dataset property;
 };
 
 H5mdReader::~H5mdReader() = default;
@@ -323,6 +324,35 @@ Result<std::unique_ptr<ParticleReader>> H5mdReader::open(const std::filesystem::
     r->species_time_dependent_ = per_frame;
   }
 
+  // The per-particle scalar asked for: /particles/<g>/<name>/value [frames][N] (or [frames][N][1]),
+  // or the time-independent /particles/<g>/<name> [N] (or [N][1]); integer or floating point.
+  if (!options.property.empty()) {
+    const std::string e = g + "/" + options.property;
+    const Kind k = kind_of(file, e);
+    if (k == Kind::missing)
+      return make_error(Errc::format, "{}: no element {} for the property '{}' (--property)", fn, e, options.property);
+    const bool pgroup = k == Kind::group;
+    r->property_name_ = pgroup ? e + "/value" : e;
+    if (pgroup && kind_of(file, r->property_name_) != Kind::dataset)
+      return make_error(Errc::format, "{}: {} is a group without a value dataset", fn, e);
+    MDS_ASSIGN_OR_RETURN(r->h_->property, open_dataset(file, fn, r->property_name_));
+    const Dataset& pd = r->h_->property;
+    if (pd.type_class != H5T_FLOAT && pd.type_class != H5T_INTEGER)
+      return make_error(Errc::format, "{}: dataset {} is not numeric (the property must be integer or floating point)", fn,
+                        r->property_name_);
+    std::vector<hsize_t> d = pd.dims;
+    if (!d.empty() && d.size() == (pgroup ? 3u : 2u) && d.back() == 1) d.pop_back();  // [..][N][1]: one component
+    const bool ok = pgroup ? (d.size() == 2 && d[1] == n && d[0] > r->frame_) : (d.size() == 1 && d[0] == n);
+    if (!ok)
+      return make_error(Errc::format, "{}: dataset {} has shape {}, expected {} for one value per particle of {} {}", fn,
+                        r->property_name_, shape_str(pd.dims),
+                        pgroup ? fmt::format("[frames > {}][{}]", r->frame_, n) : fmt::format("[{}]", n),
+                        r->position_name_, shape_str(pos.dims));
+    r->has_property_ = true;
+    r->property_time_dependent_ = pgroup;
+    r->info_.has_property = true;
+  }
+
   // Box: edges (vector or matrix, rows = box vectors), optional offset = lower corner.
   if (kind_of(file, g + "/box") == Kind::group) {
     const uint64_t bframe = r->position_time_dependent_ ? r->frame_ : 0;
@@ -408,6 +438,26 @@ Result<size_t> H5mdReader::read(ParticleBatch& out, size_t max_particles) {
     }
   } else {
     out.type.assign(n, 1);
+  }
+  if (has_property_) {
+    property_buffer_.resize(n);
+    const Dataset& pd = h_->property;
+    const bool one = pd.dims.back() == 1 && pd.dims.size() == (property_time_dependent_ ? 3u : 2u);
+    if (property_time_dependent_) {
+      if (one) MDS_TRY(read_slab(pd, {frame_, next_, 0}, {1, n, 1}, H5T_NATIVE_DOUBLE, property_buffer_.data(), file_name_, property_name_));
+      else MDS_TRY(read_slab(pd, {frame_, next_}, {1, n}, H5T_NATIVE_DOUBLE, property_buffer_.data(), file_name_, property_name_));
+    } else {
+      if (one) MDS_TRY(read_slab(pd, {next_, 0}, {n, 1}, H5T_NATIVE_DOUBLE, property_buffer_.data(), file_name_, property_name_));
+      else MDS_TRY(read_slab(pd, {next_}, {n}, H5T_NATIVE_DOUBLE, property_buffer_.data(), file_name_, property_name_));
+    }
+    out.property.resize(n);
+    for (uint64_t i = 0; i < n; ++i) {
+      const double v = property_buffer_[i];
+      if (!std::isfinite(v) || !std::isfinite(static_cast<float>(v)))
+        return make_error(Errc::range, "{}: dataset {}: frame {} particle {} has the non-finite value {}", file_name_,
+                          property_name_, frame_, next_ + i, v);
+      out.property[i] = static_cast<float>(v);
+    }
   }
   next_ += n;
   return static_cast<size_t>(n);

@@ -7,7 +7,9 @@
 // have positions, ReaderOptions::h5md_group must name one. Optional species (integer,
 // [frames][N] or [N], time-dependent or not) gives type ids (default 1); optional box/edges
 // (vector [3] or matrix [3][3], time-dependent or not; optional box/offset) gives the box,
-// whose lower corner is 0 unless an offset is stored. Particles are read in hyperslab batches
+// whose lower corner is 0 unless an offset is stored. ReaderOptions::property names one more
+// element of the group, one number per particle ([frames][N] or [N], a trailing [1] allowed,
+// integer or floating point). Particles are read in hyperslab batches
 // so memory stays bounded.
 //
 // This folder is the one part of mdstream that links HDF5 (libhdf5 brings 34 more shared
@@ -48,10 +50,13 @@ class H5mdReader final : public ParticleReader {
   std::string group_;              // /particles/<name>
   std::string position_name_;      // dataset path used in messages
   std::string species_name_;
+  std::string property_name_;      // ReaderOptions::property's dataset path, or empty
   std::unique_ptr<Handles> h_;
   bool position_time_dependent_ = true;
   bool species_time_dependent_ = false;
   bool has_species_ = false;
+  bool has_property_ = false;
+  bool property_time_dependent_ = false;
   uint64_t frames_ = 1;
   uint64_t frame_ = 0;
   uint64_t next_ = 0;
@@ -59,6 +64,7 @@ class H5mdReader final : public ParticleReader {
   std::vector<double> buffer_;
   std::vector<float> buffer_f32_;
   std::vector<int64_t> species_buffer_;
+  std::vector<double> property_buffer_;
 };
 
 }  // namespace mds

@@ -41,7 +41,7 @@ namespace {
 
 constexpr uint64_t kMaxAtoms = kMaxTextAtoms;
 
-enum class Col : uint8_t { skip, id, type, x, y, z, radius, diameter };
+enum class Col : uint8_t { skip, id, type, x, y, z, radius, diameter, property };
 
 std::vector<std::string_view> split_ws(std::string_view s) {
   std::vector<std::string_view> out;
@@ -68,11 +68,14 @@ struct FrameHeader {
   uint64_t atoms_line = 0;   // line of ITEM: ATOMS
   std::vector<Col> cols;
   bool scaled = false;
-  bool has_id = false, has_type = false, has_radius = false;
+  bool has_id = false, has_type = false, has_radius = false, has_property = false;
+  std::string property;      // ReaderOptions::property
 };
 
 // Picks the position columns and the roles of all columns of `ITEM: ATOMS ...`.
-Status map_columns(const std::vector<std::string_view>& names, FrameHeader& h, const std::string& file) {
+// `property`: the column kept as the per-particle scalar (ReaderOptions::property), or empty.
+Status map_columns(const std::vector<std::string_view>& names, FrameHeader& h, const std::string& file,
+                   const std::string& property) {
   h.cols.assign(names.size(), Col::skip);
   static const char* kSets[4][3] = {{"x", "y", "z"}, {"xu", "yu", "zu"}, {"xs", "ys", "zs"}, {"xsu", "ysu", "zsu"}};
   auto find = [&](std::string_view n) -> int {
@@ -105,6 +108,22 @@ Status map_columns(const std::vector<std::string_view>& names, FrameHeader& h, c
     h.cols[j] = Col::diameter;
     h.has_radius = true;
   }
+  if (!property.empty()) {
+    const int i = find(property);
+    if (i < 0) {
+      std::string list;
+      for (const auto n : names) list += fmt::format("{}{}", list.empty() ? "" : " ", n);
+      return make_error(Errc::format, "{}:{}: ITEM: ATOMS has no column '{}' (--property); its columns: {}", file,
+                        h.atoms_line, property, list);
+    }
+    if (h.cols[i] != Col::skip)
+      return make_error(Errc::invalid_argument,
+                        "{}:{}: column '{}' is read as the particles' {}; --property takes one of the other columns", file,
+                        h.atoms_line, property, h.cols[i] == Col::id ? "id" : h.cols[i] == Col::type ? "type" :
+                        h.cols[i] == Col::radius || h.cols[i] == Col::diameter ? "radius" : "position");
+    h.cols[i] = Col::property;
+    h.has_property = true;
+  }
   if (h.scaled && !h.has_box)
     return make_error(Errc::format, "{}:{}: scaled coordinates but the frame has no ITEM: BOX BOUNDS", file,
                       h.atoms_line);
@@ -116,7 +135,7 @@ class LammpsReader final : public TextFrameReader {
   LammpsReader(std::unique_ptr<TextSource> src, FrameHeader h)
       : TextFrameReader(std::move(src),
                         text_frame_info(h.natoms, h.timestep, h.has_box ? h.box.bound_lo : nullptr,
-                                        h.has_box ? h.box.bound_hi : nullptr, h.has_radius),
+                                        h.has_box ? h.box.bound_hi : nullptr, h.has_radius, h.has_property),
                         h.first_line, /*reject_unterminated=*/true), h_(std::move(h)) {}
 
  private:
@@ -139,7 +158,7 @@ class LammpsReader final : public TextFrameReader {
   }
 
   Status parse_block(const LineBlock& blk, ParticleBatch& out, size_t base, uint64_t done_before) override {
-    resize_batch(out, base + blk.lines, h_.has_id, h_.has_radius);
+    resize_batch(out, base + blk.lines, h_.has_id, h_.has_radius, h_.has_property);
     return parse_parallel(blk, [&](const char* b, const char* e, size_t first, size_t lines, LineParseError& err) {
       parse_range(b, e, base + first, lines, blk.first_line + first, done_before + first, out, err);
     });
@@ -156,6 +175,7 @@ class LammpsReader final : public TextFrameReader {
     int32_t* types = out.type.data();
     int64_t* ids = h_.has_id ? out.id.data() : nullptr;
     float* radii = h_.has_radius ? out.radius.data() : nullptr;
+    float* props = h_.has_property ? out.property.data() : nullptr;
     for (size_t li = 0; li < lines; ++li) {
       const char* line_start = p;
       double pos[3] = {0, 0, 0};
@@ -217,6 +237,17 @@ class LammpsReader final : public TextFrameReader {
             radii[out_index + li] = static_cast<float>(role == Col::diameter ? v * 0.5 : v);
             break;
           }
+          case Col::property: {
+            double v;
+            r = parse_double(p, end, v);
+            if (r.ec == std::errc() && !(std::isfinite(v) && std::isfinite(static_cast<float>(v)))) {
+              set_error(err, Errc::range, first_line + li,
+                        fmt::format("property '{}': non-finite value '{}'", h_.property, token_at(tok)));
+              return;
+            }
+            props[out_index + li] = static_cast<float>(v);
+            break;
+          }
           case Col::skip:
             break;
         }
@@ -259,8 +290,9 @@ class LammpsReader final : public TextFrameReader {
 
 // Reads the header of the next frame up to and including `ITEM: ATOMS`. Returns false at
 // the end of the file (no more frames). `after` describes what precedes (for messages).
-Result<bool> read_header(TextSource& src, FrameHeader& h, const std::string& after) {
+Result<bool> read_header(TextSource& src, FrameHeader& h, const std::string& after, const std::string& property) {
   h = FrameHeader{};
+  h.property = property;
   const std::string& file = src.name();
   std::string_view line;
   // Skip blank lines between frames.
@@ -335,7 +367,7 @@ Result<bool> read_header(TextSource& src, FrameHeader& h, const std::string& aft
         return make_error(Errc::format, "{}:{}: ITEM: ATOMS before ITEM: NUMBER OF ATOMS", file, item_line);
       auto names = split_ws(item.substr(5));
       if (names.empty()) return make_error(Errc::format, "{}:{}: ITEM: ATOMS lists no columns", file, item_line);
-      MDS_TRY(map_columns(names, h, file));
+      MDS_TRY(map_columns(names, h, file, h.property));
       // Every atom line holds at least one character and one separator per column; counts
       // beyond what the rest of the file could hold at half that are absurd (a slightly
       // malformed file is left to the line checks, which give the better message).
@@ -373,7 +405,10 @@ Result<bool> read_header(TextSource& src, FrameHeader& h, const std::string& aft
 Result<std::unique_ptr<ParticleReader>> open_lammps_reader(const std::filesystem::path& path,
                                                            const ReaderOptions& options) {
   FrameHeader h;
-  MDS_ASSIGN_OR_RETURN(std::unique_ptr<TextSource> src, open_text_frame(path, options, h, read_header));
+  MDS_ASSIGN_OR_RETURN(std::unique_ptr<TextSource> src,
+                       open_text_frame(path, options, h, [&](TextSource& s, FrameHeader& fh, const std::string& after) {
+                         return read_header(s, fh, after, options.property);
+                       }));
   return std::unique_ptr<ParticleReader>(new LammpsReader(std::move(src), std::move(h)));
 }
 

@@ -223,6 +223,24 @@ Result<std::unique_ptr<ParticleReader>> MmpldReader::open(const std::filesystem:
     if (l.vertex_type == 2) r->info_.has_radius = true;
     if (l.has_global_radius) r->info_.type_radius[type] = l.global_radius;
   }
+  if (!options.property.empty()) {
+    // MMPLD's one per-particle scalar is the intensity of the FLOAT_I / DOUBLE_I colour types.
+    if (options.property != "intensity")
+      return make_error(Errc::format,
+                        "{}: MMPLD particles have no property '{}' (--property): the one per-particle scalar MMPLD "
+                        "stores is 'intensity' (colour types FLOAT_I, DOUBLE_I)",
+                        f.name(), options.property);
+    for (size_t i = 0; i < r->lists_.size(); ++i) {
+      const MmpldList& l = r->lists_[i];
+      if (l.vertex_type != 0 && l.colour_type != 3 && l.colour_type != 7)
+        return make_error(Errc::format,
+                          "{}: byte offset {}: frame {} list {}: colour type {} carries no intensity (--property "
+                          "intensity needs FLOAT_I or DOUBLE_I in every list)",
+                          f.name(), l.data_offset, frame, i, l.colour_type);
+    }
+    r->intensity_ = true;
+    r->info_.has_property = true;
+  }
   return std::unique_ptr<ParticleReader>(std::move(r));
 }
 
@@ -279,6 +297,20 @@ Result<size_t> MmpldReader::read(ParticleBatch& out, size_t max_particles) {
       out.z.push_back(xyz[2]);
       out.type.push_back(type);
       if (info_.has_radius) out.radius.push_back(radius);
+      if (intensity_) {
+        double v;
+        if (l.colour_type == 3) {
+          float f;
+          std::memcpy(&f, p + l.vertex_size, 4);
+          v = f;
+        } else {
+          std::memcpy(&v, p + l.vertex_size, 8);
+        }
+        if (!std::isfinite(v) || !std::isfinite(static_cast<float>(v)))
+          return make_error(Errc::range, "{}: byte offset {}: list {} particle {}: non-finite intensity {}", file_.name(),
+                            at + i * l.stride + l.vertex_size, cur_list_, cur_index_ + i, v);
+        out.property.push_back(static_cast<float>(v));
+      }
     }
     appended += n;
     cur_index_ += n;

@@ -20,7 +20,8 @@
 //
 // Mapping to mdstream: type id = list index + 1; a list's global radius goes to
 // FrameInfo::type_radius; FLOAT_XYZR radii go to ParticleBatch::radius (lists without
-// per-particle radius then get their global radius there). Colours are skipped. SHORT_XYZ
+// per-particle radius then get their global radius there). Colours are skipped, except the
+// FLOAT_I / DOUBLE_I intensities with ReaderOptions::property "intensity". SHORT_XYZ
 // coordinates are returned as their raw int16 values. The file is treated as hostile:
 // every offset and count is checked against the frame and file size before use.
 #pragma once
@@ -66,6 +67,7 @@ class MmpldReader final : public ParticleReader {
   size_t cur_list_ = 0;        // list being streamed
   uint64_t cur_index_ = 0;     // next particle within it
   std::vector<unsigned char> buffer_;
+  bool intensity_ = false;  // ReaderOptions::property "intensity": FLOAT_I / DOUBLE_I colours kept as the property
 };
 
 }  // namespace mds

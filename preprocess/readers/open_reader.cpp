@@ -174,7 +174,11 @@ Result<std::unique_ptr<ParticleReader>> open_reader(const std::filesystem::path&
     case InputFormat::xyz: return open_xyz_reader(path, options);
     case InputFormat::h5md: return open_h5md_reader(path, options);
     case InputFormat::mmpld: return open_mmpld_reader(path, options);
-    case InputFormat::raw: return open_raw_reader(path, options);
+    case InputFormat::raw:
+      if (!options.property.empty())
+        return make_error(Errc::invalid_argument, "{}: raw float32 xyz holds positions only; it has no property '{}' (--property)",
+                          path.string(), options.property);
+      return open_raw_reader(path, options);
     case InputFormat::automatic: break;
   }
   return make_error(Errc::internal, "{}: no reader for format {}", path.string(), input_format_name(f));

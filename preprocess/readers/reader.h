@@ -50,9 +50,10 @@ struct ParticleBatch {
   BatchVector<int32_t> type;       // type id as the input names it (LAMMPS type, species index, MMPLD list index)
   BatchVector<float> radius;       // per-particle radius; empty when the input has none
   BatchVector<int64_t> id;         // particle id when the input has one (LAMMPS `id`), else empty
+  BatchVector<float> property;     // the scalar ReaderOptions::property names (finite); empty without one
 
   size_t size() const { return x.size(); }
-  void clear() { x.clear(); y.clear(); z.clear(); type.clear(); radius.clear(); id.clear(); }
+  void clear() { x.clear(); y.clear(); z.clear(); type.clear(); radius.clear(); id.clear(); property.clear(); }
   void reserve(size_t n) { x.reserve(n); y.reserve(n); z.reserve(n); type.reserve(n); }
 };
 
@@ -66,6 +67,11 @@ struct ReaderOptions {
   // Frame to read: >= 0 is the index (0 = first), -1 = the last frame.
   int64_t frame = 0;
   std::string h5md_group;          // H5MD: /particles/<group>; empty = the only one (error if several)
+  // A per-particle scalar to keep (colour coding): a LAMMPS column (`c_pe`, `vx`, `q`), an
+  // extended-XYZ R:1 property, the H5MD dataset /particles/<group>/<name>/value, or MMPLD's
+  // `intensity` (FLOAT_I colours). Empty = none. A reader that cannot find it fails at open,
+  // naming the file and what it has.
+  std::string property;
 };
 
 // What is known about the frame after open (before reading particles).
@@ -76,6 +82,7 @@ struct FrameInfo {
   double box_lo[3] = {0, 0, 0};
   double box_hi[3] = {0, 0, 0};
   bool has_radius = false;         // read() fills ParticleBatch::radius
+  bool has_property = false;       // read() fills ParticleBatch::property (ReaderOptions::property)
   // Names of type ids, when the input has names (XYZ/H5MD species strings). Readers may
   // add names while streaming (XYZ); the final map is type_names() after the last read().
   std::map<int32_t, std::string> type_names;

@@ -121,11 +121,14 @@ struct XyzHeader {
   int species_col = 0;       // -1: none (type 1)
   int pos_col = 1;
   int radius_col = -1;
+  int property_col = -1;     // ReaderOptions::property's column, or -1
+  std::string property;      // ReaderOptions::property
 };
 
 // Reads the count and comment lines of the next frame; false at the end of the file.
-Result<bool> read_header(TextSource& src, XyzHeader& h, const std::string& after) {
+Result<bool> read_header(TextSource& src, XyzHeader& h, const std::string& after, const std::string& property) {
   h = XyzHeader{};
+  h.property = property;
   const std::string& file = src.name();
   std::string_view line;
   while (true) {
@@ -244,7 +247,33 @@ Result<bool> read_header(TextSource& src, XyzHeader& h, const std::string& after
     }
     if (h.pos_col < 0)
       return make_error(Errc::format, "{}:{}: Properties has no pos:R:3 column", file, cline);
+    if (!property.empty()) {
+      std::string list;
+      for (auto& p : props) {
+        list += fmt::format("{}{}:{}:{}", list.empty() ? "" : " ", p.name, p.type, p.count);
+        if (p.name != property) continue;
+        if (p.first_column == h.pos_col || p.first_column == h.species_col || p.first_column == h.radius_col)
+          return make_error(Errc::invalid_argument,
+                            "{}:{}: Properties: '{}' is read as the particles' species, position or radius; --property "
+                            "takes one of the other properties",
+                            file, cline, p.name);
+        if (p.type != 'R' && p.type != 'I')
+          return make_error(Errc::format, "{}:{}: Properties: '{}' is {}:{}; --property needs a number (R:1 or I:1)", file,
+                            cline, p.name, p.type, p.count);
+        if (p.count != 1)
+          return make_error(Errc::format, "{}:{}: Properties: '{}' has {} columns; --property needs one (R:1 or I:1)", file,
+                            cline, p.name, p.count);
+        h.property_col = p.first_column;
+      }
+      if (h.property_col < 0)
+        return make_error(Errc::format, "{}:{}: Properties has no '{}' (--property); it has: {}", file, cline, property,
+                          list);
+    }
   }
+  if (!property.empty() && !h.extended)
+    return make_error(Errc::format,
+                      "{}:{}: a plain XYZ frame has no named columns; --property '{}' needs extended XYZ (Properties=...)",
+                      file, h.first_line + 1, property);
   return true;
 }
 
@@ -253,7 +282,7 @@ class XyzReader final : public TextFrameReader {
   XyzReader(std::unique_ptr<TextSource> src, const XyzHeader& h)
       : TextFrameReader(std::move(src),
                         text_frame_info(h.natoms, h.timestep, h.has_box ? h.box_lo : nullptr,
-                                        h.has_box ? h.box_hi : nullptr, h.radius_col >= 0),
+                                        h.has_box ? h.box_hi : nullptr, h.radius_col >= 0, h.property_col >= 0),
                         h.first_line, /*reject_unterminated=*/false), h_(h) {}
 
  private:
@@ -272,7 +301,7 @@ class XyzReader final : public TextFrameReader {
   }
 
   Status parse_block(const LineBlock& blk, ParticleBatch& out, size_t base, uint64_t done_before) override {
-    resize_batch(out, base + blk.lines, /*with_id=*/false, h_.radius_col >= 0);
+    resize_batch(out, base + blk.lines, /*with_id=*/false, h_.radius_col >= 0, h_.property_col >= 0);
     species_.resize(blk.lines);
     MDS_TRY(parse_parallel(blk, [&](const char* b, const char* e, size_t first, size_t lines, LineParseError& err) {
       parse_range(b, e, first, base, lines, blk.first_line, done_before, out, err);
@@ -320,7 +349,7 @@ class XyzReader final : public TextFrameReader {
   void parse_range(const char* p, const char* end, size_t first, size_t base, size_t lines, uint64_t first_line,
                    uint64_t done_before, ParticleBatch& out, LineParseError& err) {
     const int ncols = h_.ncols;
-    const int scol = h_.species_col, pcol = h_.pos_col, rcol = h_.radius_col;
+    const int scol = h_.species_col, pcol = h_.pos_col, rcol = h_.radius_col, vcol = h_.property_col;
     const int need = h_.extended ? ncols : 4;
     for (size_t li = 0; li < lines; ++li) {
       const size_t bi = first + li;  // index within the block
@@ -376,6 +405,17 @@ class XyzReader final : public TextFrameReader {
           }
           out.radius[base + bi] = static_cast<float>(v);
           p = r.ptr;
+        } else if (c == vcol) {
+          if (*p == '+') ++p;
+          double v;
+          auto r = parse_double(p, end, v);
+          if (r.ec != std::errc() || !is_token_end(*r.ptr) || !std::isfinite(v) || !std::isfinite(static_cast<float>(v))) {
+            set_error(err, r.ec == std::errc::result_out_of_range ? Errc::range : Errc::format, line_no,
+                      fmt::format("property '{}': bad value '{}'", h_.property, token_at(tok)));
+            return;
+          }
+          out.property[base + bi] = static_cast<float>(v);
+          p = r.ptr;
         } else {
           while (!is_token_end(*p)) ++p;
         }
@@ -410,7 +450,10 @@ class XyzReader final : public TextFrameReader {
 Result<std::unique_ptr<ParticleReader>> open_xyz_reader(const std::filesystem::path& path,
                                                         const ReaderOptions& options) {
   XyzHeader h;
-  MDS_ASSIGN_OR_RETURN(std::unique_ptr<TextSource> src, open_text_frame(path, options, h, read_header));
+  MDS_ASSIGN_OR_RETURN(std::unique_ptr<TextSource> src,
+                       open_text_frame(path, options, h, [&](TextSource& s, XyzHeader& xh, const std::string& after) {
+                         return read_header(s, xh, after, options.property);
+                       }));
   return std::unique_ptr<ParticleReader>(new XyzReader(std::move(src), h));
 }
 

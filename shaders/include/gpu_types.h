@@ -28,6 +28,7 @@ MDS_CONST(uint, kBindVisibility, 11); // uint64[W * H]: nearest depth bits << 32
 MDS_CONST(uint, kBindAccumBuffer, 12);  // vec4[W * H]: the accumulation, 16 B/pixel (accumulation.h)
 MDS_CONST(uint, kBindOcclusionPyramid, 13);  // vec2[]: the culling loop's confidence pyramid (particle_occlusion.h)
 MDS_CONST(uint, kBindCoveredPixels, 14);  // CoveredPixelsHeader + uint pixel[W * H]: the visibility buffer's covered pixels
+MDS_CONST(uint, kBindProperty, 15);   // uint[] = two uint16 property_q per uint (optional; store kFlagProperty)
 
 // GpuSprite.flags
 MDS_CONST(uint, kSpriteHidden, 0x100u);  // nothing to draw (behind the near plane, radius 0)
@@ -54,6 +55,9 @@ MDS_CONST(uint, kFrameExactCoverage, 8u);  // occlusion samples: alpha_s by exac
 MDS_CONST(uint, kFrameMixedCoverage, 16u);  // with kFrameExactCoverage: exact only below kMixedExactBelowPx (Coverage::automatic)
 MDS_CONST(uint, kFrameTimingOnly, 4u);  // accumulate adds 0 x colour: full cost, the image keeps its spp samples
 MDS_CONST(uint, kFrameColorMap, 32u);  // colour by coordinate: viridis of color_plane (particle_color.h), not the type's
+// With kFrameColorMap: colour by the per-particle property instead, t = color_plane.x * q + color_plane.w for its
+// quantized value q (GpuSprite.flags bits 16..31, read from kBindProperty by sprite_make.h).
+MDS_CONST(uint, kFrameColorProperty, 64u);
 
 // Per-frame constants (std140 uniform block).
 MDS_STRUCT(FrameUniforms) {
@@ -64,7 +68,8 @@ MDS_STRUCT(FrameUniforms) {
   vec4 radius_range;  // radius_min, radius_max - radius_min (per-particle radii), near, far
   uvec4 counts;       // meshlet_count, max_meshlet_particles, flags, sample index
   vec4 occlusion;     // particle occlusion test (particle_occlusion.h): C_occ, C_medium, pyramid levels (0: off), 0
-  vec4 color_plane;   // with kFrameColorMap: colormap coordinate t = dot(xyz, view-space centre) + w (render/colormap.h)
+  vec4 color_plane;   // with kFrameColorMap: colormap coordinate t = dot(xyz, view-space centre) + w (render/colormap.h);
+                      // with kFrameColorProperty t = x * property_q + w
 };
 
 // One store node: quantization frame relative to the scene origin (float is enough there).
@@ -138,7 +143,8 @@ MDS_STRUCT(GpuSprite) {
   vec4 rect;           // NDC x_lo, y_lo, x_hi, y_hi, incl. the half-pixel margin
   vec4 center_radius;  // view space centre, radius
   float zndc;          // billboard depth (the sphere's nearest view distance)
-  uint flags;          // bits 0..7: type; kSpriteHidden, kSpriteQuad
+  uint flags;          // bits 0..7: type; kSpriteHidden, kSpriteQuad, kSpriteSmall; bits 16..31: property_q
+                       // with kFrameColorProperty (else 0)
   uint vis_id;
   uint pad1;
 };

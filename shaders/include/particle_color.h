@@ -1,6 +1,8 @@
 // GLSL-only: a particle's colour (linear RGB) -- its type's (GpuType.color), or with
 // kFrameColorMap the viridis colormap of its coordinate along one world axis, t =
-// dot(frame.color_plane.xyz, view-space centre) + frame.color_plane.w clamped to [0, 1]. The
+// dot(frame.color_plane.xyz, view-space centre) + frame.color_plane.w clamped to [0, 1], or with
+// kFrameColorMap | kFrameColorProperty of its property, t = color_plane.x * q + color_plane.w
+// for the quantized value q in bits 16..31 of its colour key (sprite_make.h). The
 // CPU (double) original of both functions is render/colormap.cpp (viridis_srgb, srgb_to_linear
 // in render/scene.cpp); test_colormap compares rendered pixels with it. Needs bindings.h (frame,
 // types).
@@ -26,9 +28,13 @@ vec3 mds_srgb_to_linear(vec3 c) {
   return mix(c / 12.92, pow((c + 0.055) / 1.055, vec3(2.4)), greaterThan(c, vec3(0.04045)));
 }
 
-vec3 mds_particle_color(uint type, vec3 center_view) {
-  if ((frame.counts.z & kFrameColorMap) == 0u) return types[type].color.rgb;
-  return mds_srgb_to_linear(mds_viridis_srgb(dot(frame.color_plane.xyz, center_view) + frame.color_plane.w));
+// key: GpuSprite.flags (type in bits 0..7, property_q in bits 16..31).
+vec3 mds_particle_color(uint key, vec3 center_view) {
+  if ((frame.counts.z & kFrameColorMap) == 0u) return types[key & 0xffu].color.rgb;
+  float t = (frame.counts.z & kFrameColorProperty) != 0u
+                ? frame.color_plane.x * float(key >> 16) + frame.color_plane.w
+                : dot(frame.color_plane.xyz, center_view) + frame.color_plane.w;
+  return mds_srgb_to_linear(mds_viridis_srgb(t));
 }
 
 #endif

@@ -10,7 +10,8 @@
 // rectangle of at least one pixel, so every jittered sample that hits the sphere is rasterized
 // and the exact ray test in the fragment shader keeps only those -- over spp jittered passes a
 // sub-pixel sphere contributes exactly its expected covered area (its "effective sub-pixel area").
-// Needs bindings.h (frame, nodes, particles, types, radii_q).
+// Needs bindings.h (frame, nodes, particles, types, radii_q; property_q where the shader defines
+// MDS_COLOR_KEY before including this: the colour key's property bits, else they stay 0).
 #ifndef MDS_SPRITE_MAKE_H
 #define MDS_SPRITE_MAKE_H
 
@@ -19,8 +20,9 @@ vec3 mds_project(vec3 v) {
   return c.xyz / c.w;
 }
 
-// The view-space sphere (centre, radius) and the type of particle pi (buffer index) of a node
-// with quantization frame (origin, step). `precise`: no contraction into fused multiply-adds, so
+// The view-space sphere (centre, radius) and the colour key of particle pi (buffer index) of a
+// node with quantization frame (origin, step): its type in bits 0..7 and, with
+// kFrameColorProperty, its property_q in bits 16..31 (GpuSprite.flags; particle_color.h). `precise`: no contraction into fused multiply-adds, so
 // that every shader that includes this computes the same bits (the resolve rebuilds the sphere
 // the pre-pass made, mds_vis_id_sphere).
 vec4 mds_particle_sphere(uint pi, vec3 origin, vec3 step, out uint type) {
@@ -34,6 +36,12 @@ vec4 mds_particle_sphere(uint pi, vec3 origin, vec3 step, out uint type) {
     uint rq = (pi & 1u) != 0u ? (w >> 16) : (w & 0xffffu);
     r = frame.radius_range.x + float(rq) * frame.radius_range.y / 65535.0;
   }
+#ifdef MDS_COLOR_KEY  // only the shaders that colour glyphs bind kBindProperty (not the culling loop's)
+  if ((frame.counts.z & kFrameColorProperty) != 0u) {
+    uint w = property_q[pi >> 1];
+    type |= ((pi & 1u) != 0u ? (w >> 16) : (w & 0xffffu)) << 16;
+  }
+#endif
   precise vec3 c = (frame.view * vec4(world, 1.0)).xyz;
   return vec4(c, r);
 }
@@ -53,7 +61,7 @@ vec4 mds_vis_id_sphere(uint vis_id, out uint type) {
 }
 
 // The sprite of local particle `local` of meshlet m (node = nodes[m.node]) at draw-list entry e.
-// flags = type, plus kSpriteHidden when nothing can be drawn (behind the near plane, radius 0,
+// flags = colour key (type, property), plus kSpriteHidden when nothing can be drawn (behind the near plane, radius 0,
 // off screen, beyond the far plane); rect = NDC (lo.x, lo.y, hi.x, hi.y); zndc = depth of the
 // rectangle.
 GpuSprite mds_make_sprite(GpuMeshlet m, GpuNode node, uint local, uint e) {

@@ -11,6 +11,7 @@
 #include "cli/command.h"
 #include "core/byte_size.h"
 #include "convert/converter.h"
+#include "store/format.h"
 
 namespace mds::cli {
 
@@ -22,6 +23,7 @@ struct ConvertArgs {
   std::string format = "auto";
   std::string frame = "0";
   std::string h5md_group;
+  std::string property;
   uint32_t node_size = 10000;
   uint32_t meshlet_size = 16;
   std::string meshlet_builder = "pcl";
@@ -59,6 +61,7 @@ nlohmann::json report_json(const convert::ConvertReport& r, const convert::Conve
   j["bounds_max"] = {r.bounds_max[0], r.bounds_max[1], r.bounds_max[2]};
   j["density_dims"] = {r.density_dims[0], r.density_dims[1], r.density_dims[2]};
   j["per_particle_radius"] = r.per_particle_radius;
+  if (!r.property.empty()) j["property"] = {{"name", r.property}, {"min", r.property_min}, {"max", r.property_max}};
   j["spilled"] = r.spilled;
   j["bins"] = r.bins;
   j["partition_passes"] = r.partition_passes;
@@ -110,6 +113,10 @@ void print_summary(const convert::ConvertReport& r, const convert::ConvertOption
                r.seconds_total, r.seconds_read, r.seconds_partition, r.seconds_build, r.seconds_sort,
                r.particles_per_second / 1e6, r.cpu_seconds, r.seconds_gather, r.seconds_meshlets, r.seconds_encode,
                r.seconds_append);
+  if (!r.property.empty())
+    std::fprintf(stderr, "  property         %s in [%.6g, %.6g], 16 bits (step %.3g)\n", r.property.c_str(),
+                 double(r.property_min), double(r.property_max),
+                 (double(r.property_max) - double(r.property_min)) / store::kQuantMax);
 }
 
 Result<convert::ConvertOptions> to_options(const ConvertArgs& a) {
@@ -132,6 +139,7 @@ Result<convert::ConvertOptions> to_options(const ConvertArgs& a) {
     }
   }
   o.reader.h5md_group = a.h5md_group;
+  o.reader.property = a.property;
   o.node_size = a.node_size;
   o.meshlet_size = a.meshlet_size;
   auto mb = convert::parse_meshlet_builder(a.meshlet_builder);
@@ -163,6 +171,10 @@ void setup_convert(CLI::App& sub, int& exit_code) {
       ->capture_default_str();
   sub.add_option("--frame", args->frame, "Frame to convert: index K (0 = first) or 'last'")->capture_default_str();
   sub.add_option("--h5md-group", args->h5md_group, "H5MD particle group under /particles when there are several");
+  sub.add_option("--property", args->property,
+                 "Keep one per-particle scalar for colour coding (render --color-by property): a LAMMPS column such as "
+                 "c_pe or vx, an extended-XYZ R:1 property, the H5MD dataset /particles/<group>/NAME/value, or MMPLD's "
+                 "'intensity'; stored as 16 bits over its range");
   sub.add_option("--node-size", args->node_size, "Maximum particles per node (1..65535)")->capture_default_str();
   sub.add_option("--meshlet-size", args->meshlet_size, "Particles per meshlet (1..255)")->capture_default_str();
   sub.add_option("--meshlet-builder", args->meshlet_builder,

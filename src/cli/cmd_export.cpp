@@ -25,6 +25,8 @@ Status export_xyz(const ExportOptions& o) {
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
   const store::FileHeader& h = reader->header();
   const bool radius = (h.flags & store::kFlagPerParticleRadius) != 0;
+  const bool property = (h.flags & store::kFlagProperty) != 0;
+  const std::string property_column = property ? fmt::format(":{}:R:1", h.property_name) : "";
   std::vector<std::string> species;
   for (const auto& t : reader->types()) {
     std::string name = t.name[0] ? std::string(t.name) : std::to_string(t.input_id);
@@ -36,8 +38,8 @@ Status export_xyz(const ExportOptions& o) {
   MDS_ASSIGN_OR_RETURN(auto out, store::AtomicOutput::create(o.output));
   store::BufferedWriter w(out.file(), size_t(8) << 20);
   fmt::memory_buffer buf;
-  fmt::format_to(std::back_inserter(buf), "{}\nProperties=species:S:1:pos:R:3{} mdstream_format={}\n", h.particle_count,
-                 radius ? ":radius:R:1" : "", h.version);
+  fmt::format_to(std::back_inserter(buf), "{}\nProperties=species:S:1:pos:R:3{}{} mdstream_format={}\n", h.particle_count,
+                 radius ? ":radius:R:1" : "", property_column, h.version);
   const double rstep = (double(h.radius_max) - double(h.radius_min)) / double(store::kQuantMax);
   store::NodeData node;
   std::vector<uint8_t> scratch;
@@ -52,6 +54,7 @@ Status export_xyz(const ExportOptions& o) {
       auto it = std::back_inserter(buf);
       fmt::format_to(it, "{} {} {} {}", species[node.type_index[k]], x[0], x[1], x[2]);
       if (radius) fmt::format_to(it, " {}", double(h.radius_min) + double(node.radius_q[k]) * rstep);
+      if (property) fmt::format_to(it, " {}", store::property_value(h.property_min, h.property_max, node.property_q[k]));
       buf.push_back('\n');
     }
     if (buf.size() > (size_t(1) << 20)) {

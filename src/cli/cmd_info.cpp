@@ -40,6 +40,10 @@ Result<nlohmann::json> store_info(const store::StoreReader& r) {
   j["per_particle_radius"] = (h.flags & store::kFlagPerParticleRadius) != 0;
   j["radius_min"] = h.radius_min;
   j["radius_max"] = h.radius_max;
+  if (h.flags & store::kFlagProperty)
+    j["property"] = {{"name", std::string(h.property_name)}, {"min", h.property_min}, {"max", h.property_max}};
+  else
+    j["property"] = nullptr;
   j["bounds_min"] = vec3(h.bounds_min);
   j["bounds_max"] = vec3(h.bounds_max);
   j["max_quantization_error"] = h.max_quantization_error;
@@ -116,6 +120,9 @@ std::string human(const nlohmann::json& j, bool verified) {
   s += fmt::format("radius           {}, range [{:.6g}, {:.6g}]\n",
                    j["per_particle_radius"].get<bool>() ? "per particle" : "per type", j["radius_min"].get<double>(),
                    j["radius_max"].get<double>());
+  if (!j["property"].is_null())
+    s += fmt::format("property         {} in [{:.6g}, {:.6g}], 16 bits\n", j["property"]["name"].get<std::string>(),
+                     j["property"]["min"].get<double>(), j["property"]["max"].get<double>());
   s += fmt::format("quantization     16 bit; step max {:.6g}, median {:.6g}; max error {:.6g} ({:.4f} of half a step)\n",
                    j["quantization_step"]["max"].get<double>(), j["quantization_step"]["median"].get<double>(),
                    j["max_quantization_error"].get<double>(), j["max_error_over_half_step"].get<double>());

@@ -30,7 +30,8 @@ Result<int> parse_color_axis(std::string_view s) {
   if (s == "x") return 0;
   if (s == "y") return 1;
   if (s == "z") return 2;
-  return make_error(Errc::invalid_argument, "'{}': expected type, x, y or z", s);
+  if (s == "property") return kColorByProperty;
+  return make_error(Errc::invalid_argument, "'{}': expected type, x, y, z or property", s);
 }
 
 Result<glm::dvec2> parse_color_range(std::string_view s) {
@@ -47,8 +48,8 @@ Result<glm::dvec2> parse_color_range(std::string_view s) {
 }
 
 std::string color_axis_name(int axis) {
-  static const char* names[4] = {"type", "x", "y", "z"};
-  return names[std::clamp(axis + 1, 0, 3)];
+  static const char* names[5] = {"type", "x", "y", "z", "property"};
+  return names[std::clamp(axis + 1, 0, 4)];
 }
 
 glm::dvec4 color_plane(const glm::dmat4& view, const glm::dvec3& origin, int axis, double lo, double hi) {
@@ -57,6 +58,17 @@ glm::dvec4 color_plane(const glm::dmat4& view, const glm::dvec3& origin, int axi
   const glm::dmat4 inv = glm::inverse(view);
   const double s = 1.0 / (hi - lo);
   return {inv[0][axis] * s, inv[1][axis] * s, inv[2][axis] * s, (inv[3][axis] + origin[axis] - lo) * s};
+}
+
+glm::dvec2 property_color_map(double pmin, double pmax, double lo, double hi) {
+  const double s = 1.0 / (hi - lo);
+  return {(pmax - pmin) / 65535.0 * s, (pmin - lo) * s};  // 65535 = store::kQuantMax
+}
+
+glm::dvec2 property_default_range(double pmin, double pmax) {
+  if (pmin < pmax) return {pmin, pmax};
+  const double pad = std::max(1e-6 * std::abs(pmin), 1e-12);
+  return {pmin - pad, pmin + pad};
 }
 
 }  // namespace mds::render

@@ -1,6 +1,7 @@
-// Colour by coordinate (`--color-by x|y|z`, OVITO's "color coding" of a position component):
-// each particle takes the viridis colour of t = (its coordinate along a world axis - lo) /
-// (hi - lo), clamped to [0, 1], instead of its type's colour. The double-precision originals of
+// Colour by coordinate (`--color-by x|y|z`, OVITO's "color coding" of a position component) or
+// by the store's per-particle property (`--color-by property`: a LAMMPS column, an H5MD element,
+// MMPLD intensity; `convert --property`): each particle takes the viridis colour of t = (its
+// value - lo) / (hi - lo), clamped to [0, 1], instead of its type's colour. The double-precision originals of
 // the shaders' shaders/include/particle_color.h (mds_viridis_srgb, mds_particle_color's plane).
 #pragma once
 
@@ -17,23 +18,35 @@ namespace mds::render {
 // (Matt Zucker's least-squares fit, CC0), within 0.018 of matplotlib 3.6's 256-entry table.
 glm::dvec3 viridis_srgb(double t);
 
-// What colours the particles: their type (axis -1) or a world axis 0/1/2 over [lo, hi]; lo ==
-// hi (the default) takes the scene's bounds of the particle centres along the axis.
+inline constexpr int kColorByProperty = 3;  // ColorBy::axis of --color-by property
+
+// What colours the particles: their type (axis -1), a world axis 0/1/2 or the property
+// (kColorByProperty) over [lo, hi]; lo == hi (the default) takes the scene's bounds of the
+// particle centres along the axis, or the store's property range.
 struct ColorBy {
   int axis = -1;
   double lo = 0.0, hi = 0.0;
   bool by_type() const { return axis < 0; }
+  bool by_property() const { return axis == kColorByProperty; }
 };
 
-// "type", "x", "y" or "z"; Errc::invalid_argument otherwise.
+// "type", "x", "y", "z" or "property"; Errc::invalid_argument otherwise.
 Result<int> parse_color_axis(std::string_view s);
 // "LO:HI" with LO < HI (finite numbers); Errc::invalid_argument otherwise.
 Result<glm::dvec2> parse_color_range(std::string_view s);
-std::string color_axis_name(int axis);  // "type", "x", "y", "z"
+std::string color_axis_name(int axis);  // "type", "x", "y", "z", "property"
 
 // The plane of FrameUniforms.color_plane: t = dot(plane.xyz, p_view) + plane.w for a view-space
 // point p_view, where view maps (world - origin) to view space (camera.h view_matrix).
 // Precondition: axis in 0..2, lo < hi.
 glm::dvec4 color_plane(const glm::dmat4& view, const glm::dvec3& origin, int axis, double lo, double hi);
+
+// The property's colour map as FrameUniforms.color_plane (x, w) = (scale, offset): t = scale *
+// q + offset for a quantized value q in [0, 65535] of a store whose property spans [pmin, pmax]
+// (store::property_value), t = (value - lo) / (hi - lo). Precondition: lo < hi.
+glm::dvec2 property_color_map(double pmin, double pmax, double lo, double hi);
+// The default --color-range of the property: [pmin, pmax], widened around a constant property
+// (pmin == pmax) so that every particle maps to t = 0.5.
+glm::dvec2 property_default_range(double pmin, double pmax);
 
 }  // namespace mds::render

@@ -49,10 +49,16 @@ Status Renderer::Impl::upload(const SceneData& scene) {
   if (radii_padded.empty()) radii_padded.assign(2, 0);
   MDS_ASSIGN_OR_RETURN(radii, vk::Buffer::create(alloc, radii_padded.size() * sizeof(uint16_t), ssbo,
                                                  vk::MemoryIntent::device_local, "particle radii"));
+  std::vector<uint16_t> property_padded = scene.property_q;  // two uint16 per uint, as the radii
+  if (property_padded.size() % 2) property_padded.push_back(0);
+  if (property_padded.empty()) property_padded.assign(2, 0);
+  MDS_ASSIGN_OR_RETURN(property, vk::Buffer::create(alloc, property_padded.size() * sizeof(uint16_t), ssbo,
+                                                    vk::MemoryIntent::device_local, "particle property"));
   MDS_TRY(create_draw_buffers(scene.meshlets.size()));
   meshlets_h = meshlets.get();
   particles_h = particles.get();
   radii_h = radii.get();
+  property_h = property.get();
 
   MDS_ASSIGN_OR_RETURN(vk::StagingRing ring, vk::StagingRing::create(*ctx));
   MDS_TRY(ring.upload_span(nodes, 0, std::span<const gpu::GpuNode>(scene.nodes)));
@@ -62,6 +68,7 @@ Status Renderer::Impl::upload(const SceneData& scene) {
   set_type_colors(type_table, settings.type_colors_srgb);
   MDS_TRY(ring.upload_span(types, 0, std::span<const gpu::GpuType>(type_table)));
   MDS_TRY(ring.upload_span(radii, 0, std::span<const uint16_t>(radii_padded)));
+  MDS_TRY(ring.upload_span(property, 0, std::span<const uint16_t>(property_padded)));
   MDS_TRY(ring.flush());
   upload_bytes = ring.bytes_uploaded();
   return {};
@@ -282,7 +289,8 @@ Status Renderer::Impl::create_pipelines() {
                                       b(gpu::kBindAccumImage, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE),
                                       b(gpu::kBindSprites, SSBO), b(gpu::kBindSpriteDraw, SSBO),
                                       b(gpu::kBindVisibility, SSBO), b(gpu::kBindAccumBuffer, SSBO),
-                                      b(gpu::kBindOcclusionPyramid, SSBO), b(gpu::kBindCoveredPixels, SSBO)}));
+                                      b(gpu::kBindOcclusionPyramid, SSBO), b(gpu::kBindCoveredPixels, SSBO),
+                                      b(gpu::kBindProperty, SSBO)}));
   set.write_buffer(gpu::kBindFrame, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, frame_ubo.get());
   set.write_buffer(gpu::kBindNodes, SSBO, nodes.get());
   set.write_buffer(gpu::kBindMeshlets, SSBO, meshlets_h);
@@ -290,6 +298,7 @@ Status Renderer::Impl::create_pipelines() {
   set.write_buffer(gpu::kBindTypes, SSBO, types.get());
   set.write_buffer(gpu::kBindDrawList, SSBO, draw_list.get());
   set.write_buffer(gpu::kBindRadii, SSBO, radii_h);
+  set.write_buffer(gpu::kBindProperty, SSBO, property_h);
   if (!vis_route) set.write_storage_image(gpu::kBindColorImage, color.view());
   write_accumulation_descriptors();
   set.write_buffer(gpu::kBindSprites, SSBO, sprites.get());
@@ -381,6 +390,14 @@ Status Renderer::Impl::create_pipelines() {
   return {};
 }
 
+// --color-by property needs the store's property (store kFlagProperty).
+Status check_color_by(const ColorBy& c, bool has_property) {
+  if (c.by_property() && !has_property)
+    return make_error(Errc::invalid_argument,
+                      "--color-by property: the store has no per-particle property (convert it with --property NAME)");
+  return {};
+}
+
 Result<std::unique_ptr<Renderer>> Renderer::create(vk::Context& ctx, const SceneData& scene,
                                                    const RenderSettings& settings) {
   if (settings.width == 0 || settings.height == 0 || settings.width > 16384 || settings.height > 16384)
@@ -401,6 +418,10 @@ Result<std::unique_ptr<Renderer>> Renderer::create(vk::Context& ctx, const Scene
   m.flags = scene.per_particle_radius ? gpu::kFramePerParticleRadius : 0u;
   m.radius_min = scene.radius_min;
   m.radius_max = scene.radius_max;
+  m.has_property = scene.has_property;
+  m.property_min = scene.property_min;
+  m.property_max = scene.property_max;
+  MDS_TRY(check_color_by(settings.color_by, m.has_property));
   MDS_TRY(m.upload(scene));
   MDS_TRY(m.create_frame_resources());
   if (settings.cull) {

@@ -42,6 +42,7 @@ Status Renderer::Impl::upload_streaming(const SceneData& dir) {
   meshlets_h = pool.meshlets();
   particles_h = pool.particles();
   radii_h = pool.radii();
+  property_h = pool.property();
   meshlet_class_h = pool.meshlet_class();
   MDS_TRY(create_draw_buffers(pool.meshlet_slots()));
   MDS_ASSIGN_OR_RETURN(vk::StagingRing ring, vk::StagingRing::create(*ctx));
@@ -87,6 +88,10 @@ Result<std::unique_ptr<Renderer>> Renderer::create_streaming(vk::Context& ctx, c
   m.flags = ppr ? gpu::kFramePerParticleRadius : 0u;
   m.radius_min = h.radius_min;
   m.radius_max = h.radius_max;
+  m.has_property = (h.flags & store::kFlagProperty) != 0;
+  m.property_min = h.property_min;
+  m.property_max = h.property_max;
+  MDS_TRY(check_color_by(settings.color_by, m.has_property));
   MDS_TRY(m.upload_streaming(dir));
   MDS_TRY(m.create_frame_resources());
   if (settings.cull) {
@@ -128,7 +133,12 @@ void Renderer::Impl::write_frame_uniforms(const Camera& camera, uint32_t sample,
   fu.viewport = glm::vec4(float(w), float(h), 1.0f / float(w), 1.0f / float(h));
   fu.radius_range = glm::vec4(radius_min, radius_max - radius_min, float(camera.near), float(camera.far));
   uint32_t color_flag = 0;
-  if (!settings.color_by.by_type()) {  // colour by coordinate (render/colormap.h)
+  if (settings.color_by.by_property()) {  // colour by the per-particle property (render/colormap.h)
+    const glm::dvec2 range = color_range();
+    const glm::dvec2 map = property_color_map(property_min, property_max, range.x, range.y);
+    fu.color_plane = glm::vec4(float(map.x), 0.0f, 0.0f, float(map.y));
+    color_flag = gpu::kFrameColorMap | gpu::kFrameColorProperty;
+  } else if (!settings.color_by.by_type()) {  // colour by coordinate (render/colormap.h)
     const glm::dvec2 range = color_range();
     fu.color_plane = glm::vec4(color_plane(view, origin, settings.color_by.axis, range.x, range.y));
     color_flag = gpu::kFrameColorMap;
@@ -511,6 +521,7 @@ glm::dvec2 Renderer::Impl::color_range() const {
   const ColorBy& c = settings.color_by;
   if (c.by_type()) return glm::dvec2(0.0);
   if (c.lo < c.hi) return glm::dvec2(c.lo, c.hi);
+  if (c.by_property()) return property_default_range(property_min, property_max);
   double lo = bounds.min[c.axis], hi = bounds.max[c.axis];
   if (!(lo < hi)) {  // all centres in one plane: t = 0.5 for every particle
     const double pad = std::max(1e-9 * glm::length(bounds.max - bounds.min), 1e-12 * (1.0 + std::abs(lo)));

@@ -108,6 +108,10 @@ Status append_node(SceneData& s, const double center_min[3], const double center
       return make_error(Errc::format, "node {}: per-particle radii missing", node_index);
     s.radius_q.insert(s.radius_q.end(), node.radius_q.begin(), node.radius_q.end());
   }
+  if (s.has_property) {
+    if (node.property_q.size() != n) return make_error(Errc::format, "node {}: per-particle property missing", node_index);
+    s.property_q.insert(s.property_q.end(), node.property_q.begin(), node.property_q.end());
+  }
 
   size_t p = 0;
   for (size_t k = 0; k < node.meshlet_size.size(); ++k) {
@@ -167,11 +171,13 @@ void filter_types(const store::NodeData& in, std::span<const uint8_t> shown, sto
   out.qpos.clear();
   out.type_index.clear();
   out.radius_q.clear();
+  out.property_q.clear();
   out.meshlet_size.clear();
-  const bool radius = !in.radius_q.empty();
+  const bool radius = !in.radius_q.empty(), property = !in.property_q.empty();
   size_t total = 0;
   for (const uint8_t size : in.meshlet_size) total += size;
-  if (total != in.particle_count() || in.qpos.size() != 3 * total || (radius && in.radius_q.size() != total)) {
+  if (total != in.particle_count() || in.qpos.size() != 3 * total || (radius && in.radius_q.size() != total) ||
+      (property && in.property_q.size() != total)) {
     out = in;  // malformed: left whole for append_node to report
     return;
   }
@@ -184,6 +190,7 @@ void filter_types(const store::NodeData& in, std::span<const uint8_t> shown, sto
       out.qpos.insert(out.qpos.end(), in.qpos.begin() + ptrdiff_t(3 * i), in.qpos.begin() + ptrdiff_t(3 * i + 3));
       out.type_index.push_back(t);
       if (radius) out.radius_q.push_back(in.radius_q[i]);
+      if (property) out.property_q.push_back(in.property_q[i]);
       ++kept;
     }
     if (kept > 0) out.meshlet_size.push_back(kept);
@@ -208,6 +215,12 @@ Result<SceneData> load_scene(const store::StoreReader& reader, const SceneOption
   }
   SceneData s = begin_scene({h.bounds_min[0], h.bounds_min[1], h.bounds_min[2]},
                             {h.bounds_max[0], h.bounds_max[1], h.bounds_max[2]}, radii, ppr, h.radius_min, h.radius_max);
+  if (h.flags & store::kFlagProperty) {
+    s.has_property = true;
+    s.property_min = h.property_min;
+    s.property_max = h.property_max;
+    s.property_q.reserve(h.particle_count);
+  }
   s.particles.reserve(4 * h.particle_count);
   s.meshlets.reserve(h.meshlet_count);
   store::NodeData node;

@@ -32,6 +32,11 @@ struct SceneData {
   std::vector<gpu::GpuMeshlet> meshlets;
   std::vector<uint16_t> particles;  // 4 per particle: x, y, z, type
   std::vector<uint16_t> radius_q;   // 1 per particle, or empty
+  // The store's per-particle property (store kFlagProperty; --color-by property): property_q 1
+  // per particle, value = store::property_value(property_min, property_max, q).
+  bool has_property = false;
+  float property_min = 0.0f, property_max = 0.0f;
+  std::vector<uint16_t> property_q;  // 1 per particle, or empty
   std::vector<gpu::GpuType> types;
   std::vector<uint8_t> shown_types;  // per type, 0 = left out by load_scene; empty: every type
 

@@ -30,7 +30,10 @@ inline constexpr uint32_t kQuantMax = 65535;           // 16-bit quantization: q
 
 enum HeaderFlags : uint32_t {
   kFlagPerParticleRadius = 1u << 0,  // node payloads carry uint16 radius_q[n]
+  kFlagProperty = 1u << 1,           // node payloads carry uint16 property_q[n] (one scalar per particle)
 };
+inline constexpr uint32_t kKnownFlags = kFlagPerParticleRadius | kFlagProperty;
+inline constexpr uint32_t kPropertyNameBytes = 48;  // FileHeader::property_name, NUL-terminated
 
 enum SectionId : uint32_t {
   kSectionTypes = 0,
@@ -72,11 +75,18 @@ struct FileHeader {
   uint64_t payload_bytes;         // sum of compressed node payloads
   uint64_t payload_raw_bytes;     // sum of decoded node payloads
   Section sections[kSectionCount];
-  uint8_t reserved[144];          // zero
+  // With kFlagProperty: the per-particle scalar the payloads carry (e.g. a LAMMPS column "c_pe"),
+  // v = property_min + q * (property_max - property_min) / 65535. All zero without the flag.
+  char property_name[kPropertyNameBytes];  // NUL-terminated, non-empty with the flag
+  float property_min;             // smallest value of the property in the store (finite)
+  float property_max;             // largest (finite, >= property_min)
+  uint8_t reserved[88];           // zero
   uint64_t header_hash;           // XXH3-64 of these 512 bytes with header_hash = 0
 };
 static_assert(sizeof(FileHeader) == kHeaderBytes);
 static_assert(offsetof(FileHeader, sections) == 200);
+static_assert(offsetof(FileHeader, property_name) == 360);
+static_assert(offsetof(FileHeader, property_min) == 408);
 static_assert(offsetof(FileHeader, header_hash) == 504);
 
 
@@ -139,19 +149,27 @@ static_assert(sizeof(VoxelRef) == 8);
 //   uint8  meshlet_type_bits[m]   m bytes   width of the type offsets, 0..8
 //   uint16 radius_q[n]            2n bytes  only with kFlagPerParticleRadius:
 //                                           r = radius_min + q * (radius_max - radius_min) / 65535
+//   uint16 property_q[n]          2n bytes  only with kFlagProperty:
+//                                           v = property_min + q * (property_max - property_min) / 65535
 //   uint8  bits[]                 the rest  bit stream, LSB first: for each meshlet j in order, the x
 //                                           offsets of its particles (wx bits each), then y, then z,
 //                                           then the type offsets (wt bits each); zero-padded to a byte
 // qpos[k][a] = meshlet_base[a][j] + offset (must be <= 65535); type = type_base[j] + offset.
 inline constexpr uint32_t kMaxAxisBits = 16;
 inline constexpr uint32_t kMaxTypeBits = 8;
-// Size of everything before the bit stream.
-inline constexpr uint64_t node_payload_fixed_bytes(uint64_t n, uint64_t m, bool per_particle_radius) {
-  return 11 * m + (per_particle_radius ? 2 * n : 0);
+// Size of everything before the bit stream; flags = the header's (the per-particle arrays).
+inline constexpr uint64_t node_payload_fixed_bytes(uint64_t n, uint64_t m, uint32_t flags) {
+  return 11 * m + ((flags & kFlagPerParticleRadius) ? 2 * n : 0) + ((flags & kFlagProperty) ? 2 * n : 0);
 }
 // Largest decoded payload: full-width offsets (3 * 16 + 8 bits per particle).
-inline constexpr uint64_t node_payload_max_bytes(uint64_t n, uint64_t m, bool per_particle_radius) {
-  return node_payload_fixed_bytes(n, m, per_particle_radius) + 7 * n;
+inline constexpr uint64_t node_payload_max_bytes(uint64_t n, uint64_t m, uint32_t flags) {
+  return node_payload_fixed_bytes(n, m, flags) + 7 * n;
+}
+
+// The property value of a quantized property_q (kFlagProperty), in double: the one decoding
+// formula (export, the renderer's colour mapping and the tests use it).
+inline double property_value(float property_min, float property_max, uint16_t q) {
+  return double(property_min) + double(q) * (double(property_max) - double(property_min)) / kQuantMax;
 }
 
 // Voxel-list section (decoded size 8 * R for R refs), before LZ4: byte planes of

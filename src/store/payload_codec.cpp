@@ -97,10 +97,11 @@ class BitReader {
 
 void encode_payload(const NodeInput& node, std::vector<uint8_t>& raw) {
   const size_t n = node.type_index.size(), m = node.meshlet_size.size();
-  const bool radius = !node.radius_q.empty();
-  const size_t fixed = node_payload_fixed_bytes(n, m, radius);
+  const bool radius = !node.radius_q.empty(), property = !node.property_q.empty();
+  const uint32_t flags = (radius ? kFlagPerParticleRadius : 0u) | (property ? kFlagProperty : 0u);
+  const size_t fixed = node_payload_fixed_bytes(n, m, flags);
   // Large enough for the widest stream and the bit writer's slack; trimmed to the exact size at the end.
-  raw.resize(node_payload_max_bytes(n, m, radius) + 8);
+  raw.resize(node_payload_max_bytes(n, m, flags) + 8);
   uint8_t* sizes = raw.data();
   uint8_t* base = sizes + m;
   uint8_t* widths = base + 6 * m;
@@ -108,6 +109,7 @@ void encode_payload(const NodeInput& node, std::vector<uint8_t>& raw) {
   uint8_t* type_bits = type_base + m;
   std::memcpy(sizes, node.meshlet_size.data(), m);
   if (radius) std::memcpy(type_bits + m, node.radius_q.data(), 2 * n);
+  if (property) std::memcpy(type_bits + m + (radius ? 2 * n : 0), node.property_q.data(), 2 * n);
   const uint16_t* q = node.qpos.data();
   const uint8_t* t = node.type_index.data();
   BitWriter bw(raw.data() + fixed);
@@ -161,7 +163,8 @@ void encode_payload(const NodeInput& node, std::vector<uint8_t>& raw) {
 
 Status decode_payload_raw(std::span<const uint8_t> raw, const PayloadLimits& lim, NodeData& out) {
   const size_t n = lim.particle_count, m = lim.meshlet_count;
-  const size_t fixed = node_payload_fixed_bytes(n, m, lim.per_particle_radius);
+  const bool has_radius = (lim.flags & kFlagPerParticleRadius) != 0, has_property = (lim.flags & kFlagProperty) != 0;
+  const size_t fixed = node_payload_fixed_bytes(n, m, lim.flags);
   if (raw.size() < fixed)
     return make_error(Errc::format, "decoded payload has {} bytes, fewer than the {} of its fixed arrays", raw.size(), fixed);
   const uint8_t* sizes = raw.data();
@@ -170,6 +173,7 @@ Status decode_payload_raw(std::span<const uint8_t> raw, const PayloadLimits& lim
   const uint8_t* type_base = widths + 2 * m;
   const uint8_t* type_bits = type_base + m;
   const uint8_t* radius = type_bits + m;
+  const uint8_t* property = radius + (has_radius ? 2 * n : 0);
   const uint8_t* stream = raw.data() + fixed;
   const size_t stream_bytes = raw.size() - fixed;
 
@@ -197,11 +201,17 @@ Status decode_payload_raw(std::span<const uint8_t> raw, const PayloadLimits& lim
   out.meshlet_size.assign(sizes, sizes + m);
   out.qpos.resize(3 * n);
   out.type_index.resize(n);
-  if (lim.per_particle_radius) {
+  if (has_radius) {
     out.radius_q.resize(n);
     std::memcpy(out.radius_q.data(), radius, 2 * n);
   } else {
     out.radius_q.clear();
+  }
+  if (has_property) {
+    out.property_q.resize(n);
+    std::memcpy(out.property_q.data(), property, 2 * n);
+  } else {
+    out.property_q.clear();
   }
   BitReader br(stream, stream_bytes);
   uint16_t* q = out.qpos.data();

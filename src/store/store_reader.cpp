@@ -79,8 +79,31 @@ Status StoreReader::Impl::check_header() {
   copy.header_hash = 0;
   if (hash_bytes({reinterpret_cast<const uint8_t*>(&copy), sizeof(copy)}) != h.header_hash)
     return make_error(Errc::checksum, "{}: field header_hash at byte {}: header checksum mismatch", name, HFIELD(header_hash));
-  if (h.flags & ~uint32_t(kFlagPerParticleRadius))
+  if (h.flags & ~kKnownFlags)
     return make_error(Errc::unsupported, "{}: field flags at byte {}: unknown flag bits {:#x}", name, HFIELD(flags), h.flags);
+  if (h.flags & kFlagProperty) {
+    const size_t len = strnlen(h.property_name, kPropertyNameBytes);
+    if (len == 0 || len == kPropertyNameBytes)
+      return make_error(Errc::format, "{}: field property_name at byte {}: {} (expected 1..{} bytes and a NUL)", name,
+                        HFIELD(property_name), len == 0 ? "empty" : "not NUL-terminated", kPropertyNameBytes - 1);
+    for (size_t i = len; i < kPropertyNameBytes; ++i)
+      if (h.property_name[i] != 0)
+        return make_error(Errc::format, "{}: field property_name at byte {}: not zero after the name's NUL", name,
+                          HFIELD(property_name) + i);
+    if (!std::isfinite(h.property_min) || !std::isfinite(h.property_max) || h.property_min > h.property_max)
+      return make_error(Errc::range, "{}: field property_min/property_max at byte {}: [{}, {}] is not a valid range", name,
+                        HFIELD(property_min), h.property_min, h.property_max);
+  } else {
+    const auto* p = reinterpret_cast<const uint8_t*>(h.property_name);
+    for (size_t i = 0; i < offsetof(FileHeader, reserved) - offsetof(FileHeader, property_name); ++i)
+      if (p[i] != 0) {
+        const size_t at = HFIELD(property_name) + i;
+        const char* field = at < HFIELD(property_min)   ? "property_name"
+                            : at < HFIELD(property_max) ? "property_min"
+                                                        : "property_max";
+        return make_error(Errc::format, "{}: field {} at byte {}: not zero without the property flag", name, field, at);
+      }
+  }
   for (size_t i = 0; i < sizeof(h.reserved); ++i)
     if (h.reserved[i] != 0)
       return make_error(Errc::format, "{}: field reserved at byte {}: not zero", name, HFIELD(reserved) + i);
@@ -233,7 +256,6 @@ Status StoreReader::Impl::check_types() {
 
 Status StoreReader::Impl::check_directory() {
   const FileHeader& h = header;
-  const bool radius = (h.flags & kFlagPerParticleRadius) != 0;
   const bool grid = h.density_dims[0] != 0;
   const uint64_t base = h.sections[kSectionDirectory].offset;
   const uint64_t voxel_refs = voxels.size();
@@ -257,8 +279,8 @@ Status StoreReader::Impl::check_directory() {
       return NODE_ERR(Errc::range, payload_offset, "payload at byte {}, expected {} (payloads are contiguous in node order)",
                       e.payload_offset, offset);
     const uint64_t raw = e.payload_raw_bytes;
-    const uint64_t raw_min = node_payload_fixed_bytes(e.particle_count, e.meshlet_count, radius);
-    const uint64_t raw_max = node_payload_max_bytes(e.particle_count, e.meshlet_count, radius);
+    const uint64_t raw_min = node_payload_fixed_bytes(e.particle_count, e.meshlet_count, h.flags);
+    const uint64_t raw_max = node_payload_max_bytes(e.particle_count, e.meshlet_count, h.flags);
     if (raw < raw_min || raw > raw_max)
       return NODE_ERR(Errc::format, payload_raw_bytes, "{} outside [{}, {}] for {} particles and {} meshlets", raw, raw_min,
                       raw_max, e.particle_count, e.meshlet_count);
@@ -449,7 +471,7 @@ Status StoreReader::decode_payload(uint32_t i, std::span<const uint8_t> compress
   if (got != static_cast<int>(raw.size()))
     return make_error(Errc::format, "{}: node {} payload at byte {}: LZ4 block is corrupt (decoded {} of {} bytes)", s.name, i,
                       at, got, raw.size());
-  const PayloadLimits lim{e.particle_count, e.meshlet_count, (s.header.flags & kFlagPerParticleRadius) != 0,
+  const PayloadLimits lim{e.particle_count, e.meshlet_count, s.header.flags,
                           s.header.type_count, s.header.meshlet_size_max};
   Status st = decode_payload_raw(raw, lim, out);
   if (!st.ok()) return make_error(st.error().code, "{}: node {} payload at byte {}: {}", s.name, i, at, st.error().message);

@@ -52,6 +52,8 @@ Result<EncodedNode> encode_node(const NodeInput& node) {
     return make_error(Errc::internal, "encode_node: qpos has {} values, expected 3*{}", node.qpos.size(), n);
   if (!node.radius_q.empty() && node.radius_q.size() != n)
     return make_error(Errc::internal, "encode_node: radius_q has {} values, expected 0 or {}", node.radius_q.size(), n);
+  if (!node.property_q.empty() && node.property_q.size() != n)
+    return make_error(Errc::internal, "encode_node: property_q has {} values, expected 0 or {}", node.property_q.size(), n);
   if (m < 1 || m > n) return make_error(Errc::internal, "encode_node: meshlet count {} outside [1, {}]", m, n);
   uint64_t sum = 0;
   uint32_t max_meshlet = 0;
@@ -115,6 +117,7 @@ Result<EncodedNode> encode_node(const NodeInput& node) {
   std::copy(occ.begin(), occ.end(), out.occupancy.begin());
   out.max_meshlet_size = max_meshlet;
   out.per_particle_radius = radius;
+  out.property = !node.property_q.empty();
   uint32_t counts[256] = {};  // n <= 65535
   uint32_t top = 0;
   for (uint64_t i = 0; i < n; ++i) {
@@ -317,7 +320,8 @@ struct StoreWriter::Impl {
   uint64_t payload_raw_bytes = 0;
   uint32_t max_node_particles = 0;
   uint32_t max_meshlet_size = 0;
-  uint64_t radius_nodes = 0;  // nodes encoded with per-particle radii
+  uint64_t radius_nodes = 0;    // nodes encoded with per-particle radii
+  uint64_t property_nodes = 0;  // nodes encoded with property_q
   bool finished = false;
   bool failed = false;  // an I/O error left the temporary file in an unknown state
 
@@ -386,6 +390,7 @@ Status StoreWriter::append(EncodedNode&& node) {
   s.max_node_particles = std::max(s.max_node_particles, e.particle_count);
   s.max_meshlet_size = std::max(s.max_meshlet_size, node.max_meshlet_size);
   s.radius_nodes += node.per_particle_radius ? 1 : 0;
+  s.property_nodes += node.property ? 1 : 0;
   if (node.type_counts.size() > s.type_counts.size()) s.type_counts.resize(node.type_counts.size(), 0);
   for (size_t t = 0; t < node.type_counts.size(); ++t) s.type_counts[t] += node.type_counts[t];
   s.voxels.insert(s.voxels.end(), node.voxels.begin(), node.voxels.end());
@@ -397,8 +402,15 @@ Status StoreWriter::append(EncodedNode&& node) {
 namespace {
 
 Status check_summary(const std::string& name, const StoreSummary& sum) {
-  if (sum.flags & ~uint32_t(kFlagPerParticleRadius))
-    return make_error(Errc::internal, "{}: unknown header flags {:#x}", name, sum.flags);
+  if (sum.flags & ~kKnownFlags) return make_error(Errc::internal, "{}: unknown header flags {:#x}", name, sum.flags);
+  if (sum.flags & kFlagProperty) {
+    if (sum.property_name.empty() || sum.property_name.size() >= kPropertyNameBytes ||
+        sum.property_name.find('\0') != std::string::npos)
+      return make_error(Errc::internal, "{}: property name '{}' is not 1..{} bytes without NUL", name, sum.property_name,
+                        kPropertyNameBytes - 1);
+    if (!std::isfinite(sum.property_min) || !std::isfinite(sum.property_max) || sum.property_min > sum.property_max)
+      return make_error(Errc::internal, "{}: property range [{}, {}] invalid", name, sum.property_min, sum.property_max);
+  }
   if (sum.node_size_max < 1 || sum.node_size_max > kMaxNodeParticles)
     return make_error(Errc::internal, "{}: node_size_max {} outside [1, {}]", name, sum.node_size_max, kMaxNodeParticles);
   if (sum.meshlet_size_max < 1 || sum.meshlet_size_max > kMaxMeshletParticles)
@@ -445,6 +457,7 @@ Status StoreWriter::finish(const StoreSummary& sum) {
   if (s.failed) return make_error(Errc::internal, "{}: finish after a failed write", name);
   MDS_TRY(check_summary(name, sum));
   const bool radius = (sum.flags & kFlagPerParticleRadius) != 0;
+  const bool property = (sum.flags & kFlagProperty) != 0;
   if (s.max_node_particles > sum.node_size_max)
     return make_error(Errc::internal, "{}: a node has {} particles, node_size_max is {}", name, s.max_node_particles,
                       sum.node_size_max);
@@ -457,10 +470,13 @@ Status StoreWriter::finish(const StoreSummary& sum) {
   if (s.radius_nodes != (radius ? s.entries.size() : 0))
     return make_error(Errc::internal, "{}: {} of {} nodes carry per-particle radii, but the per-particle-radius flag is {}", name,
                       s.radius_nodes, s.entries.size(), radius ? "set" : "clear");
+  if (s.property_nodes != (property ? s.entries.size() : 0))
+    return make_error(Errc::internal, "{}: {} of {} nodes carry a property, but the property flag is {}", name,
+                      s.property_nodes, s.entries.size(), property ? "set" : "clear");
   for (size_t i = 0; i < s.entries.size(); ++i) {
     const NodeEntry& e = s.entries[i];
-    if (e.payload_raw_bytes < node_payload_fixed_bytes(e.particle_count, e.meshlet_count, radius) ||
-        e.payload_raw_bytes > node_payload_max_bytes(e.particle_count, e.meshlet_count, radius))
+    if (e.payload_raw_bytes < node_payload_fixed_bytes(e.particle_count, e.meshlet_count, sum.flags) ||
+        e.payload_raw_bytes > node_payload_max_bytes(e.particle_count, e.meshlet_count, sum.flags))
       return make_error(Errc::internal, "{}: node {}: decoded payload size {} impossible for its counts", name, i,
                         e.payload_raw_bytes);
     if (std::all_of(s.occupancy.begin() + ptrdiff_t(i * kOccupancyBytes),
@@ -523,6 +539,11 @@ Status StoreWriter::finish(const StoreSummary& sum) {
   }
   h.radius_min = sum.radius_min;
   h.radius_max = sum.radius_max;
+  if (property) {
+    std::memcpy(h.property_name, sum.property_name.data(), sum.property_name.size());  // checked < 48: stays terminated
+    h.property_min = sum.property_min;
+    h.property_max = sum.property_max;
+  }
   h.max_quantization_error = sum.max_quantization_error;
   h.max_error_over_half_step = sum.max_error_over_half_step;
   h.payload_bytes = s.payload_bytes;

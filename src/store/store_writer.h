@@ -18,11 +18,13 @@
 namespace mds::store {
 
 // One node's decoded content, in meshlet order. Preconditions: qpos.size() == 3n,
-// type_index.size() == n, radius_q.size() is n or 0, sum(meshlet_size) == n, 1 <= n <= 65535.
+// type_index.size() == n, radius_q.size() and property_q.size() are n or 0, sum(meshlet_size)
+// == n, 1 <= n <= 65535.
 struct NodeInput {
   std::span<const uint16_t> qpos;
   std::span<const uint8_t> type_index;
   std::span<const uint16_t> radius_q;
+  std::span<const uint16_t> property_q;  // the per-particle scalar, quantized (format.h kFlagProperty)
   std::span<const uint8_t> meshlet_size;
   double center_min[3];
   double center_max[3];
@@ -41,6 +43,7 @@ struct EncodedNode {
   std::vector<uint64_t> type_counts;  // particles per type index (size = largest index + 1)
   uint32_t max_meshlet_size = 0;
   bool per_particle_radius = false;  // the payload carries radius_q
+  bool property = false;             // the payload carries property_q
 };
 
 // Pure and thread-safe: serializes and compresses one node.
@@ -54,6 +57,9 @@ struct StoreSummary {
   double bounds_max[3] = {0, 0, 0};
   float radius_min = 0;
   float radius_max = 0;
+  std::string property_name;  // with kFlagProperty: 1..47 bytes
+  float property_min = 0;     // with kFlagProperty: the range property_q maps to
+  float property_max = 0;
   double max_quantization_error = 0;
   double max_error_over_half_step = 0;
   std::vector<TypeEntry> types;

@@ -65,14 +65,14 @@ std::vector<LegendEntry> type_legend(std::span<const store::TypeEntry> types, st
   return l;
 }
 
-std::vector<LegendEntry> colormap_legend(int axis, glm::dvec2 range) {
+std::vector<LegendEntry> colormap_legend(const std::string& name, glm::dvec2 range) {
   std::vector<LegendEntry> l;
   for (int k = 0; k <= 4; ++k) {
     const double t = 0.25 * k;
     const glm::dvec3 c = render::viridis_srgb(t);
     auto byte = [](double x) { return uint8_t(std::lround(std::clamp(x, 0.0, 1.0) * 255.0)); };
     const std::string v = fmt::format("{:.3g}", range.x + t * (range.y - range.x));
-    l.push_back({k == 0 ? render::color_axis_name(axis) + " " + v : v, Rgba8(byte(c.r), byte(c.g), byte(c.b), 255)});
+    l.push_back({k == 0 ? name + " " + v : v, Rgba8(byte(c.r), byte(c.g), byte(c.b), 255)});
   }
   return l;
 }

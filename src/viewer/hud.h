@@ -57,9 +57,10 @@ std::vector<std::string> hud_lines(const HudState& s);
 // shown[t] == 0 (--hide-type) is left out (empty `shown`: every type).
 std::vector<LegendEntry> type_legend(std::span<const store::TypeEntry> types, std::span<const glm::vec3> colors_srgb,
                                      std::span<const uint8_t> shown = {});
-// The legend of colour by coordinate (--color-by x|y|z): five swatches of the colormap at
-// t = 0, 1/4, .., 1, labelled with their coordinate (the first with the axis name too).
-std::vector<LegendEntry> colormap_legend(int axis, glm::dvec2 range);
+// The legend of colour by coordinate or property (--color-by x|y|z|property): five swatches of
+// the colormap at t = 0, 1/4, .., 1, labelled with their value (the first with `name` too: the
+// axis, or the property's name).
+std::vector<LegendEntry> colormap_legend(const std::string& name, glm::dvec2 range);
 // Draws the lines, then the legend row (a swatch and a label per type), over a translucent box
 // at the top-left; scale 1 below 800 px width, else 2.
 void draw_hud(Canvas& canvas, const HudState& s);

@@ -149,7 +149,9 @@ Status Viewer::setup() {
   hud_.meshlets = host_->meshlets();
   const render::ColorBy& color_by = host_->settings().color_by;
   if (!color_by.by_type() && host_->renderer())
-    hud_.legend = colormap_legend(color_by.axis, host_->renderer()->color_range());
+    hud_.legend = colormap_legend(color_by.by_property() ? std::string(host_->reader().header().property_name)
+                                                         : render::color_axis_name(color_by.axis),
+                                  host_->renderer()->color_range());
   else
     hud_.legend = type_legend(host_->reader().types(), host_->settings().type_colors_srgb, host_->shown_types());
   return {};

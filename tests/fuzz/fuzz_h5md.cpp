@@ -13,6 +13,6 @@
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   mds::fuzz::run_reader(data, size, "mdstream_fuzz_h5md", mds::H5mdReader::open,
                         {.format = mds::InputFormat::h5md, .frames = {0, -1}, .batch = 97, .check_counts = false,
-                         .detect_format = true});
+                         .detect_format = true, .property = "charge"});
   return 0;
 }

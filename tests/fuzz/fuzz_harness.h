@@ -53,6 +53,9 @@ struct DrainOptions {
   size_t batch = 7;                             // max_particles per read()
   bool check_counts = true;   // abort when a batch's arrays disagree or a frame yields more than it declares
   bool detect_format = false; // also run detect_format() on the file
+  // Each frame is also opened asking for this per-particle property (ReaderOptions::property;
+  // empty: not); a reader that has it must give one value per particle.
+  std::string property;
 };
 
 // Writes the input to the scratch file `tag` and drains open(path, options) at every frame.
@@ -60,17 +63,22 @@ template <class Open>
 void run_reader(const uint8_t* data, size_t size, const char* tag, Open open, const DrainOptions& d = {}) {
   const auto& path = input_path(tag);
   write_input(path, data, size);
-  for (int64_t frame : d.frames) {
+  for (int64_t frame : d.frames) for (const bool with_property : {false, true}) {
+    if (with_property && d.property.empty()) continue;
     ReaderOptions o;
     o.format = d.format;
     o.frame = frame;
+    if (with_property) o.property = d.property;
     auto r = open(path, o);
     if (!r.ok()) continue;
+    const bool has_property = (*r)->info().has_property;
+    if (has_property != with_property) std::abort();  // asked for and found, or an error at open
     ParticleBatch b;
     uint64_t total = 0;
     while (true) {
       auto n = (*r)->read(b, d.batch);
       if (!n.ok() || *n == 0) break;
+      if (b.property.size() != (has_property ? b.size() : 0)) std::abort();
       if (d.check_counts) {
         if (*n != b.size() || b.type.size() != b.size()) std::abort();
         total += *n;

@@ -5,6 +5,6 @@
 #include "fuzz_harness.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  mds::fuzz::run_reader(data, size, "fuzz_lammps", mds::open_lammps_reader);
+  mds::fuzz::run_reader(data, size, "fuzz_lammps", mds::open_lammps_reader, {.property = "c_pe"});
   return 0;
 }

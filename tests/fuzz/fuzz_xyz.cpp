@@ -2,6 +2,6 @@
 #include "fuzz_harness.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  mds::fuzz::run_reader(data, size, "fuzz_xyz", mds::open_xyz_reader);
+  mds::fuzz::run_reader(data, size, "fuzz_xyz", mds::open_xyz_reader, {.property = "charge"});
   return 0;
 }

@@ -12,7 +12,8 @@ Layout as in MegaMol's MMPLDDataSource (header, uint64 frame table, frames of li
 1.1 cluster info after each list, 1.2+ frame timestamp, 1.3 per-list bbox). Particle
 values are random (seeded); EXPECTED gets what a reader must return per frame: x, y, z,
 type (list index + 1, lists without positions skipped), radius (per particle or null),
-type_radius, plus byte offsets of each list's particle count field (for corruption tests).
+type_radius, intensity (FLOAT_I / DOUBLE_I lists; null where a list has other colours), plus
+byte offsets of each list's particle count field (for corruption tests).
 """
 import json
 import struct
@@ -39,7 +40,8 @@ def colour_bytes(rng, ctype, n):
 
 def write_frame(rng, version, frame, omit_timestamp, index, base):
     out = bytearray()
-    exp = {"x": [], "y": [], "z": [], "type": [], "radius": [], "type_radius": {}, "count_offsets": []}
+    exp = {"x": [], "y": [], "z": [], "type": [], "radius": [], "type_radius": {}, "count_offsets": [],
+           "intensity": []}
     any_xyzr = any(l["vertex"] == 2 for l in frame["lists"])
     if version >= 102 and not omit_timestamp:
         out += struct.pack("<f", float(index) * 0.5)
@@ -81,6 +83,11 @@ def write_frame(rng, version, frame, omit_timestamp, index, base):
             exp["y"] += [float(v) for v in pos[:, 1]]
             exp["z"] += [float(v) for v in pos[:, 2]]
             exp["type"] += [li + 1] * n
+            if exp["intensity"] is not None and ct in (3, 7):
+                fmt = "<f" if ct == 3 else "<d"
+                exp["intensity"] += [float(struct.unpack(fmt, c)[0]) for c in cols]
+            else:
+                exp["intensity"] = None
             if any_xyzr:
                 exp["radius"] += [float(v) for v in radii] if vt == 2 else [radius] * n
         if version == 101:

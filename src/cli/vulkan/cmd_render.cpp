@@ -348,6 +348,7 @@ Status run_render(const RenderOptions& o) {
       const glm::dvec2 range = renderer->color_range();
       j["color_by"] = {{"axis", render::color_axis_name(rs.color_by.axis)}, {"range", {range.x, range.y}},
                        {"colormap", "viridis"}};
+      if (rs.color_by.by_property()) j["color_by"]["property"] = std::string(reader->header().property_name);
     } else {
       j["color_by"] = {{"axis", "type"}};
     }

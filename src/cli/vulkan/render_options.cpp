@@ -107,12 +107,12 @@ void add_appearance_options(CLI::App& sub, AppearanceOptions& o) {
                  "(the whole store in memory: not with --gpu-budget, nor on a store with per-particle radii)")
       ->allow_extra_args(false);
   sub.add_option("--color-by", o.color_by,
-                 "Colour the particles by their type or by a coordinate: type, x, y or z (viridis over "
-                 "--color-range)")
+                 "Colour the particles by their type, a coordinate or the store's per-particle property (convert "
+                 "--property): type, x, y, z or property (viridis over --color-range)")
       ->capture_default_str();
   sub.add_option("--color-range", o.color_range,
-                 "LO:HI, the coordinates --color-by maps to the two ends of the colormap (world units; beyond: "
-                 "clamped; default: the bounds of the particle centres)");
+                 "LO:HI, the values --color-by maps to the two ends of the colormap (world units or the property's; "
+                 "beyond: clamped; default: the bounds of the particle centres, or the property's range)");
   sub.add_option("--hide-type", o.hide_types,
                  "Leave out the particles of a type (its name or input id), once per type: they are neither drawn "
                  "nor occlude (the whole store in memory: not with --gpu-budget)")
@@ -139,7 +139,7 @@ Result<Appearance> parse_appearance_options(const AppearanceOptions& o) {
   if (!axis) return make_error(Errc::invalid_argument, "--color-by {}", axis.error().message);
   a.color_by.axis = *axis;
   if (!o.color_range.empty()) {
-    if (a.color_by.by_type()) return make_error(Errc::invalid_argument, "--color-range needs --color-by x, y or z");
+    if (a.color_by.by_type()) return make_error(Errc::invalid_argument, "--color-range needs --color-by x, y, z or property");
     auto range = render::parse_color_range(o.color_range);
     if (!range) return make_error(Errc::invalid_argument, "--color-range {}", range.error().message);
     a.color_by.lo = range->x;

@@ -50,7 +50,7 @@ struct AppearanceOptions {
   std::vector<std::string> type_colors;        // --type-color TYPE=COLOR, once per type
   std::vector<std::string> type_radii;         // --type-radius TYPE=R (in memory only)
   std::vector<std::string> hide_types;         // --hide-type TYPE (in memory only)
-  std::string color_by = "type";               // --color-by type|x|y|z
+  std::string color_by = "type";               // --color-by type|x|y|z|property
   std::string color_range;                     // --color-range LO:HI (default: the data's bounds)
 };
 
