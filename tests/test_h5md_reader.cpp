@@ -109,6 +109,23 @@ simple("badbox.h5md", np.zeros((2, 5, 3), dtype=np.float32),
        extra=lambda g: g.create_group("box").create_dataset("edges", data=np.zeros((4,))))
 with h5py.File("plain.h5", "w") as f:
     f["particles/all/position/value"] = np.zeros((1, 2, 3))
+# A compact position [1][2][3] whose stored dims (and max dims) say 2^40 frames: the shape needs
+# far more than the 48 bytes stored (HDF5 1.10 reads the last frame from a null buffer).
+import struct
+with h5py.File("compact_short.h5md", "w") as f:
+    h5md_root(f)
+    g = f.create_group("particles/all/position")
+    dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
+    dcpl.set_layout(h5py.h5d.COMPACT)
+    ds = h5py.h5d.create(g.id, b"value", h5py.h5t.IEEE_F64LE, h5py.h5s.create_simple((1, 2, 3)), dcpl=dcpl)
+    ds.write(h5py.h5s.ALL, h5py.h5s.ALL, np.ones((1, 2, 3)))
+b = bytearray(open("compact_short.h5md", "rb").read())
+dims = struct.pack("<3Q", 1, 2, 3)
+at = b.find(dims)
+while at >= 0:
+    b[at:at + 8] = struct.pack("<Q", 1 << 40)
+    at = b.find(dims, at + 24)
+open("compact_short.h5md", "wb").write(bytes(b))
 )PY";
 
 class H5mdReaderTest : public ::testing::Test {
@@ -256,6 +273,17 @@ TEST_F(H5mdReaderTest, BadShapesNameTheDataset) {
   EXPECT_NE(error_of("intpos.h5md").find("not floating point"), std::string::npos);
   EXPECT_NE(error_of("badbox.h5md").find("/particles/all/box/edges has shape [4]"), std::string::npos)
       << error_of("badbox.h5md");
+}
+
+// Found by fuzz_h5md (2026-11-27): before the check, --frame last crashed inside H5Dread.
+TEST_F(H5mdReaderTest, DataShorterThanItsShapeIsAnError) {
+  for (const int64_t frame : {int64_t(0), int64_t(-1)}) {
+    const std::string e = error_of("compact_short.h5md", frame);
+    EXPECT_NE(e.find("compact_short.h5md: dataset /particles/all/position/value: shape [1099511627776][2][3] of "
+                     "8-byte values needs 52776558133248 bytes, the file stores 48"),
+              std::string::npos)
+        << e;
+  }
 }
 
 TEST_F(H5mdReaderTest, NonFiniteNamesDatasetAndParticle) {

@@ -116,6 +116,22 @@ Result<Dataset> open_dataset(hid_t file, const std::string& file_name, const std
   Hid type(H5Dget_type(d.dset.get()), H5Tclose);
   d.type_class = type.valid() ? H5Tget_class(type.get()) : H5T_NO_CLASS;
   d.type_size = type.valid() ? H5Tget_size(type.get()) : 0;
+  // Compact and contiguous data must be stored whole: HDF5 1.10 reads a compact dataset whose
+  // shape claims more than its stored bytes from a null buffer (a crash, found by fuzz_h5md on
+  // 2026-11-27: a frame count changed to 4.5e11 over a 0-byte compact layout). Chunked data may
+  // leave chunks unallocated (they read as the fill value), so it is not checked.
+  Hid dcpl(H5Dget_create_plist(d.dset.get()), H5Pclose);
+  const H5D_layout_t layout = dcpl.valid() ? H5Pget_layout(dcpl.get()) : H5D_LAYOUT_ERROR;
+  if (layout == H5D_COMPACT || layout == H5D_CONTIGUOUS) {
+    hsize_t need = d.type_size;
+    bool overflow = false;
+    for (const hsize_t n : d.dims) overflow = overflow || __builtin_mul_overflow(need, n, &need);
+    const hsize_t stored = H5Dget_storage_size(d.dset.get());
+    if (overflow || stored < need)
+      return make_error(Errc::format, "{}: dataset {}: shape {} of {}-byte values needs {} bytes, the file stores {}",
+                        file_name, path, shape_str(d.dims), d.type_size,
+                        overflow ? std::string("more than 2^64") : std::to_string(need), stored);
+  }
   return d;
 }
 

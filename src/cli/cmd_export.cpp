@@ -26,7 +26,10 @@ Status export_xyz(const ExportOptions& o) {
   const store::FileHeader& h = reader->header();
   const bool radius = (h.flags & store::kFlagPerParticleRadius) != 0;
   const bool property = (h.flags & store::kFlagProperty) != 0;
-  const std::string property_column = property ? fmt::format(":{}:R:1", h.property_name) : "";
+  std::string property_name = property ? std::string(h.property_name) : "";
+  for (char& c : property_name)  // a token of the Properties triples (an H5MD element may hold these)
+    if (c == ':' || c == '=' || c == '"' || c == ' ' || c == '\t') c = '_';
+  const std::string property_column = property ? fmt::format(":{}:R:1", property_name) : "";
   std::vector<std::string> species;
   for (const auto& t : reader->types()) {
     std::string name = t.name[0] ? std::string(t.name) : std::to_string(t.input_id);
