@@ -215,6 +215,11 @@ TEST_F(PropertyConvert, UsageErrors) {
                          (dir_ / "p.png").string()),
             0);
   EXPECT_THAT(cli_stderr(), HasSubstr("no per-particle property"));
+  EXPECT_NE(run_mdstream("render " + plain.string() + " --color-by c_pe -o " + (dir_ / "p.png").string()), 0);
+  EXPECT_THAT(cli_stderr(), HasSubstr("--color-by 'c_pe'"));
+  EXPECT_THAT(cli_stderr(), HasSubstr("has no property"));
+  EXPECT_NE(run_mdstream("render " + store_.string() + " --color-by c_ke -o " + (dir_ / "p.png").string()), 0);
+  EXPECT_THAT(cli_stderr(), HasSubstr("the name of " + store_.string() + "'s property, c_pe"));
   EXPECT_FALSE(fs::exists(dir_ / "p.png"));
 }
 
@@ -316,6 +321,10 @@ TEST(PropertyRender, PropertyEqualToXColoursLikeX) {
     EXPECT_GT(covered, by_x.size() / 16);
     EXPECT_LT(worst, 2e-3);
   }
+  // The property by its name is the same choice.
+  const std::vector<float> by_name = render("n", "--color-by px --color-range 2:17");
+  const std::vector<float> by_kw = render("k", "--color-by property --color-range 2:17");
+  EXPECT_EQ(by_name, by_kw);
   // The type colours differ from that: the comparison can fail.
   const std::vector<float> typed = render("t", "");
   double diff = 0.0;

@@ -60,6 +60,18 @@ glm::dvec4 color_plane(const glm::dmat4& view, const glm::dvec3& origin, int axi
   return {inv[0][axis] * s, inv[1][axis] * s, inv[2][axis] * s, (inv[3][axis] + origin[axis] - lo) * s};
 }
 
+Status resolve_color_by(ColorBy& c, const char* property_name, bool has_property, const std::string& store_name) {
+  if (c.axis != kColorByName) return {};
+  if (has_property && c.name == property_name) {
+    c.axis = kColorByProperty;
+    return {};
+  }
+  return make_error(Errc::invalid_argument, "--color-by '{}': expected type, x, y, z, property or {}", c.name,
+                    has_property ? fmt::format("the name of {}'s property, {}", store_name, property_name)
+                                 : fmt::format("a property's name, but {} has no property (convert --property NAME)",
+                                               store_name));
+}
+
 glm::dvec2 property_color_map(double pmin, double pmax, double lo, double hi) {
   const double s = 1.0 / (hi - lo);
   return {(pmax - pmin) / 65535.0 * s, (pmin - lo) * s};  // 65535 = store::kQuantMax

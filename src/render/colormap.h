@@ -19,6 +19,7 @@ namespace mds::render {
 glm::dvec3 viridis_srgb(double t);
 
 inline constexpr int kColorByProperty = 3;  // ColorBy::axis of --color-by property
+inline constexpr int kColorByName = 4;      // --color-by NAME, until resolve_color_by finds the store's property
 
 // What colours the particles: their type (axis -1), a world axis 0/1/2 or the property
 // (kColorByProperty) over [lo, hi]; lo == hi (the default) takes the scene's bounds of the
@@ -26,9 +27,15 @@ inline constexpr int kColorByProperty = 3;  // ColorBy::axis of --color-by prope
 struct ColorBy {
   int axis = -1;
   double lo = 0.0, hi = 0.0;
+  std::string name;  // with kColorByName: the property's name as given
   bool by_type() const { return axis < 0; }
   bool by_property() const { return axis == kColorByProperty; }
 };
+
+// --color-by NAME (kColorByName) is the store's property when the store's property has that
+// name (the name OVITO and ParaView users would type, e.g. c_pe): axis becomes kColorByProperty.
+// Errc::invalid_argument naming the choices otherwise. Other axes are left as they are.
+Status resolve_color_by(ColorBy& c, const char* property_name, bool has_property, const std::string& store_name);
 
 // "type", "x", "y", "z" or "property"; Errc::invalid_argument otherwise.
 Result<int> parse_color_axis(std::string_view s);

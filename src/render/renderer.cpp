@@ -392,6 +392,9 @@ Status Renderer::Impl::create_pipelines() {
 
 // --color-by property needs the store's property (store kFlagProperty).
 Status check_color_by(const ColorBy& c, bool has_property) {
+  if (c.axis < -1 || c.axis > kColorByProperty)
+    return make_error(Errc::internal, "--color-by '{}' was not resolved against the store (render::resolve_color_by)",
+                      c.name);
   if (c.by_property() && !has_property)
     return make_error(Errc::invalid_argument,
                       "--color-by property: the store has no per-particle property (convert it with --property NAME)");

@@ -14,6 +14,9 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
   h->stream_ = options.stream;
   h->stream_.gpu_budget = options.gpu_budget;
   MDS_ASSIGN_OR_RETURN(h->reader_, store::StoreReader::open(options.store));
+  const store::FileHeader& header = h->reader_->header();
+  MDS_TRY(render::resolve_color_by(h->settings_.color_by, header.property_name,
+                                   (header.flags & store::kFlagProperty) != 0, options.store));
   auto colors = render::resolve_type_colors(h->reader_->types(), options.type_colors);
   if (!colors) return make_error(Errc::invalid_argument, "--type-color: {}", colors.error().message);
   h->settings_.type_colors_srgb = std::move(*colors);

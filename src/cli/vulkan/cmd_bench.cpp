@@ -80,7 +80,7 @@ Status run_bench(const BenchOptions& o) {
   CullingOptions co = o.cull;
   co.no_cull = true;
   MDS_TRY(apply_culling_options(co, all));
-  MDS_TRY(apply_appearance(look, reader->types(), all));
+  MDS_TRY(apply_appearance(look, *reader, all));
   all.width = o.width;
   all.height = o.height;
   // The rows' modes: every particle, then per coverage meshlets only and, unless it is off, with

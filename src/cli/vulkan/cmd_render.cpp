@@ -115,7 +115,7 @@ Status run_render(const RenderOptions& o) {
     }
   }
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
-  MDS_TRY(apply_appearance(look, reader->types(), rs));
+  MDS_TRY(apply_appearance(look, *reader, rs));
   const bool streaming = !o.stream.gpu_budget.empty();
   MDS_ASSIGN_OR_RETURN(const render::SceneOptions so, scene_options(look, *reader, streaming));
   const std::vector<uint8_t>& shown = so.shown_types;

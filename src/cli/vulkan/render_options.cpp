@@ -108,7 +108,7 @@ void add_appearance_options(CLI::App& sub, AppearanceOptions& o) {
       ->allow_extra_args(false);
   sub.add_option("--color-by", o.color_by,
                  "Colour the particles by their type, a coordinate or the store's per-particle property (convert "
-                 "--property): type, x, y, z or property (viridis over --color-range)")
+                 "--property): type, x, y, z, property or the property's name (viridis over --color-range)")
       ->capture_default_str();
   sub.add_option("--color-range", o.color_range,
                  "LO:HI, the values --color-by maps to the two ends of the colormap (world units or the property's; "
@@ -136,8 +136,15 @@ Result<Appearance> parse_appearance_options(const AppearanceOptions& o) {
   }
   a.hide_types = o.hide_types;
   auto axis = render::parse_color_axis(o.color_by);
-  if (!axis) return make_error(Errc::invalid_argument, "--color-by {}", axis.error().message);
-  a.color_by.axis = *axis;
+  if (axis) {
+    a.color_by.axis = *axis;
+  } else if (!o.color_by.empty() && o.color_by.size() < store::kPropertyNameBytes &&
+             o.color_by.find_first_of(" \t:=\"") == std::string::npos) {
+    a.color_by.axis = render::kColorByName;  // the store's property by its name: resolved with the store
+    a.color_by.name = o.color_by;
+  } else {
+    return make_error(Errc::invalid_argument, "--color-by {}", axis.error().message);
+  }
   if (!o.color_range.empty()) {
     if (a.color_by.by_type()) return make_error(Errc::invalid_argument, "--color-range needs --color-by x, y, z or property");
     auto range = render::parse_color_range(o.color_range);
@@ -148,10 +155,13 @@ Result<Appearance> parse_appearance_options(const AppearanceOptions& o) {
   return a;
 }
 
-Status apply_appearance(const Appearance& a, std::span<const store::TypeEntry> types, render::RenderSettings& rs) {
+Status apply_appearance(const Appearance& a, const store::StoreReader& reader, render::RenderSettings& rs) {
   rs.background_srgb = a.background_srgb;
   rs.color_by = a.color_by;
-  auto colors = render::resolve_type_colors(types, a.type_colors);
+  const store::FileHeader& h = reader.header();
+  MDS_TRY(render::resolve_color_by(rs.color_by, h.property_name, (h.flags & store::kFlagProperty) != 0,
+                                   reader.path().string()));
+  auto colors = render::resolve_type_colors(reader.types(), a.type_colors);
   if (!colors) return make_error(Errc::invalid_argument, "--type-color: {}", colors.error().message);
   rs.type_colors_srgb = std::move(*colors);
   return {};

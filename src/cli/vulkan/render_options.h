@@ -50,7 +50,7 @@ struct AppearanceOptions {
   std::vector<std::string> type_colors;        // --type-color TYPE=COLOR, once per type
   std::vector<std::string> type_radii;         // --type-radius TYPE=R (in memory only)
   std::vector<std::string> hide_types;         // --hide-type TYPE (in memory only)
-  std::string color_by = "type";               // --color-by type|x|y|z|property
+  std::string color_by = "type";               // --color-by type|x|y|z|property|NAME
   std::string color_range;                     // --color-range LO:HI (default: the data's bounds)
 };
 
@@ -70,7 +70,8 @@ void add_appearance_options(CLI::App& sub, AppearanceOptions& o);
 Result<Appearance> parse_appearance_options(const AppearanceOptions& o);
 // Sets rs.background_srgb, rs.color_by and rs.type_colors_srgb, the colours resolved against the store's
 // types; Errc::invalid_argument naming --type-color for a key that names no type.
-Status apply_appearance(const Appearance& a, std::span<const store::TypeEntry> types, render::RenderSettings& rs);
+// Also resolves --color-by NAME against the store's property (render::resolve_color_by).
+Status apply_appearance(const Appearance& a, const store::StoreReader& reader, render::RenderSettings& rs);
 // What render::load_scene keeps and how large it draws it (--hide-type, --type-radius):
 // render::resolve_scene_options.
 Result<render::SceneOptions> scene_options(const Appearance& a, const store::StoreReader& reader, bool streaming);
