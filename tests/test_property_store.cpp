@@ -223,6 +223,23 @@ TEST_F(PropertyConvert, UsageErrors) {
   EXPECT_FALSE(fs::exists(dir_ / "p.png"));
 }
 
+// A LAMMPS dump of n particles uniform in [0, extent]^3, types 1..types in turn, with one more
+// column `name` = f(x, y, z) (%.9g).
+void write_property_dump(const fs::path& path, int n, uint32_t seed, double extent, int types, const std::string& name,
+                         double (*f)(double, double, double)) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, extent);
+  std::string text = fmt::format(
+      "ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n{}\nITEM: BOX BOUNDS pp pp pp\n0 {}\n0 {}\n0 {}\n"
+      "ITEM: ATOMS id type x y z {}\n",
+      n, extent, extent, extent, name);
+  for (int i = 0; i < n; ++i) {
+    const double x = u(rng), y = u(rng), z = u(rng);
+    text += fmt::format("{} {} {:.9g} {:.9g} {:.9g} {:.9g}\n", i + 1, 1 + i % types, x, y, z, f(x, y, z));
+  }
+  textest::write_text(path, text);
+}
+
 // Out of core (a memory budget far below the input: spilled records, several bins), each
 // particle keeps its own value: a dump whose property is f(x, y, z) = x + 2y - z exports values
 // within half a property step (plus what the positions' own quantization moves f) of f at the
@@ -230,18 +247,8 @@ TEST_F(PropertyConvert, UsageErrors) {
 TEST(PropertyOutOfCore, EachParticleKeepsItsValueThroughSpillAndBins) {
   const fs::path dir = fs::temp_directory_path() / ("mds_property_ooc_" + std::to_string(::getpid()));
   fs::create_directories(dir);
-  std::mt19937 rng(9);
-  std::uniform_real_distribution<double> u(0.0, 50.0);
   const int n = 120000;
-  std::string text = fmt::format(
-      "ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n{}\nITEM: BOX BOUNDS pp pp pp\n0 50\n0 50\n0 50\n"
-      "ITEM: ATOMS id type x y z f\n",
-      n);
-  for (int i = 0; i < n; ++i) {
-    const double x = u(rng), y = u(rng), z = u(rng);
-    text += fmt::format("{} {} {:.9g} {:.9g} {:.9g} {:.9g}\n", i + 1, 1 + i % 3, x, y, z, x + 2 * y - z);
-  }
-  textest::write_text(dir / "f.lammpstrj", text);
+  write_property_dump(dir / "f.lammpstrj", n, 9, 50.0, 3, "f", [](double x, double y, double z) { return x + 2 * y - z; });
   const fs::path store = dir / "f.mds", report = dir / "r.json", xyz = dir / "f.xyz";
   ASSERT_EQ(run_mdstream(fmt::format("convert {} --property f --memory-budget 2MiB --node-size 1000 --density-res 1000 "
                                      "-q -o {} --json-report {}",
@@ -283,18 +290,7 @@ TEST(PropertyOutOfCore, EachParticleKeepsItsValueThroughSpillAndBins) {
 TEST(PropertyRender, PropertyEqualToXColoursLikeX) {
   const fs::path dir = fs::temp_directory_path() / ("mds_property_render_" + std::to_string(::getpid()));
   fs::create_directories(dir);
-  std::mt19937 rng(5);
-  std::uniform_real_distribution<double> u(0.0, 20.0);
-  const int n = 6000;
-  std::string text = fmt::format(
-      "ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n{}\nITEM: BOX BOUNDS pp pp pp\n0 20\n0 20\n0 20\n"
-      "ITEM: ATOMS id type x y z px\n",
-      n);
-  for (int i = 0; i < n; ++i) {
-    const double x = u(rng), y = u(rng), z = u(rng);
-    text += fmt::format("{} {} {:.9g} {:.9g} {:.9g} {:.9g}\n", i + 1, 1 + i % 2, x, y, z, x);
-  }
-  textest::write_text(dir / "px.lammpstrj", text);
+  write_property_dump(dir / "px.lammpstrj", 6000, 5, 20.0, 2, "px", [](double x, double, double) { return x; });
   const std::string store = (dir / "px.mds").string();
   ASSERT_EQ(run_mdstream("convert " + (dir / "px.lammpstrj").string() + " --property px --node-size 500 -q -o " + store),
             0)
