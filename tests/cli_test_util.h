@@ -7,6 +7,7 @@
 #include <tinyexr.h>
 #include <unistd.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -17,6 +18,11 @@ namespace mds::testing {
 
 // CTest runs test cases as parallel processes: each keeps its stderr capture to itself.
 inline std::string cli_stderr_path() { return "/tmp/mds_cli_err." + std::to_string(::getpid()) + ".txt"; }
+// Removes the capture when the test process exits (one object per process: an inline variable).
+struct CliStderrCleanup {
+  ~CliStderrCleanup() { std::remove(cli_stderr_path().c_str()); }
+};
+inline CliStderrCleanup cli_stderr_cleanup;
 
 // Runs `env mdstream args` (env: "NAME=value " assignments or empty) with stderr captured for
 // cli_stderr(); stdout as the args redirect it. The exit code, -1 when killed.
