@@ -1,9 +1,13 @@
-// `mdstream export STORE -o OUT.xyz`: decodes every node and writes extended XYZ
-// (species, dequantized positions x = center_min + q * step, and the per-particle radius
-// when the store has one). Numbers are printed in shortest round-trip form, so the export
-// adds no error to the store's quantization error. The output appears only when complete.
+// `mdstream export STORE -o OUT.xyz [--slice SPEC ...]`: decodes every node and writes extended
+// XYZ (species, dequantized positions x = center_min + q * step, and the per-particle radius
+// and property when the store has them). Numbers are printed in shortest round-trip form, so
+// the export adds no error to the store's quantization error. With slices (store/slice.h) only
+// the particles they keep, the same ones `render --slice` draws; nodes they leave out are not
+// read. The output appears only when complete.
 #include <cstdio>
+#include <array>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -11,6 +15,7 @@
 
 #include "cli/command.h"
 #include "store/file_io.h"
+#include "store/slice.h"
 #include "store/store_reader.h"
 
 namespace mds::cli {
@@ -19,9 +24,31 @@ namespace {
 struct ExportOptions {
   std::string store;
   std::string output;
+  std::vector<std::string> slices;  // --slice specs
 };
 
+// What the slices do to node e (slices_cover over its decoded box).
+store::SliceCover node_cover(std::span<const store::Slice> slices, const store::NodeEntry& e) {
+  if (slices.empty()) return store::SliceCover::all;
+  std::array<double, 3> lo, hi;
+  store::decoded_box(e.center_min, e.center_max, lo, hi);
+  return store::slices_cover(slices, lo, hi);
+}
+
+// The centre of particle k of a decoded node.
+std::array<double, 3> centre(const store::NodeEntry& e, const store::NodeData& node, size_t k) {
+  std::array<double, 3> x;
+  for (int a = 0; a < 3; ++a) x[size_t(a)] = e.center_min[a] + double(node.qpos[3 * k + size_t(a)]) * store::quant_step(e, a);
+  return x;
+}
+
 Status export_xyz(const ExportOptions& o) {
+  std::vector<store::Slice> slices;
+  for (const std::string& spec : o.slices) {
+    auto s = store::parse_slice(spec);
+    if (!s) return make_error(Errc::invalid_argument, "--slice {}", s.error().message);
+    slices.push_back(*s);
+  }
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
   const store::FileHeader& h = reader->header();
   const bool radius = (h.flags & store::kFlagPerParticleRadius) != 0;
@@ -38,22 +65,38 @@ Status export_xyz(const ExportOptions& o) {
     species.push_back(std::move(name));
   }
 
-  MDS_ASSIGN_OR_RETURN(auto out, store::AtomicOutput::create(o.output));
-  store::BufferedWriter w(out.file(), size_t(8) << 20);
-  fmt::memory_buffer buf;
-  fmt::format_to(std::back_inserter(buf), "{}\nProperties=species:S:1:pos:R:3{}{} mdstream_format={}\n", h.particle_count,
-                 radius ? ":radius:R:1" : "", property_column, h.version);
-  const double rstep = (double(h.radius_max) - double(h.radius_min)) / double(store::kQuantMax);
   store::NodeData node;
   std::vector<uint8_t> scratch;
   const auto nodes = reader->nodes();
+  // With slices the count of the header line is known after a first pass over the nodes that
+  // the slices cut (the others count whole or not at all, from the directory).
+  uint64_t count = h.particle_count;
+  if (!slices.empty()) {
+    count = 0;
+    for (uint32_t i = 0; i < nodes.size(); ++i) {
+      const store::SliceCover cover = node_cover(slices, nodes[i]);
+      if (cover == store::SliceCover::all) count += nodes[i].particle_count;
+      if (cover != store::SliceCover::some) continue;
+      MDS_TRY(reader->read_node(i, node, scratch));
+      for (size_t k = 0; k < node.particle_count(); ++k) count += store::slices_keep(slices, centre(nodes[i], node, k));
+    }
+    if (count == 0) return make_error(Errc::invalid_argument, "{}: --slice leaves no particle of the store", o.store);
+  }
+
+  MDS_ASSIGN_OR_RETURN(auto out, store::AtomicOutput::create(o.output));
+  store::BufferedWriter w(out.file(), size_t(8) << 20);
+  fmt::memory_buffer buf;
+  fmt::format_to(std::back_inserter(buf), "{}\nProperties=species:S:1:pos:R:3{}{} mdstream_format={}\n", count,
+                 radius ? ":radius:R:1" : "", property_column, h.version);
+  const double rstep = (double(h.radius_max) - double(h.radius_min)) / double(store::kQuantMax);
   for (uint32_t i = 0; i < nodes.size(); ++i) {
-    MDS_TRY(reader->read_node(i, node, scratch));
     const store::NodeEntry& e = nodes[i];
-    const double step[3] = {store::quant_step(e, 0), store::quant_step(e, 1), store::quant_step(e, 2)};
+    const store::SliceCover cover = node_cover(slices, e);
+    if (cover == store::SliceCover::none) continue;
+    MDS_TRY(reader->read_node(i, node, scratch));
     for (size_t k = 0; k < node.particle_count(); ++k) {
-      double x[3];
-      for (int a = 0; a < 3; ++a) x[a] = e.center_min[a] + double(node.qpos[3 * k + a]) * step[a];
+      const std::array<double, 3> x = centre(e, node, k);
+      if (cover == store::SliceCover::some && !store::slices_keep(slices, x)) continue;
       auto it = std::back_inserter(buf);
       fmt::format_to(it, "{} {} {} {}", species[node.type_index[k]], x[0], x[1], x[2]);
       if (radius) fmt::format_to(it, " {}", double(h.radius_min) + double(node.radius_q[k]) * rstep);
@@ -74,6 +117,10 @@ void setup_export(CLI::App& sub, int& exit_code) {
   auto opt = std::make_shared<ExportOptions>();
   sub.add_option("store", opt->store, "Store file (.mds)")->required();
   sub.add_option("-o,--output", opt->output, "Output extended XYZ file")->required();
+  sub.add_option("--slice", opt->slices,
+                 "NX,NY,NZ,D[,WIDTH][,invert]: only the particles the slice keeps, as render --slice (docs/rendering.md, "
+                 "\"Slices\"); once per slice, all applied")
+      ->allow_extra_args(false);
   sub.callback([opt, &exit_code] {
     Status st = export_xyz(*opt);
     exit_code = st.ok() ? 0 : report("export", st.error());

@@ -167,7 +167,7 @@ void set_fine_occupancy(gpu::GpuNode& g, std::span<const uint8_t, 64> fine) {
   }
 }
 
-void filter_types(const store::NodeData& in, std::span<const uint8_t> shown, store::NodeData& out) {
+void filter_particles(const store::NodeData& in, const ParticleFilter& f, store::NodeData& out) {
   out.qpos.clear();
   out.type_index.clear();
   out.radius_q.clear();
@@ -176,17 +176,26 @@ void filter_types(const store::NodeData& in, std::span<const uint8_t> shown, sto
   const bool radius = !in.radius_q.empty(), property = !in.property_q.empty();
   size_t total = 0;
   for (const uint8_t size : in.meshlet_size) total += size;
-  if (total != in.particle_count() || in.qpos.size() != 3 * total || (radius && in.radius_q.size() != total) ||
-      (property && in.property_q.size() != total)) {
+  if (total != in.particle_count() || in.qpos.size() != 3 * total || in.type_index.size() != total ||
+      (radius && in.radius_q.size() != total) || (property && in.property_q.size() != total) ||
+      (!f.slices.empty() && (!f.center_min || !f.center_max))) {
     out = in;  // malformed: left whole for append_node to report
     return;
   }
+  double step[3] = {0, 0, 0};
+  if (!f.slices.empty())
+    for (int a = 0; a < 3; ++a) step[a] = (f.center_max[a] - f.center_min[a]) / double(store::kQuantMax);
   size_t p = 0;
   for (const uint8_t size : in.meshlet_size) {
     uint8_t kept = 0;
     for (size_t i = p; i < p + size; ++i) {
       const uint8_t t = in.type_index[i];
-      if (t < shown.size() && !shown[t]) continue;
+      if (t < f.shown.size() && !f.shown[t]) continue;
+      if (!f.slices.empty()) {
+        std::array<double, 3> c;  // the centre as append_node decodes it
+        for (int a = 0; a < 3; ++a) c[a] = f.center_min[a] + double(in.qpos[3 * i + a]) * step[a];
+        if (!store::slices_keep(f.slices, c)) continue;
+      }
       out.qpos.insert(out.qpos.end(), in.qpos.begin() + ptrdiff_t(3 * i), in.qpos.begin() + ptrdiff_t(3 * i + 3));
       out.type_index.push_back(t);
       if (radius) out.radius_q.push_back(in.radius_q[i]);
@@ -196,6 +205,10 @@ void filter_types(const store::NodeData& in, std::span<const uint8_t> shown, sto
     if (kept > 0) out.meshlet_size.push_back(kept);
     p += size;
   }
+}
+
+void filter_types(const store::NodeData& in, std::span<const uint8_t> shown, store::NodeData& out) {
+  filter_particles(in, ParticleFilter{shown, {}, nullptr, nullptr}, out);
 }
 
 Result<SceneData> load_scene(const store::StoreReader& reader, const SceneOptions& o) {
@@ -226,33 +239,62 @@ Result<SceneData> load_scene(const store::StoreReader& reader, const SceneOption
   store::NodeData node;
   std::vector<uint8_t> scratch;
   const auto nodes = reader.nodes();
-  const bool filter = std::any_of(shown.begin(), shown.end(), [](uint8_t v) { return v == 0; });
-  if (filter) s.shown_types.assign(shown.begin(), shown.end());
+  const bool hide = std::any_of(shown.begin(), shown.end(), [](uint8_t v) { return v == 0; });
+  if (hide) s.shown_types.assign(shown.begin(), shown.end());
+  s.slices = o.slices;
+  const bool filter = s.left_out();
   store::NodeData kept;
   for (uint32_t i = 0; i < nodes.size(); ++i) {
-    MDS_TRY(reader.read_node(i, node, scratch));
-    if (filter) {
-      filter_types(node, shown, kept);
-      if (kept.particle_count() == 0) continue;
+    const store::NodeEntry& e = nodes[i];
+    store::SliceCover cover = store::SliceCover::all;
+    if (!o.slices.empty()) {
+      std::array<double, 3> lo, hi;
+      store::decoded_box(e.center_min, e.center_max, lo, hi);
+      cover = store::slices_cover(o.slices, lo, hi);
+      if (cover == store::SliceCover::none) continue;  // not read
     }
-    Status st = append_node(s, nodes[i].center_min, nodes[i].center_max, filter ? kept : node);
+    MDS_TRY(reader.read_node(i, node, scratch));
+    if (hide || cover == store::SliceCover::some) {
+      const ParticleFilter f{hide ? shown : std::span<const uint8_t>{},
+                             cover == store::SliceCover::some ? std::span<const store::Slice>(o.slices)
+                                                               : std::span<const store::Slice>{},
+                             e.center_min, e.center_max};
+      filter_particles(node, f, kept);
+      if (kept.particle_count() == 0) continue;
+    } else {
+      std::swap(kept, node);  // every particle: no copy
+    }
+    Status st = append_node(s, e.center_min, e.center_max, kept);
     if (!st.ok())
-      return filter ? make_error(st.error().code, "{}: store node {} (types left out): {}", reader.path().string(), i,
-                                 st.error().message)
+      return filter ? make_error(st.error().code, "{}: store node {} (particles left out): {}", reader.path().string(),
+                                 i, st.error().message)
                     : make_error(st.error().code, "{}: {}", reader.path().string(), st.error().message);
   }
+  if (s.particle_count() == 0)
+    return make_error(Errc::invalid_argument, "{}: --slice leaves no particle of the store ({})", reader.path().string(),
+                      [&] {
+                        std::string specs;
+                        for (const store::Slice& sl : o.slices) specs += (specs.empty() ? "" : "; ") + store::slice_spec(sl);
+                        return specs;
+                      }());
   return s;
 }
 
 Result<SceneOptions> resolve_scene_options(const store::StoreReader& reader, std::span<const std::string> hide_keys,
-                                           std::span<const store::TypeRadiusSpec> radii, bool streaming) {
+                                           std::span<const store::TypeRadiusSpec> radii,
+                                           std::span<const store::Slice> slices, bool streaming) {
   SceneOptions o;
-  if (hide_keys.empty() && radii.empty()) return o;
+  if (hide_keys.empty() && radii.empty() && slices.empty()) return o;
+  if (streaming && !slices.empty())
+    return make_error(Errc::invalid_argument, "--slice needs the whole store in memory (no --gpu-budget): the cache "
+                      "streams whole nodes, and the store's density volume counts every particle");
   const char* option = hide_keys.empty() ? "--type-radius" : "--hide-type";
   if (streaming)
     return make_error(Errc::invalid_argument, "{} needs the whole store in memory (no --gpu-budget): the cache streams "
                       "whole nodes, and the store's density volume and node boxes describe every type at its radius",
                       option);
+  o.slices.assign(slices.begin(), slices.end());
+  if (hide_keys.empty() && radii.empty()) return o;
   auto shown = store::shown_types(reader.types(), hide_keys);
   if (!shown) return make_error(Errc::invalid_argument, "--hide-type: {}", shown.error().message);
   o.shown_types = std::move(*shown);

@@ -17,6 +17,7 @@
 #include "gpu_types.h"
 #include "render/camera.h"
 #include "store/format.h"
+#include "store/slice.h"
 #include "store/store_reader.h"
 #include "store/type_style.h"
 
@@ -39,6 +40,10 @@ struct SceneData {
   std::vector<uint16_t> property_q;  // 1 per particle, or empty
   std::vector<gpu::GpuType> types;
   std::vector<uint8_t> shown_types;  // per type, 0 = left out by load_scene; empty: every type
+  std::vector<store::Slice> slices;  // what load_scene kept by position (--slice); empty: every position
+  // load_scene left particles out (types or slices): the store's density volume counts particles
+  // the scene lacks (culling::density_on_grid), its node directory boxes particles it lacks.
+  bool left_out() const { return !shown_types.empty() || !slices.empty(); }
 
   uint64_t particle_count() const { return particles.size() / 4; }
 };
@@ -76,18 +81,22 @@ Status append_node(SceneData& scene, const double center_min[3], const double ce
                    const store::NodeData& node);
 
 // What load_scene keeps of a store and how large it draws the particles (--hide-type,
-// --type-radius; store/type_style.h).
+// --type-radius; store/type_style.h; --slice, store/slice.h).
 struct SceneOptions {
   std::vector<uint8_t> shown_types;  // one per type index, 0 = left out; empty: every type
   std::vector<float> type_radius;    // one per type index, replacing the store's; empty: the store's
+  std::vector<store::Slice> slices;  // particles kept by their centre (store::slices_keep); empty: all
 };
 
 // Decodes every node of the store (the store must fit in memory). With o.shown_types only the
-// particles of shown types: meshlets keep their shown particles in order, a meshlet or node left
-// empty is dropped, so scene nodes no longer match the store's node by node, and the store's
-// density volume (which counts every type) no longer describes the scene: cull with
-// culling::density_on_grid (the store's grid, the scene's counts). The bounds (of the centres)
-// and the type table's order stay the store's; SceneData::shown_types records o.shown_types.
+// particles of shown types, with o.slices only those whose decoded centre every slice keeps:
+// meshlets keep their particles in order, a meshlet or node left empty is dropped, so scene nodes
+// no longer match the store's node by node, and the store's density volume (which counts every
+// particle) no longer describes the scene: cull with culling::density_on_grid (the store's grid,
+// the scene's counts) when SceneData::left_out(). A node whose every centre the slices leave out
+// is not read. The bounds (of the centres) and the type table's order stay the store's;
+// SceneData::shown_types and slices record the options. Errc::invalid_argument when nothing is
+// left.
 // With o.type_radius the particles take those radii (without per-particle radii): the meshlet
 // and node boxes and occupancy are computed from them, as they are from the store's.
 Result<SceneData> load_scene(const store::StoreReader& reader, const SceneOptions& o = {});
@@ -96,10 +105,23 @@ Result<SceneData> load_scene(const store::StoreReader& reader, const SceneOption
 // need the store in memory: Errc::invalid_argument when `streaming` (the cache streams whole
 // nodes, and the store's density volume and node boxes describe every type at the store's
 // radii), and for --type-radius on a store with per-particle radii. Errors name the option.
+// Slices (--slice) need the store in memory too: the cache streams whole nodes and the store's
+// density volume counts every particle.
 Result<SceneOptions> resolve_scene_options(const store::StoreReader& reader, std::span<const std::string> hide_keys,
-                                           std::span<const store::TypeRadiusSpec> radii, bool streaming);
-// The particles of `in` whose type index t has shown[t] != 0 (an index past `shown` is kept),
-// meshlet by meshlet, into `out`; meshlets left empty are dropped.
+                                           std::span<const store::TypeRadiusSpec> radii,
+                                           std::span<const store::Slice> slices, bool streaming);
+
+// Which particles of a decoded node filter_particles keeps.
+struct ParticleFilter {
+  std::span<const uint8_t> shown;       // per type index, 0 = left out (an index past it is kept)
+  std::span<const store::Slice> slices;  // the decoded centre must be kept by each
+  const double* center_min = nullptr;   // the node's quantization frame (3 each), needed with slices
+  const double* center_max = nullptr;
+};
+// The particles of `in` that f keeps, meshlet by meshlet, into `out`; meshlets left empty are
+// dropped. A centre is decoded as append_node decodes it.
+void filter_particles(const store::NodeData& in, const ParticleFilter& f, store::NodeData& out);
+// filter_particles by type alone.
 void filter_types(const store::NodeData& in, std::span<const uint8_t> shown, store::NodeData& out);
 
 // Quantizes in-memory particles into nodes of <= node_size particles (consecutive runs, in the

@@ -21,7 +21,8 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
   if (!colors) return make_error(Errc::invalid_argument, "--type-color: {}", colors.error().message);
   h->settings_.type_colors_srgb = std::move(*colors);
   MDS_ASSIGN_OR_RETURN(const render::SceneOptions so, render::resolve_scene_options(*h->reader_, options.hide_types,
-                                                                                   options.type_radii, h->streaming()));
+                                                                                   options.type_radii, options.slices,
+                                                                                   h->streaming()));
   h->shown_types_ = so.shown_types;
   // Bounds of the particle centres and the largest radius, from the node directory (the
   // in-memory scene replaces them with its decoded bounds).
@@ -44,9 +45,9 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
     h->bounds_ = h->scene_->bounds;
     MDS_ASSIGN_OR_RETURN(render::culling::DensityVolume vol,
                          render::culling::density_from_store(*h->reader_, *h->scene_));
-    if (!h->shown_types_.empty()) vol = render::culling::density_on_grid(*h->scene_, std::move(vol));
-    if (!h->shown_types_.empty() || !so.type_radius.empty()) {
-      // Types left out or other radii: the scene's nodes and boxes (nodes gone, shrunk or grown).
+    if (h->scene_->left_out()) vol = render::culling::density_on_grid(*h->scene_, std::move(vol));
+    if (h->scene_->left_out() || !so.type_radius.empty()) {
+      // Particles left out or other radii: the scene's nodes and boxes (nodes gone, shrunk or grown).
       h->node_boxes_.clear();
       for (const gpu::GpuNode& g : h->scene_->nodes) {
         Box b;

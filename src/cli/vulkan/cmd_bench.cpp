@@ -68,7 +68,6 @@ Status run_bench(const BenchOptions& o) {
   MDS_ASSIGN_OR_RETURN(const Appearance look, parse_appearance_options(o.look));
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
   MDS_ASSIGN_OR_RETURN(const render::SceneOptions so, scene_options(look, *reader, false));
-  const std::vector<uint8_t>& shown = so.shown_types;
   MDS_ASSIGN_OR_RETURN(render::SceneData scene, render::load_scene(*reader, so));
   MDS_ASSIGN_OR_RETURN(render::Camera camera,
                        render::default_view(o.view, scene.bounds, o.fov, double(o.width) / double(o.height)));
@@ -92,8 +91,8 @@ Status run_bench(const BenchOptions& o) {
   std::vector<Mode> modes = {{"all", "", all}};
   if (!o.cull.no_cull) {
     MDS_ASSIGN_OR_RETURN(render::culling::DensityVolume vol, render::culling::density_from_store(*reader, scene));
-    // With hidden types the store's counts include particles the scene lacks: its grid, the scene's counts.
-    if (!shown.empty()) vol = render::culling::density_on_grid(scene, std::move(vol));
+    // With particles left out the store's counts include particles the scene lacks: its grid, the scene's counts.
+    if (scene.left_out()) vol = render::culling::density_on_grid(scene, std::move(vol));
     auto density = std::make_shared<const render::culling::DensityVolume>(std::move(vol));
     for (const std::string& coverage : o.coverages) {
       co = o.cull;

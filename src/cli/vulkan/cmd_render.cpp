@@ -119,9 +119,9 @@ Status run_render(const RenderOptions& o) {
   const bool streaming = !o.stream.gpu_budget.empty();
   MDS_ASSIGN_OR_RETURN(const render::SceneOptions so, scene_options(look, *reader, streaming));
   const std::vector<uint8_t>& shown = so.shown_types;
-  if ((!shown.empty() || !so.type_radius.empty()) && o.visible_reference)
+  if ((!shown.empty() || !so.type_radius.empty() || !so.slices.empty()) && o.visible_reference)
     return make_error(Errc::invalid_argument, "--visible-reference counts the store's particles at the store's radii: "
-                      "not with --hide-type or --type-radius");
+                      "not with --hide-type, --type-radius or --slice");
   render::StreamSettings ss;
   if (streaming) {
     MDS_ASSIGN_OR_RETURN(ss, stream_settings(o.stream));
@@ -158,8 +158,8 @@ Status run_render(const RenderOptions& o) {
   rs.paired_frames = o.paired_frames;
   if (rs.cull) {
     MDS_ASSIGN_OR_RETURN(render::culling::DensityVolume vol, render::culling::density_from_store(*reader, scene));
-    // With hidden types the store's counts include particles the scene lacks: its grid, the scene's counts.
-    if (!shown.empty()) vol = render::culling::density_on_grid(scene, std::move(vol));
+    // With particles left out the store's counts include particles the scene lacks: its grid, the scene's counts.
+    if (scene.left_out()) vol = render::culling::density_on_grid(scene, std::move(vol));
     rs.density = std::make_shared<const render::culling::DensityVolume>(std::move(vol));
   }
   std::unique_ptr<render::Renderer> renderer;
@@ -356,6 +356,9 @@ Status run_render(const RenderOptions& o) {
     for (size_t t = 0; t < shown.size(); ++t)
       if (!shown[t]) hidden.push_back(reader->types()[t].input_id);
     j["hidden_types"] = hidden;  // input ids
+    nlohmann::json slices = nlohmann::json::array();
+    for (const store::Slice& sl : so.slices) slices.push_back(store::slice_spec(sl));
+    j["slices"] = slices;  // as --slice reads them, the normal unit length
     if (!so.type_radius.empty()) j["type_radius"] = so.type_radius;  // per type index, as drawn
     j["validation"] = ctx->validation_enabled();
     j["validation_messages"] = ctx->validation_messages();

@@ -117,6 +117,12 @@ void add_appearance_options(CLI::App& sub, AppearanceOptions& o) {
                  "Leave out the particles of a type (its name or input id), once per type: they are neither drawn "
                  "nor occlude (the whole store in memory: not with --gpu-budget)")
       ->allow_extra_args(false);
+  sub.add_option("--slice", o.slices,
+                 "NX,NY,NZ,D[,WIDTH][,invert]: leave out the particles on the positive side of the plane n.p = D "
+                 "(n the unit normal, world units), or with WIDTH > 0 all but the slab of that thickness around it; "
+                 "invert keeps the other part; once per slice, all applied; by the particle centre, as OVITO's Slice "
+                 "(the whole store in memory: not with --gpu-budget)")
+      ->allow_extra_args(false);
 }
 
 Result<Appearance> parse_appearance_options(const AppearanceOptions& o) {
@@ -135,6 +141,11 @@ Result<Appearance> parse_appearance_options(const AppearanceOptions& o) {
     a.type_radii.push_back(std::move(*spec));
   }
   a.hide_types = o.hide_types;
+  for (const std::string& t : o.slices) {
+    auto slice = store::parse_slice(t);
+    if (!slice) return make_error(Errc::invalid_argument, "--slice {}", slice.error().message);
+    a.slices.push_back(*slice);
+  }
   auto axis = render::parse_color_axis(o.color_by);
   if (axis) {
     a.color_by.axis = *axis;
@@ -168,7 +179,7 @@ Status apply_appearance(const Appearance& a, const store::StoreReader& reader, r
 }
 
 Result<render::SceneOptions> scene_options(const Appearance& a, const store::StoreReader& reader, bool streaming) {
-  return render::resolve_scene_options(reader, a.hide_types, a.type_radii, streaming);
+  return render::resolve_scene_options(reader, a.hide_types, a.type_radii, a.slices, streaming);
 }
 
 }  // namespace mds::cli

@@ -13,6 +13,7 @@
 #include "core/result.h"
 #include "render/renderer.h"
 #include "render/scene.h"
+#include "store/slice.h"
 #include "store/type_style.h"
 
 namespace mds::cli {
@@ -50,6 +51,7 @@ struct AppearanceOptions {
   std::vector<std::string> type_colors;        // --type-color TYPE=COLOR, once per type
   std::vector<std::string> type_radii;         // --type-radius TYPE=R (in memory only)
   std::vector<std::string> hide_types;         // --hide-type TYPE (in memory only)
+  std::vector<std::string> slices;             // --slice NX,NY,NZ,D[,WIDTH][,invert] (in memory only)
   std::string color_by = "type";               // --color-by type|x|y|z|property|NAME
   std::string color_range;                     // --color-range LO:HI (default: the data's bounds)
 };
@@ -59,11 +61,12 @@ struct Appearance {
   std::vector<store::TypeColorSpec> type_colors;
   std::vector<store::TypeRadiusSpec> type_radii;
   std::vector<std::string> hide_types;  // type keys (store::find_type)
+  std::vector<store::Slice> slices;     // --slice
   render::ColorBy color_by;             // --color-by, --color-range
 };
 
-// Adds --background, --color-by, --color-range, and --type-color, --type-radius and --hide-type
-// (repeatable).
+// Adds --background, --color-by, --color-range, and --type-color, --type-radius, --hide-type and
+// --slice (repeatable).
 void add_appearance_options(CLI::App& sub, AppearanceOptions& o);
 // Parses both without the store (a bad colour fails before any Vulkan work);
 // Errc::invalid_argument naming the option.
@@ -72,7 +75,7 @@ Result<Appearance> parse_appearance_options(const AppearanceOptions& o);
 // types; Errc::invalid_argument naming --type-color for a key that names no type.
 // Also resolves --color-by NAME against the store's property (render::resolve_color_by).
 Status apply_appearance(const Appearance& a, const store::StoreReader& reader, render::RenderSettings& rs);
-// What render::load_scene keeps and how large it draws it (--hide-type, --type-radius):
+// What render::load_scene keeps and how large it draws it (--hide-type, --type-radius, --slice):
 // render::resolve_scene_options.
 Result<render::SceneOptions> scene_options(const Appearance& a, const store::StoreReader& reader, bool streaming);
 
