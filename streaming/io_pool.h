@@ -46,15 +46,17 @@ struct IoOptions {
   // Work on a decoded node that the reader thread does before it reports the node finished
   // (the cache's meshlet bounds and particle records, render/streaming/node_pool.h
   // meshlet_bounds, pack_particles), so that the render loop does not: fills IoCompletion::prepared. Runs on the reader threads, concurrently: it
-  // must only read shared state. An error makes the completion an error (prefixed with the
-  // store's path), and the node is never read again, as after a failed decode. Empty: none.
-  std::function<Status(uint32_t node, const store::NodeData& data, PreparedNode& out)> prepare;
+  // must only read shared state. It may change the node's data (the cache leaves out the
+  // particles that --slice cuts away; IoCompletion::data is then what it made). An error makes
+  // the completion an error (prefixed with the store's path), and the node is never read again,
+  // as after a failed decode. Empty: none.
+  std::function<Status(uint32_t node, store::NodeData& data, PreparedNode& out)> prepare;
 };
 
 struct IoCompletion {
   uint32_t node = 0;
   Status status;              // error: Errc::checksum / io / format naming file, node, offset
-  store::NodeData data;       // decoded node (empty on error)
+  store::NodeData data;       // decoded node, as IoOptions::prepare left it (empty on error)
   PreparedNode prepared;       // IoOptions::prepare's output (empty without it or on error)
   uint64_t compressed_bytes = 0;
   uint64_t raw_bytes = 0;

@@ -100,6 +100,13 @@ Status ResidencyTable::mark_evicted(uint32_t i) {
   return {};
 }
 
+Status ResidencyTable::set_bytes(uint32_t i, uint64_t bytes) {
+  if (i >= nodes_.size() || nodes_[i].residency == Residency::resident)
+    return make_error(Errc::internal, "residency: set_bytes of node {} which is resident or out of range", i);
+  nodes_[i].bytes = bytes;
+  return {};
+}
+
 Status ResidencyTable::mark_failed(uint32_t i) {
   MDS_EXPECT_STATE(i, Residency::requested, "marked failed");
   nodes_[i].residency = Residency::absent;

@@ -88,6 +88,9 @@ class ResidencyTable {
   Status mark_loaded(uint32_t i);      // requested -> resident
   Status mark_evicted(uint32_t i);     // resident -> absent
   Status mark_failed(uint32_t i);      // requested -> absent, never again
+  // A node's device bytes, known better once it was read (--slice thins a node). Precondition
+  // (else Errc::internal): the node is not resident.
+  Status set_bytes(uint32_t i, uint64_t bytes);
 
   // Whether the policy wants node i resident now (ignores residency).
   bool wanted(uint32_t i) const;

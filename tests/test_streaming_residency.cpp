@@ -332,3 +332,24 @@ TEST(StreamingResidency, PrefetchOrderWithALimitIsThePrefixOfTheWholeOrder) {
     }
   }
 }
+
+// A node's bytes, learnt when it was read (--slice thins a node): the resident total and the
+// victims follow the new size; a resident node's size cannot change.
+TEST(StreamingResidency, BytesOfANodeReadSmallerThanPlanned) {
+  ResidencyTable t(std::vector<uint64_t>{100, 100, 100}, Policy::occlusion);
+  ASSERT_TRUE(t.mark_requested(1).ok());
+  ASSERT_TRUE(t.set_bytes(1, 30).ok());  // read: it keeps less than its directory entry
+  ASSERT_TRUE(t.mark_loaded(1).ok());
+  load(t, 0);
+  EXPECT_EQ(t.resident_bytes(), 130u);
+  EXPECT_EQ(t.set_bytes(1, 10).error().code, Errc::internal);  // resident
+  // 120 bytes with none free: node 1 frees only 30 now, so both go.
+  t.set_class(0, kClassO);
+  t.set_class(1, kClassO);
+  auto v = t.choose_victims(120, 0, 5);
+  ASSERT_TRUE(v.ok()) << v.error().message;
+  EXPECT_EQ(v->size(), 2u);
+  ASSERT_TRUE(t.mark_evicted(1).ok());
+  EXPECT_EQ(t.resident_bytes(), 100u);
+  EXPECT_EQ(t.set_bytes(9, 1).error().code, Errc::internal);  // out of range
+}

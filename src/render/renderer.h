@@ -41,6 +41,7 @@
 #include "render/culling/density_volume.h"
 #include "render/mesh_sprites.h"
 #include "render/scene.h"
+#include "store/slice.h"
 #include "store/store_reader.h"
 #include "streaming/io_pool.h"
 #include "streaming/residency.h"
@@ -52,6 +53,10 @@ namespace mds::render {
 // fixed size (src/render/streaming/). Used by Renderer::create_streaming.
 struct StreamSettings {
   uint64_t gpu_budget = 0;  // bytes of the payload pool (--gpu-budget); must hold the largest node
+  // --slice (store/slice.h): nodes whose every centre the slices cut are never wanted nor read;
+  // the others lose the cut particles on the reader thread that decodes them; the density volume
+  // and the nodes' voxel lists count what is kept (docs/streaming.md, "Slices").
+  std::vector<store::Slice> slices;
   streaming::Policy policy = streaming::Policy::occlusion;  // --policy occlusion|lru|fifo
   streaming::IoOptions io;                                   // reader threads, simulated latency/bandwidth
   uint64_t upload_bytes_per_frame = 32ull << 20;  // transfer budget per frame (Grottel et al. 3.3)
@@ -239,6 +244,7 @@ struct CacheStats {
   uint64_t nodes_loaded = 0;      // uploads (a node evicted and loaded again counts twice)
   uint64_t nodes_never_loaded = 0;
   uint64_t nodes_failed = 0;      // corrupted/unreadable, reported once and skipped
+  uint64_t nodes_sliced_out = 0;  // left out by --slice: every centre cut (never read), or none kept when read
   uint64_t cache_hits = 0;        // per frame, per wanted node (not O, in the frustum): resident
   uint64_t cache_misses = 0;      //   ... not resident
   uint64_t evictions[4] = {};     // by class at eviction: P, L, M, O

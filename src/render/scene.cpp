@@ -284,17 +284,13 @@ Result<SceneOptions> resolve_scene_options(const store::StoreReader& reader, std
                                            std::span<const store::TypeRadiusSpec> radii,
                                            std::span<const store::Slice> slices, bool streaming) {
   SceneOptions o;
-  if (hide_keys.empty() && radii.empty() && slices.empty()) return o;
-  if (streaming && !slices.empty())
-    return make_error(Errc::invalid_argument, "--slice needs the whole store in memory (no --gpu-budget): the cache "
-                      "streams whole nodes, and the store's density volume counts every particle");
+  o.slices.assign(slices.begin(), slices.end());  // streaming: the cache applies them (StreamSettings::slices)
+  if (hide_keys.empty() && radii.empty()) return o;
   const char* option = hide_keys.empty() ? "--type-radius" : "--hide-type";
   if (streaming)
     return make_error(Errc::invalid_argument, "{} needs the whole store in memory (no --gpu-budget): the cache streams "
                       "whole nodes, and the store's density volume and node boxes describe every type at its radius",
                       option);
-  o.slices.assign(slices.begin(), slices.end());
-  if (hide_keys.empty() && radii.empty()) return o;
   auto shown = store::shown_types(reader.types(), hide_keys);
   if (!shown) return make_error(Errc::invalid_argument, "--hide-type: {}", shown.error().message);
   o.shown_types = std::move(*shown);

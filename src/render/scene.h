@@ -105,8 +105,8 @@ Result<SceneData> load_scene(const store::StoreReader& reader, const SceneOption
 // need the store in memory: Errc::invalid_argument when `streaming` (the cache streams whole
 // nodes, and the store's density volume and node boxes describe every type at the store's
 // radii), and for --type-radius on a store with per-particle radii. Errors name the option.
-// Slices (--slice) need the store in memory too: the cache streams whole nodes and the store's
-// density volume counts every particle.
+// Slices (--slice) are kept in both cases: load_scene applies them in memory, the streaming
+// cache (StreamSettings::slices) when streaming.
 Result<SceneOptions> resolve_scene_options(const store::StoreReader& reader, std::span<const std::string> hide_keys,
                                            std::span<const store::TypeRadiusSpec> radii,
                                            std::span<const store::Slice> slices, bool streaming);

@@ -13,6 +13,7 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
   h->settings_ = options.render;
   h->stream_ = options.stream;
   h->stream_.gpu_budget = options.gpu_budget;
+  h->stream_.slices = options.slices;
   MDS_ASSIGN_OR_RETURN(h->reader_, store::StoreReader::open(options.store));
   const store::FileHeader& header = h->reader_->header();
   MDS_TRY(render::resolve_color_by(h->settings_.color_by, header.property_name,

@@ -125,6 +125,7 @@ Status run_render(const RenderOptions& o) {
   render::StreamSettings ss;
   if (streaming) {
     MDS_ASSIGN_OR_RETURN(ss, stream_settings(o.stream));
+    ss.slices = so.slices;
   }
   // In memory the whole store is decoded; streaming, only the directory is read here.
   render::SceneData scene;
@@ -296,6 +297,7 @@ Status run_render(const RenderOptions& o) {
       j["nodes_resident"] = c.nodes_resident;
       j["nodes_never_loaded"] = c.nodes_never_loaded;
       j["nodes_failed"] = c.nodes_failed;
+      j["nodes_sliced_out"] = c.nodes_sliced_out;
       j["node_errors"] = c.errors;
       j["cache_hits"] = c.cache_hits;
       j["cache_misses"] = c.cache_misses;

@@ -121,7 +121,7 @@ void add_appearance_options(CLI::App& sub, AppearanceOptions& o) {
                  "NX,NY,NZ,D[,WIDTH][,invert]: leave out the particles on the positive side of the plane n.p = D "
                  "(n the unit normal, world units), or with WIDTH > 0 all but the slab of that thickness around it; "
                  "invert keeps the other part; once per slice, all applied; by the particle centre, as OVITO's Slice "
-                 "(the whole store in memory: not with --gpu-budget)")
+                 "(in memory, and streaming: nodes the slices leave out are never read)")
       ->allow_extra_args(false);
 }
 

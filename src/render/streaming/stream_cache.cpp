@@ -2,6 +2,7 @@
 #include "render/streaming/stream_cache.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <tuple>
@@ -14,6 +15,24 @@
 namespace mds::render::streaming_gpu {
 
 using mds::streaming::Residency;
+
+namespace {
+// The share of the box [lo, hi] that the slices keep, from a 6^3 grid of points at the centres
+// of its cells (216 points: a plane through the box is placed to within 1/6 of its extent).
+double kept_share(std::span<const store::Slice> slices, const std::array<double, 3>& lo, const std::array<double, 3>& hi) {
+  constexpr int kSide = 6;
+  int kept = 0;
+  for (int k = 0; k < kSide; ++k)
+    for (int j = 0; j < kSide; ++j)
+      for (int i = 0; i < kSide; ++i) {
+        const int idx[3] = {i, j, k};
+        std::array<double, 3> p;
+        for (int a = 0; a < 3; ++a) p[size_t(a)] = lo[size_t(a)] + (idx[a] + 0.5) / kSide * (hi[size_t(a)] - lo[size_t(a)]);
+        kept += store::slices_keep(slices, p) ? 1 : 0;
+      }
+  return double(kept) / double(kSide * kSide * kSide);
+}
+}  // namespace
 
 
 Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const store::StoreReader& reader,
@@ -32,6 +51,8 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
   c->node_bytes_.resize(nodes.size());
   c->node_meshlets_.resize(nodes.size());
   c->voxel_first_.assign(1, 0);
+  c->cover_.assign(nodes.size(), uint8_t(store::SliceCover::all));
+  c->sliced_out_.assign(nodes.size(), 0);
   uint64_t largest = 0, store_bytes = 0;
   uint32_t largest_node = 0;
   for (uint32_t i = 0; i < nodes.size(); ++i) {
@@ -58,9 +79,43 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
     }
     if (c->node_bytes_[i] > largest) largest = c->node_bytes_[i], largest_node = i;
     store_bytes += e.payload_bytes;
+    const size_t first_ref = c->voxel_refs_.size();
     for (const store::VoxelRef& v : reader.voxels(i)) c->voxel_refs_.push_back({v.voxel, v.count});
     c->voxel_first_.push_back(uint32_t(c->voxel_refs_.size()));
+    if (!settings.slices.empty()) {
+      // What the slices do to the node; its voxel counts become what it keeps: none, all, or
+      // (cut) each voxel's count times the share of the voxel's part of the node box they keep.
+      std::array<double, 3> lo, hi;
+      store::decoded_box(e.center_min, e.center_max, lo, hi);
+      const store::SliceCover cover = store::slices_cover(settings.slices, lo, hi);
+      c->cover_[i] = uint8_t(cover);
+      if (cover == store::SliceCover::none) {
+        c->sliced_out_[i] = 1;
+        ++c->stats_.nodes_sliced_out;
+      }
+      for (size_t r = first_ref; r < c->voxel_refs_.size() && cover != store::SliceCover::all; ++r) {
+        glm::uvec2& ref = c->voxel_refs_[r];
+        if (cover == store::SliceCover::none) {
+          ref.y = 0;
+          continue;
+        }
+        const uint32_t dx = std::max(h.density_dims[0], 1u), dy = std::max(h.density_dims[1], 1u);
+        const uint32_t v[3] = {ref.x % dx, (ref.x / dx) % dy, ref.x / (dx * dy)};
+        std::array<double, 3> vlo = lo, vhi = hi;
+        bool overlap = true;
+        for (int a = 0; a < 3; ++a) {
+          const double cell = (h.density_max[a] - h.density_min[a]) / std::max(h.density_dims[a], 1u);
+          vlo[size_t(a)] = std::max(lo[size_t(a)], h.density_min[a] + v[a] * cell);
+          vhi[size_t(a)] = std::min(hi[size_t(a)], h.density_min[a] + (v[a] + 1) * cell);
+          overlap = overlap && vlo[size_t(a)] <= vhi[size_t(a)];
+        }
+        // Centres clamped into a border voxel lie outside it: then the node box stands for it.
+        ref.y = uint32_t(std::llround(double(ref.y) * kept_share(settings.slices, overlap ? vlo : lo, overlap ? vhi : hi)));
+      }
+    }
   }
+  if (c->stats_.nodes_sliced_out == nodes.size())
+    return make_error(Errc::invalid_argument, "{}: --slice leaves no particle of the store", reader.path().string());
   c->max_meshlet_ = std::max<uint32_t>(1, std::min<uint32_t>(h.meshlet_size_max, store::kMaxMeshletParticles));
   if (settings.gpu_budget < largest)
     return make_error(Errc::budget,
@@ -87,7 +142,15 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
   // scene are not changed after this; ~StreamCache stops the readers first.
   mds::streaming::IoOptions io = settings.io;
   const StreamCache* self = c.get();
-  io.prepare = [self](uint32_t node, const store::NodeData& data, mds::streaming::PreparedNode& out) -> Status {
+  io.prepare = [self](uint32_t node, store::NodeData& data, mds::streaming::PreparedNode& out) -> Status {
+    if (self->cover_[node] == uint8_t(store::SliceCover::some)) {
+      // The slices cut the node: keep its particles whose centre they keep (load_scene's filter).
+      store::NodeData kept;
+      const NodeFrame& f = self->frames_[node];
+      filter_particles(data, ParticleFilter{{}, self->settings_.slices, f.center_min, f.center_max}, kept);
+      data = std::move(kept);
+      if (data.particle_count() == 0) return Status{};  // nothing kept: update() leaves the node out
+    }
     MDS_TRY(meshlet_bounds(self->pool_->scene(), node, self->frames_[node], data, out.meshlet_bounds));
     pack_particles(data, out.particles);  // the staging copy becomes one memcpy
     return Status{};
@@ -190,9 +253,10 @@ void StreamCache::set_view(const Camera& camera, double aspect, std::span<const 
   const FrustumPlanes frustum(clip_from_world);
   for (uint32_t i = 0; i < directory_.size(); ++i) {
     const glm::dvec3 lo(directory_[i].aabb_min), hi(directory_[i].aabb_max);
-    const bool in = frustum.box_in(lo, hi);
+    const bool sliced_out = sliced_out_[i] != 0;  // in no view
+    const bool in = !sliced_out && frustum.box_in(lo, hi);
     uint8_t frames_ahead = 0;
-    for (const FrustumPlanes& a : ahead) frames_ahead += a.box_in(lo, hi) ? 1 : 0;
+    for (const FrustumPlanes& a : ahead) frames_ahead += !sliced_out && a.box_in(lo, hi) ? 1 : 0;
     const bool is_ahead = !in && frames_ahead > 0;
     const glm::dvec3 nearest = glm::clamp(eye, lo, hi);
     const double dist = glm::length(nearest - eye);
@@ -281,6 +345,24 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
       MDS_TRY(table_->mark_failed(i));
       std::erase(requested_, i);
       continue;
+    }
+    if (cover_[i] == uint8_t(store::SliceCover::some)) {
+      if (done->data.particle_count() == 0) {
+        // The slices cut every particle of the node (its box straddles them): never read again.
+        sliced_out_[i] = 1;
+        ++stats_.nodes_sliced_out;
+        MDS_TRY(table_->mark_failed(i));
+        std::erase(requested_, i);
+        continue;
+      }
+      // What the slices kept takes fewer pages than the directory's counts planned: from now on
+      // the node is planned at its size (every read of it keeps the same particles).
+      const uint64_t bytes = pool_->layout().node_bytes(done->data.particle_count(), done->data.meshlet_size.size());
+      if (bytes != node_bytes_[i]) {
+        MDS_TRY(table_->set_bytes(i, bytes));
+        node_bytes_[i] = bytes;
+        node_meshlets_[i] = uint32_t(done->data.meshlet_size.size());
+      }
     }
     ready_.emplace(i, std::move(*done));
   }
@@ -486,6 +568,13 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
       if (table_->wanted(i) && table_->node(i).residency != Residency::resident) out.complete = false;
   }
   return out;
+}
+
+void StreamCache::slice_density(culling::DensityVolume& v) const {
+  if (settings_.slices.empty()) return;
+  std::fill(v.counts.begin(), v.counts.end(), 0);
+  for (const glm::uvec2& r : voxel_refs_)
+    if (r.x < v.counts.size()) v.counts[r.x] = int32_t(std::min<uint64_t>(uint64_t(v.counts[r.x]) + r.y, INT32_MAX));
 }
 
 CacheStats StreamCache::stats() const {

@@ -77,10 +77,15 @@ class StreamCache {
   NodePool& pool() { return *pool_; }
   // The node directory (GpuNode per store node: frame, bounds, counts), uploaded once by the renderer.
   const std::vector<gpu::GpuNode>& directory() const { return directory_; }
-  // Per-node voxel lists of the density updates (CSR over nodes, CullScene::node_density).
+  // Per-node voxel lists of the density updates (CSR over nodes, CullScene::node_density). With
+  // slices, the counts of what each node keeps (estimated for a node the slices cut: its count
+  // in a voxel times the share of the voxel's part of the node box that they keep).
   const std::vector<uint32_t>& voxel_first() const { return voxel_first_; }
   const std::vector<glm::uvec2>& voxel_refs() const { return voxel_refs_; }
   uint32_t max_meshlet_particles() const { return max_meshlet_; }
+  // With slices, the counts of `v` (the store's grid) replaced by the sums of voxel_refs(), so
+  // that the volume and the nodes' subtractions agree; without, v unchanged.
+  void slice_density(culling::DensityVolume& v) const;
   uint64_t live_meshlets() const { return live_meshlets_; }
   std::vector<uint64_t> node_device_bytes() const { return node_bytes_; }
 
@@ -134,6 +139,12 @@ class StreamCache {
   std::unique_ptr<mds::streaming::ResidencyTable> table_;
   std::vector<gpu::GpuNode> directory_;
   std::vector<uint8_t> dense_;  // per node: its spheres fill >= kDenseNodePacking of its box (waves)
+  // Per node, what StreamSettings::slices do to it (store::SliceCover; `all` without slices); set
+  // by create() and only read after (the reader threads filter by it).
+  std::vector<uint8_t> cover_;
+  // Per node: the slices left it out (cover_ none, or no particle kept when it was read); set on
+  // the render thread. Such a node is outside every view.
+  std::vector<uint8_t> sliced_out_;
   std::vector<NodeFrame> frames_;
   std::vector<uint64_t> node_bytes_;
   std::vector<uint32_t> voxel_first_;
