@@ -270,13 +270,12 @@ Result<SceneData> load_scene(const store::StoreReader& reader, const SceneOption
                                  i, st.error().message)
                     : make_error(st.error().code, "{}: {}", reader.path().string(), st.error().message);
   }
-  if (s.particle_count() == 0)
+  if (s.particle_count() == 0 && !o.slices.empty()) {
+    std::string specs;
+    for (const store::Slice& sl : o.slices) specs += (specs.empty() ? "" : "; ") + store::slice_spec(sl);
     return make_error(Errc::invalid_argument, "{}: --slice leaves no particle of the store ({})", reader.path().string(),
-                      [&] {
-                        std::string specs;
-                        for (const store::Slice& sl : o.slices) specs += (specs.empty() ? "" : "; ") + store::slice_spec(sl);
-                        return specs;
-                      }());
+                      specs);
+  }
   return s;
 }
 

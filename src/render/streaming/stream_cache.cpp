@@ -32,6 +32,32 @@ double kept_share(std::span<const store::Slice> slices, const std::array<double,
       }
   return double(kept) / double(kSide * kSide * kSide);
 }
+
+// A node's voxel counts (voxel, count) made what the slices keep of it: all of them, none, or
+// (cut) each count times the share of the voxel's part of the node's decoded box [lo, hi] they
+// keep. h: the store's density grid.
+void scale_voxel_counts(std::span<glm::uvec2> refs, store::SliceCover cover, std::span<const store::Slice> slices,
+                        const std::array<double, 3>& lo, const std::array<double, 3>& hi, const store::FileHeader& h) {
+  if (cover == store::SliceCover::all) return;
+  const uint32_t dx = std::max(h.density_dims[0], 1u), dy = std::max(h.density_dims[1], 1u);
+  for (glm::uvec2& ref : refs) {
+    if (cover == store::SliceCover::none) {
+      ref.y = 0;
+      continue;
+    }
+    const uint32_t cell_index[3] = {ref.x % dx, (ref.x / dx) % dy, ref.x / (dx * dy)};
+    std::array<double, 3> vlo = lo, vhi = hi;
+    bool overlap = true;
+    for (int a = 0; a < 3; ++a) {
+      const double cell = (h.density_max[a] - h.density_min[a]) / std::max(h.density_dims[a], 1u);
+      vlo[size_t(a)] = std::max(lo[size_t(a)], h.density_min[a] + cell_index[a] * cell);
+      vhi[size_t(a)] = std::min(hi[size_t(a)], h.density_min[a] + (cell_index[a] + 1) * cell);
+      overlap = overlap && vlo[size_t(a)] <= vhi[size_t(a)];
+    }
+    // Centres clamped into a border voxel lie outside it: then the node box stands for it.
+    ref.y = uint32_t(std::llround(double(ref.y) * kept_share(slices, overlap ? vlo : lo, overlap ? vhi : hi)));
+  }
+}
 }  // namespace
 
 
@@ -93,25 +119,7 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
         c->sliced_out_[i] = 1;
         ++c->stats_.nodes_sliced_out;
       }
-      for (size_t r = first_ref; r < c->voxel_refs_.size() && cover != store::SliceCover::all; ++r) {
-        glm::uvec2& ref = c->voxel_refs_[r];
-        if (cover == store::SliceCover::none) {
-          ref.y = 0;
-          continue;
-        }
-        const uint32_t dx = std::max(h.density_dims[0], 1u), dy = std::max(h.density_dims[1], 1u);
-        const uint32_t v[3] = {ref.x % dx, (ref.x / dx) % dy, ref.x / (dx * dy)};
-        std::array<double, 3> vlo = lo, vhi = hi;
-        bool overlap = true;
-        for (int a = 0; a < 3; ++a) {
-          const double cell = (h.density_max[a] - h.density_min[a]) / std::max(h.density_dims[a], 1u);
-          vlo[size_t(a)] = std::max(lo[size_t(a)], h.density_min[a] + v[a] * cell);
-          vhi[size_t(a)] = std::min(hi[size_t(a)], h.density_min[a] + (v[a] + 1) * cell);
-          overlap = overlap && vlo[size_t(a)] <= vhi[size_t(a)];
-        }
-        // Centres clamped into a border voxel lie outside it: then the node box stands for it.
-        ref.y = uint32_t(std::llround(double(ref.y) * kept_share(settings.slices, overlap ? vlo : lo, overlap ? vhi : hi)));
-      }
+      scale_voxel_counts(std::span(c->voxel_refs_).subspan(first_ref), cover, settings.slices, lo, hi, h);
     }
   }
   if (c->stats_.nodes_sliced_out == nodes.size())
