@@ -191,6 +191,19 @@ TEST(ViewerHud, ColormapLegendLabelsTheRange) {
   }
 }
 
+// The HUD's cache line counts the nodes --slice left out (never read) when there are any.
+TEST(ViewerHud, CacheLineCountsSlicedOutNodes) {
+  viewer::HudState s;
+  s.streaming = true;
+  s.cache.nodes = 305;
+  const auto has = [](const std::vector<std::string>& lines, const std::string& text) {
+    return std::any_of(lines.begin(), lines.end(), [&](const std::string& l) { return l.find(text) != std::string::npos; });
+  };
+  EXPECT_FALSE(has(viewer::hud_lines(s), "sliced out"));
+  s.cache.nodes_sliced_out = 193;
+  EXPECT_TRUE(has(viewer::hud_lines(s), "nodes 0/305  in flight 0  sliced out 193"));
+}
+
 // The classes debug view (in memory over meshlet boxes, streaming over node boxes): a box's
 // projection takes its class colour, pixels outside every box are only dimmed, and a pixel
 // covered by boxes of two classes mixes them.
