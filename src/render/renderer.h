@@ -416,6 +416,10 @@ class Renderer {
   // Streaming: device bytes each node occupies when resident (the cache's unit of accounting,
   // for offline simulations of the same budget); empty when in memory.
   std::vector<uint64_t> node_device_bytes() const;
+  // node_device_bytes() with each node that --slice cuts at the pages of what it keeps, also the
+  // cut nodes the cache has not read: those are read and thinned here, on the calling thread
+  // (offline bounds of `stress`; StreamCache::node_device_bytes_kept). Empty when in memory.
+  Result<std::vector<uint64_t>> node_device_bytes_kept() const;
   // Streaming: 1 for each node whose payload is in the device pool now, else 0 (the viewer's
   // resident-bounds view); empty when in memory.
   std::vector<uint8_t> resident_nodes() const;

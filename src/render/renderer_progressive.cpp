@@ -534,6 +534,10 @@ glm::dvec2 Renderer::Impl::color_range() const {
 std::vector<uint64_t> Renderer::node_device_bytes() const {
   return impl_->cache ? impl_->cache->node_device_bytes() : std::vector<uint64_t>{};
 }
+Result<std::vector<uint64_t>> Renderer::node_device_bytes_kept() const {
+  if (!impl_->cache) return std::vector<uint64_t>{};
+  return impl_->cache->node_device_bytes_kept();
+}
 std::vector<uint8_t> Renderer::resident_nodes() const {
   if (!impl_->cache) return {};
   const auto& pool = impl_->cache->pool();

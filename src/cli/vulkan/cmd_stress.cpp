@@ -33,6 +33,7 @@
 #include "render/frame_pacer.h"
 #include "render/renderer.h"
 #include "render/visible_nodes.h"
+#include "store/slice.h"
 #include "store/store_reader.h"
 #include "streaming/belady.h"
 #include "streaming/residency.h"
@@ -54,6 +55,7 @@ struct StressOptions {
   double fov = 40.0;
   std::string csv, json, trace;
   CullingOptions cull;
+  std::vector<std::string> slices;  // --slice specs (store/slice.h)
   int device = -1;
   bool quiet = false;
 };
@@ -93,6 +95,11 @@ Status run_stress(const StressOptions& o) {
   // --- options (usage errors before any work) ---
   MDS_ASSIGN_OR_RETURN(render::StreamSettings ss, stream_settings(o.stream));
   ss.record_trace = true;
+  for (const std::string& spec : o.slices) {
+    auto s = store::parse_slice(spec);
+    if (!s) return make_error(Errc::invalid_argument, "--slice {}", s.error().message);
+    ss.slices.push_back(*s);
+  }
   const uint64_t budget = ss.gpu_budget;
   const streaming::Policy policy = ss.policy;
   const uint64_t bandwidth = uint64_t(ss.io.io_bandwidth);
@@ -277,10 +284,13 @@ Status run_stress(const StressOptions& o) {
   // --- report ---
   const render::RenderStats st = renderer->stats();
   const render::CacheStats& c = st.cache;
-  if (device_bytes.empty()) device_bytes = renderer->node_device_bytes();
-  // Sizes of nodes seen before node_device_bytes() was known (it should be known at creation).
+  // Each request at its node's size in the pool: the directory's, or, for a node that --slice
+  // cuts, the pages of what it keeps (the cache learns it on the first read, so the requests
+  // before it were recorded at the directory's larger size; cut nodes it never read are read and
+  // thinned now). At the directory sizes the bounds' pool would hold fewer nodes than the cache's.
+  MDS_ASSIGN_OR_RETURN(device_bytes, renderer->node_device_bytes_kept());
   for (auto& t : trace)
-    if (t.bytes == 0 && t.node < device_bytes.size()) t.bytes = device_bytes[t.node];
+    if (t.node < device_bytes.size()) t.bytes = device_bytes[t.node];
   const uint64_t sim_budget = c.pool_bytes ? c.pool_bytes : budget;
   const stress::SimBounds bounds = stress::simulate_bounds(trace, sim_budget);
   const auto views = stress::summarize_views(frames);
@@ -351,6 +361,7 @@ Status run_stress(const StressOptions& o) {
   j["wanted_nodes"] = c.wanted_nodes;
   j["wanted_bytes"] = c.wanted_bytes;
   j["nodes_failed"] = c.nodes_failed;
+  j["nodes_sliced_out"] = c.nodes_sliced_out;
   j["evictions"] = {{"O", c.evictions[3]}, {"M", c.evictions[2]}, {"L", c.evictions[1]}, {"P", c.evictions[0]}};
   j["upload_stalls"] = c.upload_stalls;
   j["late_arrivals_kept"] = c.late_arrivals_kept;
@@ -452,6 +463,7 @@ Status run_stress(const StressOptions& o) {
   row("hit rate LRU / FIFO (offline)", fmt::format("{} / {}", fmt_rate(bounds.lru.hit_rate()), fmt_rate(bounds.fifo.hit_rate())));
   row("bytes read / uploaded", fmt::format("{} ({:.2f}x store) / {}", fmt_bytes(c.bytes_read), j["bytes_read_over_store"].get<double>(), fmt_bytes(c.bytes_uploaded)));
   row("nodes loaded / never loaded / failed", fmt::format("{} / {} / {}", c.nodes_loaded, c.nodes_never_loaded, c.nodes_failed));
+  if (!o.slices.empty()) row("nodes sliced out (--slice)", fmt::format("{}", c.nodes_sliced_out));
   row("evictions O / M / L / P", fmt::format("{} / {} / {} / {}", c.evictions[3], c.evictions[2], c.evictions[1], c.evictions[0]));
   row("upload stalls", fmt::format("{}", c.upload_stalls));
   row("late arrivals kept", fmt::format("{}", c.late_arrivals_kept));
@@ -515,6 +527,10 @@ void setup_stress(CLI::App& sub, int& exit_code) {
   sub.add_option("--json", opt->json, "Write the full report (summary, views, offline bounds) as JSON");
   add_culling_options(sub, opt->cull, "No occlusion culling (every node in the frustum is wanted)");
   sub.add_option("--device", opt->device, "Vulkan device index (default: automatic, discrete GPU first)");
+  sub.add_option("--slice", opt->slices,
+                 "NX,NY,NZ,D[,WIDTH][,invert]: stream only the particles the slice keeps, as render --slice (nodes it "
+                 "leaves out are never read); once per slice")
+      ->allow_extra_args(false);
   sub.add_flag("-q,--quiet", opt->quiet, "No progress on stderr");
   sub.callback([opt, &exit_code] {
     Status st = run_stress(*opt);

@@ -79,6 +79,7 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
   c->voxel_first_.assign(1, 0);
   c->cover_.assign(nodes.size(), uint8_t(store::SliceCover::all));
   c->sliced_out_.assign(nodes.size(), 0);
+  c->measured_.assign(nodes.size(), 0);
   uint64_t largest = 0, store_bytes = 0;
   uint32_t largest_node = 0;
   for (uint32_t i = 0; i < nodes.size(); ++i) {
@@ -120,6 +121,13 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
         ++c->stats_.nodes_sliced_out;
       }
       scale_voxel_counts(std::span(c->voxel_refs_).subspan(first_ref), cover, settings.slices, lo, hi, h);
+      if (cover == store::SliceCover::some) {
+        // Planned at the share of its box the slices keep until it is read (then at what it
+        // keeps): at the directory's size a thin slab's cut nodes filled a fraction of the pool.
+        const double share = kept_share(settings.slices, lo, hi);
+        c->node_bytes_[i] = layout.node_bytes(uint64_t(std::ceil(share * e.particle_count)),
+                                              uint64_t(std::ceil(share * e.meshlet_count)));
+      }
     }
   }
   if (c->stats_.nodes_sliced_out == nodes.size())
@@ -355,6 +363,7 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
       continue;
     }
     if (cover_[i] == uint8_t(store::SliceCover::some)) {
+      measured_[i] = 1;
       if (done->data.particle_count() == 0) {
         // The slices cut every particle of the node (its box straddles them): never read again.
         sliced_out_[i] = 1;
@@ -576,6 +585,20 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
       if (table_->wanted(i) && table_->node(i).residency != Residency::resident) out.complete = false;
   }
   return out;
+}
+
+Result<std::vector<uint64_t>> StreamCache::node_device_bytes_kept() const {
+  std::vector<uint64_t> bytes = node_bytes_;
+  store::NodeData data, kept;
+  std::vector<uint8_t> scratch;
+  for (uint32_t i = 0; i < bytes.size(); ++i) {
+    if (sliced_out_[i]) bytes[i] = 0;
+    if (cover_[i] != uint8_t(store::SliceCover::some) || measured_[i] || sliced_out_[i]) continue;
+    MDS_TRY(reader_->read_node(i, data, scratch));
+    filter_particles(data, ParticleFilter{{}, settings_.slices, frames_[i].center_min, frames_[i].center_max}, kept);
+    bytes[i] = kept.particle_count() ? pool_->layout().node_bytes(kept.particle_count(), kept.meshlet_size.size()) : 0;
+  }
+  return bytes;
 }
 
 void StreamCache::slice_density(culling::DensityVolume& v) const {

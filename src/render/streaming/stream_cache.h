@@ -88,6 +88,11 @@ class StreamCache {
   void slice_density(culling::DensityVolume& v) const;
   uint64_t live_meshlets() const { return live_meshlets_; }
   std::vector<uint64_t> node_device_bytes() const { return node_bytes_; }
+  // node_device_bytes() with every node the slices cut at the pages of what it keeps (0 when
+  // nothing): the cut nodes not read yet are read and thinned here, synchronously (StoreReader's
+  // reads are positioned, safe beside the reader threads). For offline simulations that replay
+  // the demand at the sizes the nodes would have had (stress); not counted in the stats.
+  Result<std::vector<uint64_t>> node_device_bytes_kept() const;
 
   // New view: frustum, distances and projected sizes of every node. The culling loop restarts
   // its classes (paper 000 Sect. 5.1), the cache keeps its own (Grottel et al.'s O_{t-1}: what
@@ -145,6 +150,7 @@ class StreamCache {
   // Per node: the slices left it out (cover_ none, or no particle kept when it was read); set on
   // the render thread. Such a node is outside every view.
   std::vector<uint8_t> sliced_out_;
+  std::vector<uint8_t> measured_;  // per node: node_bytes_ is what the slices keep of it (read once)
   std::vector<NodeFrame> frames_;
   std::vector<uint64_t> node_bytes_;
   std::vector<uint32_t> voxel_first_;
