@@ -375,11 +375,9 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
       // What the slices kept takes fewer pages than the directory's counts planned: from now on
       // the node is planned at its size (every read of it keeps the same particles).
       const uint64_t bytes = pool_->layout().node_bytes(done->data.particle_count(), done->data.meshlet_size.size());
-      if (bytes != node_bytes_[i]) {
-        MDS_TRY(table_->set_bytes(i, bytes));
-        node_bytes_[i] = bytes;
-        node_meshlets_[i] = uint32_t(done->data.meshlet_size.size());
-      }
+      if (bytes != node_bytes_[i]) MDS_TRY(table_->set_bytes(i, bytes));
+      node_bytes_[i] = bytes;
+      node_meshlets_[i] = uint32_t(done->data.meshlet_size.size());  // live_meshlets_ counts what is placed
     }
     ready_.emplace(i, std::move(*done));
   }
