@@ -354,7 +354,10 @@ TEST_F(SliceCli, StreamedSliceReadsOnlyWhatItKeepsAndMatchesInMemory) {
   ASSERT_EQ(run("convert " + (dir_ / "p.lammpstrj").string() + " -q --node-size 500 -o " + small), 0) << last_stderr();
   const std::string look = " --spp 4 --width 96 --height 72 --camera 40,-30,35,14,14,12 --background 0,0,0 "
                            "--slice 0,0,1,9,6";
-  ASSERT_EQ(run("render " + small + " --no-cull -o " + (dir_ / "mem.exr").string() + look), 0) << last_stderr();
+  const fs::path mem_json = dir_ / "mem.json";
+  ASSERT_EQ(run("render " + small + " --no-cull -o " + (dir_ / "mem.exr").string() + look + " --stats " + mem_json.string()),
+            0)
+      << last_stderr();
   const fs::path json = dir_ / "streamed.json";
   ASSERT_EQ(run("render " + small + " --gpu-budget 200KiB -o " + (dir_ / "streamed.exr").string() + look +
                 " --stats " + json.string()),
@@ -369,6 +372,11 @@ TEST_F(SliceCli, StreamedSliceReadsOnlyWhatItKeepsAndMatchesInMemory) {
   EXPECT_GE(j.at("nodes_never_loaded").get<uint64_t>(), sliced_out);
   EXPECT_LT(j.at("bytes_read").get<uint64_t>(), j.at("store_payload_bytes").get<uint64_t>() * 3 / 4);
   EXPECT_TRUE(j.at("node_errors").empty());
+  // The pool holds every node the slab keeps: the resident nodes and their meshlets are the
+  // in-memory scene's (a cut node counts the meshlets it kept).
+  const nlohmann::json mem = nlohmann::json::parse(std::ifstream(mem_json));
+  EXPECT_EQ(j.at("nodes_resident").get<uint64_t>(), mem.at("nodes").get<uint64_t>());
+  EXPECT_EQ(j.at("meshlets").get<uint64_t>(), mem.at("meshlets").get<uint64_t>());
   const ExrDifference d = compare_exr(dir_ / "mem.exr", dir_ / "streamed.exr", 96, 72);
   EXPECT_GT(d.covered, size_t(96 * 72) / 10);
   EXPECT_LE(d.differing, size_t(96 * 72) / 100) << d.differing << " of " << d.covered << " covered pixels";
