@@ -48,6 +48,15 @@ TEST(Slice, ParsesNormalDistanceWidthAndInvert) {
     ASSERT_TRUE(again.ok()) << store::slice_spec(s);
     EXPECT_EQ(*again, s) << store::slice_spec(s);
   }
+  // An option given once per slice: all of them in order, or the first error under the option's name.
+  const std::vector<std::string> two = {"0,0,2,5", " 3, 4 ,0 , -1.5, 2 ,invert "};
+  auto both = store::parse_slices(two);
+  ASSERT_TRUE(both.ok()) << both.error().message;
+  EXPECT_EQ(*both, (std::vector<Slice>{*a, *b}));
+  const std::vector<std::string> bad_second = {"0,0,2,5", "1,0", "0,0,0,1"};
+  auto e = store::parse_slices(bad_second);
+  ASSERT_FALSE(e.ok());
+  EXPECT_EQ(e.error().message.rfind("--slice '1,0'", 0), 0u) << e.error().message;
   for (const char* bad : {"", "1,0,0", "1,0,0,1,2,3", "0,0,0,1", "1,0,0,x", "1,0,0,1,-1", "nan,0,0,1",
                           "1,0,0,inf", "1e308,1e308,0,1", "1,0,0,1,invert,invert", "1,,0,1", "invert"}) {
     auto r = store::parse_slice(bad);

@@ -43,12 +43,7 @@ std::array<double, 3> centre(const store::NodeEntry& e, const store::NodeData& n
 }
 
 Status export_xyz(const ExportOptions& o) {
-  std::vector<store::Slice> slices;
-  for (const std::string& spec : o.slices) {
-    auto s = store::parse_slice(spec);
-    if (!s) return make_error(Errc::invalid_argument, "--slice {}", s.error().message);
-    slices.push_back(*s);
-  }
+  MDS_ASSIGN_OR_RETURN(const std::vector<store::Slice> slices, store::parse_slices(o.slices));
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
   const store::FileHeader& h = reader->header();
   const bool radius = (h.flags & store::kFlagPerParticleRadius) != 0;

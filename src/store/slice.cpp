@@ -70,6 +70,16 @@ Result<Slice> parse_slice(std::string_view text) {
   return s;
 }
 
+Result<std::vector<Slice>> parse_slices(std::span<const std::string> specs, std::string_view option) {
+  std::vector<Slice> slices;
+  for (const std::string& spec : specs) {
+    auto s = parse_slice(spec);
+    if (!s) return make_error(Errc::invalid_argument, "{} {}", option, s.error().message);
+    slices.push_back(*s);
+  }
+  return slices;
+}
+
 std::string slice_spec(const Slice& s) {
   std::string out = fmt::format("{:.17g},{:.17g},{:.17g},{:.17g}", s.normal[0], s.normal[1], s.normal[2], s.distance);
   if (s.width > 0.0) out += fmt::format(",{:.17g}", s.width);

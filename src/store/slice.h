@@ -10,6 +10,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "core/result.h"
 
@@ -30,6 +31,10 @@ struct Slice {
 // text for a wrong field count, a field that is not a finite number, a zero normal or a negative
 // width.
 Result<Slice> parse_slice(std::string_view text);
+
+// Every spec of an option given once per slice (`--slice A --slice B`), in order; the first
+// error, prefixed with `option` ("--slice '1,0': expected ...").
+Result<std::vector<Slice>> parse_slices(std::span<const std::string> specs, std::string_view option = "--slice");
 
 // The spec that parse_slice reads back as `s` (normal with 17 significant digits).
 std::string slice_spec(const Slice& s);

@@ -95,11 +95,7 @@ Status run_stress(const StressOptions& o) {
   // --- options (usage errors before any work) ---
   MDS_ASSIGN_OR_RETURN(render::StreamSettings ss, stream_settings(o.stream));
   ss.record_trace = true;
-  for (const std::string& spec : o.slices) {
-    auto s = store::parse_slice(spec);
-    if (!s) return make_error(Errc::invalid_argument, "--slice {}", s.error().message);
-    ss.slices.push_back(*s);
-  }
+  MDS_ASSIGN_OR_RETURN(ss.slices, store::parse_slices(o.slices));
   const uint64_t budget = ss.gpu_budget;
   const streaming::Policy policy = ss.policy;
   const uint64_t bandwidth = uint64_t(ss.io.io_bandwidth);

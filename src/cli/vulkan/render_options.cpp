@@ -141,11 +141,7 @@ Result<Appearance> parse_appearance_options(const AppearanceOptions& o) {
     a.type_radii.push_back(std::move(*spec));
   }
   a.hide_types = o.hide_types;
-  for (const std::string& t : o.slices) {
-    auto slice = store::parse_slice(t);
-    if (!slice) return make_error(Errc::invalid_argument, "--slice {}", slice.error().message);
-    a.slices.push_back(*slice);
-  }
+  MDS_ASSIGN_OR_RETURN(a.slices, store::parse_slices(o.slices));
   auto axis = render::parse_color_axis(o.color_by);
   if (axis) {
     a.color_by.axis = *axis;
