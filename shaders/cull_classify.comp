@@ -492,6 +492,15 @@ int box_class(uint index, bool test) {
   return c;
 }
 
+// A node the slices leave out (GpuNode::flags): marked once per view (the view start clears the
+// classes), then neither tested nor counted. Its voxel counts are what the slices keep of it
+// (none for a box outside them), so nothing is subtracted.
+bool node_left_out(uint i) {
+  if ((nodes[i].flags & kGpuNodeLeftOut) == 0u) return false;
+  node_class[i] = uint(MDS_CULL_NODE_LEFT_OUT);
+  return true;
+}
+
 // The class of node i after its test (c: box_class's), the node counters and, reaching O with
 // kCullNodeDensity, the node's density subtraction. One invocation per node.
 void store_node_class(uint i, int c, bool node_density) {
@@ -519,6 +528,7 @@ void classify_node_per_subgroup(bool node_density) {
   uint wg = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
   uint i = wg * gl_NumSubgroups + gl_SubgroupID;
   if (i >= cull.counts.y) return;  // the whole subgroup
+  if (node_left_out(i)) return;  // the whole subgroup: i is the subgroup's
   int c = -1;
   if (node_class[i] != uint(MDS_CULL_CLASS_O)) {
     vec3 bmin = nodes[i].aabb_min, bmax = nodes[i].aabb_max;
@@ -541,9 +551,9 @@ void main() {
   }
 #endif
   if (push.mode == 0u) {
-    bool valid = i < cull.counts.y;
+    bool valid = i < cull.counts.y && !node_left_out(i);
     uint prev = valid ? node_class[i] : uint(MDS_CULL_CLASS_O);
-    int c = box_class(i, prev != uint(MDS_CULL_CLASS_O));
+    int c = box_class(i, prev != uint(MDS_CULL_CLASS_O));  // every lane (cooperative boxes)
     if (valid) store_node_class(i, c, node_density);
     return;
   }

@@ -381,6 +381,10 @@ TEST_F(SliceCli, StreamedSliceReadsOnlyWhatItKeepsAndMatchesInMemory) {
   EXPECT_GE(j.at("nodes_never_loaded").get<uint64_t>(), sliced_out);
   EXPECT_LT(j.at("bytes_read").get<uint64_t>(), j.at("store_payload_bytes").get<uint64_t>() * 3 / 4);
   EXPECT_TRUE(j.at("node_errors").empty());
+  // The classification counts only the nodes the slab keeps (GpuNode::flags kGpuNodeLeftOut).
+  uint64_t classified = 0;
+  for (const auto& [cls, count] : j.at("node_class_counts").items()) classified += count.get<uint64_t>();
+  EXPECT_EQ(classified, j.at("nodes").get<uint64_t>() - sliced_out);
   // The pool holds every node the slab keeps: the resident nodes and their meshlets are the
   // in-memory scene's (a cut node counts the meshlets it kept).
   const nlohmann::json mem = nlohmann::json::parse(std::ifstream(mem_json));
@@ -389,4 +393,42 @@ TEST_F(SliceCli, StreamedSliceReadsOnlyWhatItKeepsAndMatchesInMemory) {
   const ExrDifference d = compare_exr(dir_ / "mem.exr", dir_ / "streamed.exr", 96, 72);
   EXPECT_GT(d.covered, size_t(96 * 72) / 10);
   EXPECT_LE(d.differing, size_t(96 * 72) / 100) << d.differing << " of " << d.covered << " covered pixels";
+}
+
+// A node whose box straddles the slice but none of whose particles it keeps is found out only when
+// read: from then on it is sliced out like a node whose box lies outside, never read again, and
+// no longer classified (the renderer patches its flag into the device's node directory). Nodes
+// of particles on the diagonal x = y keep nothing of x - y <= -1, though their boxes reach it;
+// the block at y - x ~ 15 is kept whole.
+TEST_F(SliceCli, NodeEmptiedWhenReadLeavesTheClassification) {
+  const fs::path xyz = dir_ / "diagonal.xyz";
+  {
+    std::ofstream o(xyz);
+    o << 2000 << "\nProperties=species:S:1:pos:R:3\n";
+    for (int i = 0; i < 1000; ++i) {
+      const double t = 0.01 * i;
+      o << "A " << t << " " << t << " " << 0.5 * t << "\n";
+    }
+    for (int i = 0; i < 1000; ++i) o << "B " << (i % 10) * 0.5 << " " << 20 + (i / 10 % 10) * 0.5 << " " << (i / 100) * 0.5 << "\n";
+  }
+  const std::string diag = (dir_ / "diagonal.mds").string();
+  ASSERT_EQ(run("convert " + xyz.string() + " -q --node-size 250 --radius 0.2 -o " + diag), 0) << last_stderr();
+  const std::string look = " --spp 2 --width 64 --height 48 --background 0,0,0 --slice 1,-1,0,-0.7071";
+  ASSERT_EQ(run("render " + diag + " --no-cull -o " + (dir_ / "diag_mem.exr").string() + look), 0) << last_stderr();
+  const fs::path json = dir_ / "diag.json";
+  ASSERT_EQ(run("render " + diag + " --gpu-budget 100KiB -o " + (dir_ / "diag.exr").string() + look + " --stats " +
+                json.string()),
+            0)
+      << last_stderr();
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
+  EXPECT_TRUE(j.at("converged").get<bool>());
+  const uint64_t nodes = j.at("nodes").get<uint64_t>(), sliced_out = j.at("nodes_sliced_out").get<uint64_t>();
+  EXPECT_GE(sliced_out, 3u);  // the diagonal's 1000 particles: 4 nodes of 250
+  EXPECT_LT(sliced_out, nodes);
+  uint64_t classified = 0;
+  for (const auto& [cls, count] : j.at("node_class_counts").items()) classified += count.get<uint64_t>();
+  EXPECT_EQ(classified, nodes - sliced_out);
+  const ExrDifference d = compare_exr(dir_ / "diag_mem.exr", dir_ / "diag.exr", 64, 48);
+  EXPECT_GT(d.covered, 0u);
+  EXPECT_EQ(d.differing, 0u);
 }

@@ -72,6 +72,11 @@ MDS_STRUCT(FrameUniforms) {
                       // with kFrameColorProperty t = x * property_q + w
 };
 
+// GpuNode::flags. Left out: the slices (--slice) keep none of the node's particles (its box lies
+// outside them, or reading it kept nothing). The node classification skips it
+// (MDS_CULL_NODE_LEFT_OUT); the streaming cache never reads it (again).
+MDS_CONST(uint, kGpuNodeLeftOut, 1u);
+
 // One store node: quantization frame relative to the scene origin (float is enough there).
 MDS_STRUCT(GpuNode) {
   vec3 origin;          // center_min - scene origin
@@ -84,7 +89,7 @@ MDS_STRUCT(GpuNode) {
   uint first_meshlet;
   uint occupancy_lo;    // sub-node occupancy of [aabb_min, aabb_max] (src/culling/node_occupancy.h):
   uint occupancy_hi;    //   bit c of the uint64 lo | hi << 32 = cell c of 4^3 holds part of a particle
-  uint pad0;
+  uint flags;           // kGpuNode* bits
   uint pad1;
   uvec4 occupancy_fine[4];  // 8^3 cells, 64 B: byte c (of 64, little-endian in the uints) = the 2^3
                             //   sub-cells of coarse cell c (node_occupancy.h FineOccupancy); all 0 = unknown
@@ -227,6 +232,7 @@ static_assert(offsetof(GpuNode, first_particle) == 12);
 static_assert(offsetof(GpuNode, step) == 16);
 static_assert(offsetof(GpuNode, max_radius) == 44);
 static_assert(offsetof(GpuNode, first_meshlet) == 60);
+static_assert(offsetof(GpuNode, flags) == 72);
 static_assert(sizeof(GpuMeshlet) == 48);
 static_assert(offsetof(GpuMeshlet, node) == 12);
 static_assert(offsetof(GpuMeshlet, first_particle) == 28);

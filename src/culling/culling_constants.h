@@ -52,6 +52,9 @@
 #define MDS_CULL_CLASS_L 1   // failed, low confidence     (C <= C_medium)
 #define MDS_CULL_CLASS_M 2   // failed, medium confidence  (C_medium < C <= C_occ)
 #define MDS_CULL_CLASS_O 3   // failed, high confidence    (C > C_occ): culled
+// Not a class: the node value of a node the slices leave out whole (GpuNode::flags
+// kGpuNodeLeftOut, --slice). Never tested, counted in no class, never resident.
+#define MDS_CULL_NODE_LEFT_OUT 4
 
 // Acceptance strategies of Algorithm 1 (paper Table 4 / supplement Table 7 compare them).
 #define MDS_CULL_ACCEPT_NORMAL 0   // Eq. 21 by the normal approximation (supplement A), default

@@ -487,6 +487,7 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     cs.changed_per_iteration.push_back(c.changed);
     cs.culled_per_iteration.push_back(c.class_count[MDS_CULL_CLASS_O]);
     cs.class_counts.assign(c.class_count, c.class_count + 4);
+    cs.node_class_counts.assign(c.node_class_count, c.node_class_count + 4);
     if (m.iteration_hook) m.iteration_hook(m.cull_iteration);
     ++m.cull_iteration;
     quiet = c.changed == 0 ? quiet + 1 : 0;

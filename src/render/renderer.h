@@ -194,6 +194,7 @@ struct CullStats {
   uint32_t budget = 0;                  // occluder meshlets per sampling pass
   uint64_t meshlets_culled = 0;         // meshlets in O after the last classification
   std::vector<uint32_t> class_counts;   // P, L, M, O after the last classification
+  std::vector<uint32_t> node_class_counts;  // nodes P, L, M, O then (without the nodes --slice leaves out)
   std::vector<uint32_t> changed_per_iteration;
   std::vector<uint32_t> culled_per_iteration;
   double time_to_converge_ms = 0.0;     // wall time from render() start

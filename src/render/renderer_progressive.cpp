@@ -6,6 +6,7 @@
 // in flight), so the host never waits for the GPU in the middle of recording, and never for disk.
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstring>
 #include <functional>
 #include <map>
@@ -191,6 +192,7 @@ void Renderer::Impl::after_iteration() {
   view_cull.changed_per_iteration.push_back(c.changed);
   view_cull.culled_per_iteration.push_back(c.class_count[MDS_CULL_CLASS_O]);
   view_cull.class_counts.assign(c.class_count, c.class_count + 4);
+  view_cull.node_class_counts.assign(c.node_class_count, c.node_class_count + 4);
   if (iteration_hook) iteration_hook(cull_iteration);
   ++cull_iteration;
   view_passes += iteration_passes;
@@ -284,6 +286,14 @@ Result<FrameReport> Renderer::step() {
     m.timestamps_reset = true;
     m.timestamps.begin(cmd, "upload");
     MDS_ASSIGN_OR_RETURN(streaming_gpu::CacheFrame cf, m.cache->update(cmd, m.frame_index));
+    if (!cf.left_out.empty()) {
+      // Read and emptied by the slices: the classification skips them from now on (4 bytes a node).
+      for (const uint32_t i : cf.left_out)
+        vkCmdUpdateBuffer(cmd, m.nodes.get(), i * sizeof(gpu::GpuNode) + offsetof(gpu::GpuNode, flags),
+                          sizeof(uint32_t), &m.cache->directory()[i].flags);
+      vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                         VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+    }
     m.timestamps.end(cmd);
     rep.cache_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_cache).count();
     rep.nodes_uploaded = cf.nodes_uploaded;

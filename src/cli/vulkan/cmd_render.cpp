@@ -256,6 +256,10 @@ Status run_render(const RenderOptions& o) {
                            {"L", c.class_counts.size() == 4 ? c.class_counts[1] : 0},
                            {"M", c.class_counts.size() == 4 ? c.class_counts[2] : 0},
                            {"O", c.class_counts.size() == 4 ? c.class_counts[3] : 0}};
+      j["node_class_counts"] = {{"P", c.node_class_counts.size() == 4 ? c.node_class_counts[0] : 0},
+                                {"L", c.node_class_counts.size() == 4 ? c.node_class_counts[1] : 0},
+                                {"M", c.node_class_counts.size() == 4 ? c.node_class_counts[2] : 0},
+                                {"O", c.node_class_counts.size() == 4 ? c.node_class_counts[3] : 0}};
       j["changed_per_iteration"] = c.changed_per_iteration;
       j["culled_per_iteration"] = c.culled_per_iteration;
       j["parameters"] = {{"cocc", o.cull.cocc},

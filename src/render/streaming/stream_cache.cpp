@@ -119,6 +119,7 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
       if (cover == store::SliceCover::none) {
         c->sliced_out_[i] = 1;
         ++c->stats_.nodes_sliced_out;
+        g.flags |= gpu::kGpuNodeLeftOut;
       }
       scale_voxel_counts(std::span(c->voxel_refs_).subspan(first_ref), cover, settings.slices, lo, hi, h);
       if (cover == store::SliceCover::some) {
@@ -365,9 +366,12 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
     if (cover_[i] == uint8_t(store::SliceCover::some)) {
       measured_[i] = 1;
       if (done->data.particle_count() == 0) {
-        // The slices cut every particle of the node (its box straddles them): never read again.
+        // The slices cut every particle of the node (its box straddles them): never read again,
+        // and no longer classified (the renderer copies the flag to the device's directory).
         sliced_out_[i] = 1;
         ++stats_.nodes_sliced_out;
+        directory_[i].flags |= gpu::kGpuNodeLeftOut;
+        out.left_out.push_back(i);
         MDS_TRY(table_->mark_failed(i));
         std::erase(requested_, i);
         continue;

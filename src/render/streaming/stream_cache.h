@@ -63,6 +63,9 @@ struct CacheFrame {
   bool complete = false;       // every wanted node resident (or failed / beyond the budget), nothing in flight
   std::vector<uint32_t> wanted;  // demand of this frame (StreamSettings::record_trace)
   std::vector<uint8_t> wanted_resident;  // parallel to wanted: 1 = resident for this frame (a hit)
+  // Nodes read this frame of which the slices kept nothing: directory() now has their
+  // kGpuNodeLeftOut flag, which the caller copies to the device's node directory.
+  std::vector<uint32_t> left_out;
 };
 
 class StreamCache {
