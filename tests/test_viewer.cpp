@@ -36,6 +36,7 @@
 #include "viewer/debug_views.h"
 #include "viewer/hud.h"
 #include "viewer/path_recorder.h"
+#include "viewer/slice_keys.h"
 
 namespace fs = std::filesystem;
 using namespace mds;
@@ -484,58 +485,73 @@ TEST_F(ViewerWindow, ColourByCoordinateScreenshotMatchesHeadlessRender) {
   EXPECT_GT(differing, a.rgb.size() / 20) << "the colormap's image looks like the type colours'";
 }
 
+// A viewer started in the background under the fixture's Xvfb (ViewerWindow::start), killed if
+// a test ends before it exits.
+struct RunningViewer {
+  pid_t pid = -1;
+  bool done = false;
+  int status = -1;
+  std::string window;  // X window id, for xdotool
+  ~RunningViewer() {
+    if (pid > 0 && !done) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, nullptr, 0);
+    }
+  }
+  // Waits up to 20 s for the viewer to exit; true when it did (status in `status`).
+  bool wait_exit() {
+    const auto t0 = std::chrono::steady_clock::now();
+    while (std::chrono::steady_clock::now() - t0 < std::chrono::seconds(20)) {
+      if (::waitpid(pid, &status, WNOHANG) == pid) return done = true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    return false;
+  }
+};
+
+// `mdstream view STORE ARGS` in the background, stderr to viewer_err.txt; returns once its
+// window is visible (the store is loaded and the first frame on its way), with its id.
+void start_viewer(const std::string& display_env, const std::string& args, const fs::path& dir, RunningViewer& v) {
+  v.pid = ::fork();
+  if (v.pid == 0) {
+    const std::string cmd = fmt::format("{}exec {} view {} 2>{}", display_env, MDSTREAM_BIN, args,
+                                        (dir / "viewer_err.txt").string());
+    ::execl("/bin/sh", "sh", "-c", cmd.c_str(), (char*)nullptr);
+    ::_exit(127);
+  }
+  ASSERT_GT(v.pid, 0);
+  ASSERT_EQ(sh(display_env + "timeout 20 xdotool search --sync --onlyvisible --name 'mdstream view' > " +
+               (dir / "wid.txt").string()),
+            0)
+      << slurp(dir / "viewer_err.txt");
+  const std::string wid = slurp(dir / "wid.txt");
+  v.window = wid.substr(0, wid.find('\n'));
+}
+
+void pause_for_viewer() { std::this_thread::sleep_for(std::chrono::milliseconds(1500)); }
+
 // Input events (X11, through xdotool) move the camera: a left drag orbits, the wheel zooms,
 // 'r' resets; the recorded path shows all three.
 TEST_F(ViewerWindow, XdotoolInputMovesTheCamera) {
   if (!have_program("xdotool")) GTEST_SKIP() << "xdotool is not installed (apt-get install xdotool)";
   const fs::path rec = dir_ / "rec.txt", log = dir_ / "viewer_err.txt";
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    const std::string cmd = fmt::format("{}exec {} view {} --width 160 --height 120 --spp 1 --no-cull --record {} 2>{}",
-                                        env(), MDSTREAM_BIN, store(), rec.string(), log.string());
-    ::execl("/bin/sh", "sh", "-c", cmd.c_str(), (char*)nullptr);
-    ::_exit(127);
-  }
-  ASSERT_GT(pid, 0);
-  struct Reaper {
-    pid_t pid;
-    bool done = false;
-    ~Reaper() {
-      if (!done) {
-        ::kill(pid, SIGKILL);
-        ::waitpid(pid, nullptr, 0);
-      }
-    }
-  } reaper{pid};
-  const std::string x = env() + "timeout 20 xdotool ";
-  // The window appears once the store is loaded and the first frame is on its way.
-  ASSERT_EQ(sh(x + "search --sync --onlyvisible --name 'mdstream view' > " + (dir_ / "wid.txt").string()), 0)
-      << slurp(log);
-  const std::string wid = slurp(dir_ / "wid.txt").substr(0, slurp(dir_ / "wid.txt").find('\n'));
-  auto pause = [] { std::this_thread::sleep_for(std::chrono::milliseconds(1500)); };
-  pause();
+  RunningViewer v;
+  ASSERT_NO_FATAL_FAILURE(start_viewer(env(), store() + " --width 160 --height 120 --spp 1 --no-cull --record " +
+                                                  rec.string(), dir_, v));
+  const std::string x = env() + "timeout 20 xdotool ", wid = v.window;
+  pause_for_viewer();
   // Left drag to the right (orbit), then wheel up twice (zoom in), then 'r', then Esc.
   ASSERT_EQ(sh(x + "mousemove --window " + wid + " 40 60 mousedown 1 mousemove --window " + wid +
                " 90 60 mousemove --window " + wid + " 120 60 mouseup 1"),
             0);
-  pause();
+  pause_for_viewer();
   ASSERT_EQ(sh(x + "mousemove --window " + wid + " 80 60 click 4 click 4"), 0);
-  pause();
+  pause_for_viewer();
   ASSERT_EQ(sh(x + "windowfocus --sync " + wid + " key r"), 0);
-  pause();
+  pause_for_viewer();
   ASSERT_EQ(sh(x + "windowfocus --sync " + wid + " key Escape"), 0);
-
-  int status = -1;
-  const auto t0 = std::chrono::steady_clock::now();
-  while (std::chrono::steady_clock::now() - t0 < std::chrono::seconds(20)) {
-    if (::waitpid(pid, &status, WNOHANG) == pid) {
-      reaper.done = true;
-      break;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
-  ASSERT_TRUE(reaper.done) << "the viewer did not exit on Esc\n" << slurp(log);
-  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << slurp(log);
+  ASSERT_TRUE(v.wait_exit()) << "the viewer did not exit on Esc\n" << slurp(log);
+  ASSERT_TRUE(WIFEXITED(v.status) && WEXITSTATUS(v.status) == 0) << slurp(log);
 
   auto path = render::CameraPath::load(rec);
   ASSERT_TRUE(path.ok()) << path.error().message;
@@ -554,6 +570,76 @@ TEST_F(ViewerWindow, XdotoolInputMovesTheCamera) {
   EXPECT_TRUE(orbited) << "no keyframe orbits the start camera\n" << path->to_text();
   EXPECT_TRUE(zoomed) << "no keyframe is closer to the target\n" << path->to_text();
   EXPECT_TRUE(viewer::same_camera(keys.back().camera, home)) << "'r' did not reset the view\n" << path->to_text();
+}
+
+// The slice keys' arithmetic: a step is 1/50 of the box's extent along the normal, the distance
+// is rounded to 1/1000 of a step in decimal (so the printed spec is short), `invert` toggles, and
+// the options read back as the same slices.
+TEST(ViewerSliceKeys, StepAlongTheNormalRoundedAndPrintedAsOptions) {
+  const double lo[3] = {0.3664, 0.0, -10.0}, hi[3] = {57.9114, 20.0, 30.0};
+  const store::Slice z{{0.0, 0.0, 1.0}, 1.5, 0.0, false};
+  EXPECT_DOUBLE_EQ(viewer::extent_along(z, lo, hi), 40.0);
+  const store::Slice x{{1.0, 0.0, 0.0}, 1.5, 2.0, false};
+  const store::Slice back = viewer::step_slice(x, -1.0, false, lo, hi);  // step 57.545 / 50 = 1.1509
+  // 1.5 - 1.1509 = 0.34909999999999997, rounded to 3 decimals (1/1000 of a step is 0.00115).
+  EXPECT_EQ(back.distance, 0.349);
+  EXPECT_EQ(back.width, 2.0);
+  EXPECT_FALSE(back.invert);
+  const store::Slice fine = viewer::step_slice(x, 0.1 * 7, true, lo, hi);
+  EXPECT_EQ(fine.distance, 2.306);  // 1.5 + 0.7 * 1.1509 = 2.30563
+  EXPECT_TRUE(fine.invert);
+  EXPECT_FALSE(viewer::step_slice(fine, 0.0, true, lo, hi).invert);
+  const store::Slice diagonal{{0.6, 0.8, 0.0}, 0.0, 0.0, false};
+  EXPECT_NEAR(viewer::extent_along(diagonal, lo, hi), 0.6 * 57.545 + 0.8 * 20.0, 1e-12);
+  EXPECT_EQ(viewer::slice_options({back, fine}), "--slice 1,0,0,0.349,2 --slice 1,0,0,2.306,2,invert");
+  for (const store::Slice& s : {back, fine}) {
+    auto again = store::parse_slice(store::slice_spec(s));
+    ASSERT_TRUE(again.ok()) << store::slice_spec(s);
+    EXPECT_EQ(*again, s);
+  }
+}
+
+// The slice keys in the window: '.' three times and ',' once move the slab two steps up its
+// normal, '/' inverts it; the viewer prints the options of the cut it shows, and the screenshot
+// equals `mdstream render` with them. Dynamic resolution (the default) with --spp 1: the frame
+// after a change must not stay at the reduced size of a moving frame.
+TEST_F(ViewerWindow, SliceKeysMoveTheCutAsRenderDrawsIt) {
+  if (!have_program("xdotool")) GTEST_SKIP() << "xdotool is not installed (apt-get install xdotool)";
+  const uint32_t W = 160, H = 120;
+  const fs::path shot = dir_ / "view.png", ref = dir_ / "render.png", log = dir_ / "viewer_err.txt";
+  const std::string look = fmt::format("--width {} --height {} --spp 1 --no-cull --camera 90,-60,80,31,31,29", W, H);
+  RunningViewer v;
+  ASSERT_NO_FATAL_FAILURE(start_viewer(
+      env(), store() + " " + look + " --no-hud --slice 0,0,1,20,6 --screenshot " + shot.string(), dir_, v));
+  const std::string x = env() + "timeout 20 xdotool windowfocus --sync " + v.window + " key ";
+  pause_for_viewer();
+  ASSERT_EQ(sh(x + "period period period comma"), 0);
+  pause_for_viewer();
+  ASSERT_EQ(sh(x + "slash"), 0);
+  pause_for_viewer();
+  ASSERT_EQ(sh(x + "Escape"), 0);
+  ASSERT_TRUE(v.wait_exit()) << "the viewer did not exit on Esc\n" << slurp(log);
+  ASSERT_TRUE(WIFEXITED(v.status) && WEXITSTATUS(v.status) == 0) << slurp(log);
+
+  // The last line the viewer printed: the options of what it showed.
+  std::string options;
+  {
+    std::ifstream f(log);
+    for (std::string line; std::getline(f, line);)
+      if (line.rfind("mdstream view: --slice ", 0) == 0) options = line.substr(std::string("mdstream view: ").size());
+  }
+  auto reader = store::StoreReader::open(store());
+  ASSERT_TRUE(reader.ok()) << reader.error().message;
+  const store::FileHeader& h = (*reader)->header();
+  const double step = (h.bounds_max[2] - h.bounds_min[2]) / viewer::kSliceStepsPerExtent;
+  const std::string prefix = "--slice 0,0,1,";
+  ASSERT_EQ(options.rfind(prefix, 0), 0u) << slurp(log);
+  const double d = std::stod(options.substr(prefix.size()));
+  EXPECT_NEAR(d, 20.0 + 2.0 * step, 1e-3 * step) << options;
+  EXPECT_NE(options.find(",6,invert"), std::string::npos) << options;
+
+  ASSERT_EQ(mdstream(fmt::format("render {} -o {} {} {}", store(), ref.string(), look, options)), 0) << err();
+  expect_screenshot_matches(shot, ref, W, H);
 }
 
 }  // namespace

@@ -81,8 +81,9 @@ Result<std::vector<Slice>> parse_slices(std::span<const std::string> specs, std:
 }
 
 std::string slice_spec(const Slice& s) {
-  std::string out = fmt::format("{:.17g},{:.17g},{:.17g},{:.17g}", s.normal[0], s.normal[1], s.normal[2], s.distance);
-  if (s.width > 0.0) out += fmt::format(",{:.17g}", s.width);
+  // fmt's "{}": the shortest text that reads back as the same double.
+  std::string out = fmt::format("{},{},{},{}", s.normal[0], s.normal[1], s.normal[2], s.distance);
+  if (s.width > 0.0) out += fmt::format(",{}", s.width);
   if (s.invert) out += ",invert";
   return out;
 }

@@ -36,7 +36,8 @@ Result<Slice> parse_slice(std::string_view text);
 // error, prefixed with `option` ("--slice '1,0': expected ...").
 Result<std::vector<Slice>> parse_slices(std::span<const std::string> specs, std::string_view option = "--slice");
 
-// The spec that parse_slice reads back as `s` (normal with 17 significant digits).
+// The spec that parse_slice reads back as `s` (each number in the shortest text that reads back
+// as the same double).
 std::string slice_spec(const Slice& s);
 
 // Whether a particle centred at p is kept by s.

@@ -13,7 +13,8 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
   h->settings_ = options.render;
   h->stream_ = options.stream;
   h->stream_.gpu_budget = options.gpu_budget;
-  h->stream_.slices = options.slices;
+  h->hide_types_ = options.hide_types;
+  h->type_radii_ = options.type_radii;
   MDS_ASSIGN_OR_RETURN(h->reader_, store::StoreReader::open(options.store));
   const store::FileHeader& header = h->reader_->header();
   MDS_TRY(render::resolve_color_by(h->settings_.color_by, header.property_name,
@@ -21,47 +22,79 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
   auto colors = render::resolve_type_colors(h->reader_->types(), options.type_colors);
   if (!colors) return make_error(Errc::invalid_argument, "--type-color: {}", colors.error().message);
   h->settings_.type_colors_srgb = std::move(*colors);
-  MDS_ASSIGN_OR_RETURN(const render::SceneOptions so, render::resolve_scene_options(*h->reader_, options.hide_types,
-                                                                                   options.type_radii, options.slices,
-                                                                                   h->streaming()));
-  h->shown_types_ = so.shown_types;
+  MDS_ASSIGN_OR_RETURN(Loaded loaded, h->load(options.slices));
+  h->take(std::move(loaded));
+  return h;
+}
+
+Result<RenderHost::Loaded> RenderHost::load(const std::vector<store::Slice>& slices) const {
+  Loaded l;
+  l.slices = slices;
+  MDS_ASSIGN_OR_RETURN(const render::SceneOptions so,
+                       render::resolve_scene_options(*reader_, hide_types_, type_radii_, slices, streaming()));
+  l.shown_types = so.shown_types;
   // Bounds of the particle centres and the largest radius, from the node directory (the
   // in-memory scene replaces them with its decoded bounds).
-  h->bounds_.min = glm::dvec3(1e300);
-  h->bounds_.max = glm::dvec3(-1e300);
-  for (const store::NodeEntry& n : h->reader_->nodes()) {
-    h->bounds_.min = glm::min(h->bounds_.min, glm::dvec3(n.center_min[0], n.center_min[1], n.center_min[2]));
-    h->bounds_.max = glm::max(h->bounds_.max, glm::dvec3(n.center_max[0], n.center_max[1], n.center_max[2]));
-    h->bounds_.radius_max = std::max(h->bounds_.radius_max, double(n.max_radius));
+  l.bounds.min = glm::dvec3(1e300);
+  l.bounds.max = glm::dvec3(-1e300);
+  for (const store::NodeEntry& n : reader_->nodes()) {
+    l.bounds.min = glm::min(l.bounds.min, glm::dvec3(n.center_min[0], n.center_min[1], n.center_min[2]));
+    l.bounds.max = glm::max(l.bounds.max, glm::dvec3(n.center_max[0], n.center_max[1], n.center_max[2]));
+    l.bounds.radius_max = std::max(l.bounds.radius_max, double(n.max_radius));
     Box b;
     for (int k = 0; k < 3; ++k) {
       b.min[k] = n.center_min[k] - n.max_radius;
       b.max[k] = n.center_max[k] + n.max_radius;
     }
-    h->node_boxes_.push_back(b);
+    l.node_boxes.push_back(b);
   }
-  if (!h->streaming()) {
-    MDS_ASSIGN_OR_RETURN(render::SceneData scene, render::load_scene(*h->reader_, so));
-    h->scene_ = std::make_unique<render::SceneData>(std::move(scene));
-    h->bounds_ = h->scene_->bounds;
-    MDS_ASSIGN_OR_RETURN(render::culling::DensityVolume vol,
-                         render::culling::density_from_store(*h->reader_, *h->scene_));
-    if (h->scene_->left_out()) vol = render::culling::density_on_grid(*h->scene_, std::move(vol));
-    if (h->scene_->left_out() || !so.type_radius.empty()) {
+  if (!streaming()) {
+    MDS_ASSIGN_OR_RETURN(render::SceneData scene, render::load_scene(*reader_, so));
+    l.scene = std::make_unique<render::SceneData>(std::move(scene));
+    l.bounds = l.scene->bounds;
+    MDS_ASSIGN_OR_RETURN(render::culling::DensityVolume vol, render::culling::density_from_store(*reader_, *l.scene));
+    if (l.scene->left_out()) vol = render::culling::density_on_grid(*l.scene, std::move(vol));
+    if (l.scene->left_out() || !so.type_radius.empty()) {
       // Particles left out or other radii: the scene's nodes and boxes (nodes gone, shrunk or grown).
-      h->node_boxes_.clear();
-      for (const gpu::GpuNode& g : h->scene_->nodes) {
+      l.node_boxes.clear();
+      for (const gpu::GpuNode& g : l.scene->nodes) {
         Box b;
         for (int k = 0; k < 3; ++k) {
-          b.min[k] = h->scene_->origin[k] + double(g.aabb_min[k]);
-          b.max[k] = h->scene_->origin[k] + double(g.aabb_max[k]);
+          b.min[k] = l.scene->origin[k] + double(g.aabb_min[k]);
+          b.max[k] = l.scene->origin[k] + double(g.aabb_max[k]);
         }
-        h->node_boxes_.push_back(b);
+        l.node_boxes.push_back(b);
       }
     }
-    h->density_ = std::make_shared<const render::culling::DensityVolume>(std::move(vol));
+    l.density = std::make_shared<const render::culling::DensityVolume>(std::move(vol));
   }
-  return h;
+  return l;
+}
+
+void RenderHost::take(Loaded&& l) {
+  slices_ = std::move(l.slices);
+  stream_.slices = slices_;
+  shown_types_ = std::move(l.shown_types);
+  scene_ = std::move(l.scene);
+  density_ = std::move(l.density);
+  bounds_ = l.bounds;
+  node_boxes_ = std::move(l.node_boxes);
+}
+
+Status RenderHost::set_slices(const std::vector<store::Slice>& slices) {
+  MDS_ASSIGN_OR_RETURN(Loaded loaded, load(slices));  // the current scene stays until this worked
+  std::vector<store::Slice> before = slices_;
+  renderer_.reset();  // before the scene it drew goes
+  take(std::move(loaded));
+  Status st = recreate(settings_.width, settings_.height);
+  if (st.ok()) return st;
+  // Streaming: the cache refuses slices that leave no node. Back to the slices before.
+  auto back = load(before);
+  if (back) {
+    take(std::move(*back));
+    (void)recreate(settings_.width, settings_.height);
+  }
+  return st;
 }
 
 uint64_t RenderHost::meshlets() const {

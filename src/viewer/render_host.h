@@ -1,12 +1,13 @@
 // The viewer's renderer and its inputs: the open store, the in-memory scene (when no GPU budget
 // is given) with its density volume, the current render settings (width/height = the window),
 // and re-creation of the render::Renderer when its fixed parameters change (culling on/off,
-// C_occ, spp). Size changes (window, dynamic resolution) use Renderer::resize instead.
+// the slices). Size changes (window, dynamic resolution) use Renderer::resize instead.
 #pragma once
 
 #include <cstdint>
 #include <memory>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "core/result.h"
@@ -26,6 +27,12 @@ class RenderHost {
 
   // (Re)creates the renderer at width x height with settings(); the old one is destroyed first.
   Status recreate(uint32_t width, uint32_t height);
+  // Other slices (--slice; the viewer's slice keys): the scene is loaded again with them (in
+  // memory) or the cache made again (streaming: what it held is read again), and the renderer
+  // re-created at the current size. On an error (e.g. slices that leave no particle) the
+  // slices before stay, with a renderer.
+  Status set_slices(const std::vector<store::Slice>& slices);
+  const std::vector<store::Slice>& slices() const { return slices_; }
   render::RenderSettings& settings() { return settings_; }
   render::Renderer* renderer() { return renderer_.get(); }
   bool streaming() const { return stream_.gpu_budget > 0; }
@@ -40,9 +47,24 @@ class RenderHost {
   const std::vector<Box>& node_boxes() const { return node_boxes_; }
 
  private:
+  // What the scene options make of the store: the scene (in memory) and what goes with it.
+  struct Loaded {
+    std::vector<store::Slice> slices;
+    std::vector<uint8_t> shown_types;
+    std::unique_ptr<render::SceneData> scene;
+    std::shared_ptr<const render::culling::DensityVolume> density;
+    render::Bounds bounds;
+    std::vector<Box> node_boxes;
+  };
   RenderHost() = default;
+  Result<Loaded> load(const std::vector<store::Slice>& slices) const;
+  void take(Loaded&& loaded);
+
   vk::Context* ctx_ = nullptr;
   std::unique_ptr<store::StoreReader> reader_;
+  std::vector<std::string> hide_types_;           // --hide-type
+  std::vector<store::TypeRadiusSpec> type_radii_;  // --type-radius
+  std::vector<store::Slice> slices_;
   std::vector<uint8_t> shown_types_;
   std::unique_ptr<render::SceneData> scene_;
   std::shared_ptr<const render::culling::DensityVolume> density_;

@@ -21,6 +21,7 @@
 #include "viewer/input.h"
 #include "viewer/path_recorder.h"
 #include "viewer/render_host.h"
+#include "viewer/slice_keys.h"
 #include "viewer/window.h"
 
 namespace mds::viewer {
@@ -32,6 +33,7 @@ const char* key_help() {
          "H  HUD on/off          1  normal view   2  occlusion classes   3  cull buffer depth   4  confidence\n"
          "B  node bounds on/off  Shift+D  density histogram of the pixel under the cursor\n"
          "C  culling on/off      [ ]  C_occ -/+ 0.01      - =  spp /2 *2      K  coverage auto/expected/exact\n"
+         ", .  move the last --slice back/forward along its normal by 1/50 of the data (Shift: 1/500)   /  invert it\n"
          "P  save a screenshot (mdstream-view-<time>.png)  Esc  quit";
 }
 
@@ -65,7 +67,10 @@ class Viewer {
  private:
   Status setup();
   Status recreate_renderer();
-  void handle_keys(const InputFrame& in, bool& recreate, bool& quit);
+  // Key presses of one frame; slice keys add up in slice_steps / slice_invert (applied once).
+  void handle_keys(const InputFrame& in, bool& recreate, bool& quit, double& slice_steps, bool& slice_invert);
+  // The last slice moved by `steps` key steps and inverted when `invert` (RenderHost::set_slices).
+  void apply_slice_keys(double steps, bool invert);
   Status compose(const InputFrame& in);
 
   const ViewerOptions& o_;
@@ -165,7 +170,7 @@ Status Viewer::recreate_renderer() {
   return st;
 }
 
-void Viewer::handle_keys(const InputFrame& in, bool& recreate, bool& quit) {
+void Viewer::handle_keys(const InputFrame& in, bool& recreate, bool& quit, double& slice_steps, bool& slice_invert) {
   auto say = [&](std::string m) {
     message_ = std::move(m);
     message_time_ = Clock::now();
@@ -220,6 +225,11 @@ void Viewer::handle_keys(const InputFrame& in, bool& recreate, bool& quit) {
         say(st.ok() ? fmt::format("spp {}", spp) : st.error().message);
         break;
       }
+      case GLFW_KEY_COMMA:
+      case GLFW_KEY_PERIOD:
+        slice_steps += (shift ? 0.1 : 1.0) * (key == GLFW_KEY_PERIOD ? 1.0 : -1.0);
+        break;
+      case GLFW_KEY_SLASH: slice_invert = !slice_invert; break;
       case GLFW_KEY_P: {
         const std::string name = screenshot_name();
         Status st = write_canvas_png(name, display_);
@@ -230,6 +240,28 @@ void Viewer::handle_keys(const InputFrame& in, bool& recreate, bool& quit) {
     }
   }
   if (!message_.empty() && ms_since(message_time_) > 4000) message_.clear();
+}
+
+void Viewer::apply_slice_keys(double steps, bool invert) {
+  message_time_ = Clock::now();
+  if (host_->slices().empty()) {
+    message_ = "no slice to move: start with --slice NX,NY,NZ,D[,WIDTH]";
+    return;
+  }
+  std::vector<store::Slice> slices = host_->slices();
+  const store::FileHeader& h = host_->reader().header();
+  slices.back() = step_slice(slices.back(), steps, invert, h.bounds_min, h.bounds_max);
+  render_error_.reset();
+  const Status st = host_->set_slices(slices);  // in memory: the scene again; streaming: a new cache
+  have_view_ = false;
+  idle_ = false;
+  if (!st.ok()) {
+    message_ = st.error().message;
+    return;
+  }
+  // On stderr too, for `render` with the same cut.
+  message_ = slice_options(host_->slices());
+  fmt::print(stderr, "mdstream view: {}\n", message_);
 }
 
 // Debug views that read the culling loop's per-pixel state are drawn at the render size; the
@@ -317,8 +349,10 @@ Status Viewer::run() {
     InputFrame in = input_->poll();
     if (window_->should_close()) break;
 
-    bool recreate = false;
-    handle_keys(in, recreate, quit);  // Esc: this frame is still shown (and recorded), then the loop ends
+    bool recreate = false, slice_invert = false;
+    double slice_steps = 0.0;
+    // Esc: this frame is still shown (and recorded), then the loop ends.
+    handle_keys(in, recreate, quit, slice_steps, slice_invert);
 
     // Camera: the path while playing, else the controller.
     if (playing) {
@@ -347,6 +381,7 @@ Status Viewer::run() {
       Status st = recreate_renderer();
       if (!st.ok()) return st;
     }
+    if (slice_steps != 0.0 || slice_invert) apply_slice_keys(slice_steps, slice_invert);
 
     const render::Camera& cam = controller_.camera();
     const bool moved = !have_view_ || !same_camera(cam, view_camera_);
@@ -395,7 +430,10 @@ Status Viewer::run() {
         if (Status st = r->finish(); !st.ok()) render_error_ = st.error();
         gpu_ms = r->last_frame_gpu().ms;
         stepped = true;
-        idle_ = report.converged && report.samples >= host_->settings().spp;
+        // Never idle on a moving frame: it may have rendered at a reduced scale (dynamic
+        // resolution), and with few --spp it already has its samples; the next frame, at rest,
+        // renders at full size.
+        idle_ = !moved && report.converged && report.samples >= host_->settings().spp;
       }
       step_ms = ms_since(ts);
     }

@@ -25,7 +25,7 @@ struct ViewerOptions {
   std::vector<store::TypeColorSpec> type_colors;  // --type-color, resolved against the store's types
   std::vector<std::string> hide_types;            // --hide-type keys (in memory only)
   std::vector<store::TypeRadiusSpec> type_radii;  // --type-radius (in memory only)
-  std::vector<store::Slice> slices;               // --slice (in memory only)
+  std::vector<store::Slice> slices;               // --slice (the keys , . / move and invert the last one)
   render::StreamSettings stream;
   std::string camera;       // --camera spec, empty: default view `view`
   int view = 0;
