@@ -23,10 +23,47 @@
 #include "sprite_make.h"
 #include "accumulation.h"
 #include "pixel_list.glsl"
+#include "ambient_occlusion.glsl"
 
 layout(constant_id = 1) const bool kCoveredList = true;
 layout(constant_id = 4) const bool kChunkedIds = false;
 layout(local_size_x_id = 2, local_size_y_id = 3) in;  // (64, 1) with the list, else (16, 16)
+
+// The view-space point that pixel q shows (its centre's ray on its nearest sphere, from the depth
+// in the visibility word's high bits); false for a background pixel.
+bool visible_point(ivec2 q, out vec3 pos) {
+  uint64_t v = visibility[uint(q.y) * uint(frame.viewport.x) + uint(q.x)];
+  pos = vec3(0.0);
+  if (uint(v & 0xffffffffu) == kVisEmpty) return false;
+  vec2 ndc = (vec2(q) + 0.5) * frame.viewport.zw * 2.0 - 1.0;
+  vec4 h = frame.inv_proj * vec4(ndc, uintBitsToFloat(uint(v >> 32)), 1.0);
+  pos = h.xyz / h.w;
+  return true;
+}
+
+// Ambient obscurance A of the point C with normal n (view space) shown by pixel p: the SAO taps
+// (ambient_occlusion.glsl) on the other pixels' visible points within frame.ao.x of C. A radius
+// below a pixel resolves nothing: 1.
+float ambient_obscurance(ivec2 p, vec3 C, vec3 n) {
+  float r = frame.ao.x;
+  bool ortho = (frame.counts.z & kFrameOrtho) != 0u;
+  float rpx = mds_ao_screen_radius(r, abs(frame.proj[1][1]), frame.viewport.y, -C.z, ortho);
+  if (!(rpx >= 1.0)) return 1.0;
+  float spin = mds_ao_spin(uint(p.x), uint(p.y), frame.counts.w);
+  ivec2 size = ivec2(frame.viewport.xy);
+  float sum = 0.0;
+  for (int i = 0; i < MDS_AO_TAPS; ++i) {
+    float dx, dy;
+    mds_ao_tap_offset(i, MDS_AO_TAPS, spin, rpx, dx, dy);
+    ivec2 q = p + ivec2(round(vec2(dx, dy)));
+    if (q == p || any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, size))) continue;
+    vec3 Q;
+    if (!visible_point(q, Q)) continue;
+    vec3 u = (Q - C) / r;
+    sum += mds_ao_tap(u.x, u.y, u.z, n.x, n.y, n.z);
+  }
+  return mds_ao_obscurance(sum, MDS_AO_TAPS, frame.ao.y);
+}
 
 void main() {
   ivec2 p;
@@ -53,5 +90,7 @@ void main() {
   float depth;
   if (!ray_sphere(vec2(p) + 0.5, center_radius, hit, n, d, depth)) return;
   float weight = (frame.counts.z & kFrameTimingOnly) != 0u ? 0.0 : 1.0;
-  accumulate_pixel(p, weight * shade_sphere(n, d, mds_particle_color(type, center_radius.xyz)));
+  vec4 c = shade_sphere(n, d, mds_particle_color(type, center_radius.xyz));
+  if (frame.ao.y > 0.0) c.rgb *= ambient_obscurance(p, hit, n);
+  accumulate_pixel(p, weight * c);
 }

@@ -70,6 +70,8 @@ MDS_STRUCT(FrameUniforms) {
   vec4 occlusion;     // particle occlusion test (particle_occlusion.h): C_occ, C_medium, pyramid levels (0: off), 0
   vec4 color_plane;   // with kFrameColorMap: colormap coordinate t = dot(xyz, view-space centre) + w (render/colormap.h);
                       // with kFrameColorProperty t = x * property_q + w
+  vec4 ao;            // ambient occlusion (shading/ambient_occlusion.h): radius (world = view units),
+                      // strength (0: off), 0, 0; the visibility resolve applies it
 };
 
 // GpuNode::flags. Left out: the slices (--slice) keep none of the node's particles (its box lies
@@ -220,7 +222,8 @@ static_assert(offsetof(SpriteDrawHeader, raster_x) == 56);
 static_assert(offsetof(SpriteDrawHeader, occluded) == 48);
 static_assert(offsetof(SpriteDrawHeader, quad_vertex_count) == 16);
 static_assert(offsetof(SpriteDrawHeader, dispatch_x) == 32);
-static_assert(sizeof(FrameUniforms) == 272);
+static_assert(sizeof(FrameUniforms) == 288);
+static_assert(offsetof(FrameUniforms, ao) == 272);
 static_assert(offsetof(FrameUniforms, color_plane) == 256);
 static_assert(offsetof(FrameUniforms, viewport) == 192);
 static_assert(offsetof(FrameUniforms, counts) == 224);

@@ -651,6 +651,7 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
     stats->device = m.ctx->info().name;
     stats->mesh_sprites = m.mesh_path;
     stats->visibility_route = m.vis_route;
+    stats->ambient_occlusion = m.ao_active();
     stats->accumulation_buffer = m.accum_in_buffer;
     stats->covered_pixel_list = m.covered_list && m.last_resolve_listed;
     stats->covered_fraction = m.covered_fraction(w, h);

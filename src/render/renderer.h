@@ -164,6 +164,12 @@ struct RenderSettings {
   // convergence still needs converge_iterations x samples_per_iteration quiet passes.
   bool pace_sampling = true;
   bool particle_occlusion = false;
+  // Screen-space ambient occlusion (shading/ambient_occlusion.h, SAO): the world radius of the
+  // taps (> 0) and the strength sigma; 0 strength: off. The visibility route only (the attachment
+  // route draws without it; RenderStats::ambient_occlusion says which). The CLI resolves --ao
+  // auto and the default radius (cli/vulkan/render_options.cpp).
+  double ao_radius = 0.0;
+  double ao_strength = 0.0;
   // Sprite records the compute sprite path holds at once (48 B each, bound whole, so at most
   // maxStorageBufferRange / 48: 2.8 M on lavapipe). A draw list with more particles is turned
   // into sprites and drawn in chunks of capacity / max meshlet size entries, so neither the
@@ -316,6 +322,7 @@ struct RenderStats {
   double near = 0.0, far = 0.0;
   bool mesh_sprites = false;  // sprites drawn by the task/mesh path (else compute + indirect draws)
   bool visibility_route = false;  // pixels by the visibility buffer (else colour + depth attachments)
+  bool ambient_occlusion = false;  // the resolve applied RenderSettings::ao_* (the visibility route only)
   bool accumulation_buffer = false;  // accumulation in a storage buffer (else a storage image)
   bool covered_pixel_list = false;   // the last frame's resolve ran over the listed covered pixels (else full screen)
   uint32_t sprite_chunks = 1;        // chunks a frame's draw list is drawn in (RenderSettings::sprite_capacity)

@@ -57,6 +57,8 @@ struct Renderer::Impl {
   // accumulates. Otherwise the attachment route: colour + depth attachments, accumulate.comp.
   vk::Buffer visibility;
   bool vis_route = false;
+  // Ambient occlusion is applied (RenderSettings::ao_*): the visibility resolve shades with it.
+  bool ao_active() const { return vis_route && settings.ao_strength > 0.0 && settings.ao_radius > 0.0; }
   // Visibility route where the device has subgroup ballots in compute: the covered pixels of each
   // frame (gpu_types.h CoveredPixelsHeader, 4 B/pixel + 16; 1920x1080: 8.3 MB), listed by
   // visibility_compact.comp so that the resolve shades only those (otherwise a 16-byte buffer

@@ -155,6 +155,7 @@ void Renderer::Impl::write_frame_uniforms(const Camera& camera, uint32_t sample,
   if (cull)
     fu.occlusion = glm::vec4(float(cull->settings().c_occ), float(cull->settings().c_medium),
                              occlusion_test ? float(cull->pyramid_levels()) : 0.0f, 0.0f);
+  if (ao_active()) fu.ao = glm::vec4(float(settings.ao_radius), float(settings.ao_strength), 0.0f, 0.0f);
   std::memcpy(frame_ubo.mapped(), &fu, sizeof(fu));
   frame_ubo.flush();
 }
@@ -481,6 +482,7 @@ RenderStats Renderer::stats() const {
   s.device = m.ctx->info().name;
   s.mesh_sprites = m.mesh_path;
   s.visibility_route = m.vis_route;
+  s.ambient_occlusion = m.ao_active();
   s.accumulation_buffer = m.accum_in_buffer;
   s.covered_pixel_list = m.covered_list && m.last_resolve_listed;
   s.covered_fraction = m.covered_fraction(m.settings.width, m.settings.height);

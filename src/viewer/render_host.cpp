@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "render/ambient_occlusion_setup.h"
 #include "render/culling/density_volume.h"
 #include "render/scene.h"
 
@@ -22,6 +23,9 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
   auto colors = render::resolve_type_colors(h->reader_->types(), options.type_colors);
   if (!colors) return make_error(Errc::invalid_argument, "--type-color: {}", colors.error().message);
   h->settings_.type_colors_srgb = std::move(*colors);
+  MDS_ASSIGN_OR_RETURN(const render::AoChoice ao, render::resolve_ao(options.ao, *h->reader_));
+  h->settings_.ao_radius = ao.on ? ao.radius : 0.0;
+  h->settings_.ao_strength = ao.strength;
   MDS_ASSIGN_OR_RETURN(Loaded loaded, h->load(options.slices));
   h->take(std::move(loaded));
   return h;

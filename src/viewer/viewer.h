@@ -13,6 +13,7 @@
 #include "core/result.h"
 #include "render/frame_pacer.h"
 #include "render/renderer.h"
+#include "shading/ambient_occlusion.h"
 #include "store/slice.h"
 #include "store/type_style.h"
 
@@ -26,6 +27,7 @@ struct ViewerOptions {
   std::vector<std::string> hide_types;            // --hide-type keys (in memory only)
   std::vector<store::TypeRadiusSpec> type_radii;  // --type-radius (in memory only)
   std::vector<store::Slice> slices;               // --slice (the keys , . / move and invert the last one)
+  shading::AoSettings ao;                         // --ao, --ao-radius, --ao-strength
   render::StreamSettings stream;
   std::string camera;       // --camera spec, empty: default view `view`
   int view = 0;

@@ -79,7 +79,8 @@ Status run_bench(const BenchOptions& o) {
   CullingOptions co = o.cull;
   co.no_cull = true;
   MDS_TRY(apply_culling_options(co, all));
-  MDS_TRY(apply_appearance(look, *reader, all));
+  render::AoChoice ao;
+  MDS_TRY(apply_appearance(look, *reader, all, &ao));
   all.width = o.width;
   all.height = o.height;
   // The rows' modes: every particle, then per coverage meshlets only and, unless it is off, with
@@ -180,6 +181,8 @@ Status run_bench(const BenchOptions& o) {
     j["height"] = o.height;
     j["device"] = ref_stats.device;
     j["device_type"] = vk::device_type_name(ctx->info().type);  // "cpu" on lavapipe
+    j["ambient_occlusion"] = {{"mode", render::ao_mode_name(look.ao.mode)}, {"on", ref_stats.ambient_occlusion},
+                              {"radius", ao.radius},  {"strength", ao.strength}};
     j["reference"] = {{"spp", o.reference_spp}, {"wall_ms", ref_stats.wall_ms}, {"gpu_frame_ms", ref_stats.frame_ms_median}};
     j["rows"] = nlohmann::json::array();
     for (const BenchRow& r : rows) {

@@ -115,7 +115,8 @@ Status run_render(const RenderOptions& o) {
     }
   }
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
-  MDS_TRY(apply_appearance(look, *reader, rs));
+  render::AoChoice ao;
+  MDS_TRY(apply_appearance(look, *reader, rs, &ao));
   const bool streaming = !o.stream.gpu_budget.empty();
   MDS_ASSIGN_OR_RETURN(const render::SceneOptions so, scene_options(look, *reader, streaming));
   const std::vector<uint8_t>& shown = so.shown_types;
@@ -186,6 +187,9 @@ Status run_render(const RenderOptions& o) {
   for (const std::string& e : stats.cache.errors) std::fprintf(stderr, "mdstream render: skipped node: %s\n", e.c_str());
   for (const std::string& w : cache_warnings(stats.cache, ctx->limits().maxStorageBufferRange))
     std::fprintf(stderr, "mdstream render: warning: %s\n", w.c_str());
+  if (ao.on && !stats.ambient_occlusion)
+    std::fprintf(stderr, "mdstream render: warning: --ao: drawn without ambient occlusion (it needs the visibility "
+                         "route: a device with 64-bit buffer atomics)\n");
   MDS_TRY(render::write_image(o.output, image));
 
   // The meshlets holding a visible particle of the last frame (render/visible_nodes.h): the
@@ -213,6 +217,9 @@ Status run_render(const RenderOptions& o) {
     j["sprite_path"] = stats.mesh_sprites ? "mesh" : "compute";
     j["pixel_route"] = stats.visibility_route ? "visibility" : "attachments";
     j["accumulation"] = stats.accumulation_buffer ? "buffer" : "image";
+    j["ambient_occlusion"] = {{"mode", render::ao_mode_name(look.ao.mode)}, {"on", stats.ambient_occlusion},
+                              {"radius", ao.radius},  {"strength", ao.strength}};
+    if (ao.packing >= 0.0) j["ambient_occlusion"]["packing_fraction"] = ao.packing;
     j["resolve"] = stats.visibility_route ? (stats.covered_pixel_list ? "covered pixels" : "full screen") : "none";
     if (stats.covered_fraction >= 0.0) j["covered_fraction"] = stats.covered_fraction;  // the view's coverage probe
     j["particles"] = stats.particles;

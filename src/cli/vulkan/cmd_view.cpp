@@ -37,6 +37,7 @@ Status run_view(ViewCliOptions& o) {
   v.hide_types = look.hide_types;
   v.type_radii = look.type_radii;
   v.slices = look.slices;
+  v.ao = look.ao;
   if (o.v.fov_y_deg <= 0.0 || o.v.fov_y_deg >= 180.0)
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.v.fov_y_deg);
   v.render.width = o.width;

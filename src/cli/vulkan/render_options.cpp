@@ -123,6 +123,17 @@ void add_appearance_options(CLI::App& sub, AppearanceOptions& o) {
                  "invert keeps the other part; once per slice, all applied; by the particle centre, as OVITO's Slice "
                  "(in memory, and streaming: nodes the slices leave out are never read)")
       ->allow_extra_args(false);
+  sub.add_option("--ao", o.ao,
+                 "Screen-space ambient occlusion (SAO) of the spheres: off, on, or auto (on where the store's "
+                 "particles are densely packed: packing fraction >= 0.1); the visibility route only")
+      ->capture_default_str();
+  sub.add_option("--ao-radius", o.ao_radius,
+                 "Ambient occlusion radius, world units (0: 3 x the largest particle radius)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  sub.add_option("--ao-strength", o.ao_strength, "Ambient occlusion strength (SAO's sigma; 0: none)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
 }
 
 Result<Appearance> parse_appearance_options(const AppearanceOptions& o) {
@@ -159,10 +170,14 @@ Result<Appearance> parse_appearance_options(const AppearanceOptions& o) {
     a.color_by.lo = range->x;
     a.color_by.hi = range->y;
   }
+  MDS_ASSIGN_OR_RETURN(a.ao.mode, render::parse_ao_mode(o.ao));
+  a.ao.radius = o.ao_radius;
+  a.ao.strength = o.ao_strength;
   return a;
 }
 
-Status apply_appearance(const Appearance& a, const store::StoreReader& reader, render::RenderSettings& rs) {
+Status apply_appearance(const Appearance& a, const store::StoreReader& reader, render::RenderSettings& rs,
+                        render::AoChoice* ao) {
   rs.background_srgb = a.background_srgb;
   rs.color_by = a.color_by;
   const store::FileHeader& h = reader.header();
@@ -171,6 +186,10 @@ Status apply_appearance(const Appearance& a, const store::StoreReader& reader, r
   auto colors = render::resolve_type_colors(reader.types(), a.type_colors);
   if (!colors) return make_error(Errc::invalid_argument, "--type-color: {}", colors.error().message);
   rs.type_colors_srgb = std::move(*colors);
+  MDS_ASSIGN_OR_RETURN(const render::AoChoice choice, render::resolve_ao(a.ao, reader));
+  rs.ao_radius = choice.on ? choice.radius : 0.0;
+  rs.ao_strength = choice.strength;
+  if (ao) *ao = choice;
   return {};
 }
 

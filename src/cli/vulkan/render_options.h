@@ -11,6 +11,7 @@
 #include <CLI/CLI.hpp>
 
 #include "core/result.h"
+#include "render/ambient_occlusion_setup.h"
 #include "render/renderer.h"
 #include "render/scene.h"
 #include "store/slice.h"
@@ -54,6 +55,9 @@ struct AppearanceOptions {
   std::vector<std::string> slices;             // --slice NX,NY,NZ,D[,WIDTH][,invert] (in memory only)
   std::string color_by = "type";               // --color-by type|x|y|z|property|NAME
   std::string color_range;                     // --color-range LO:HI (default: the data's bounds)
+  std::string ao = "off";                      // --ao off|on|auto (shading/ambient_occlusion.h)
+  double ao_radius = 0.0;                      // --ao-radius (0: 3 x the largest particle radius)
+  double ao_strength = 1.0;                    // --ao-strength
 };
 
 struct Appearance {
@@ -63,6 +67,7 @@ struct Appearance {
   std::vector<std::string> hide_types;  // type keys (store::find_type)
   std::vector<store::Slice> slices;     // --slice
   render::ColorBy color_by;             // --color-by, --color-range
+  shading::AoSettings ao;               // --ao, --ao-radius, --ao-strength
 };
 
 // Adds --background, --color-by, --color-range, and --type-color, --type-radius, --hide-type and
@@ -73,8 +78,10 @@ void add_appearance_options(CLI::App& sub, AppearanceOptions& o);
 Result<Appearance> parse_appearance_options(const AppearanceOptions& o);
 // Sets rs.background_srgb, rs.color_by and rs.type_colors_srgb, the colours resolved against the store's
 // types; Errc::invalid_argument naming --type-color for a key that names no type.
-// Also resolves --color-by NAME against the store's property (render::resolve_color_by).
-Status apply_appearance(const Appearance& a, const store::StoreReader& reader, render::RenderSettings& rs);
+// Also resolves --color-by NAME against the store's property (render::resolve_color_by), and
+// --ao against the store (rs.ao_radius, rs.ao_strength; what was chosen in *ao when given).
+Status apply_appearance(const Appearance& a, const store::StoreReader& reader, render::RenderSettings& rs,
+                        render::AoChoice* ao = nullptr);
 // What render::load_scene keeps and how large it draws it (--hide-type, --type-radius, --slice):
 // render::resolve_scene_options.
 Result<render::SceneOptions> scene_options(const Appearance& a, const store::StoreReader& reader, bool streaming);
