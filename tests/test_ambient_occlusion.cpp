@@ -258,6 +258,32 @@ TEST_F(AmbientOcclusionGpu, OnlyDarkensAndTheAttachmentRouteHasNone) {
   EXPECT_EQ(att_on->image.rgba, att_off->image.rgba);
 }
 
+// Switched on in place (the viewer's L key): the next render equals a renderer created with it;
+// off again, the one without. Negative values are errors.
+TEST_F(AmbientOcclusionGpu, SetInPlaceEqualsCreatedWithIt) {
+  const render::SceneData s = scene(pyramid());
+  auto off = draw(s, 0.0), on = draw(s, 1.0);
+  ASSERT_TRUE(off.ok() && on.ok());
+  render::RenderSettings rs;
+  rs.width = 128;
+  rs.height = 96;
+  rs.spp = 1;
+  rs.mesh_shaders = render::MeshShaderMode::off;
+  auto r = render::Renderer::create(*ctx_, s, rs);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_TRUE((*r)->set_ambient_occlusion(1.5, 1.0).ok());
+  auto img = (*r)->render(camera());
+  ASSERT_TRUE(img.ok());
+  EXPECT_TRUE((*r)->stats().ambient_occlusion);
+  EXPECT_EQ(img->rgba, on->image.rgba);
+  ASSERT_TRUE((*r)->set_ambient_occlusion(1.5, 0.0).ok());
+  img = (*r)->render(camera());
+  ASSERT_TRUE(img.ok());
+  EXPECT_EQ(img->rgba, off->image.rgba);
+  EXPECT_FALSE((*r)->set_ambient_occlusion(-1.0, 1.0).ok());
+  EXPECT_FALSE((*r)->set_ambient_occlusion(1.0, std::nan("")).ok());
+}
+
 // --ao auto by the store's packing fraction: the synthetic gas stays without, the porous block
 // gets it; the stats say what was chosen. Bad values are usage errors naming the option.
 TEST(AmbientOcclusionCli, AutoFollowsThePackingFractionAndErrorsNameTheOption) {

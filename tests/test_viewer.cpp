@@ -642,4 +642,31 @@ TEST_F(ViewerWindow, SliceKeysMoveTheCutAsRenderDrawsIt) {
   expect_screenshot_matches(shot, ref, W, H);
 }
 
+// The L key switches ambient occlusion on in the window: the screenshot equals `mdstream render
+// --ao on` of the same camera (and differs from the image without).
+TEST_F(ViewerWindow, AoKeyShowsWhatRenderDrawsWithAo) {
+  if (!have_program("xdotool")) GTEST_SKIP() << "xdotool is not installed (apt-get install xdotool)";
+  const uint32_t W = 160, H = 120;
+  const fs::path shot = dir_ / "view.png", ref = dir_ / "render.png", plain = dir_ / "plain.png";
+  const fs::path log = dir_ / "viewer_err.txt";
+  const std::string look = fmt::format("--width {} --height {} --spp 1 --no-cull --camera 40,-25,45,25,25,15", W, H);
+  RunningViewer v;
+  ASSERT_NO_FATAL_FAILURE(start_viewer(env(), store() + " " + look + " --no-hud --screenshot " + shot.string(), dir_, v));
+  const std::string x = env() + "timeout 20 xdotool windowfocus --sync " + v.window + " key ";
+  pause_for_viewer();
+  ASSERT_EQ(sh(x + "l"), 0);
+  pause_for_viewer();
+  ASSERT_EQ(sh(x + "Escape"), 0);
+  ASSERT_TRUE(v.wait_exit()) << "the viewer did not exit on Esc\n" << slurp(log);
+  ASSERT_TRUE(WIFEXITED(v.status) && WEXITSTATUS(v.status) == 0) << slurp(log);
+  ASSERT_EQ(mdstream(fmt::format("render {} -o {} {} --ao on", store(), ref.string(), look)), 0) << err();
+  expect_screenshot_matches(shot, ref, W, H);
+  ASSERT_EQ(mdstream(fmt::format("render {} -o {} {}", store(), plain.string(), look)), 0) << err();
+  const Png a = read_png(shot), p = read_png(plain);
+  ASSERT_EQ(a.rgb.size(), p.rgb.size());
+  size_t darker = 0;
+  for (size_t i = 0; i < a.rgb.size(); ++i) darker += int(a.rgb[i]) + 24 < int(p.rgb[i]);
+  EXPECT_GT(darker, a.rgb.size() / 50) << "the window shows no ambient occlusion";
+}
+
 }  // namespace

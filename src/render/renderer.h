@@ -400,6 +400,10 @@ class Renderer {
   // stops where it is, if that is already more). Errc::invalid_argument outside those ranges.
   Status set_c_occ(double c_occ);
   Status set_spp(uint32_t spp);
+  // Ambient occlusion (RenderSettings::ao_radius, ao_strength; strength 0: off) in place: the
+  // accumulation restarts at the next step(); culling and the cache are untouched (the classes
+  // do not depend on shading). Errc::invalid_argument for a negative or non-finite value.
+  Status set_ambient_occlusion(double radius, double strength);
   // The sample-area model (culling::CullSettings::coverage), in place like set_c_occ: with
   // culling, the current view restarts at the next step() with the new model.
   Status set_coverage(culling::Coverage coverage);

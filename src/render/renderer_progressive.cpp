@@ -455,6 +455,18 @@ void Renderer::set_motion(bool moving, double sample_share) {
   m.moving = moving;  // step() sets the iteration's sampling passes from it (one while moving)
 }
 
+Status Renderer::set_ambient_occlusion(double radius, double strength) {
+  Impl& m = *impl_;
+  if (!(radius >= 0.0 && strength >= 0.0 && std::isfinite(radius) && std::isfinite(strength)))
+    return make_error(Errc::invalid_argument, "ambient occlusion radius {} strength {}: expected finite values >= 0",
+                      radius, strength);
+  if (radius == m.settings.ao_radius && strength == m.settings.ao_strength) return {};
+  m.settings.ao_radius = radius;
+  m.settings.ao_strength = strength;
+  m.samples = 0;  // the next frame clears the accumulation
+  return {};
+}
+
 Status Renderer::set_spp(uint32_t spp) {
   if (spp == 0) return make_error(Errc::invalid_argument, "spp {}: expected >= 1", spp);
   impl_->settings.spp = spp;

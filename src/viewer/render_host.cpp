@@ -26,6 +26,8 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
   MDS_ASSIGN_OR_RETURN(const render::AoChoice ao, render::resolve_ao(options.ao, *h->reader_));
   h->settings_.ao_radius = ao.on ? ao.radius : 0.0;
   h->settings_.ao_strength = ao.strength;
+  h->ao_radius_ = ao.radius;
+  h->ao_strength_ = options.ao.strength > 0.0 ? options.ao.strength : 1.0;
   MDS_ASSIGN_OR_RETURN(Loaded loaded, h->load(options.slices));
   h->take(std::move(loaded));
   return h;

@@ -33,6 +33,10 @@ class RenderHost {
   // slices before stay, with a renderer.
   Status set_slices(const std::vector<store::Slice>& slices);
   const std::vector<store::Slice>& slices() const { return slices_; }
+  // The ambient occlusion the L key switches on: --ao-radius (or its default for the store) and
+  // --ao-strength (1 where that is 0).
+  double ao_radius() const { return ao_radius_; }
+  double ao_strength() const { return ao_strength_; }
   render::RenderSettings& settings() { return settings_; }
   render::Renderer* renderer() { return renderer_.get(); }
   bool streaming() const { return stream_.gpu_budget > 0; }
@@ -65,6 +69,7 @@ class RenderHost {
   std::vector<std::string> hide_types_;           // --hide-type
   std::vector<store::TypeRadiusSpec> type_radii_;  // --type-radius
   std::vector<store::Slice> slices_;
+  double ao_radius_ = 0.0, ao_strength_ = 1.0;
   std::vector<uint8_t> shown_types_;
   std::unique_ptr<render::SceneData> scene_;
   std::shared_ptr<const render::culling::DensityVolume> density_;

@@ -34,6 +34,7 @@ const char* key_help() {
          "B  node bounds on/off  Shift+D  density histogram of the pixel under the cursor\n"
          "C  culling on/off      [ ]  C_occ -/+ 0.01      - =  spp /2 *2      K  coverage auto/expected/exact\n"
          ", .  move the last --slice back/forward along its normal by 1/50 of the data (Shift: 1/500)   /  invert it\n"
+         "L  ambient occlusion on/off (--ao; radius --ao-radius)\n"
          "P  save a screenshot (mdstream-view-<time>.png)  Esc  quit";
 }
 
@@ -230,6 +231,19 @@ void Viewer::handle_keys(const InputFrame& in, bool& recreate, bool& quit, doubl
         slice_steps += (shift ? 0.1 : 1.0) * (key == GLFW_KEY_PERIOD ? 1.0 : -1.0);
         break;
       case GLFW_KEY_SLASH: slice_invert = !slice_invert; break;
+      case GLFW_KEY_L: {  // ambient occlusion on/off (RenderSettings::ao_*), kept for a re-creation (key C)
+        const bool on = !(rs.ao_strength > 0.0 && rs.ao_radius > 0.0);
+        rs.ao_radius = on ? host_->ao_radius() : 0.0;
+        rs.ao_strength = on ? host_->ao_strength() : 0.0;
+        Status st = host_->renderer() ? host_->renderer()->set_ambient_occlusion(rs.ao_radius, rs.ao_strength) : Status{};
+        idle_ = false;
+        const bool applied = host_->renderer() && host_->renderer()->stats().ambient_occlusion;
+        say(!st.ok() ? st.error().message
+            : !on    ? std::string("ambient occlusion off")
+            : applied ? fmt::format("ambient occlusion on (radius {:g}, strength {:g})", rs.ao_radius, rs.ao_strength)
+                      : std::string("ambient occlusion: needs the visibility route (64-bit atomics)"));
+        break;
+      }
       case GLFW_KEY_P: {
         const std::string name = screenshot_name();
         Status st = write_canvas_png(name, display_);
