@@ -17,16 +17,18 @@ const float MDS_AO_TWO_PI = 6.283185307179586f;
 const float MDS_AO_SPIRAL_TURNS = 7.0f;  // kAoSpiralTurns
 const float MDS_AO_BIAS = 0.01f;         // kAoBias
 const float MDS_AO_EPSILON = 0.01f;      // kAoEpsilon
+const uint MDS_AO_SPIN_STEP = 10368890u; // kAoSpinStep
 
-uint mds_ao_hash(uint x, uint y, uint sample_index) {
-  uint v = x * 1664525u + y * 1013904223u + sample_index * 2654435761u;
+uint mds_ao_hash(uint x, uint y) {
+  uint v = x * 1664525u + y * 1013904223u;
   v = v * 747796405u + 2891336453u;
   uint w = ((v >> ((v >> 28u) + 4u)) ^ v) * 277803737u;
   return (w >> 22u) ^ w;
 }
 
 float mds_ao_spin(uint x, uint y, uint sample_index) {
-  return float(mds_ao_hash(x, y, sample_index) >> 8u) * (MDS_AO_TWO_PI / 16777216.0f);
+  uint turn = ((mds_ao_hash(x, y) >> 8u) + sample_index * MDS_AO_SPIN_STEP) & 0xffffffu;
+  return float(turn) * (MDS_AO_TWO_PI / 16777216.0f);
 }
 
 // The offset of tap i in pixels (x in dx, y in dy).

@@ -10,18 +10,19 @@ namespace {
 constexpr double kTwoPi = 6.283185307179586;
 }
 
-uint32_t ao_hash(uint32_t x, uint32_t y, uint32_t sample) {
+uint32_t ao_hash(uint32_t x, uint32_t y) {
   // pcg_hash of Jarzynski & Olano, "Hash Functions for GPU Rendering" (JCGT 2020), over a
-  // linear combination of the three inputs.
-  uint32_t v = x * 1664525u + y * 1013904223u + sample * 2654435761u;
+  // linear combination of the two coordinates.
+  uint32_t v = x * 1664525u + y * 1013904223u;
   v = v * 747796405u + 2891336453u;
   const uint32_t w = ((v >> ((v >> 28u) + 4u)) ^ v) * 277803737u;
   return (w >> 22u) ^ w;
 }
 
 double ao_spin(uint32_t x, uint32_t y, uint32_t sample) {
-  // The top 24 bits: exact in float, so the GLSL mirror gets the same angle.
-  return double(ao_hash(x, y, sample) >> 8u) * (kTwoPi / 16777216.0);
+  // 24 bits: exact in float, so the GLSL mirror gets the same angle.
+  const uint32_t turn = ((ao_hash(x, y) >> 8u) + sample * kAoSpinStep) & 0xffffffu;
+  return double(turn) * (kTwoPi / 16777216.0);
 }
 
 void ao_tap_offset(int i, int taps, double spin, double radius_px, double& dx, double& dy) {

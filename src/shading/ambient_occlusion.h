@@ -14,8 +14,11 @@
 // scaled alike, and no r^6 that underflows float for tiny radii). beta (kAoBias) ignores taps
 // nearly in the tangent plane (depth-buffer self-occlusion), eps (kAoEpsilon) bounds a tap at C.
 // Tap i of s lies at the fraction alpha_i = (i + 1/2) / s of the screen radius, at the angle
-// alpha_i * 2 pi * kAoSpiralTurns + phi, phi a hash of the pixel and the sample index in
-// [0, 2 pi): the progressive super-sampling averages the spin over its samples.
+// alpha_i * 2 pi * kAoSpiralTurns + phi. The spin phi of a pixel's sample k is a hash of the
+// pixel plus k golden-ratio turns (a Weyl sequence, in 24-bit fixed point): each pixel's
+// samples spread their rotations evenly over the circle, so the progressive super-sampling
+// averages the taps' noise away faster than with a random spin per sample; neighbouring
+// pixels start at unrelated rotations (no visible pattern).
 #pragma once
 
 #include <cstdint>
@@ -36,9 +39,12 @@ struct AoSettings {
 };
 inline constexpr double kAoRadiusPerParticleRadius = 3.0;  // default r: 1.5 particle diameters
 
-// Hash of pixel (x, y) and sample index (a PCG-style integer mix: the same bits in GLSL).
-uint32_t ao_hash(uint32_t x, uint32_t y, uint32_t sample);
-// phi in [0, 2 pi) from the hash.
+// Hash of pixel (x, y) (pcg_hash; the same bits in GLSL).
+uint32_t ao_hash(uint32_t x, uint32_t y);
+// The golden ratio's fractional part in 24-bit fixed point: round(0.6180339887 * 2^24).
+inline constexpr uint32_t kAoSpinStep = 10368890u;
+// phi in [0, 2 pi) of sample `sample` at pixel (x, y): ((hash >> 8) + sample * kAoSpinStep) mod
+// 2^24 turns / 2^24 (integer arithmetic: exact in float too).
 double ao_spin(uint32_t x, uint32_t y, uint32_t sample);
 // Tap i of `taps`: its offset from the pixel in pixels for a screen radius of `radius_px`.
 void ao_tap_offset(int i, int taps, double spin, double radius_px, double& dx, double& dy);
