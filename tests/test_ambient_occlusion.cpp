@@ -152,8 +152,8 @@ class AmbientOcclusionGpu : public mds::testing::VulkanSuite {
     c.far = 20.0;
     return c;
   }
-  static Result<mds::testing::RenderedFrame> draw(const render::SceneData& s, double ao_strength,
-                                                  bool visibility_route = true) {
+  // 128 x 96, one sample, the compute sprite path; ambient occlusion of radius 1.5 at this strength.
+  static render::RenderSettings settings(double ao_strength, bool visibility_route = true) {
     render::RenderSettings rs;
     rs.width = 128;
     rs.height = 96;
@@ -162,7 +162,11 @@ class AmbientOcclusionGpu : public mds::testing::VulkanSuite {
     rs.visibility_route = visibility_route;
     rs.ao_radius = 1.5;
     rs.ao_strength = ao_strength;
-    MDS_ASSIGN_OR_RETURN(auto r, render::Renderer::create(*ctx_, s, rs));
+    return rs;
+  }
+  static Result<mds::testing::RenderedFrame> draw(const render::SceneData& s, double ao_strength,
+                                                  bool visibility_route = true) {
+    MDS_ASSIGN_OR_RETURN(auto r, render::Renderer::create(*ctx_, s, settings(ao_strength, visibility_route)));
     mds::testing::RenderedFrame out;
     MDS_ASSIGN_OR_RETURN(out.image, r->render(camera(), &out.stats));
     MDS_ASSIGN_OR_RETURN(out.depth, r->read_last_depth());
@@ -277,12 +281,7 @@ TEST_F(AmbientOcclusionGpu, SetInPlaceEqualsCreatedWithIt) {
   const render::SceneData s = scene(pyramid());
   auto off = draw(s, 0.0), on = draw(s, 1.0);
   ASSERT_TRUE(off.ok() && on.ok());
-  render::RenderSettings rs;
-  rs.width = 128;
-  rs.height = 96;
-  rs.spp = 1;
-  rs.mesh_shaders = render::MeshShaderMode::off;
-  auto r = render::Renderer::create(*ctx_, s, rs);
+  auto r = render::Renderer::create(*ctx_, s, settings(0.0));
   ASSERT_TRUE(r.ok()) << r.error().message;
   ASSERT_TRUE((*r)->set_ambient_occlusion(1.5, 1.0).ok());
   auto img = (*r)->render(camera());

@@ -22,7 +22,7 @@ import statistics
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench_common import machine_info, make_store, newest_mdstream, open_work, sh  # noqa: E402
+from bench_common import machine_info, make_store, newest_mdstream, open_work, sh, write_report  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -112,10 +112,7 @@ def main():
         md.append(f"| {r['scene']} | {r['view']} | {r['ao']}{'' if r['applied'] == (r['ao'] == 'on') else ' (!)'} | "
                   f"{r['spp']} | {r['gpu_frame_ms']:.2f} | {r['on_over_off']:.2f} | {r['rmse']:.4f} | "
                   f"{100 * r['differing_fraction']:.2f} % | {r['gpu_frame_ms_runs']} |")
-    md += ["", "Raw numbers: [`ao.csv`](ao.csv).", ""]
-    with open(os.path.join(args.out, "ao.md"), "w") as f:
-        f.write("\n".join(md))
-    print(os.path.join(args.out, "ao.md"))
+    write_report(args.out, "ao", md)
 
 
 if __name__ == "__main__":

@@ -98,3 +98,13 @@ def make_store(mds, work, scene, particles, node_size, log):
     sh([mds, "convert", dump, "-o", store, "--node-size", str(node_size)], log)
     os.remove(dump)
     return store
+
+
+def write_report(out, name, md):
+    """Ends the report `md` (a list of lines) with the link to `name`.csv, writes it as `name`.md
+    in `out` and prints its path."""
+    md = md + ["", f"Raw numbers: [`{name}.csv`]({name}.csv).", ""]
+    path = os.path.join(out, f"{name}.md")
+    with open(path, "w") as f:
+        f.write("\n".join(md))
+    print(path)

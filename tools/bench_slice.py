@@ -20,7 +20,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench_common import fmt_bytes, machine_info, make_store, newest_mdstream, open_work, sh  # noqa: E402
+from bench_common import fmt_bytes, machine_info, make_store, newest_mdstream, open_work, sh, write_report  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -127,10 +127,7 @@ def main():
         md.append(f"| {r['slice']} | {r['path']} | {r['hit_rate']:.3f} | {r['hit_rate_over_belady']:.3f} | "
                   f"{fmt_bytes(r['bytes_read'])} | {r['nodes_never_loaded']} / {r['nodes_sliced_out']} / "
                   f"{r['nodes'] or '-'} | {'no' if r['budget_exhausted'] else 'yes'} |")
-    md += ["", "Raw numbers: [`slice.csv`](slice.csv).", ""]
-    with open(os.path.join(args.out, "slice.md"), "w") as f:
-        f.write("\n".join(md))
-    print(os.path.join(args.out, "slice.md"))
+    write_report(args.out, "slice", md)
 
 
 if __name__ == "__main__":
