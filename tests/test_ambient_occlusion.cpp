@@ -319,6 +319,20 @@ TEST(AmbientOcclusionCli, AutoFollowsThePackingFractionAndErrorsNameTheOption) {
     EXPECT_DOUBLE_EQ(ao.at("radius").get<double>(), 1.5);  // 3 x the default radius 0.5
   }
   const std::string store = (dir / "porous.mds").string(), out = (dir / "x.png").string();
+  // Streamed through a GPU cache, the same image: only what the frame shows occludes.
+  const std::string look = " --width 96 --height 72 --spp 4 --no-cull --view 2 --ao on -o ";
+  ASSERT_EQ(mds::testing::run_mdstream("render " + store + look + (dir / "mem.exr").string()), 0)
+      << mds::testing::cli_stderr();
+  ASSERT_EQ(mds::testing::run_mdstream("render " + store + " --gpu-budget 4MiB" + look + (dir / "str.exr").string()), 0)
+      << mds::testing::cli_stderr();
+  const std::vector<float> mem = mds::testing::load_exr(dir / "mem.exr"), str = mds::testing::load_exr(dir / "str.exr");
+  ASSERT_EQ(mem.size(), size_t(4 * 96 * 72));
+  ASSERT_EQ(str.size(), mem.size());
+  size_t differing = 0;
+  for (size_t p = 0; p < mem.size(); p += 4)
+    differing += std::max({std::abs(mem[p] - str[p]), std::abs(mem[p + 1] - str[p + 1]),
+                           std::abs(mem[p + 2] - str[p + 2])}) > 0.1f;
+  EXPECT_LE(differing, size_t(96 * 72) / 100);
   EXPECT_EQ(mds::testing::run_mdstream("render " + store + " -o " + out + " --ao maybe"), 2);
   EXPECT_NE(mds::testing::cli_stderr().find("--ao 'maybe'"), std::string::npos) << mds::testing::cli_stderr();
   EXPECT_EQ(mds::testing::run_mdstream("render " + store + " -o " + out + " --ao on --ao-radius -1"), 2);
