@@ -205,6 +205,21 @@ TEST(ViewerHud, CacheLineCountsSlicedOutNodes) {
   EXPECT_TRUE(has(viewer::hud_lines(s), "nodes 0/305  in flight 0  sliced out 193"));
 }
 
+// The view line says when ambient occlusion is on (key L), with its radius.
+TEST(ViewerHud, ViewLineShowsAmbientOcclusion) {
+  viewer::HudState s;
+  s.fov_y_deg = 40.0;
+  s.view_name = "normal";
+  const auto view_line = [&] {
+    for (const std::string& l : viewer::hud_lines(s))
+      if (l.rfind("persp", 0) == 0) return l;
+    return std::string();
+  };
+  EXPECT_EQ(view_line(), "persp fov 40  view: normal");
+  s.ao_radius = 1.5;
+  EXPECT_EQ(view_line(), "persp fov 40  view: normal  ao r 1.5");
+}
+
 // The classes debug view (in memory over meshlet boxes, streaming over node boxes): a box's
 // projection takes its class colour, pixels outside every box are only dimmed, and a pixel
 // covered by boxes of two classes mixes them.

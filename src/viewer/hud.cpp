@@ -48,7 +48,8 @@ std::vector<std::string> hud_lines(const HudState& s) {
     l.push_back(fmt::format("read {:.1f} MB/s  total {:.1f} MB  hits {}  misses {}{}", s.read_mb_s, c.bytes_read / 1e6,
                             r.frame_hits, r.frame_misses, c.budget_exhausted ? "  BUDGET FULL" : ""));
   }
-  l.push_back(fmt::format("{} fov {:.0f}  view: {}", s.ortho ? "ortho" : "persp", s.fov_y_deg, s.view_name));
+  l.push_back(fmt::format("{} fov {:.0f}  view: {}{}", s.ortho ? "ortho" : "persp", s.fov_y_deg, s.view_name,
+                          s.ao_radius > 0.0 ? fmt::format("  ao r {:g}", s.ao_radius) : std::string()));
   if (!s.message.empty()) l.push_back(s.message);
   return l;
 }

@@ -39,6 +39,7 @@ struct HudState {
   bool recording = false;
   double read_mb_s = 0.0;     // compressed bytes read from the store per second (recent)
   std::string view_name;
+  double ao_radius = 0.0;     // ambient occlusion radius (key L; 0: off)
   std::string message;        // transient status line (screenshot saved, errors)
   render::FrameReport report;
   render::CacheStats cache;

@@ -478,6 +478,7 @@ Status Viewer::run() {
     hud_.recording = recorder_.has_value();
     hud_.read_mb_s = read_rate;
     hud_.view_name = debug_view_name(vs_.view);
+    hud_.ao_radius = rs.ao_strength > 0.0 ? rs.ao_radius : 0.0;
     hud_.report = report;
     hud_.cache = cache;
     hud_.message = render_error_ ? "render error: " + render_error_->message : message_;
