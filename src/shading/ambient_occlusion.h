@@ -62,8 +62,9 @@ double ao_screen_radius(double r, double proj_y, double height, double depth, bo
 // each cell `cell_volume`. 0 for an empty grid.
 double packing_fraction(const int32_t* counts, uint64_t cells, double cell_volume, double particle_volume);
 // --ao auto turns ambient occlusion on at this packing fraction or more: particles that touch
-// or nearly do. A dense liquid or solid is 0.4-0.74; the synthetic scenes: gas 0.04, shell 0.39,
-// ablation 0.62, porous 0.68 (docs/rendering.md, "Ambient occlusion").
+// or nearly do. A dense liquid or solid is 0.4-0.74; the synthetic scenes from 50k to 1M
+// particles: gas 0.04, shell 0.34-0.57, ablation 0.62-0.65, porous 0.67-0.70
+// (docs/rendering.md, "Ambient occlusion").
 inline constexpr double kAoAutoPacking = 0.1;
 
 }  // namespace mds::shading
