@@ -15,14 +15,13 @@ Writes docs/results/ao.md and ao.csv.
   /usr/bin/python3 tools/bench_ao.py [--quick] [--mdstream build/mdstream] [--runs 3]
 """
 import argparse
-import csv
 import json
 import os
 import statistics
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench_common import machine_info, make_store, newest_mdstream, open_work, sh, write_report  # noqa: E402
+from bench_common import machine_info, make_store, newest_mdstream, open_work, sh, write_csv, write_report  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -84,11 +83,7 @@ def main():
                                  "reference_gpu_frame_ms": statistics.median(j["reference"]["gpu_frame_ms"]
                                                                              for j in per_run[ao])})
 
-    keys = list(rows[0].keys())
-    with open(os.path.join(args.out, "ao.csv"), "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=keys)
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(args.out, "ao", rows, list(rows[0].keys()))
 
     m = machine_info(REPO)
     md = ["# Ambient occlusion benchmark (`--ao`)", "",

@@ -108,3 +108,12 @@ def write_report(out, name, md):
     with open(path, "w") as f:
         f.write("\n".join(md))
     print(path)
+
+
+def write_csv(out, name, rows, keys):
+    """Writes `rows` (dicts) with the columns `keys` as `name`.csv in `out`."""
+    import csv
+    with open(os.path.join(out, f"{name}.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=keys)
+        w.writeheader()
+        w.writerows(rows)

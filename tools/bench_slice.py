@@ -14,13 +14,13 @@ Writes docs/results/slice.md and slice.csv.
   /usr/bin/python3 tools/bench_slice.py [--quick] [--mdstream build/mdstream]
 """
 import argparse
-import csv
 import json
 import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench_common import fmt_bytes, machine_info, make_store, newest_mdstream, open_work, sh, write_report  # noqa: E402
+from bench_common import (fmt_bytes, machine_info, make_store, newest_mdstream, open_work, sh,  # noqa: E402
+                          write_csv, write_report)
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -88,11 +88,7 @@ def main():
                          "nodes": j.get("nodes", 0), "nodes_never_loaded": j["nodes_never_loaded"],
                          "nodes_sliced_out": j["nodes_sliced_out"], "budget_exhausted": j["budget_exhausted"]})
 
-    keys = sorted({k for r in rows for k in r})
-    with open(os.path.join(args.out, "slice.csv"), "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=keys)
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(args.out, "slice", rows, sorted({k for r in rows for k in r}))
 
     m = machine_info(REPO)
     md = ["# Slice benchmark (`--slice`)", "",
