@@ -78,8 +78,7 @@ Result<RenderHost::Loaded> RenderHost::load(const std::vector<store::Slice>& sli
 }
 
 void RenderHost::take(Loaded&& l) {
-  slices_ = std::move(l.slices);
-  stream_.slices = slices_;
+  stream_.slices = std::move(l.slices);
   shown_types_ = std::move(l.shown_types);
   scene_ = std::move(l.scene);
   density_ = std::move(l.density);
@@ -89,7 +88,7 @@ void RenderHost::take(Loaded&& l) {
 
 Status RenderHost::set_slices(const std::vector<store::Slice>& slices) {
   MDS_ASSIGN_OR_RETURN(Loaded loaded, load(slices));  // the current scene stays until this worked
-  std::vector<store::Slice> before = slices_;
+  std::vector<store::Slice> before = stream_.slices;
   renderer_.reset();  // before the scene it drew goes
   take(std::move(loaded));
   Status st = recreate(settings_.width, settings_.height);

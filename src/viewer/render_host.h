@@ -32,7 +32,7 @@ class RenderHost {
   // re-created at the current size. On an error (e.g. slices that leave no particle) the
   // slices before stay, with a renderer.
   Status set_slices(const std::vector<store::Slice>& slices);
-  const std::vector<store::Slice>& slices() const { return slices_; }
+  const std::vector<store::Slice>& slices() const { return stream_.slices; }  // in memory too
   // The ambient occlusion the L key switches on: --ao-radius (or its default for the store) and
   // --ao-strength (1 where that is 0).
   double ao_radius() const { return ao_radius_; }
@@ -68,7 +68,6 @@ class RenderHost {
   std::unique_ptr<store::StoreReader> reader_;
   std::vector<std::string> hide_types_;           // --hide-type
   std::vector<store::TypeRadiusSpec> type_radii_;  // --type-radius
-  std::vector<store::Slice> slices_;
   double ao_radius_ = 0.0, ao_strength_ = 1.0;
   std::vector<uint8_t> shown_types_;
   std::unique_ptr<render::SceneData> scene_;
