@@ -217,6 +217,24 @@ TEST_F(H5mdReaderTest, Float32SpeciesStepsAndBoxVector) {
   }
 }
 
+// list_frames on H5MD: the frames of the position dataset with the steps of position/step
+// (through the module), and one frame for a time-independent position.
+TEST_F(H5mdReaderTest, ListFramesWithSteps) {
+  const auto steps = testing::read_array<int64_t>(p("f32.steps.i64"));
+  auto frames = list_frames(p("f32.h5md"), {});
+  ASSERT_TRUE(frames.ok()) << frames.error().message;
+  ASSERT_EQ(frames->size(), 3u);
+  for (size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ((*frames)[k].index, int64_t(k));
+    EXPECT_EQ((*frames)[k].timestep, steps[k]);
+    EXPECT_EQ((*frames)[k].particle_count, 37u);
+  }
+  auto one = list_frames(p("f64.h5md"), {});
+  ASSERT_TRUE(one.ok()) << one.error().message;
+  ASSERT_EQ(one->size(), 1u);
+  EXPECT_EQ((*one)[0].particle_count, 29u);
+}
+
 TEST_F(H5mdReaderTest, Float64TimeIndependentTriclinicBoxWithOffset) {
   const auto pos = testing::read_array<double>(p("f64.pos.f64"));
   const auto species = testing::read_array<int32_t>(p("f64.species.i32"));

@@ -485,5 +485,70 @@ TEST(LammpsBox, BoundsToBoxFollowsTheManual) {
   EXPECT_DOUBLE_EQ(c[2], 6.0);
 }
 
+// list_frames on LAMMPS' own multi-frame dumps (plain and zstd): the five steps it wrote, each
+// with its atom count, and every frame opened at its mark equals the frame opened by index.
+TEST_F(LammpsReaderTest, ListFramesOfRealDumps) {
+  const auto ref = reference("dump.xyz.lammpstrj");
+  const auto ref_default = reference("dump.default.lammpstrj");  // what dump custom/zstd wrote, uncompressed
+  ASSERT_EQ(ref.size(), 5u);
+  ASSERT_EQ(ref_default.size(), 5u);
+  for (const char* name : {"dump.xyz.lammpstrj", "dump.lammpstrj.zst"}) {
+    SCOPED_TRACE(name);
+    const bool plain = std::string(name) == "dump.xyz.lammpstrj";
+    auto frames = list_frames(file(name), {});
+    ASSERT_TRUE(frames.ok()) << frames.error().message;
+    ASSERT_EQ(frames->size(), ref.size());
+    for (size_t k = 0; k < ref.size(); ++k) {
+      const FrameEntry& e = (*frames)[k];
+      EXPECT_EQ(e.timestep, ref[k].timestep);
+      EXPECT_EQ(e.particle_count, ref[k].natoms);
+      ReaderOptions o = frame_opt(int64_t(k));
+      o.start = e.mark;
+      auto r = read_all(open_lammps_reader(file(name), o));
+      expect_same_as_reference(r, plain ? ref[k] : ref_default[k]);
+    }
+  }
+  // A mark is used only for the frame it names: frame 2 with frame 1's mark skips as before.
+  auto frames = list_frames(file("dump.xyz.lammpstrj"), {});
+  ASSERT_TRUE(frames.ok());
+  ReaderOptions o = frame_opt(2);
+  o.start = (*frames)[1].mark;
+  expect_same_as_reference(read_all(open_lammps_reader(file("dump.xyz.lammpstrj"), o)), ref[2]);
+}
+
+// The relay (ReaderOptions::relay) hands the zstd file's source from frame to frame: a reader
+// takes it, gives it back when destroyed, and the frames read through it equal those read alone.
+TEST_F(LammpsReaderTest, RelayPassesTheSourceFromFrameToFrame) {
+  const fs::path zst = file("dump.lammpstrj.zst");
+  const auto ref = reference("dump.default.lammpstrj");
+  auto frames = list_frames(zst, {});
+  ASSERT_TRUE(frames.ok()) << frames.error().message;
+  auto relay = std::make_shared<TextSourceRelay>();
+  for (int64_t k : {1, 2, 4}) {
+    SCOPED_TRACE(k);
+    ReaderOptions o = frame_opt(k);
+    o.start = (*frames)[size_t(k)].mark;
+    o.relay = relay;
+    const bool had = relay->source != nullptr;
+    EXPECT_EQ(had, k != 1);
+    auto r = open_lammps_reader(zst, o);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_EQ(relay->source, nullptr) << "the reader did not take the source";
+    auto all = read_all(std::move(r));
+    expect_same_as_reference(all, ref[size_t(k)]);
+    EXPECT_NE(relay->source, nullptr) << "the reader did not give the source back";
+  }
+  // A source of another file is not taken.
+  ReaderOptions o = frame_opt(0);
+  o.start = (*frames)[0].mark;
+  o.relay = relay;
+  auto other = list_frames(file("dump.xyz.lammpstrj"), {});
+  ASSERT_TRUE(other.ok());
+  o.start = (*other)[0].mark;
+  auto r = open_lammps_reader(file("dump.xyz.lammpstrj"), o);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_NE(relay->source, nullptr);
+}
+
 }  // namespace
 }  // namespace mds

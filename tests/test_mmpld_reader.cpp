@@ -136,6 +136,24 @@ TEST(MmpldReader, FrameSelection) {
   }
 }
 
+// list_frames on MMPLD: the frame table's frames, each with its particle count (the sum of its
+// lists), the index standing in for the step.
+TEST(MmpldReader, ListFrames) {
+  TempDir dir;
+  json frames = json::array();
+  for (int f = 0; f < 3; ++f)
+    frames.push_back({{"lists", json::array({{{"vertex", 1}, {"colour", 1}, {"count", 10 + f}, {"radius", 0.5}},
+                                             {{"vertex", 2}, {"colour", 0}, {"count", 5 * f}}})}});
+  auto files = write_mmpld(dir, {{{"version", 103}, {"seed", 3}, {"frames", frames}}});
+  auto list = list_frames(files[0].file, {});
+  ASSERT_TRUE(list.ok()) << list.error().message;
+  ASSERT_EQ(list->size(), 3u);
+  for (int f = 0; f < 3; ++f) {
+    EXPECT_EQ((*list)[size_t(f)].timestep, f);
+    EXPECT_EQ((*list)[size_t(f)].particle_count, uint64_t(10 + f + 5 * f));
+  }
+}
+
 TEST(MmpldReader, Legacy103WithoutTimestampIsAccepted) {
   TempDir dir;
   json lists = json::array({{{"vertex", 1}, {"colour", 3}, {"count", 9}, {"radius", 0.5}}});

@@ -168,6 +168,50 @@ TEST_F(XyzReaderTest, MultiFrameAndGzip) {
   }
 }
 
+// list_frames (the series converter's frame list): one entry per frame with its step and count,
+// and each mark opens the same frame as its index does, for the plain and the gzip file.
+TEST_F(XyzReaderTest, ListFramesAndTheirMarks) {
+  std::string s;
+  for (size_t k = 0; k < 3; ++k) s += extended_frame(k, 4000 - 100 * k);
+  const fs::path p = scratch("list.xyz", s);
+  const fs::path gz = tmp("list_xyz.gz");
+  ASSERT_EQ(std::system(("gzip -c " + textest::quote(p.string()) + " > " + textest::quote(gz.string())).c_str()), 0);
+  for (const fs::path& path : {p, gz}) {
+    SCOPED_TRACE(path.string());
+    auto frames = list_frames(path, {});
+    ASSERT_TRUE(frames.ok()) << frames.error().message;
+    ASSERT_EQ(frames->size(), 3u);
+    for (size_t k = 0; k < 3; ++k) {
+      const FrameEntry& e = (*frames)[k];
+      EXPECT_EQ(e.index, int64_t(k));
+      EXPECT_EQ(e.timestep, (*frames_)[k].timestep);
+      EXPECT_EQ(e.particle_count, 4000 - 100 * k);
+      EXPECT_EQ(e.mark.index, int64_t(k));
+      ReaderOptions o = frame_opt(int64_t(k));
+      o.start = e.mark;
+      auto by_mark = read_all(open_xyz_reader(path, o), 999);
+      auto by_index = read_all(open_xyz_reader(path, frame_opt(int64_t(k))), 999);
+      ASSERT_FALSE(by_mark.error.has_value()) << by_mark.error->message;
+      ASSERT_FALSE(by_index.error.has_value()) << by_index.error->message;
+      EXPECT_EQ(by_mark.all.x, by_index.all.x);
+      EXPECT_EQ(by_mark.all.z, by_index.all.z);
+      EXPECT_EQ(by_mark.info.timestep, by_index.info.timestep);
+    }
+    // A mark that points into the atom lines is an error naming the offset, not another frame.
+    ReaderOptions o = frame_opt(1);
+    o.start = (*frames)[1].mark;
+    o.start.offset += 40;
+    auto bad = open_xyz_reader(path, o);
+    ASSERT_FALSE(bad.ok());
+    EXPECT_THAT(bad.error().message, ::testing::HasSubstr(path.string()));
+  }
+  // A truncated last frame: the list fails and names the line.
+  const fs::path cut = scratch("cut.xyz", s.substr(0, s.size() - 200));
+  auto frames = list_frames(cut, {});
+  ASSERT_FALSE(frames.ok());
+  EXPECT_THAT(frames.error().message, ::testing::HasSubstr("file ends inside the frame"));
+}
+
 TEST_F(XyzReaderTest, IntegerSpeciesCollidingWithANameIsAnError) {
   const fs::path p = scratch("mixed.xyz", "3\n\nC 0 0 0\nC 1 1 1\n1 2 2 2\n");
   expect_error(read_all(open_xyz_reader(p, frame_opt(0))), Errc::format, p, 5);

@@ -295,6 +295,7 @@ Result<std::unique_ptr<ParticleReader>> H5mdReader::open(const std::filesystem::
   }
   r->frame_ = static_cast<uint64_t>(frame);
   r->info_.particle_count = n;
+  r->info_.frame_count = r->frames_;
   r->info_.timestep = frame;
 
   // Simulation step of the frame.

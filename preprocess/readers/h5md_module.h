@@ -18,7 +18,7 @@ namespace mds {
 // function (kH5mdModuleSymbol). Both
 // sides are compiled from this header in one build; kH5mdModuleAbi changes with the table or
 // with any type it passes (ParticleReader, ReaderOptions, Result).
-inline constexpr uint32_t kH5mdModuleAbi = 1;
+inline constexpr uint32_t kH5mdModuleAbi = 2;  // 2: FrameInfo::frame_count, ReaderOptions::start
 inline constexpr const char* kH5mdModuleSymbol = "mdstream_h5md_module";
 inline constexpr const char* kH5mdModuleFile = "libmdstream_h5md.so";
 

@@ -409,7 +409,16 @@ Result<std::unique_ptr<ParticleReader>> open_lammps_reader(const std::filesystem
                        open_text_frame(path, options, h, [&](TextSource& s, FrameHeader& fh, const std::string& after) {
                          return read_header(s, fh, after, options.property);
                        }));
-  return std::unique_ptr<ParticleReader>(new LammpsReader(std::move(src), std::move(h)));
+  auto r = std::make_unique<LammpsReader>(std::move(src), std::move(h));
+  r->set_relay(options.relay);
+  return std::unique_ptr<ParticleReader>(std::move(r));
+}
+
+Result<std::vector<FrameEntry>> list_lammps_frames(const std::filesystem::path& path, const ReaderOptions& options) {
+  FrameHeader h;
+  return list_text_frames(path, text_header_fn(h, [&](TextSource& s, FrameHeader& fh, const std::string& after) {
+                            return read_header(s, fh, after, options.property);
+                          }));
 }
 
 }  // namespace mds

@@ -207,6 +207,7 @@ Result<std::unique_ptr<ParticleReader>> MmpldReader::open(const std::filesystem:
                       f.name(), entry, frame, begin, end, data_start, f.size());
   }
   r->info_.timestep = frame;  // MMPLD has no simulation step; the frame index stands in
+  r->info_.frame_count = r->frame_count_;
   Status st = r->parse_frame(begin, end, r->version_ >= 102);
   if (!st.ok() && r->version_ == 103) {
     // MegaMol before commit fc4e784 wrote version-103 files without the frame timestamp;

@@ -184,4 +184,39 @@ Result<std::unique_ptr<ParticleReader>> open_reader(const std::filesystem::path&
   return make_error(Errc::internal, "{}: no reader for format {}", path.string(), input_format_name(f));
 }
 
+Result<std::vector<FrameEntry>> list_frames(const std::filesystem::path& path, const ReaderOptions& options) {
+  InputFormat f = options.format;
+  if (f == InputFormat::automatic) {
+    MDS_ASSIGN_OR_RETURN(f, detect_format(path));
+  }
+  ReaderOptions o = options;
+  o.format = f;
+  o.start = FrameMark{};
+  if (f == InputFormat::lammps) return list_lammps_frames(path, o);
+  if (f == InputFormat::xyz) return list_xyz_frames(path, o);
+  // Binary formats declare their frames: open the first, then each (H5MD's step, MMPLD's lists).
+  o.frame = 0;
+  MDS_ASSIGN_OR_RETURN(std::unique_ptr<ParticleReader> first, open_reader(path, o));
+  const uint64_t count = first->info().frame_count;
+  if (count == 0) return make_error(Errc::internal, "{}: the {} reader did not count its frames", path.string(),
+                                    input_format_name(f));
+  std::vector<FrameEntry> frames;
+  frames.reserve(size_t(count));
+  for (uint64_t k = 0; k < count; ++k) {
+    FrameEntry e;
+    e.index = int64_t(k);
+    if (k == 0) {
+      e.timestep = first->info().timestep;
+      e.particle_count = first->info().particle_count;
+    } else {
+      o.frame = e.index;
+      MDS_ASSIGN_OR_RETURN(std::unique_ptr<ParticleReader> r, open_reader(path, o));
+      e.timestep = r->info().timestep;
+      e.particle_count = r->info().particle_count;
+    }
+    frames.push_back(e);
+  }
+  return frames;
+}
+
 }  // namespace mds

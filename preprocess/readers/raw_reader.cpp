@@ -30,6 +30,7 @@ Result<std::unique_ptr<ParticleReader>> RawReader::open(const std::filesystem::p
   }
   std::unique_ptr<RawReader> r(new RawReader(std::move(file)));
   r->info_.particle_count = r->file_.size() / kBytesPerParticle;
+  r->info_.frame_count = 1;
   return std::unique_ptr<ParticleReader>(std::move(r));
 }
 

@@ -62,10 +62,37 @@ enum class InputFormat { automatic, lammps, xyz, h5md, mmpld, raw };
 const char* input_format_name(InputFormat f);
 std::optional<InputFormat> parse_input_format(const std::string& name);
 
+// Where a frame of a text input (LAMMPS, XYZ) starts, as list_frames() found it. With it in
+// ReaderOptions::start, open_reader() goes to the frame directly instead of skipping the frames
+// before it: a plain file seeks, a compressed one is decompressed again up to the offset.
+struct FrameMark {
+  int64_t index = -1;   // the frame's index (0 = first); -1: no mark
+  uint64_t offset = 0;  // uncompressed byte offset of the frame's first header line
+  uint64_t line = 0;    // lines of the file before that one
+};
+
+class TextSource;  // readers/text_source.h
+
+// Hands a text input's open source from one frame's reader to the next (convert_series): a text
+// reader opened with a relay that holds a source of the same file takes it (and seeks forward in
+// it), and gives it back when destroyed after reading without an error. So a compressed
+// trajectory is decompressed once for all its frames, not again from the start for each.
+// Not thread-safe: one reader at a time.
+struct TextSourceRelay {
+  TextSourceRelay();
+  ~TextSourceRelay();
+  std::unique_ptr<TextSource> source;
+};
+
 struct ReaderOptions {
   InputFormat format = InputFormat::automatic;
   // Frame to read: >= 0 is the index (0 = first), -1 = the last frame.
   int64_t frame = 0;
+  // Text formats: when start.index == frame, the frame starts at start (list_frames); other
+  // formats and other frames ignore it. A mark that does not point at a frame header is an error.
+  FrameMark start;
+  // Text formats: where to take the open source from and give it back to (nullptr: none).
+  std::shared_ptr<TextSourceRelay> relay;
   std::string h5md_group;          // H5MD: /particles/<group>; empty = the only one (error if several)
   // A per-particle scalar to keep (colour coding): a LAMMPS column (`c_pe`, `vx`, `q`), an
   // extended-XYZ R:1 property, the H5MD dataset /particles/<group>/<name>/value, or MMPLD's
@@ -77,6 +104,8 @@ struct ReaderOptions {
 // What is known about the frame after open (before reading particles).
 struct FrameInfo {
   uint64_t particle_count = 0;     // exact count the frame declares
+  uint64_t frame_count = 0;        // frames of the input where the format declares them (H5MD, MMPLD;
+                                   // raw: 1); 0 for text formats, whose frames list_frames() counts
   int64_t timestep = 0;            // simulation step when the file has one
   bool has_box = false;            // simulation box (orthogonal bounds or triclinic bounding box)
   double box_lo[3] = {0, 0, 0};
@@ -114,5 +143,19 @@ Result<InputFormat> detect_format(const std::filesystem::path& path);
 // Opens `path` positioned at the requested frame.
 Result<std::unique_ptr<ParticleReader>> open_reader(const std::filesystem::path& path,
                                                     const ReaderOptions& options);
+
+// One frame of an input, as list_frames() finds it.
+struct FrameEntry {
+  int64_t index = 0;
+  int64_t timestep = 0;         // the simulation step (the frame index where the format has none)
+  uint64_t particle_count = 0;  // as the frame declares it
+  FrameMark mark;               // text formats: where the frame starts (ReaderOptions::start)
+};
+
+// Every frame of `path`, in file order (options.frame and options.start are ignored). Text
+// formats read each frame's header once and count the atom lines without parsing them (a
+// malformed header or a short frame is an error naming its line); H5MD and MMPLD read their
+// frame tables (one open per frame for H5MD's steps); raw has one frame.
+Result<std::vector<FrameEntry>> list_frames(const std::filesystem::path& path, const ReaderOptions& options);
 
 }  // namespace mds

@@ -13,4 +13,8 @@ Result<std::unique_ptr<ParticleReader>> open_h5md_reader(const std::filesystem::
 Result<std::unique_ptr<ParticleReader>> open_mmpld_reader(const std::filesystem::path& path, const ReaderOptions& options);
 Result<std::unique_ptr<ParticleReader>> open_raw_reader(const std::filesystem::path& path, const ReaderOptions& options);
 
+// list_frames() of the text formats.
+Result<std::vector<FrameEntry>> list_lammps_frames(const std::filesystem::path& path, const ReaderOptions& options);
+Result<std::vector<FrameEntry>> list_xyz_frames(const std::filesystem::path& path, const ReaderOptions& options);
+
 }  // namespace mds

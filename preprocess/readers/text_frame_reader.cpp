@@ -48,9 +48,22 @@ Result<std::unique_ptr<TextSource>> open_text_frame(const std::filesystem::path&
   if (options.frame < -1)
     return make_error(Errc::invalid_argument, "{}: frame {} is not valid (use >= 0, or -1 for the last)",
                       path.string(), options.frame);
-  MDS_ASSIGN_OR_RETURN(std::unique_ptr<TextSource> src, TextSource::open(path));
+  std::unique_ptr<TextSource> src;
+  const bool marked = options.start.index >= 0 && options.start.index == options.frame;
+  if (marked && options.relay && options.relay->source && options.relay->source->name() == path.string()) {
+    src = std::move(options.relay->source);  // seek() below goes forward in it, even compressed
+  } else {
+    MDS_ASSIGN_OR_RETURN(src, TextSource::open(path));
+  }
   std::string after;
-  if (options.frame >= 0) {
+  if (marked) {
+    // A mark from list_frames(): go there and read the header found there.
+    MDS_TRY(src->seek(options.start.offset, options.start.line));
+    MDS_ASSIGN_OR_RETURN(std::optional<TextFrameExtent> h, read_header(*src, ""));
+    if (!h)
+      return make_error(Errc::invalid_argument, "{}: byte offset {}: no frame {} there (the file changed since its "
+                        "frames were listed?)", src->name(), options.start.offset, options.frame);
+  } else if (options.frame >= 0) {
     for (int64_t f = 0;; ++f) {
       MDS_ASSIGN_OR_RETURN(std::optional<TextFrameExtent> h, read_header(*src, after));
       if (!h) {
@@ -82,6 +95,34 @@ Result<std::unique_ptr<TextSource>> open_text_frame(const std::filesystem::path&
     if (!h) return make_error(Errc::internal, "{}: last frame vanished on re-read", src->name());
   }
   return src;
+}
+
+Result<std::vector<FrameEntry>> list_text_frames(const std::filesystem::path& path, const TextHeaderFn& read_header) {
+  MDS_ASSIGN_OR_RETURN(std::unique_ptr<TextSource> src, TextSource::open(path));
+  std::vector<FrameEntry> frames;
+  std::string after;
+  while (true) {
+    const uint64_t off = src->tell(), line = src->line();
+    MDS_ASSIGN_OR_RETURN(std::optional<TextFrameExtent> h, read_header(*src, after));
+    if (!h) break;
+    FrameEntry e;
+    e.index = int64_t(frames.size());
+    e.timestep = h->timestep;
+    e.particle_count = h->natoms;
+    e.mark = FrameMark{e.index, off, line};
+    frames.push_back(e);
+    MDS_TRY(skip_atoms(*src, *h));
+    after = after_frame(*h);
+  }
+  if (frames.empty()) return make_error(Errc::format, "{}: no frames (empty file?)", src->name());
+  return frames;
+}
+
+TextSourceRelay::TextSourceRelay() = default;
+TextSourceRelay::~TextSourceRelay() = default;
+
+TextFrameReader::~TextFrameReader() {
+  if (relay_ && src_ && !failed_) relay_->source = std::move(src_);
 }
 
 TextFrameReader::TextFrameReader(std::unique_ptr<TextSource> src, FrameInfo info, uint64_t frame_line,

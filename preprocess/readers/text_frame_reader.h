@@ -26,6 +26,7 @@ inline constexpr uint64_t kMaxTextAtoms = uint64_t{1} << 40;
 struct TextFrameExtent {
   uint64_t natoms = 0;      // atom lines that follow the header
   uint64_t first_line = 0;  // line where the frame starts (for messages)
+  int64_t timestep = 0;     // the header's simulation step (list_text_frames)
 };
 
 // Reads the next frame's header; nullopt at the end of the file. `after` describes what
@@ -33,21 +34,30 @@ struct TextFrameExtent {
 using TextHeaderFn = std::function<Result<std::optional<TextFrameExtent>>(TextSource& src, const std::string& after)>;
 
 // Opens `path` and positions the source just after the header of options.frame (>= 0, or
-// -1 for the last frame); the header read last is the selected one.
+// -1 for the last frame); the header read last is the selected one. options.start, when it marks
+// options.frame, is sought directly.
 Result<std::unique_ptr<TextSource>> open_text_frame(const std::filesystem::path& path, const ReaderOptions& options,
                                                     const TextHeaderFn& read_header);
 
-// The same for a header struct H with fields natoms and first_line, filled by
+// Every frame of `path` (list_frames): its headers read, its atom lines skipped.
+Result<std::vector<FrameEntry>> list_text_frames(const std::filesystem::path& path, const TextHeaderFn& read_header);
+
+// A TextHeaderFn for a header struct H with fields natoms, first_line and timestep, filled by
 // read_header(TextSource&, H&, const std::string& after) -> Result<bool>.
+template <class H, class ReadHeader>
+TextHeaderFn text_header_fn(H& h, ReadHeader&& read_header) {
+  return [&h, read_header](TextSource& src, const std::string& after) -> Result<std::optional<TextFrameExtent>> {
+    MDS_ASSIGN_OR_RETURN(bool has, read_header(src, h, after));
+    if (!has) return std::optional<TextFrameExtent>{};
+    return std::optional<TextFrameExtent>{TextFrameExtent{h.natoms, h.first_line, h.timestep}};
+  };
+}
+
+// open_text_frame with such a header struct; h holds the selected frame's header after it.
 template <class H, class ReadHeader>
 Result<std::unique_ptr<TextSource>> open_text_frame(const std::filesystem::path& path, const ReaderOptions& options,
                                                     H& h, ReadHeader&& read_header) {
-  return open_text_frame(path, options,
-                         [&](TextSource& src, const std::string& after) -> Result<std::optional<TextFrameExtent>> {
-                           MDS_ASSIGN_OR_RETURN(bool has, read_header(src, h, after));
-                           if (!has) return std::optional<TextFrameExtent>{};
-                           return std::optional<TextFrameExtent>{TextFrameExtent{h.natoms, h.first_line}};
-                         });
+  return open_text_frame(path, options, text_header_fn(h, std::forward<ReadHeader>(read_header)));
 }
 
 // "file:line: file ends inside the frame ..." for a frame that holds fewer atom lines than
@@ -69,7 +79,11 @@ struct LineParseError {
 // validates what follows. An error is remembered and returned again by later read() calls.
 class TextFrameReader : public ParticleReader {
  public:
+  ~TextFrameReader() override;
   const FrameInfo& info() const override { return info_; }
+  // Gives the source back to `relay` when this reader is destroyed without an error
+  // (ReaderOptions::relay; nullptr: the source closes with the reader).
+  void set_relay(std::shared_ptr<TextSourceRelay> relay) { relay_ = std::move(relay); }
   Result<size_t> read(ParticleBatch& out, size_t max_particles) final;
 
  protected:
@@ -118,6 +132,7 @@ class TextFrameReader : public ParticleReader {
   Error fail(Error e);
 
   uint64_t frame_line_ = 0;
+  std::shared_ptr<TextSourceRelay> relay_;
   bool reject_unterminated_ = false;
   uint64_t remaining_ = 0;
   std::optional<Error> failed_;

@@ -454,7 +454,16 @@ Result<std::unique_ptr<ParticleReader>> open_xyz_reader(const std::filesystem::p
                        open_text_frame(path, options, h, [&](TextSource& s, XyzHeader& xh, const std::string& after) {
                          return read_header(s, xh, after, options.property);
                        }));
-  return std::unique_ptr<ParticleReader>(new XyzReader(std::move(src), h));
+  auto r = std::make_unique<XyzReader>(std::move(src), h);
+  r->set_relay(options.relay);
+  return std::unique_ptr<ParticleReader>(std::move(r));
+}
+
+Result<std::vector<FrameEntry>> list_xyz_frames(const std::filesystem::path& path, const ReaderOptions& options) {
+  XyzHeader h;
+  return list_text_frames(path, text_header_fn(h, [&](TextSource& s, XyzHeader& xh, const std::string& after) {
+                            return read_header(s, xh, after, options.property);
+                          }));
 }
 
 }  // namespace mds
