@@ -1,8 +1,10 @@
-// `mdstream convert INPUT... -o OUT.mds [options]`: simulation dumps -> node/meshlet store.
-// The pipeline lives in preprocess/convert/converter.{h,cpp}; this file parses options,
-// prints the summary and writes the optional JSON report.
+// `mdstream convert INPUT... -o OUT.mds [options]`: simulation dumps -> node/meshlet store;
+// `-o RUN.mds.series [--frames SEL]`: a trajectory -> one store per frame and their index.
+// The pipeline lives in preprocess/convert/converter.{h,cpp} (series_convert.h for series);
+// this file parses options, prints the summary and writes the optional JSON report.
 #include <cstdio>
 #include <fstream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -11,7 +13,11 @@
 #include "cli/command.h"
 #include "core/byte_size.h"
 #include "convert/converter.h"
+#include "convert/series_convert.h"
+#include "core/frame_selection.h"
+#include "core/text_file.h"
 #include "store/format.h"
+#include "store/series.h"
 
 namespace mds::cli {
 
@@ -22,6 +28,8 @@ struct ConvertArgs {
   std::string output;
   std::string format = "auto";
   std::string frame = "0";
+  bool frame_given = false;
+  std::string frames;  // --frames: a series of the one input's frames
   std::string h5md_group;
   std::string property;
   uint32_t node_size = 10000;
@@ -159,17 +167,90 @@ Result<convert::ConvertOptions> to_options(const ConvertArgs& a) {
   return o;
 }
 
+Status write_json_report(const std::string& file, const nlohmann::json& j) {
+  return write_text_atomically(file, j.dump(2) + "\n");
+}
+
+int run_series(const ConvertArgs& args, const convert::ConvertOptions& opts) {
+  std::optional<FrameSelection> frames;
+  if (!args.frames.empty()) {
+    auto sel = parse_frame_selection(args.frames);
+    if (!sel.ok()) return report("convert", make_error(Errc::invalid_argument, "--frames {}", sel.error().message));
+    frames = *sel;
+  }
+  if (opts.inputs.size() == 1 && args.frame_given)
+    return report("convert", make_error(Errc::invalid_argument, "--frame {} with a series output: pick the input's "
+                                        "frames with --frames", args.frame));
+  auto rep = convert::convert_series(opts, frames, [&](size_t k, size_t n, const convert::SeriesFrameReport& f) {
+    if (!args.quiet)
+      std::fprintf(stderr, "frame %zu/%zu: %s frame %lld (step %lld): %llu particles, %.2f s -> %s\n", k + 1, n,
+                   opts.inputs.size() == 1 ? opts.inputs[0].string().c_str() : "input", (long long)f.input_frame,
+                   (long long)f.timestep, (unsigned long long)f.report.particles, f.report.seconds_total,
+                   convert::series_store_path(opts.output, k, n).filename().string().c_str());
+  });
+  if (!rep.ok()) return report("convert", rep.error());
+  if (!args.json_report.empty()) {
+    nlohmann::json j;
+    j["series"] = opts.output.string();
+    j["seconds_total"] = rep->seconds_total;
+    nlohmann::json frames_json = nlohmann::json::array();
+    for (size_t k = 0; k < rep->frames.size(); ++k) {
+      convert::ConvertOptions fo = opts;
+      fo.output = rep->frames[k].path;
+      nlohmann::json fj = report_json(rep->reports[k].report, fo);
+      fj["input_frame"] = rep->reports[k].input_frame;
+      fj["timestep"] = rep->reports[k].timestep;
+      fj["time"] = rep->frames[k].time;
+      frames_json.push_back(std::move(fj));
+    }
+    j["frames"] = std::move(frames_json);
+    if (Status st = write_json_report(args.json_report, j); !st.ok()) return report("convert", st.error());
+  }
+  if (!args.quiet) {
+    uint64_t particles = 0, bytes = 0;
+    for (const auto& f : rep->reports) {
+      particles += f.report.particles;
+      bytes += f.report.file_bytes;
+    }
+    std::fprintf(stderr, "wrote %s: %zu frames, %llu particles, %llu bytes of stores, %.2f s (%.2f M particles/s)\n",
+                 opts.output.string().c_str(), rep->frames.size(), (unsigned long long)particles,
+                 (unsigned long long)bytes, rep->seconds_total,
+                 rep->seconds_total > 0 ? double(particles) / rep->seconds_total / 1e6 : 0.0);
+  }
+  return 0;
+}
+
+int run_convert(const ConvertArgs& args) {
+  auto opts = to_options(args);
+  if (!opts.ok()) return report("convert", opts.error());
+  if (store::is_series_path(opts->output)) return run_series(args, *opts);
+  if (!args.frames.empty())
+    return report("convert", make_error(Errc::invalid_argument, "--frames {}: writes a series of stores; name its "
+                                        "index RUN.mds.series with -o (got {})", args.frames, args.output));
+  auto rep = convert::convert(*opts);
+  if (!rep.ok()) return report("convert", rep.error());
+  if (!args.json_report.empty()) {
+    if (Status st = write_json_report(args.json_report, report_json(*rep, *opts)); !st.ok())
+      return report("convert", st.error());
+  }
+  if (!args.quiet) print_summary(*rep, *opts);
+  return 0;
+}
+
 void setup_convert(CLI::App& sub, int& exit_code) {
   auto args = std::make_shared<ConvertArgs>();
   sub.add_option("inputs", args->inputs,
                  "Input files (LAMMPS dump, XYZ/extended XYZ, H5MD, MMPLD, raw float32 xyz); several files are "
                  "concatenated into one particle set, types merged by input id")
       ->required();
-  sub.add_option("-o,--output", args->output, "Output store (.mds); written to a temporary file, renamed when complete")
+  sub.add_option("-o,--output", args->output,
+                 "Output store (.mds), or a series index (.series, see --frames); written to a temporary file, renamed "
+                 "when complete")
       ->required();
   sub.add_option("--format", args->format, "Input format: auto|lammps|xyz|h5md|mmpld|raw (raw must be explicit)")
       ->capture_default_str();
-  sub.add_option("--frame", args->frame, "Frame to convert: index K (0 = first) or 'last'")->capture_default_str();
+  CLI::Option* frame_opt =
+      sub.add_option("--frame", args->frame, "Frame to convert: index K (0 = first) or 'last'")->capture_default_str();
   sub.add_option("--h5md-group", args->h5md_group, "H5MD particle group under /particles when there are several");
   sub.add_option("--property", args->property,
                  "Keep one per-particle scalar for colour coding (render --color-by property): a LAMMPS column such as "
@@ -197,27 +278,14 @@ void setup_convert(CLI::App& sub, int& exit_code) {
   sub.add_option("--tmp-dir", args->tmp_dir, "Directory for temporary files (default: the output's directory)");
   sub.add_flag("-q,--quiet", args->quiet, "Print nothing but errors");
   sub.add_option("--json-report", args->json_report, "Also write the conversion report as JSON to this file");
-  sub.callback([args, &exit_code] {
-    auto opts = to_options(*args);
-    if (!opts.ok()) {
-      exit_code = report("convert", opts.error());
-      return;
-    }
-    auto rep = convert::convert(*opts);
-    if (!rep.ok()) {
-      exit_code = report("convert", rep.error());
-      return;
-    }
-    if (!args->json_report.empty()) {
-      std::ofstream f(args->json_report);
-      f << report_json(*rep, *opts).dump(2) << "\n";
-      if (!f) {
-        exit_code = report("convert", make_error(Errc::io, "{}: cannot write the JSON report", args->json_report));
-        return;
-      }
-    }
-    if (!args->quiet) print_summary(*rep, *opts);
-    exit_code = 0;
+  sub.add_option("--frames", args->frames,
+                 "Convert a trajectory to a series of stores: -o RUN.mds.series writes RUN.0000.mds, RUN.0001.mds, ... "
+                 "and the index (ParaView's .series JSON). SEL picks the input's frames: all (the default with a "
+                 ".series output), last, K, or a slice A:B[:S] (B exclusive, negative from the end). With several "
+                 "inputs each one is a frame, ordered by its timestep");
+  sub.callback([args, &exit_code, frame_opt] {
+    args->frame_given = frame_opt->count() > 0;
+    exit_code = run_convert(*args);
   });
 }
 

@@ -1,6 +1,7 @@
 // `mdstream info STORE [--json] [--verify]`: summary of a store (header, types, sizes,
 // quantization), as text or JSON. --verify also reads and decodes every node payload and
-// checks that its occupancy record holds its particles.
+// checks that its occupancy record holds its particles. For a series index (store/series.h):
+// one line per frame (time, counts, bounds) and the totals; --verify checks every store.
 #include <algorithm>
 #include <bit>
 #include <cstdio>
@@ -12,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "store/series.h"
 #include "store/store_reader.h"
 #include "store/type_style.h"
 
@@ -142,13 +144,86 @@ std::string human(const nlohmann::json& j, bool verified) {
   return s;
 }
 
+// Every store of a series opened (and verified), the series' JSON; the first error names the frame.
+Result<nlohmann::json> series_info(const std::string& file, bool verify) {
+  MDS_ASSIGN_OR_RETURN(const store::Series series, store::read_series(file));
+  nlohmann::json frames = nlohmann::json::array();
+  uint64_t particles = 0, bytes = 0;
+  double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+  for (size_t k = 0; k < series.frames.size(); ++k) {
+    const store::SeriesFrame& f = series.frames[k];
+    auto r = store::StoreReader::open(f.path);
+    Status st = r.ok() && verify ? verify_payloads(**r) : Status{};
+    if (!r.ok() || !st.ok()) {
+      Error e = r.ok() ? st.error() : r.error();
+      e.message = fmt::format("{}: frame {} ({}): {}", file, k, f.name, e.message);
+      return e;
+    }
+    const store::FileHeader& h = (*r)->header();
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = k == 0 ? h.bounds_min[d] : std::min(lo[d], h.bounds_min[d]);
+      hi[d] = k == 0 ? h.bounds_max[d] : std::max(hi[d], h.bounds_max[d]);
+    }
+    particles += h.particle_count;
+    bytes += (*r)->file_bytes();
+    frames.push_back({{"name", f.name},
+                      {"time", f.time},
+                      {"particles", h.particle_count},
+                      {"nodes", h.node_count},
+                      {"file_bytes", (*r)->file_bytes()},
+                      {"bounds_min", vec3(h.bounds_min)},
+                      {"bounds_max", vec3(h.bounds_max)}});
+  }
+  nlohmann::json j;
+  j["series"] = file;
+  j["frame_count"] = series.frames.size();
+  j["particles_total"] = particles;
+  j["file_bytes_total"] = bytes;
+  j["bounds_min"] = vec3(lo);  // over every frame
+  j["bounds_max"] = vec3(hi);
+  j["frames"] = std::move(frames);
+  return j;
+}
+
+std::string series_human(const nlohmann::json& j, bool verified) {
+  auto v3 = [](const nlohmann::json& a) {
+    return fmt::format("({:.6g}, {:.6g}, {:.6g})", a[0].get<double>(), a[1].get<double>(), a[2].get<double>());
+  };
+  std::string s;
+  s += fmt::format("series           {}\n", j["series"].get<std::string>());
+  s += fmt::format("frames           {}\n", j["frame_count"].get<size_t>());
+  s += fmt::format("particles        {} in all frames\n", j["particles_total"].get<uint64_t>());
+  s += fmt::format("stores           {} bytes\n", j["file_bytes_total"].get<uint64_t>());
+  s += fmt::format("bounds           {} .. {} (all frames)\n", v3(j["bounds_min"]), v3(j["bounds_max"]));
+  s += fmt::format("  {:>5}  {:>12}  {:>12}  {:>7}  {:<24} {}\n", "frame", "time", "particles", "nodes", "store",
+                   "bounds");
+  size_t k = 0;
+  for (const auto& f : j["frames"])
+    s += fmt::format("  {:>5}  {:>12.10g}  {:>12}  {:>7}  {:<24} {} .. {}\n", k++, f["time"].get<double>(),
+                     f["particles"].get<uint64_t>(), f["nodes"].get<uint64_t>(), f["name"].get<std::string>(),
+                     v3(f["bounds_min"]), v3(f["bounds_max"]));
+  if (verified) s += "verify           every store's node payloads read, hash-checked and decoded: ok\n";
+  return s;
+}
+
 void setup_info(CLI::App& sub, int& exit_code) {
   auto opt = std::make_shared<InfoOptions>();
-  sub.add_option("store", opt->store, "Store file (.mds)")->required();
+  sub.add_option("store", opt->store, "Store file (.mds) or series index (.series)")->required();
   sub.add_flag("--json", opt->json, "Print JSON instead of text");
   sub.add_flag("--verify", opt->verify,
                "Also read, hash-check and decode every node payload and check its occupancy record");
   sub.callback([opt, &exit_code] {
+    if (store::is_series_path(opt->store)) {
+      auto j = series_info(opt->store, opt->verify);
+      if (!j.ok()) {
+        exit_code = report("info", j.error());
+        return;
+      }
+      if (opt->verify) (*j)["verified"] = true;
+      std::fputs(opt->json ? (j->dump(2) + "\n").c_str() : series_human(*j, opt->verify).c_str(), stdout);
+      exit_code = 0;
+      return;
+    }
     auto reader = store::StoreReader::open(opt->store);
     if (!reader.ok()) {
       exit_code = report("info", reader.error());
@@ -176,7 +251,8 @@ void setup_info(CLI::App& sub, int& exit_code) {
   });
 }
 
-Registrar reg("info", "Summarize a store (.mds): counts, bounds, quantization, types, sizes", setup_info);
+Registrar reg("info", "Summarize a store (.mds) or a store series (.series): counts, bounds, quantization, types, sizes",
+              setup_info);
 
 }  // namespace
 }  // namespace mds::cli

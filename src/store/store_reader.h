@@ -28,6 +28,8 @@ struct NodeData {
 
 class StoreReader {
  public:
+  // A path ending in .series (a store series index, store/series.h) is Errc::invalid_argument
+  // naming its first store: a command that takes one store says so instead of "bad header".
   static Result<std::unique_ptr<StoreReader>> open(const std::filesystem::path& path);
   ~StoreReader();
   StoreReader(const StoreReader&) = delete;

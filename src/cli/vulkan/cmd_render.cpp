@@ -1,7 +1,9 @@
 // `mdstream render STORE -o IMAGE.png|.exr --no-cull [options]`: headless Vulkan rendering of a
 // store as ray-cast sphere glyphs with progressive super-sampling, with the probabilistic
 // occlusion culling loop of paper 000 (render/culling/cull_loop.h), or every particle with
-// --no-cull (the reference).
+// --no-cull (the reference). STORE may be a series index (.series, store/series.h): each frame
+// of --series-frames is rendered as one store, through one Vulkan context, with one camera
+// and one colour range for all of them (render/series_look.h).
 #include <unistd.h>
 
 #include <cstdio>
@@ -27,6 +29,9 @@
 #include "render/image_io.h"
 #include "render/renderer.h"
 #include "render/scene.h"
+#include "render/series_look.h"
+#include "core/frame_selection.h"
+#include "store/series.h"
 #include "render/visible_nodes.h"
 #include "store/store_reader.h"
 #include "vk/context.h"
@@ -51,6 +56,15 @@ struct RenderOptions {
   uint32_t paired_frames = 0;
   std::string path;           // --path: a built-in camera path or a path file (render_path.h)
   uint32_t path_frames = 60;  // --frames of a built-in path
+  std::string series_frames = "all";  // --series-frames of a .series STORE
+};
+
+// What a series render fixes for every frame (run_render_series); empty for one store.
+struct FrameSetup {
+  std::optional<render::Camera> camera;        // the series' camera (else --camera or --view)
+  const render::SeriesLook* look = nullptr;    // the colour range over every frame
+  std::optional<render::AoChoice> ao;          // the first frame's --ao choice, kept for the others
+  render::AoChoice* ao_out = nullptr;          // receives this frame's choice
 };
 
 // What a streaming cache that reads whole nodes would read for this converged view, at two
@@ -93,7 +107,9 @@ NodeGranularity node_granularity(const store::StoreReader& reader, std::span<con
 nlohmann::json vec3_json(const glm::dvec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); }
 
 
-Status run_render(const RenderOptions& o) {
+// Renders o.store (one store) to o.output; the stats go to *stats_out when given, else to o.stats.
+Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_ptr<vk::Context>& ctx,
+                    nlohmann::json* stats_out) {
   render::RenderSettings rs;
   MDS_TRY(apply_culling_options(o.cull, rs));
   if (o.fov <= 0.0 || o.fov >= 180.0)
@@ -117,6 +133,17 @@ Status run_render(const RenderOptions& o) {
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
   render::AoChoice ao;
   MDS_TRY(apply_appearance(look, *reader, rs, &ao));
+  if (fs.ao) {
+    ao = *fs.ao;
+    rs.ao_radius = ao.on ? ao.radius : 0.0;
+    rs.ao_strength = ao.strength;
+  }
+  if (fs.ao_out) *fs.ao_out = ao;
+  if (fs.look && !rs.color_by.by_type()) {
+    const glm::dvec2 range = render::series_color_range(rs.color_by, *fs.look);
+    rs.color_by.lo = range.x;
+    rs.color_by.hi = range.y;
+  }
   const bool streaming = !o.stream.gpu_budget.empty();
   MDS_ASSIGN_OR_RETURN(const render::SceneOptions so, scene_options(look, *reader, streaming));
   const std::vector<uint8_t>& shown = so.shown_types;
@@ -143,7 +170,9 @@ Status run_render(const RenderOptions& o) {
 
   render::Camera camera;
   const double aspect = double(o.width) / double(std::max(o.height, 1u));
-  if (!o.camera.empty()) {
+  if (fs.camera) {
+    camera = *fs.camera;
+  } else if (!o.camera.empty()) {
     MDS_ASSIGN_OR_RETURN(camera, render::parse_camera(o.camera));
   } else {
     MDS_ASSIGN_OR_RETURN(camera, render::default_view(o.view, scene.bounds, o.fov, aspect));
@@ -151,9 +180,11 @@ Status run_render(const RenderOptions& o) {
   camera.fov_y_deg = o.fov;
   camera.ortho = o.ortho;
 
-  vk::ContextOptions copt = vk::ContextOptions::from_env();
-  copt.device_index = o.device;
-  MDS_ASSIGN_OR_RETURN(auto ctx, vk::Context::create(copt));
+  if (!ctx) {
+    vk::ContextOptions copt = vk::ContextOptions::from_env();
+    copt.device_index = o.device;
+    MDS_ASSIGN_OR_RETURN(ctx, vk::Context::create(copt));
+  }
   rs.width = o.width;
   rs.height = o.height;
   rs.spp = o.spp;
@@ -207,7 +238,7 @@ Status run_render(const RenderOptions& o) {
     }
   }
 
-  if (!o.stats.empty()) {
+  if (!o.stats.empty() || stats_out) {
     nlohmann::json j;
     j["store"] = o.store;
     j["output"] = o.output;
@@ -375,7 +406,11 @@ Status run_render(const RenderOptions& o) {
     if (!so.type_radius.empty()) j["type_radius"] = so.type_radius;  // per type index, as drawn
     j["validation"] = ctx->validation_enabled();
     j["validation_messages"] = ctx->validation_messages();
-    MDS_TRY(write_text_atomically(o.stats, j.dump(2) + "\n"));
+    if (stats_out) {
+      *stats_out = std::move(j);
+    } else {
+      MDS_TRY(write_text_atomically(o.stats, j.dump(2) + "\n"));
+    }
   }
   if (!o.cull.no_cull)
     std::fprintf(stderr, "mdstream render: culled %llu of %llu meshlets (%.1f %%), %s after %u iterations\n",
@@ -388,10 +423,89 @@ Status run_render(const RenderOptions& o) {
   return {};
 }
 
+// A series: the frames of --series-frames, each rendered as a store with the series' camera
+// and colour range; -o names them by series index when there are several (or it has a %d).
+Status run_render_series(const RenderOptions& o) {
+  if (!o.path.empty())
+    return make_error(Errc::invalid_argument, "--path with a series ({}): render the frames with a fixed camera, or "
+                      "a camera path over one store of it", o.store);
+  if (o.visible_reference || o.paired_frames > 0)
+    return make_error(Errc::invalid_argument, "--visible-reference and --paired-frames measure one store: not with a "
+                      "series ({})", o.store);
+  MDS_ASSIGN_OR_RETURN(const store::Series series, store::read_series(o.store));
+  auto sel = parse_frame_selection(o.series_frames);
+  if (!sel.ok()) return make_error(Errc::invalid_argument, "--series-frames {}", sel.error().message);
+  auto picked = select_frames(*sel, int64_t(series.frames.size()));
+  if (!picked.ok()) return make_error(Errc::invalid_argument, "{}: --series-frames {}", o.store, picked.error().message);
+  const bool numbered = picked->size() > 1 || o.output.find('%') != std::string::npos;
+  if (numbered) MDS_TRY(frame_file_name(o.output, 0));
+  MDS_ASSIGN_OR_RETURN(const render::SeriesLook look, render::series_look(series, *picked));
+  if (o.fov <= 0.0 || o.fov >= 180.0)
+    return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.fov);
+  render::Camera camera;
+  if (!o.camera.empty()) {
+    MDS_ASSIGN_OR_RETURN(camera, render::parse_camera(o.camera));
+  } else {
+    MDS_ASSIGN_OR_RETURN(camera, render::default_view(o.view, look.bounds, o.fov, double(o.width) / double(o.height)));
+  }
+  camera.fov_y_deg = o.fov;
+  camera.ortho = o.ortho;
+
+  std::unique_ptr<vk::Context> ctx;
+  FrameSetup fs;
+  fs.camera = camera;
+  fs.look = &look;
+  render::AoChoice first_ao;
+  nlohmann::json frames = nlohmann::json::array();
+  for (size_t i = 0; i < picked->size(); ++i) {
+    const int64_t k = (*picked)[i];
+    const store::SeriesFrame& f = series.frames[size_t(k)];
+    RenderOptions fo = o;
+    fo.store = f.path.string();
+    if (numbered) {
+      MDS_ASSIGN_OR_RETURN(fo.output, frame_file_name(o.output, uint32_t(k)));
+    }
+    fs.ao_out = i == 0 ? &first_ao : nullptr;
+    nlohmann::json fj;
+    Status st = render_store(fo, fs, ctx, o.stats.empty() ? nullptr : &fj);
+    if (!st.ok()) {
+      Error e = st.error();
+      e.message = fmt::format("{}: frame {} ({}): {}", o.store, k, f.name, e.message);
+      return e;
+    }
+    if (i == 0) fs.ao = first_ao;
+    if (!o.stats.empty()) {
+      fj["series_frame"] = k;
+      fj["time"] = f.time;
+      frames.push_back(std::move(fj));
+    }
+  }
+  if (!o.stats.empty()) {
+    nlohmann::json j;
+    j["series"] = o.store;
+    j["series_frames"] = o.series_frames;
+    j["frames"] = std::move(frames);
+    MDS_TRY(write_text_atomically(o.stats, j.dump(2) + "\n"));
+  }
+  return {};
+}
+
+Status run_render(const RenderOptions& o) {
+  if (store::is_series_path(o.store)) return run_render_series(o);
+  std::unique_ptr<vk::Context> ctx;
+  return render_store(o, {}, ctx, nullptr);
+}
+
 void setup_render(CLI::App& sub, int& exit_code) {
   auto opt = std::make_shared<RenderOptions>();
-  sub.add_option("store", opt->store, "Store file (.mds)")->required();
+  sub.add_option("store", opt->store, "Store file (.mds), or a series index (.series: see --series-frames)")->required();
   sub.add_option("-o,--output", opt->output, "Output image (.png: 8-bit sRGB; .exr: float linear RGBA)")->required();
+  sub.add_option("--series-frames", opt->series_frames,
+                 "Frames of a series to render: all, last, K, or a slice A:B[:S] (B exclusive, negative from the end). "
+                 "One camera (--camera, or --view over the bounds of every picked frame) and one colour range (over "
+                 "every picked frame unless --color-range) for all; with several frames -o names each by its series "
+                 "index with a %d or %04d")
+      ->capture_default_str();
   add_culling_options(sub, opt->cull, "Render every particle (no occlusion culling; the reference)");
   sub.add_option("--spp", opt->spp, "Jittered samples per pixel (progressive super-sampling)")
       ->check(CLI::Range(1u, 65536u))

@@ -17,8 +17,8 @@ namespace mds::cli {
 Result<std::string> frame_file_name(const std::string& pattern, uint32_t frame) {
   const auto bad = [&](const char* why) {
     return make_error(Errc::invalid_argument,
-                      "-o '{}': {}; a --path render writes one image per frame, named by a %d or %04d in the "
-                      "name (frame_%04d.png)",
+                      "-o '{}': {}; an animation (--path, or several frames of a series) writes one image per "
+                      "frame, named by a %d or %04d in the name (frame_%04d.png)",
                       pattern, why);
   };
   std::string out;

@@ -1,0 +1,231 @@
+// Store series through the CLI, on LAMMPS' own output (tests/data/lammps/in.lj_small: 5 frames,
+// steps 0..200): `convert -o RUN.mds.series` writes one store per frame that equals, byte for
+// byte, the store `convert --frame K` writes; per-step files become one series ordered by their
+// steps; errors leave nothing behind; `info` lists the frames; `render` of a series frame draws
+// exactly what `render` of its store draws with the same camera and colour range, and an
+// animation keeps one camera and one colour range over every frame (real Vulkan, lavapipe).
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <string>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "cli_test_util.h"
+#include "store/series.h"
+#include "text_reader_test_util.h"
+
+namespace mds {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+using testing::cli_stderr;
+using testing::run_mdstream;
+
+std::string bytes_of(const fs::path& p) { return textest::read_text(p); }
+
+class SeriesCli : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    lj_ = new fs::path(textest::cached_lammps_run("in.lj_small"));
+    ASSERT_FALSE(lj_->empty()) << "lmp failed on in.lj_small";
+  }
+  static void TearDownTestSuite() { delete lj_; }
+  void SetUp() override { dir_ = std::make_unique<textest::TempDir>("series_cli"); }
+  static fs::path dump() { return *lj_ / "dump.xyz.lammpstrj"; }
+  fs::path tmp(const std::string& name) const { return dir_->path() / name; }
+  // The regular files of the scratch folder.
+  std::vector<std::string> listing() const {
+    std::vector<std::string> v;
+    for (const auto& e : fs::directory_iterator(dir_->path())) v.push_back(e.path().filename().string());
+    std::sort(v.begin(), v.end());
+    return v;
+  }
+
+  static fs::path* lj_;
+  std::unique_ptr<textest::TempDir> dir_;
+};
+fs::path* SeriesCli::lj_ = nullptr;
+
+TEST_F(SeriesCli, EveryFrameIsTheStoreOfThatFrame) {
+  ASSERT_EQ(run_mdstream(fmt::format("convert {} -o {} -q", dump().string(), tmp("run.mds.series").string())), 0)
+      << cli_stderr();
+  auto series = store::read_series(tmp("run.mds.series"));
+  ASSERT_TRUE(series.ok()) << series.error().message;
+  const auto ref = textest::parse_reference_dump(textest::read_text(dump()));
+  ASSERT_EQ(series->frames.size(), ref.size());
+  for (size_t k = 0; k < ref.size(); ++k) {
+    SCOPED_TRACE(k);
+    EXPECT_EQ(series->frames[k].name, fmt::format("run.{:04}.mds", k));
+    EXPECT_EQ(series->frames[k].time, double(ref[k].timestep));
+    const fs::path single = tmp(fmt::format("single{}.mds", k));
+    ASSERT_EQ(run_mdstream(fmt::format("convert {} --frame {} -o {} -q", dump().string(), k, single.string())), 0)
+        << cli_stderr();
+    EXPECT_EQ(bytes_of(series->frames[k].path), bytes_of(single)) << "the series' store differs from --frame " << k;
+  }
+  // A slice of the frames, from the zstd dump (frames found by decompressing, marks re-read).
+  ASSERT_EQ(run_mdstream(fmt::format("convert {} --frames 1::2 -o {} -q --json-report {}",
+                                     (*lj_ / "dump.lammpstrj.zst").string(), tmp("odd.series").string(),
+                                     tmp("odd.json").string())),
+            0)
+      << cli_stderr();
+  auto odd = store::read_series(tmp("odd.series"));
+  ASSERT_TRUE(odd.ok()) << odd.error().message;
+  ASSERT_EQ(odd->frames.size(), 2u);
+  EXPECT_EQ(odd->frames[0].time, double(ref[1].timestep));
+  EXPECT_EQ(odd->frames[1].time, double(ref[3].timestep));
+  EXPECT_EQ(odd->frames[1].name, "odd.0001.mds");
+  const auto report = nlohmann::json::parse(textest::read_text(tmp("odd.json")));
+  ASSERT_EQ(report["frames"].size(), 2u);
+  EXPECT_EQ(report["frames"][1]["input_frame"], 3);
+  EXPECT_EQ(report["frames"][1]["particles"], ref[3].natoms);
+}
+
+// Files of one step each (LAMMPS' `dump ... dump.*.txt`), given out of order: one series in the
+// order of their steps.
+TEST_F(SeriesCli, FilesOfOneStepEachAreOrderedByStep) {
+  const auto lines = textest::split_lines(textest::read_text(dump()));
+  const size_t n = std::stoul(lines[3]), per = 9 + n;
+  ASSERT_EQ(lines.size(), 5 * per);
+  std::vector<std::string> names;
+  for (size_t k : {3u, 0u, 4u}) {  // steps 150, 0, 200
+    const std::string name = fmt::format("dump.{}.txt", k * 50);
+    textest::write_text(tmp(name), textest::join_lines({lines.begin() + long(k * per), lines.begin() + long((k + 1) * per)}));
+    names.push_back(tmp(name).string());
+  }
+  ASSERT_EQ(run_mdstream(fmt::format("convert {} {} {} -o {} -q", names[0], names[1], names[2],
+                                     tmp("steps.mds.series").string())),
+            0)
+      << cli_stderr();
+  auto s = store::read_series(tmp("steps.mds.series"));
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  ASSERT_EQ(s->frames.size(), 3u);
+  EXPECT_EQ(s->frames[0].time, 0.0);
+  EXPECT_EQ(s->frames[1].time, 150.0);
+  EXPECT_EQ(s->frames[2].time, 200.0);
+  ASSERT_EQ(run_mdstream(fmt::format("convert {} -o {} -q", names[0], tmp("150.mds").string())), 0) << cli_stderr();
+  EXPECT_EQ(bytes_of(s->frames[1].path), bytes_of(tmp("150.mds")));
+  // --frames picks frames of one input; with several it is an error.
+  EXPECT_EQ(run_mdstream(fmt::format("convert {} {} --frames all -o {} -q", names[0], names[1],
+                                     tmp("x.series").string())),
+            2);
+  EXPECT_THAT(cli_stderr(), HasSubstr("with 2 inputs each input is one frame"));
+}
+
+// Errors: a clear message, a non-zero exit, and no store or index left.
+TEST_F(SeriesCli, ErrorsLeaveNothingBehind) {
+  const auto before = listing();
+  EXPECT_EQ(run_mdstream(fmt::format("convert {} --frames 7 -o {}", dump().string(), tmp("a.mds.series").string())), 2);
+  EXPECT_THAT(cli_stderr(), HasSubstr(dump().string() + ": --frames '7': out of range: there are 5 frames"));
+  EXPECT_EQ(run_mdstream(fmt::format("convert {} --frames 1 -o {}", dump().string(), tmp("a.mds").string())), 2);
+  EXPECT_THAT(cli_stderr(), HasSubstr("name its index RUN.mds.series"));
+  EXPECT_EQ(run_mdstream(fmt::format("convert {} --frame 2 -o {}", dump().string(), tmp("a.series").string())), 2);
+  EXPECT_THAT(cli_stderr(), HasSubstr("pick the input's frames with --frames"));
+  EXPECT_EQ(run_mdstream(fmt::format("convert {} --frames 1:x -o {}", dump().string(), tmp("a.series").string())), 2);
+  EXPECT_THAT(cli_stderr(), HasSubstr("--frames '1:x': the stop is not an index"));
+  // The fourth frame is broken (a NaN): the three stores before it are removed again.
+  auto lines = textest::split_lines(textest::read_text(dump()));
+  const size_t n = std::stoul(lines[3]), per = 9 + n;
+  lines[3 * per + 9 + 17] = "18 1 nan 1 1";
+  textest::write_text(tmp("broken.lammpstrj"), textest::join_lines(lines));
+  const auto with_input = listing();
+  EXPECT_NE(run_mdstream(fmt::format("convert {} -o {}", tmp("broken.lammpstrj").string(), tmp("b.mds.series").string())), 0);
+  EXPECT_THAT(cli_stderr(), HasSubstr("series frame 3 of 5"));
+  EXPECT_THAT(cli_stderr(), HasSubstr(fmt::format("broken.lammpstrj:{}", 3 * per + 9 + 17 + 1)));
+  EXPECT_EQ(listing(), with_input);
+  EXPECT_EQ(before.size() + 1, with_input.size());
+}
+
+TEST_F(SeriesCli, InfoListsTheFrames) {
+  ASSERT_EQ(run_mdstream(fmt::format("convert {} --frames :3 -o {} -q", dump().string(), tmp("i.mds.series").string())), 0)
+      << cli_stderr();
+  ASSERT_EQ(run_mdstream(fmt::format("info {} --json --verify > {}", tmp("i.mds.series").string(), tmp("i.json").string())), 0)
+      << cli_stderr();
+  const auto j = nlohmann::json::parse(textest::read_text(tmp("i.json")));
+  EXPECT_EQ(j["frame_count"], 3);
+  EXPECT_EQ(j["particles_total"], 3 * 4000);
+  EXPECT_EQ(j["frames"][2]["time"], 100.0);
+  EXPECT_EQ(j["frames"][2]["name"], "i.0002.mds");
+  EXPECT_TRUE(j["verified"].get<bool>());
+  // Commands that take one store say so, and name one.
+  EXPECT_EQ(run_mdstream(fmt::format("export {} -o {}", tmp("i.mds.series").string(), tmp("x.xyz").string())), 2);
+  EXPECT_THAT(cli_stderr(), HasSubstr("a store series index, not a store"));
+  EXPECT_THAT(cli_stderr(), HasSubstr(tmp("i.0000.mds").string()));
+  EXPECT_FALSE(fs::exists(tmp("x.xyz")));
+  // A store of the series gone: the error names the series, the frame and the store.
+  fs::remove(tmp("i.0001.mds"));
+  EXPECT_NE(run_mdstream(fmt::format("info {}", tmp("i.mds.series").string())), 0);
+  EXPECT_THAT(cli_stderr(), HasSubstr("frame 1 (i.0001.mds)"));
+}
+
+// `render` of a series frame draws what `render` of its store draws with the same camera and
+// colour range, bit for bit; an animation writes one image per picked frame, named by the
+// series index, all with one camera and the colour range over every picked frame.
+TEST_F(SeriesCli, RenderAFrameAndAnAnimation) {
+  ASSERT_EQ(run_mdstream(fmt::format("convert {} -o {} -q", dump().string(), tmp("r.mds.series").string())), 0)
+      << cli_stderr();
+  const std::string look = "--width 96 --height 72 --spp 2 --color-by z";
+  ASSERT_EQ(run_mdstream(fmt::format("render {} --series-frames 1:4 -o {} {} --stats {}", tmp("r.mds.series").string(),
+                                     tmp("f%02d.png").string(), look, tmp("anim.json").string())),
+            0)
+      << cli_stderr();
+  EXPECT_FALSE(fs::exists(tmp("f00.png")));
+  for (int k = 1; k < 4; ++k) EXPECT_TRUE(fs::exists(tmp(fmt::format("f{:02}.png", k)))) << k;
+  EXPECT_FALSE(fs::exists(tmp("f04.png")));
+  const auto j = nlohmann::json::parse(textest::read_text(tmp("anim.json")));
+  ASSERT_EQ(j["frames"].size(), 3u);
+  auto info = nlohmann::json::array();
+  double zlo = 1e300, zhi = -1e300;
+  for (int k = 1; k < 4; ++k) {
+    ASSERT_EQ(run_mdstream(fmt::format("info {} --json > {}", tmp(fmt::format("r.{:04}.mds", k)).string(),
+                                       tmp("s.json").string())),
+              0);
+    const auto s = nlohmann::json::parse(textest::read_text(tmp("s.json")));
+    zlo = std::min(zlo, s["bounds_min"][2].get<double>());
+    zhi = std::max(zhi, s["bounds_max"][2].get<double>());
+  }
+  for (const auto& f : j["frames"]) {
+    EXPECT_EQ(f["camera"]["eye"], j["frames"][0]["camera"]["eye"]);
+    EXPECT_EQ(f["color_by"]["range"][0].get<double>(), zlo);  // over frames 1..3, not each frame's own
+    EXPECT_EQ(f["color_by"]["range"][1].get<double>(), zhi);
+  }
+  EXPECT_EQ(j["frames"][2]["series_frame"], 3);
+  EXPECT_EQ(j["frames"][2]["time"], 150.0);
+
+  // Frame 2 alone with the animation's camera and range equals the store's own render.
+  const auto& cam = j["frames"][1]["camera"];
+  const std::string camera = fmt::format("--camera {},{},{},{},{},{},{},{},{}", cam["eye"][0].get<double>(),
+                                         cam["eye"][1].get<double>(), cam["eye"][2].get<double>(),
+                                         cam["target"][0].get<double>(), cam["target"][1].get<double>(),
+                                         cam["target"][2].get<double>(), cam["up"][0].get<double>(),
+                                         cam["up"][1].get<double>(), cam["up"][2].get<double>());
+  const std::string range = fmt::format("--color-range {}:{}", zlo, zhi);
+  ASSERT_EQ(run_mdstream(fmt::format("render {} -o {} {} {} {}", tmp("r.0002.mds").string(), tmp("store2.png").string(),
+                                     look, camera, range)),
+            0)
+      << cli_stderr();
+  ASSERT_EQ(run_mdstream(fmt::format("render {} --series-frames 2 -o {} {} {} {}", tmp("r.mds.series").string(),
+                                     tmp("series2.png").string(), look, camera, range)),
+            0)
+      << cli_stderr();
+  EXPECT_EQ(bytes_of(tmp("store2.png")), bytes_of(tmp("series2.png")));
+  EXPECT_EQ(bytes_of(tmp("store2.png")), bytes_of(tmp("f02.png"))) << "the animation's frame 2 differs";
+
+  // Usage errors.
+  EXPECT_EQ(run_mdstream(fmt::format("render {} -o {} {}", tmp("r.mds.series").string(), tmp("one.png").string(), look)), 2);
+  EXPECT_THAT(cli_stderr(), HasSubstr("no %d in the name"));
+  EXPECT_EQ(run_mdstream(fmt::format("render {} --series-frames 9 -o {} {}", tmp("r.mds.series").string(),
+                                     tmp("one.png").string(), look)),
+            2);
+  EXPECT_THAT(cli_stderr(), HasSubstr("--series-frames '9': out of range: there are 5 frames"));
+  EXPECT_EQ(run_mdstream(fmt::format("render {} --path orbit -o {} {}", tmp("r.mds.series").string(),
+                                     tmp("o%d.png").string(), look)),
+            2);
+  EXPECT_THAT(cli_stderr(), HasSubstr("--path with a series"));
+}
+
+}  // namespace
+}  // namespace mds
