@@ -205,6 +205,18 @@ TEST(ViewerHud, CacheLineCountsSlicedOutNodes) {
   EXPECT_TRUE(has(viewer::hud_lines(s), "nodes 0/305  in flight 0  sliced out 193"));
 }
 
+// A series' frame line comes second (under the store's name), only for a series.
+TEST(ViewerHud, SeriesLineUnderTheStoreName) {
+  viewer::HudState s;
+  s.store_name = "run.0002.mds";
+  const size_t plain = viewer::hud_lines(s).size();
+  s.series = "series frame 2 (3/5)  time 100";
+  const auto lines = viewer::hud_lines(s);
+  ASSERT_EQ(lines.size(), plain + 1);
+  EXPECT_EQ(lines[0].rfind("run.0002.mds", 0), 0u);
+  EXPECT_EQ(lines[1], s.series);
+}
+
 // The view line says when ambient occlusion is on (key L), with its radius.
 TEST(ViewerHud, ViewLineShowsAmbientOcclusion) {
   viewer::HudState s;
@@ -682,6 +694,83 @@ TEST_F(ViewerWindow, AoKeyShowsWhatRenderDrawsWithAo) {
   size_t darker = 0;
   for (size_t i = 0; i < a.rgb.size(); ++i) darker += int(a.rgb[i]) + 24 < int(p.rgb[i]);
   EXPECT_GT(darker, a.rgb.size() / 50) << "the window shows no ambient occlusion";
+}
+
+}  // namespace
+
+namespace {
+
+// A series of three stores (porous, gas, shell) indexed by a hand-written .series file, as
+// ParaView users write one: the arrow keys step through it, and the frame shown equals `render
+// --series-frames K` of that frame with the same camera; Space plays it in a loop.
+class ViewerSeries : public ViewerWindow {
+ protected:
+  void SetUp() override {
+    ViewerWindow::SetUp();
+    if (IsSkipped() || HasFatalFailure()) return;
+    for (const char* scene : {"gas", "shell"}) {
+      const fs::path dump = dir_ / fmt::format("{}.lammpstrj", scene);
+      ASSERT_EQ(mdstream(fmt::format("synth --scene {} -n 20000 -q -o {}", scene, dump.string())), 0) << err();
+      ASSERT_EQ(mdstream(fmt::format("convert {} -q -o {}", dump.string(), (dir_ / (std::string(scene) + ".mds")).string())), 0)
+          << err();
+    }
+    std::ofstream(series()) << R"({ "file-series-version": "1.0", "files": [
+      { "name": "p.mds", "time": 0 }, { "name": "gas.mds", "time": 10 }, { "name": "shell.mds", "time": 20.5 } ] })";
+  }
+  std::string series() const { return (dir_ / "run.series").string(); }
+  // The --series-frames values the viewer printed, in order.
+  std::vector<std::string> printed_frames(const fs::path& log) const {
+    std::vector<std::string> v;
+    std::ifstream f(log);
+    const std::string prefix = "mdstream view: --series-frames ";
+    for (std::string line; std::getline(f, line);)
+      if (line.rfind(prefix, 0) == 0) v.push_back(line.substr(prefix.size(), line.find(' ', prefix.size()) - prefix.size()));
+    return v;
+  }
+};
+
+TEST_F(ViewerSeries, ArrowKeysStepTheFramesAsRenderDrawsThem) {
+  if (!have_program("xdotool")) GTEST_SKIP() << "xdotool is not installed (apt-get install xdotool)";
+  const uint32_t W = 160, H = 120;
+  const fs::path shot = dir_ / "view.png", ref = dir_ / "render.png", log = dir_ / "viewer_err.txt";
+  const std::string look = fmt::format("--width {} --height {} --spp 1 --no-cull --camera 90,-60,80,31,31,29", W, H);
+  RunningViewer v;
+  ASSERT_NO_FATAL_FAILURE(start_viewer(env(), series() + " " + look + " --screenshot " + shot.string(), dir_, v));
+  const std::string x = env() + "timeout 20 xdotool windowfocus --sync " + v.window + " key ";
+  pause_for_viewer();
+  ASSERT_EQ(sh(x + "Right Right"), 0);
+  pause_for_viewer();
+  ASSERT_EQ(sh(x + "End Left h"), 0);  // h: the HUD off for the comparison
+  pause_for_viewer();
+  ASSERT_EQ(sh(x + "Escape"), 0);
+  ASSERT_TRUE(v.wait_exit()) << "the viewer did not exit on Esc\n" << slurp(log);
+  ASSERT_TRUE(WIFEXITED(v.status) && WEXITSTATUS(v.status) == 0) << slurp(log);
+  const auto printed = printed_frames(log);
+  ASSERT_FALSE(printed.empty()) << slurp(log);
+  EXPECT_EQ(printed.back(), "1") << slurp(log);
+  EXPECT_NE(slurp(log).find("(gas.mds, time 10)"), std::string::npos) << slurp(log);
+  ASSERT_EQ(mdstream(fmt::format("render {} --series-frames 1 -o {} {}", series(), ref.string(), look)), 0) << err();
+  expect_screenshot_matches(shot, ref, W, H);
+}
+
+TEST_F(ViewerSeries, SpacePlaysTheSeriesInALoop) {
+  if (!have_program("xdotool")) GTEST_SKIP() << "xdotool is not installed (apt-get install xdotool)";
+  const fs::path log = dir_ / "viewer_err.txt";
+  RunningViewer v;
+  ASSERT_NO_FATAL_FAILURE(start_viewer(
+      env(), series() + " --series-frames 1: --width 96 --height 72 --spp 1 --no-cull --no-hud", dir_, v));
+  const std::string x = env() + "timeout 20 xdotool windowfocus --sync " + v.window + " key ";
+  pause_for_viewer();
+  ASSERT_EQ(sh(x + "space"), 0);
+  for (int i = 0; i < 40 && printed_frames(log).size() < 3; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(250));
+  ASSERT_EQ(sh(x + "space Escape"), 0);
+  ASSERT_TRUE(v.wait_exit()) << "the viewer did not exit on Esc\n" << slurp(log);
+  const auto printed = printed_frames(log);
+  ASSERT_GE(printed.size(), 3u) << slurp(log);
+  // The picked frames are 1 and 2 of the series: the play goes 1 -> 2 -> 1 -> ...
+  EXPECT_EQ(printed[0], "2");
+  EXPECT_EQ(printed[1], "1");
+  EXPECT_EQ(printed[2], "2");
 }
 
 }  // namespace

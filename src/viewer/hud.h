@@ -40,6 +40,7 @@ struct HudState {
   double read_mb_s = 0.0;     // compressed bytes read from the store per second (recent)
   std::string view_name;
   double ao_radius = 0.0;     // ambient occlusion radius (key L; 0: off)
+  std::string series;         // a series' frame line ("series frame K (i/n)  time T"); empty: not a series
   std::string message;        // transient status line (screenshot saved, errors)
   render::FrameReport report;
   render::CacheStats cache;

@@ -4,6 +4,7 @@
 
 #include "render/ambient_occlusion_setup.h"
 #include "render/culling/density_volume.h"
+#include "core/frame_selection.h"
 #include "render/scene.h"
 
 namespace mds::viewer {
@@ -16,34 +17,105 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
   h->stream_.gpu_budget = options.gpu_budget;
   h->hide_types_ = options.hide_types;
   h->type_radii_ = options.type_radii;
-  MDS_ASSIGN_OR_RETURN(h->reader_, store::StoreReader::open(options.store));
-  const store::FileHeader& header = h->reader_->header();
-  MDS_TRY(render::resolve_color_by(h->settings_.color_by, header.property_name,
-                                   (header.flags & store::kFlagProperty) != 0, options.store));
-  auto colors = render::resolve_type_colors(h->reader_->types(), options.type_colors);
-  if (!colors) return make_error(Errc::invalid_argument, "--type-color: {}", colors.error().message);
-  h->settings_.type_colors_srgb = std::move(*colors);
+  h->type_colors_ = options.type_colors;
+  h->color_by_ = options.render.color_by;
+  h->store_arg_ = options.store;
+  std::string store = options.store;
+  if (store::is_series_path(options.store)) {
+    MDS_ASSIGN_OR_RETURN(store::Series series, store::read_series(options.store));
+    auto sel = parse_frame_selection(options.series_frames);
+    if (!sel.ok()) return make_error(Errc::invalid_argument, "--series-frames {}", sel.error().message);
+    auto picked = select_frames(*sel, int64_t(series.frames.size()));
+    if (!picked.ok())
+      return make_error(Errc::invalid_argument, "{}: --series-frames {}", options.store, picked.error().message);
+    MDS_ASSIGN_OR_RETURN(h->look_, render::series_look(series, *picked));
+    h->series_frames_ = std::move(*picked);
+    store = series.frames[size_t(h->series_frames_.front())].path.string();
+    h->series_ = std::move(series);
+  }
+  MDS_ASSIGN_OR_RETURN(h->reader_, store::StoreReader::open(store));
+  MDS_TRY(h->resolve_colors(*h->reader_, h->settings_));
+  // Ambient occlusion: the first store's choice (auto), kept for every frame of a series.
   MDS_ASSIGN_OR_RETURN(const render::AoChoice ao, render::resolve_ao(options.ao, *h->reader_));
   h->settings_.ao_radius = ao.on ? ao.radius : 0.0;
   h->settings_.ao_strength = ao.strength;
   h->ao_radius_ = ao.radius;
   h->ao_strength_ = options.ao.strength > 0.0 ? options.ao.strength : 1.0;
-  MDS_ASSIGN_OR_RETURN(Loaded loaded, h->load(options.slices));
+  MDS_ASSIGN_OR_RETURN(Loaded loaded, h->load(*h->reader_, options.slices));
   h->take(std::move(loaded));
   return h;
 }
 
-Result<RenderHost::Loaded> RenderHost::load(const std::vector<store::Slice>& slices) const {
+Status RenderHost::resolve_colors(const store::StoreReader& reader, render::RenderSettings& rs) const {
+  const store::FileHeader& header = reader.header();
+  render::ColorBy c = color_by_;
+  MDS_TRY(render::resolve_color_by(c, header.property_name, (header.flags & store::kFlagProperty) != 0,
+                                   reader.path().string()));
+  if (series_ && !c.by_type()) {
+    const glm::dvec2 range = render::series_color_range(c, look_);
+    c.lo = range.x;
+    c.hi = range.y;
+  }
+  auto colors = render::resolve_type_colors(reader.types(), type_colors_);
+  if (!colors) return make_error(Errc::invalid_argument, "--type-color: {}", colors.error().message);
+  rs.color_by = c;
+  rs.type_colors_srgb = std::move(*colors);
+  return {};
+}
+
+const store::SeriesFrame* RenderHost::series_entry() const {
+  return series_ ? &series_->frames[size_t(series_frames_[series_pos_])] : nullptr;
+}
+
+Status RenderHost::set_series_position(size_t position) {
+  if (!series_ || position >= series_frames_.size())
+    return make_error(Errc::invalid_argument, "no series position {}", position);
+  const store::SeriesFrame& f = series_->frames[size_t(series_frames_[position])];
+  auto opened = store::StoreReader::open(f.path);
+  if (!opened.ok()) {
+    Error e = opened.error();
+    e.message = fmt::format("{}: frame {} ({}): {}", store_arg_, series_frames_[position], f.name, e.message);
+    return e;
+  }
+  std::unique_ptr<store::StoreReader> reader = std::move(*opened);
+  render::RenderSettings rs = settings_;
+  MDS_TRY(resolve_colors(*reader, rs));
+  MDS_ASSIGN_OR_RETURN(Loaded loaded, load(*reader, stream_.slices));  // the current frame stays until this worked
+  renderer_.reset();  // before the scene and the store it drew go
+  std::unique_ptr<store::StoreReader> before = std::move(reader_);
+  reader_ = std::move(reader);
+  const store::StoreReader* kept = before.get();
+  take(std::move(loaded));
+  const render::RenderSettings settings_before = settings_;
+  settings_.color_by = rs.color_by;
+  settings_.type_colors_srgb = rs.type_colors_srgb;
+  Status st = recreate(settings_.width, settings_.height);
+  if (st.ok()) {
+    series_pos_ = position;
+    return st;
+  }
+  // Back to the frame before (its store was kept open).
+  reader_ = std::move(before);
+  settings_ = settings_before;
+  if (auto back = load(*kept, stream_.slices); back) {
+    take(std::move(*back));
+    (void)recreate(settings_.width, settings_.height);
+  }
+  return st;
+}
+
+Result<RenderHost::Loaded> RenderHost::load(const store::StoreReader& reader,
+                                            const std::vector<store::Slice>& slices) const {
   Loaded l;
   l.slices = slices;
   MDS_ASSIGN_OR_RETURN(const render::SceneOptions so,
-                       render::resolve_scene_options(*reader_, hide_types_, type_radii_, slices, streaming()));
+                       render::resolve_scene_options(reader, hide_types_, type_radii_, slices, streaming()));
   l.shown_types = so.shown_types;
   // Bounds of the particle centres and the largest radius, from the node directory (the
   // in-memory scene replaces them with its decoded bounds).
   l.bounds.min = glm::dvec3(1e300);
   l.bounds.max = glm::dvec3(-1e300);
-  for (const store::NodeEntry& n : reader_->nodes()) {
+  for (const store::NodeEntry& n : reader.nodes()) {
     l.bounds.min = glm::min(l.bounds.min, glm::dvec3(n.center_min[0], n.center_min[1], n.center_min[2]));
     l.bounds.max = glm::max(l.bounds.max, glm::dvec3(n.center_max[0], n.center_max[1], n.center_max[2]));
     l.bounds.radius_max = std::max(l.bounds.radius_max, double(n.max_radius));
@@ -55,10 +127,10 @@ Result<RenderHost::Loaded> RenderHost::load(const std::vector<store::Slice>& sli
     l.node_boxes.push_back(b);
   }
   if (!streaming()) {
-    MDS_ASSIGN_OR_RETURN(render::SceneData scene, render::load_scene(*reader_, so));
+    MDS_ASSIGN_OR_RETURN(render::SceneData scene, render::load_scene(reader, so));
     l.scene = std::make_unique<render::SceneData>(std::move(scene));
     l.bounds = l.scene->bounds;
-    MDS_ASSIGN_OR_RETURN(render::culling::DensityVolume vol, render::culling::density_from_store(*reader_, *l.scene));
+    MDS_ASSIGN_OR_RETURN(render::culling::DensityVolume vol, render::culling::density_from_store(reader, *l.scene));
     if (l.scene->left_out()) vol = render::culling::density_on_grid(*l.scene, std::move(vol));
     if (l.scene->left_out() || !so.type_radius.empty()) {
       // Particles left out or other radii: the scene's nodes and boxes (nodes gone, shrunk or grown).
@@ -87,14 +159,14 @@ void RenderHost::take(Loaded&& l) {
 }
 
 Status RenderHost::set_slices(const std::vector<store::Slice>& slices) {
-  MDS_ASSIGN_OR_RETURN(Loaded loaded, load(slices));  // the current scene stays until this worked
+  MDS_ASSIGN_OR_RETURN(Loaded loaded, load(*reader_, slices));  // the current scene stays until this worked
   std::vector<store::Slice> before = stream_.slices;
   renderer_.reset();  // before the scene it drew goes
   take(std::move(loaded));
   Status st = recreate(settings_.width, settings_.height);
   if (st.ok()) return st;
   // Streaming: the cache refuses slices that leave no node. Back to the slices before.
-  auto back = load(before);
+  auto back = load(*reader_, before);
   if (back) {
     take(std::move(*back));
     (void)recreate(settings_.width, settings_.height);

@@ -1,11 +1,14 @@
 // The viewer's renderer and its inputs: the open store, the in-memory scene (when no GPU budget
 // is given) with its density volume, the current render settings (width/height = the window),
 // and re-creation of the render::Renderer when its fixed parameters change (culling on/off,
-// the slices). Size changes (window, dynamic resolution) use Renderer::resize instead.
+// the slices, the frame of a series). Size changes (window, dynamic resolution) use
+// Renderer::resize instead. A series (store/series.h) shows one store at a time, with the
+// colour range over all its frames (render/series_look.h).
 #pragma once
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -13,6 +16,8 @@
 #include "core/result.h"
 #include "render/renderer.h"
 #include "render/scene.h"
+#include "render/series_look.h"
+#include "store/series.h"
 #include "store/store_reader.h"
 #include "viewer/debug_views.h"
 #include "viewer/viewer.h"
@@ -33,6 +38,17 @@ class RenderHost {
   // slices before stay, with a renderer.
   Status set_slices(const std::vector<store::Slice>& slices);
   const std::vector<store::Slice>& slices() const { return stream_.slices; }  // in memory too
+  // A series: which of its picked frames (--series-frames) is shown. set_series_position loads
+  // that frame's store like set_slices (the slices and the camera stay); on an error the frame
+  // before stays.
+  bool is_series() const { return series_.has_value(); }
+  size_t series_position() const { return series_pos_; }
+  size_t series_positions() const { return series_frames_.size(); }
+  int64_t series_frame() const { return series_frames_.empty() ? 0 : series_frames_[series_pos_]; }
+  const store::SeriesFrame* series_entry() const;
+  Status set_series_position(size_t position);
+  // The bounds the home camera frames: every picked frame's for a series, else bounds().
+  const render::Bounds& view_bounds() const { return series_ ? look_.bounds : bounds_; }
   // The ambient occlusion the L key switches on: --ao-radius (or its default for the store) and
   // --ao-strength (1 where that is 0).
   double ao_radius() const { return ao_radius_; }
@@ -61,13 +77,22 @@ class RenderHost {
     std::vector<Box> node_boxes;
   };
   RenderHost() = default;
-  Result<Loaded> load(const std::vector<store::Slice>& slices) const;
+  Result<Loaded> load(const store::StoreReader& reader, const std::vector<store::Slice>& slices) const;
+  // The store's colours: --color-by resolved against it (the series' range), --type-color.
+  Status resolve_colors(const store::StoreReader& reader, render::RenderSettings& rs) const;
   void take(Loaded&& loaded);
 
   vk::Context* ctx_ = nullptr;
   std::unique_ptr<store::StoreReader> reader_;
   std::vector<std::string> hide_types_;           // --hide-type
   std::vector<store::TypeRadiusSpec> type_radii_;  // --type-radius
+  std::vector<store::TypeColorSpec> type_colors_;  // --type-color
+  render::ColorBy color_by_;                        // --color-by as given
+  std::string store_arg_;                          // the store or series as given
+  std::optional<store::Series> series_;
+  std::vector<int64_t> series_frames_;  // --series-frames picked
+  size_t series_pos_ = 0;
+  render::SeriesLook look_;
   double ao_radius_ = 0.0, ao_strength_ = 1.0;
   std::vector<uint8_t> shown_types_;
   std::unique_ptr<render::SceneData> scene_;

@@ -35,6 +35,8 @@ const char* key_help() {
          "C  culling on/off      [ ]  C_occ -/+ 0.01      - =  spp /2 *2      K  coverage auto/expected/exact\n"
          ", .  move the last --slice back/forward along its normal by 1/50 of the data (Shift: 1/500)   /  invert it\n"
          "L  ambient occlusion on/off (--ao; radius --ao-radius)\n"
+         "Left/Right  previous/next frame of a series (.series)   Home/End  first/last frame   "
+         "Space  play the series (each frame once it has refined; loops)\n"
          "P  save a screenshot (mdstream-view-<time>.png)  Esc  quit";
 }
 
@@ -72,6 +74,8 @@ class Viewer {
   void handle_keys(const InputFrame& in, bool& recreate, bool& quit, double& slice_steps, bool& slice_invert);
   // The last slice moved by `steps` key steps and inverted when `invert` (RenderHost::set_slices).
   void apply_slice_keys(double steps, bool invert);
+  // A series: shows its picked frame at `position` (RenderHost::set_series_position).
+  void show_series_position(size_t position);
   Status compose(const InputFrame& in);
 
   const ViewerOptions& o_;
@@ -93,6 +97,10 @@ class Viewer {
   render::Camera view_camera_;  // camera handed to set_view (near/far fitted)
   bool have_view_ = false;
   bool idle_ = false;
+  // Series keys of this frame: a step (Left/Right) or a position (Home/End); Space plays.
+  int64_t series_step_ = 0;
+  std::optional<size_t> series_goto_;
+  bool series_playing_ = false;
   std::optional<Error> render_error_;
   std::string message_;
   Clock::time_point message_time_;
@@ -140,17 +148,18 @@ Status Viewer::setup() {
   if (!o_.camera.empty()) {
     MDS_ASSIGN_OR_RETURN(home, render::parse_camera(o_.camera));
   } else {
-    MDS_ASSIGN_OR_RETURN(home, render::default_view(o_.view, host_->bounds(), o_.fov_y_deg, aspect));
+    MDS_ASSIGN_OR_RETURN(home, render::default_view(o_.view, host_->view_bounds(), o_.fov_y_deg, aspect));
   }
   home.fov_y_deg = o_.fov_y_deg;
   home.ortho = o_.ortho;
-  controller_ = CameraController(home, host_->bounds());
+  controller_ = CameraController(home, host_->view_bounds());
   if (builtin_play) {
     MDS_ASSIGN_OR_RETURN(render::BuiltinPath kind, render::parse_builtin_path(o_.play));
-    play_ = render::builtin_path(kind, host_->bounds(), std::max(o_.play_frames, 1u), o_.fov_y_deg, aspect);
+    play_ = render::builtin_path(kind, host_->view_bounds(), std::max(o_.play_frames, 1u), o_.fov_y_deg, aspect);
   }
 
-  hud_.store_name = std::filesystem::path(o_.store).filename().string();
+  hud_.store_name = host_->is_series() ? host_->series_entry()->name
+                                       : std::filesystem::path(o_.store).filename().string();
   hud_.streaming = host_->streaming();
   hud_.meshlets = host_->meshlets();
   const render::ColorBy& color_by = host_->settings().color_by;
@@ -231,6 +240,22 @@ void Viewer::handle_keys(const InputFrame& in, bool& recreate, bool& quit, doubl
         slice_steps += (shift ? 0.1 : 1.0) * (key == GLFW_KEY_PERIOD ? 1.0 : -1.0);
         break;
       case GLFW_KEY_SLASH: slice_invert = !slice_invert; break;
+      case GLFW_KEY_LEFT:
+      case GLFW_KEY_RIGHT:
+      case GLFW_KEY_HOME:
+      case GLFW_KEY_END:
+      case GLFW_KEY_SPACE:
+        if (!host_->is_series()) {
+          say("no series: open a .series index (convert -o RUN.mds.series)");
+        } else if (key == GLFW_KEY_SPACE) {
+          series_playing_ = !series_playing_;
+        } else if (key == GLFW_KEY_HOME || key == GLFW_KEY_END) {
+          series_goto_ = key == GLFW_KEY_HOME ? 0 : host_->series_positions() - 1;
+          series_step_ = 0;
+        } else {
+          series_step_ += key == GLFW_KEY_RIGHT ? 1 : -1;
+        }
+        break;
       case GLFW_KEY_L: {  // ambient occlusion on/off (RenderSettings::ao_*), kept for a re-creation (key C)
         const bool on = !(rs.ao_strength > 0.0 && rs.ao_radius > 0.0);
         rs.ao_radius = on ? host_->ao_radius() : 0.0;
@@ -276,6 +301,25 @@ void Viewer::apply_slice_keys(double steps, bool invert) {
   // On stderr too, for `render` with the same cut.
   message_ = slice_options(host_->slices());
   fmt::print(stderr, "mdstream view: {}\n", message_);
+}
+
+void Viewer::show_series_position(size_t position) {
+  render_error_.reset();
+  const Status st = host_->set_series_position(position);  // the store of that frame; camera and slices stay
+  have_view_ = false;
+  idle_ = false;
+  message_time_ = Clock::now();
+  if (!st.ok()) {
+    message_ = st.error().message;
+    series_playing_ = false;
+    return;
+  }
+  hud_.store_name = host_->series_entry()->name;
+  hud_.meshlets = host_->meshlets();
+  // On stderr too, for `render --series-frames` of the same frame.
+  message_ = fmt::format("--series-frames {}", host_->series_frame());
+  fmt::print(stderr, "mdstream view: {} ({}, time {:g})\n", message_, host_->series_entry()->name,
+             host_->series_entry()->time);
 }
 
 // Debug views that read the culling loop's per-pixel state are drawn at the render size; the
@@ -396,6 +440,14 @@ Status Viewer::run() {
       if (!st.ok()) return st;
     }
     if (slice_steps != 0.0 || slice_invert) apply_slice_keys(slice_steps, slice_invert);
+    if (series_goto_ || series_step_ != 0) {
+      const int64_t n = int64_t(host_->series_positions());
+      const int64_t p = series_goto_ ? int64_t(*series_goto_)
+                                     : std::clamp<int64_t>(int64_t(host_->series_position()) + series_step_, 0, n - 1);
+      series_goto_.reset();
+      series_step_ = 0;
+      if (size_t(p) != host_->series_position()) show_series_position(size_t(p));
+    }
 
     const render::Camera& cam = controller_.camera();
     const bool moved = !have_view_ || !same_camera(cam, view_camera_);
@@ -451,6 +503,11 @@ Status Viewer::run() {
       }
       step_ms = ms_since(ts);
     }
+    // Playing a series: the next frame once this one has refined (the last one loops).
+    if (series_playing_ && idle_ && !render_error_ && host_->series_positions() > 1) {
+      show_series_position((host_->series_position() + 1) % host_->series_positions());
+      r = host_->renderer();  // a new renderer for the new store
+    }
     if (render_error_) {
       idle_ = true;
       if (image_.width() != host_->settings().width || image_.height() != host_->settings().height)
@@ -474,7 +531,10 @@ Status Viewer::run() {
     hud_.fov_y_deg = cam.fov_y_deg;
     hud_.step_ms = stepped ? step_ms : 0.0;
     hud_.idle = idle_ && !render_error_;
-    hud_.playing = playing;
+    hud_.playing = playing || series_playing_;
+    if (host_->is_series())
+      hud_.series = fmt::format("series frame {} ({}/{})  time {:g}", host_->series_frame(),
+                                host_->series_position() + 1, host_->series_positions(), host_->series_entry()->time);
     hud_.recording = recorder_.has_value();
     hud_.read_mb_s = read_rate;
     hud_.view_name = debug_view_name(vs_.view);

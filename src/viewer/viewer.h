@@ -20,7 +20,8 @@
 namespace mds::viewer {
 
 struct ViewerOptions {
-  std::string store;
+  std::string store;        // a store (.mds) or a series index (.series; keys Left/Right/Home/End/Space)
+  std::string series_frames = "all";  // --series-frames: the frames of a series the keys step through
   uint64_t gpu_budget = 0;  // 0: in memory
   render::RenderSettings render;  // width/height = initial window size; spp = samples to accumulate at rest
   std::vector<store::TypeColorSpec> type_colors;  // --type-color, resolved against the store's types

@@ -50,7 +50,12 @@ Status run_view(ViewCliOptions& o) {
 
 void setup_view(CLI::App& sub, int& exit_code) {
   auto opt = std::make_shared<ViewCliOptions>();
-  sub.add_option("store", opt->v.store, "Store file (.mds)")->required();
+  sub.add_option("store", opt->v.store, "Store file (.mds), or a series index (.series: Left/Right step its frames)")
+      ->required();
+  sub.add_option("--series-frames", opt->v.series_frames,
+                 "Frames of a series to step through: all, last, K, or a slice A:B[:S] (the first is shown first; "
+                 "one colour range over all of them)")
+      ->capture_default_str();
   add_stream_options(sub, opt->stream, false);
   add_pacing_options(sub, opt->pacing, true);
   sub.add_option("--width", opt->width, "Initial window width")->check(CLI::Range(16u, 16384u))->capture_default_str();
