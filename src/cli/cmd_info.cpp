@@ -104,10 +104,12 @@ Status verify_payloads(const store::StoreReader& r) {
   return {};
 }
 
+// "(x, y, z)" of a JSON array of three numbers.
+std::string v3(const nlohmann::json& a) {
+  return fmt::format("({:.6g}, {:.6g}, {:.6g})", a[0].get<double>(), a[1].get<double>(), a[2].get<double>());
+}
+
 std::string human(const nlohmann::json& j, bool verified) {
-  auto v3 = [](const nlohmann::json& a) {
-    return fmt::format("({:.6g}, {:.6g}, {:.6g})", a[0].get<double>(), a[1].get<double>(), a[2].get<double>());
-  };
   std::string s;
   s += fmt::format("store            {}\n", j["file"].get<std::string>());
   s += fmt::format("format version   {}\n", j["format_version"].get<uint32_t>());
@@ -186,9 +188,6 @@ Result<nlohmann::json> series_info(const std::string& file, bool verify) {
 }
 
 std::string series_human(const nlohmann::json& j, bool verified) {
-  auto v3 = [](const nlohmann::json& a) {
-    return fmt::format("({:.6g}, {:.6g}, {:.6g})", a[0].get<double>(), a[1].get<double>(), a[2].get<double>());
-  };
   std::string s;
   s += fmt::format("series           {}\n", j["series"].get<std::string>());
   s += fmt::format("frames           {}\n", j["frame_count"].get<size_t>());
