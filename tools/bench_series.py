@@ -2,8 +2,8 @@
 """Series benchmark (`convert -o RUN.mds.series`, docs/converter.md "Trajectories"): what a
 trajectory costs to convert into a series of stores, against converting its frames one by one.
 
-A trajectory of F frames of the ablation scene (the synth dump written F times with the steps
-0, 1000, ...) in three forms:
+A trajectory of F frames of the ablation scene (`synth --frames F`: thermal motion and an
+expanding plume) in three forms:
   series      `convert traj --frames all -o run.mds.series`: frames listed once, each
               conversion seeks to its frame (ReaderOptions::start);
   --frame K   F separate `convert traj --frame K`: each skips the K frames before its own;
@@ -30,15 +30,19 @@ from bench_common import fmt_bytes, machine_info, newest_mdstream, open_work, sh
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-def write_trajectory(one, traj, frames):
-    """`frames` copies of the one-frame dump `one`, their TIMESTEP lines 0, 1000, ..."""
-    with open(one) as f:
-        text = f.read()
-    head, step, rest = text.split("\n", 2)
-    assert head == "ITEM: TIMESTEP", head
-    with open(traj, "w") as out:
-        for k in range(frames):
-            out.write(f"{head}\n{k * 1000}\n{rest}")
+def split_frames(traj, out_dir):
+    """Each frame of the LAMMPS dump `traj` as its own file in `out_dir`; their paths in order."""
+    paths, out = [], None
+    with open(traj) as f:
+        for line in f:
+            if line.startswith("ITEM: TIMESTEP"):
+                if out:
+                    out.close()
+                paths.append(os.path.join(out_dir, f"frame{len(paths)}.lammpstrj"))
+                out = open(paths[-1], "w")
+            out.write(line)
+    out.close()
+    return paths
 
 
 def timed(cmd, log):
@@ -61,10 +65,9 @@ def main():
     repeats = 1 if args.quick else args.repeats
     work, log = open_work("series", args.work, args.out)
 
-    one = os.path.join(work, "one.lammpstrj")
-    sh([mds, "synth", "--scene", "ablation", "-n", str(particles), "-q", "-o", one], log)
     traj = os.path.join(work, "traj.lammpstrj")
-    write_trajectory(one, traj, frames)
+    sh([mds, "synth", "--scene", "ablation", "-n", str(particles), "--frames", str(frames), "-q", "-o", traj], log)
+    ones = split_frames(traj, work)
     traj_gz = traj + ".gz"
     with open(traj, "rb") as src, gzip.open(traj_gz, "wb", compresslevel=1) as dst:
         shutil.copyfileobj(src, dst)
@@ -77,7 +80,8 @@ def main():
         times["series"].append(timed([mds, "convert", traj, "-q", "-o", os.path.join(out, "s.mds.series")], log))
         times["frame_k"].append(sum(timed([mds, "convert", traj, "--frame", str(k), "-q", "-o",
                                            os.path.join(out, f"k{k}.mds")], log) for k in range(frames)))
-        times["one_file"].append(frames * timed([mds, "convert", one, "-q", "-o", os.path.join(out, "one.mds")], log))
+        times["one_file"].append(sum(timed([mds, "convert", ones[k], "-q", "-o", os.path.join(out, f"one{k}.mds")], log)
+                                     for k in range(frames)))
         times["series_gz"].append(timed([mds, "convert", traj_gz, "-q", "-o", os.path.join(out, "g.mds.series")], log))
         # The series' stores are the stores of --frame K, byte for byte.
         for k in range(frames):
@@ -90,7 +94,7 @@ def main():
     total = particles * frames
     rows = []
     names = {"series": "series (`--frames all`)", "frame_k": f"{frames} x `--frame K`",
-             "one_file": f"{frames} x a one-frame file", "series_gz": "series from .gz"}
+             "one_file": f"{frames} x a file of one frame", "series_gz": "series from .gz"}
     for k in ("series", "frame_k", "one_file", "series_gz"):
         rows.append({"variant": k, "seconds": round(med[k], 3), "frames_per_s": round(frames / med[k], 3),
                      "mparticles_per_s": round(total / med[k] / 1e6, 3),
@@ -98,7 +102,8 @@ def main():
                      "runs": " ".join(f"{t:.3f}" for t in times[k])})
     m = machine_info(REPO)
     md = ["# Converting a trajectory to a store series", "",
-          f"`tools/bench_series.py{' --quick' if args.quick else ''}`: {frames} frames of the ablation scene, "
+          f"`tools/bench_series.py{' --quick' if args.quick else ''}`: {frames} frames of the ablation scene "
+          f"(`synth --frames {frames}`), "
           f"{particles:,} particles each ({fmt_bytes(text_bytes)} of LAMMPS text; the .gz at level 1: "
           f"{fmt_bytes(os.path.getsize(traj_gz))}). Medians of {repeats} run(s), the variants alternating.", "",
           f"Machine: {m['cpu']}, {m['nproc']} cores, {m['memory']}; commit {m['commit']}; {m['date']}.", "",
