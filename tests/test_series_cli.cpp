@@ -7,6 +7,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 #include <string>
 
@@ -221,10 +222,36 @@ TEST_F(SeriesCli, RenderAFrameAndAnAnimation) {
                                      tmp("one.png").string(), look)),
             2);
   EXPECT_THAT(cli_stderr(), HasSubstr("--series-frames '9': out of range: there are 5 frames"));
-  EXPECT_EQ(run_mdstream(fmt::format("render {} --path orbit -o {} {}", tmp("r.mds.series").string(),
-                                     tmp("o%d.png").string(), look)),
+  EXPECT_EQ(run_mdstream(fmt::format("render {} --path orbit --camera 1,2,3,0,0,0 -o {} {}",
+                                     tmp("r.mds.series").string(), tmp("o%d.png").string(), look)),
             2);
-  EXPECT_THAT(cli_stderr(), HasSubstr("--path with a series"));
+  EXPECT_THAT(cli_stderr(), HasSubstr("--path and --camera"));
+}
+
+// --path with a series: the camera orbits while the frames go, one path frame per picked frame,
+// around the picked frames' bounds (the same distance from their centre in every frame).
+TEST_F(SeriesCli, OrbitWhileTheFramesGo) {
+  ASSERT_EQ(run_mdstream(fmt::format("convert {} --frames :4 -o {} -q", dump().string(), tmp("p.mds.series").string())), 0)
+      << cli_stderr();
+  ASSERT_EQ(run_mdstream(fmt::format("render {} --path orbit -o {} --width 64 --height 48 --spp 1 --no-cull --stats {}",
+                                     tmp("p.mds.series").string(), tmp("o%d.png").string(), tmp("o.json").string())),
+            0)
+      << cli_stderr();
+  const auto j = nlohmann::json::parse(textest::read_text(tmp("o.json")));
+  ASSERT_EQ(j["frames"].size(), 4u);
+  const auto eye = [&](size_t i, int d) { return j["frames"][i]["camera"]["eye"][d].get<double>(); };
+  const auto target = [&](size_t i, int d) { return j["frames"][i]["camera"]["target"][d].get<double>(); };
+  const auto dist = [&](size_t i) {
+    double s = 0;
+    for (int d = 0; d < 3; ++d) s += (eye(i, d) - target(i, d)) * (eye(i, d) - target(i, d));
+    return std::sqrt(s);
+  };
+  for (size_t i = 1; i < 4; ++i) {
+    EXPECT_NE(eye(i, 0), eye(0, 0)) << "frame " << i << " has frame 0's camera";
+    EXPECT_NEAR(dist(i), dist(0), 1e-9 * dist(0));
+    for (int d = 0; d < 3; ++d) EXPECT_EQ(target(i, d), target(0, d));
+    EXPECT_TRUE(fs::exists(tmp(fmt::format("o{}.png", i))));
+  }
 }
 
 }  // namespace

@@ -424,11 +424,10 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
 }
 
 // A series: the frames of --series-frames, each rendered as a store with the series' camera
-// and colour range; -o names them by series index when there are several (or it has a %d).
+// (fixed, or --path's camera of that picture) and colour range; -o names them by series index
+// when there are several (or it has a %d).
 Status run_render_series(const RenderOptions& o) {
-  if (!o.path.empty())
-    return make_error(Errc::invalid_argument, "--path with a series ({}): render the frames with a fixed camera, or "
-                      "a camera path over one store of it", o.store);
+  if (!o.path.empty() && !o.camera.empty()) return make_error(Errc::invalid_argument, "--path and --camera: give one of them");
   if (o.visible_reference || o.paired_frames > 0)
     return make_error(Errc::invalid_argument, "--visible-reference and --paired-frames measure one store: not with a "
                       "series ({})", o.store);
@@ -450,6 +449,18 @@ Status run_render_series(const RenderOptions& o) {
   }
   camera.fov_y_deg = o.fov;
   camera.ortho = o.ortho;
+  // --path: the camera moves as the frames go: picked frame i takes the path's frame i (a
+  // built-in path has one frame per picked frame; a path file's last camera holds after its end).
+  std::optional<render::CameraPath> path;
+  if (!o.path.empty()) {
+    if (auto b = render::parse_builtin_path(o.path); b.ok()) {
+      path = render::builtin_path(*b, look.bounds, uint32_t(picked->size()), o.fov,
+                                  double(o.width) / double(o.height));
+    } else {
+      MDS_ASSIGN_OR_RETURN(path, render::CameraPath::load(o.path));
+      if (path->empty()) return make_error(Errc::invalid_argument, "--path {}: no camera keyframes", o.path);
+    }
+  }
 
   std::unique_ptr<vk::Context> ctx;
   FrameSetup fs;
@@ -462,10 +473,15 @@ Status run_render_series(const RenderOptions& o) {
     const store::SeriesFrame& f = series.frames[size_t(k)];
     RenderOptions fo = o;
     fo.store = f.path.string();
+    fo.path.clear();  // the camera comes from fs
     if (numbered) {
       MDS_ASSIGN_OR_RETURN(fo.output, frame_file_name(o.output, uint32_t(k)));
     }
     fs.ao_out = i == 0 ? &first_ao : nullptr;
+    if (path) {
+      fs.camera = path->at(uint32_t(std::min<size_t>(i, path->frame_count() - 1)));
+      if (o.ortho) fs.camera->ortho = true;
+    }
     nlohmann::json fj;
     Status st = render_store(fo, fs, ctx, o.stats.empty() ? nullptr : &fj);
     if (!st.ok()) {
@@ -530,7 +546,8 @@ void setup_render(CLI::App& sub, int& exit_code) {
   sub.add_option("--path", opt->path,
                  "Render an animation: one image per frame of a camera path, a built-in one (orbit, flythrough, "
                  "jumps) or a path file (docs/camera-path.md); -o names the frames with %d or %04d "
-                 "(frame_%04d.png); each frame converges, the GPU cache stays warm between frames");
+                 "(frame_%04d.png); each frame converges, the GPU cache stays warm between frames. With a series "
+                 "(.series) the camera moves as its frames go: picked frame i takes the path's frame i");
   sub.add_option("--frames", opt->path_frames, "Frames of a built-in --path")
       ->check(CLI::Range(1u, 1000000u))
       ->capture_default_str();
