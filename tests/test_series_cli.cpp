@@ -138,6 +138,19 @@ TEST_F(SeriesCli, ErrorsLeaveNothingBehind) {
   EXPECT_THAT(cli_stderr(), HasSubstr(fmt::format("broken.lammpstrj:{}", 3 * per + 9 + 17 + 1)));
   EXPECT_EQ(listing(), with_input);
   EXPECT_EQ(before.size() + 1, with_input.size());
+  // Over an earlier series of the same name, the failed run keeps its stores and index as they were.
+  ASSERT_EQ(run_mdstream(fmt::format("convert {} --frames :2 -o {} -q", dump().string(), tmp("b.mds.series").string())), 0)
+      << cli_stderr();
+  const std::string index = bytes_of(tmp("b.mds.series")), store0 = bytes_of(tmp("b.0000.mds"));
+  const auto kept = listing();
+  EXPECT_NE(run_mdstream(fmt::format("convert {} -o {}", tmp("broken.lammpstrj").string(), tmp("b.mds.series").string())), 0);
+  EXPECT_EQ(listing(), kept);
+  EXPECT_EQ(bytes_of(tmp("b.mds.series")), index);
+  EXPECT_EQ(bytes_of(tmp("b.0000.mds")), store0);
+  // A series store that would overwrite an input is refused before any work.
+  fs::copy_file(dump(), tmp("c.0000.mds"));
+  EXPECT_EQ(run_mdstream(fmt::format("convert {} -o {}", tmp("c.0000.mds").string(), tmp("c.mds.series").string())), 2);
+  EXPECT_THAT(cli_stderr(), HasSubstr("would overwrite an input"));
 }
 
 TEST_F(SeriesCli, InfoListsTheFrames) {

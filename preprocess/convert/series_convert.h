@@ -10,8 +10,9 @@
 // series' times are the positions.
 //
 // The stores are RUN.0000.mds, RUN.0001.mds, ... next to the index (RUN: the index's name without
-// ".series" and ".mds"; at least 4 digits). On any error the stores this call wrote are removed
-// and no index is written.
+// ".series" and ".mds"; at least 4 digits). Each is written under a temporary name and renamed
+// into place only when every frame has converted, then the index is written: on an error while
+// converting, nothing of this call is left and the stores and index of an earlier run stay.
 #pragma once
 
 #include <cstdint>
