@@ -3,6 +3,7 @@
 
 #include <algorithm>
 
+#include "render/scene.h"
 #include "store/store_reader.h"
 
 namespace mds::render {
@@ -19,16 +20,17 @@ Result<SeriesLook> series_look(const store::Series& series, std::span<const int6
       return e;
     }
     const store::FileHeader& h = (*r)->header();
-    const bool per_particle = (h.flags & store::kFlagPerParticleRadius) != 0;  // as render::begin_scene
-    double rmax = per_particle ? h.radius_max : 0.0;
-    if (!per_particle)
-      for (const store::TypeEntry& t : (*r)->types()) rmax = std::max(rmax, double(t.radius));
+    std::vector<float> radii;
+    for (const store::TypeEntry& t : (*r)->types()) radii.push_back(t.radius);
+    // The frame's bounds as its scene has them (render::begin_scene: centres, largest radius).
+    const Bounds b = begin_scene({h.bounds_min[0], h.bounds_min[1], h.bounds_min[2]},
+                                 {h.bounds_max[0], h.bounds_max[1], h.bounds_max[2]}, radii,
+                                 (h.flags & store::kFlagPerParticleRadius) != 0, h.radius_min, h.radius_max)
+                         .bounds;
     const bool prop = (h.flags & store::kFlagProperty) != 0;
-    for (int d = 0; d < 3; ++d) {
-      look.bounds.min[d] = first ? h.bounds_min[d] : std::min(look.bounds.min[d], h.bounds_min[d]);
-      look.bounds.max[d] = first ? h.bounds_max[d] : std::max(look.bounds.max[d], h.bounds_max[d]);
-    }
-    look.bounds.radius_max = first ? rmax : std::max(look.bounds.radius_max, rmax);
+    look.bounds.min = first ? b.min : glm::min(look.bounds.min, b.min);
+    look.bounds.max = first ? b.max : glm::max(look.bounds.max, b.max);
+    look.bounds.radius_max = first ? b.radius_max : std::max(look.bounds.radius_max, b.radius_max);
     look.property_min = first ? h.property_min : std::min(look.property_min, double(h.property_min));
     look.property_max = first ? h.property_max : std::max(look.property_max, double(h.property_max));
     look.has_property = first ? prop : look.has_property && prop;
