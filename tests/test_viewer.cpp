@@ -773,4 +773,49 @@ TEST_F(ViewerSeries, SpacePlaysTheSeriesInALoop) {
   EXPECT_EQ(printed[2], "2");
 }
 
+TEST_F(ViewerSeries, PlaySeriesStepsOnOnceACappedViewHasItsSamples) {
+  // --max-iterations 2 < --converge-iterations 3: no view converges; each settles at the cap
+  // (FrameReport::settled) and the play goes on. The frame log names the frame shown and the
+  // time its store took to load.
+  const fs::path log = dir_ / "viewer_err.txt", frames = dir_ / "frames.csv";
+  ASSERT_EQ(sh(env() + MDSTREAM_BIN + " view " + series() +
+               " --play-series --max-iterations 2 --width 96 --height 72 --spp 2 --no-hud --exit-after-frames 30"
+               " --frame-log " + frames.string() + " 2>" + log.string()),
+            0)
+      << slurp(log);
+  const auto printed = printed_frames(log);
+  ASSERT_GE(printed.size(), 3u) << slurp(log);
+  EXPECT_EQ(printed[0], "1");
+  EXPECT_EQ(printed[1], "2");
+  EXPECT_EQ(printed[2], "0");
+  std::ifstream f(frames);
+  std::string header, line;
+  ASSERT_TRUE(std::getline(f, header));
+  ASSERT_NE(header.find(",series_frame,reload_ms"), std::string::npos) << header;
+  std::vector<std::string> shown;  // series_frame of the rows whose frame loaded a store
+  int rows = 0;
+  while (std::getline(f, line)) {
+    ++rows;
+    const size_t a = line.rfind(','), b = line.rfind(',', a - 1);
+    const double reload_ms = std::stod(line.substr(a + 1));
+    const std::string frame = line.substr(b + 1, a - b - 1);
+    if (rows == 1) {
+      EXPECT_EQ(frame, "0") << line;
+    }
+    if (reload_ms > 0.0) shown.push_back(frame);
+  }
+  EXPECT_EQ(rows, 30);
+  ASSERT_GE(shown.size(), 3u);
+  EXPECT_EQ(std::vector<std::string>(shown.begin(), shown.begin() + 3), std::vector<std::string>(printed.begin(), printed.begin() + 3));
+}
+
+TEST_F(ViewerSeries, PlaySeriesOnAStoreIsAnError) {
+  const fs::path log = dir_ / "viewer_err.txt";
+  EXPECT_NE(sh(env() + MDSTREAM_BIN + " view " + (dir_ / "gas.mds").string() + " --play-series --exit-after-frames 2 2>" +
+               log.string()),
+            0);
+  EXPECT_NE(slurp(log).find("--play-series"), std::string::npos) << slurp(log);
+  EXPECT_NE(slurp(log).find("gas.mds"), std::string::npos) << slurp(log);
+}
+
 }  // namespace

@@ -281,6 +281,10 @@ struct FrameReport {
   bool culling_converged = false; // the current view's culling converged (Sect. 5.3)
   bool complete = false;          // streaming: every wanted node resident (or failed), nothing in flight
   bool converged = false;         // culling_converged && complete (in-memory: culling_converged or no culling)
+  // The view's culling has stopped -- converged, or --max-iterations reached without converging
+  // (classes kept) -- and streaming is complete: until a new view or new data, frames only add
+  // samples. The viewer rests (and a playing series steps on) once settled and accumulated.
+  bool settled = false;
   double gpu_ms = 0.0;            // GPU time of the PREVIOUS frame's passes (known once it completed; 0: not timed)
   double wall_ms = 0.0;           // CPU wall time of step()
   double wait_ms = 0.0;           // of it: waiting for the previous frame's command buffer

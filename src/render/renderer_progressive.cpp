@@ -355,6 +355,7 @@ Result<FrameReport> Renderer::step() {
   rep.culling_converged = m.culling_converged;
   rep.complete = m.complete;
   rep.converged = (!m.cull || m.culling_converged) && m.complete;
+  rep.settled = (!m.cull || !m.cull_active) && m.complete;
   if (m.cull) {
     const gpu::CullCounters c = m.cull->counters();
     for (int k = 0; k < 4; ++k) {

@@ -18,8 +18,9 @@ std::vector<std::string> hud_lines(const HudState& s) {
   if (!s.series.empty()) l.push_back(s.series);
   l.push_back(fmt::format("frame {:.1f} ms ({:.0f} fps)  step {:.1f} ms  gpu {:.1f} ms", s.frame_ms,
                           s.frame_ms > 0 ? 1000.0 / s.frame_ms : 0.0, s.step_ms, r.gpu_ms));
-  const char* state = s.idle ? "converged (idle)"
+  const char* state = s.idle ? (r.converged ? "converged (idle)" : "culling capped (idle)")
                       : r.converged ? "converged, accumulating"
+                      : r.settled ? "culling capped (--max-iterations), accumulating"
                       : r.culling_active ? "culling"
                       : (s.streaming && !r.complete) ? "loading"
                                                      : "refining";

@@ -101,6 +101,7 @@ class Viewer {
   int64_t series_step_ = 0;
   std::optional<size_t> series_goto_;
   bool series_playing_ = false;
+  double reload_ms_ = 0.0;  // this frame's store or slice loads (frame log: reload_ms)
   std::optional<Error> render_error_;
   std::string message_;
   Clock::time_point message_time_;
@@ -109,6 +110,8 @@ class Viewer {
 Status Viewer::setup() {
   if (o_.render.width == 0 || o_.render.height == 0)
     return make_error(Errc::invalid_argument, "--width/--height must be positive");
+  if (o_.play_series && !store::is_series_path(o_.store))
+    return make_error(Errc::invalid_argument, "--play-series: {} is not a series (a .series index)", o_.store);
   // A --play file is read before the window opens (errors early); built-in names after the
   // bounds are known.
   const bool builtin_play = !o_.play.empty() && !std::filesystem::exists(o_.play) &&
@@ -158,6 +161,7 @@ Status Viewer::setup() {
     play_ = render::builtin_path(kind, host_->view_bounds(), std::max(o_.play_frames, 1u), o_.fov_y_deg, aspect);
   }
 
+  series_playing_ = o_.play_series;
   hud_.store_name = host_->is_series() ? host_->series_entry()->name
                                        : std::filesystem::path(o_.store).filename().string();
   hud_.streaming = host_->streaming();
@@ -291,7 +295,9 @@ void Viewer::apply_slice_keys(double steps, bool invert) {
   const store::FileHeader& h = host_->reader().header();
   slices.back() = step_slice(slices.back(), steps, invert, h.bounds_min, h.bounds_max);
   render_error_.reset();
+  const auto t0 = Clock::now();
   const Status st = host_->set_slices(slices);  // in memory: the scene again; streaming: a new cache
+  reload_ms_ += ms_since(t0);
   have_view_ = false;
   idle_ = false;
   if (!st.ok()) {
@@ -305,7 +311,9 @@ void Viewer::apply_slice_keys(double steps, bool invert) {
 
 void Viewer::show_series_position(size_t position) {
   render_error_.reset();
+  const auto t0 = Clock::now();
   const Status st = host_->set_series_position(position);  // the store of that frame; camera and slices stay
+  reload_ms_ += ms_since(t0);
   have_view_ = false;
   idle_ = false;
   message_time_ = Clock::now();
@@ -399,6 +407,7 @@ Status Viewer::run() {
   bool quit = false;
   for (;;) {
     const auto t0 = Clock::now();
+    reload_ms_ = 0.0;
     const double dt = std::min(std::chrono::duration<double>(t0 - last_iter).count(), 0.25);
     last_iter = t0;
     const bool playing = play_ && frame < play_->frame_count();
@@ -499,7 +508,7 @@ Status Viewer::run() {
         // Never idle on a moving frame: it may have rendered at a reduced scale (dynamic
         // resolution), and with few --spp it already has its samples; the next frame, at rest,
         // renders at full size.
-        idle_ = !moved && report.converged && report.samples >= host_->settings().spp;
+        idle_ = !moved && report.settled && report.samples >= host_->settings().spp;
       }
       step_ms = ms_since(ts);
     }
@@ -572,6 +581,8 @@ Status Viewer::run() {
       row.scale = render_scale_;
       row.render_width = r ? r->width() : 0;
       row.render_height = r ? r->height() : 0;
+      row.series_frame = host_->is_series() ? host_->series_frame() : -1;
+      row.reload_ms = reload_ms_;
       log_->add(row);
     }
     ++frame;

@@ -36,6 +36,7 @@ struct ViewerOptions {
   bool ortho = false;       // --ortho
   std::string play;         // --play PATH_FILE, or a built-in path: orbit, flythrough, jumps
   uint32_t play_frames = 240;  // frames of a built-in --play path
+  bool play_series = false;    // --play-series: a series plays from the start (as after Space)
   std::string record;       // --record PATH_FILE
   std::string screenshot;   // --screenshot FILE (PNG), saved when exiting
   std::string frame_log;    // --frame-log CSV: one row per displayed frame

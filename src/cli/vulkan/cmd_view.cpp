@@ -78,6 +78,8 @@ void setup_view(CLI::App& sub, int& exit_code) {
   sub.add_option("--play-frames", opt->v.play_frames, "Frames of a built-in --play path")
       ->check(CLI::Range(1u, 10000000u))
       ->capture_default_str();
+  sub.add_flag("--play-series", opt->v.play_series,
+               "A series (.series) plays from the start: each frame once it has refined, looping (key Space stops)");
   sub.add_option("--record", opt->v.record, "Save the session's camera path to this file when the viewer exits");
   sub.add_option("--screenshot", opt->v.screenshot, "Save the last displayed frame as PNG when the viewer exits");
   sub.add_option("--exit-after-frames", opt->v.exit_after_frames,
