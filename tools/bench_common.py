@@ -2,7 +2,10 @@
 import datetime
 import os
 import platform
+import signal
+import socket
 import subprocess
+import time
 
 
 def parse_count(text):
@@ -78,7 +81,6 @@ def open_work(name, work, out):
 
 def sh(cmd, log, env=None, timeout=None):
     """Runs `cmd`, appends it with its output and time to `log`; raises on a non-zero exit."""
-    import time
     t0 = time.time()
     r = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=timeout)
     log.write(f"$ {' '.join(cmd)}  ({time.time() - t0:.1f} s, rc {r.returncode})\n{r.stdout}{r.stderr}\n")
@@ -117,3 +119,34 @@ def write_csv(out, name, rows, keys):
         w = csv.DictWriter(f, fieldnames=keys)
         w.writeheader()
         w.writerows(rows)
+
+
+class Xvfb:
+    """An Xvfb server on a free display number; stopped on exit."""
+
+    def __init__(self):
+        self.proc = None
+        for n in range(200 + os.getpid() % 500, 900):
+            if os.path.exists(f"/tmp/.X{n}-lock") or os.path.exists(f"/tmp/.X11-unix/X{n}"):
+                continue
+            self.proc = subprocess.Popen(["Xvfb", f":{n}", "-screen", "0", "1280x1024x24", "-nolisten", "tcp"],
+                                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            t0 = time.time()
+            while time.time() - t0 < 15 and self.proc.poll() is None:
+                s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+                try:
+                    s.connect(f"/tmp/.X11-unix/X{n}")
+                    self.display = f":{n}"
+                    return
+                except OSError:
+                    time.sleep(0.05)
+                finally:
+                    s.close()
+            self.stop()
+        raise RuntimeError("Xvfb did not start")
+
+    def stop(self):
+        if self.proc and self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            self.proc.wait()
+        self.proc = None

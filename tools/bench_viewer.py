@@ -14,47 +14,14 @@ import argparse
 import csv
 import os
 import shutil
-import signal
-import socket
 import subprocess
 import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench_common import machine_info, make_store, newest_mdstream, open_work, parse_count, sh  # noqa: E402
+from bench_common import Xvfb, machine_info, make_store, newest_mdstream, open_work, parse_count, sh  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-class Xvfb:
-    """An Xvfb server on a free display number; stopped on exit."""
-
-    def __init__(self):
-        self.proc = None
-        for n in range(200 + os.getpid() % 500, 900):
-            if os.path.exists(f"/tmp/.X{n}-lock") or os.path.exists(f"/tmp/.X11-unix/X{n}"):
-                continue
-            self.proc = subprocess.Popen(["Xvfb", f":{n}", "-screen", "0", "1280x1024x24", "-nolisten", "tcp"],
-                                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-            t0 = time.time()
-            while time.time() - t0 < 15 and self.proc.poll() is None:
-                s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-                try:
-                    s.connect(f"/tmp/.X11-unix/X{n}")
-                    self.display = f":{n}"
-                    return
-                except OSError:
-                    time.sleep(0.05)
-                finally:
-                    s.close()
-            self.stop()
-        raise RuntimeError("Xvfb did not start")
-
-    def stop(self):
-        if self.proc and self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGTERM)
-            self.proc.wait()
-        self.proc = None
 
 
 def read_log(path):

@@ -73,12 +73,12 @@ Result<MeshSprites> MeshSprites::create(const vk::Context& ctx, VkPipelineLayout
   vk::SpecConstants spec;
   spec.add(0u, VkBool32(false)).add(1u, small_px);
   g.vertex_spec = &spec;
-  MDS_ASSIGN_OR_RETURN(m.pipe_, vk::create_graphics_pipeline(ctx.device(), layout, g));
+  MDS_ASSIGN_OR_RETURN(m.pipe_, ctx.pipelines().graphics(layout, g));
   if (particle_occlusion) {
     vk::SpecConstants occ;
     occ.add(0u, VkBool32(true)).add(1u, small_px);
     g.vertex_spec = &occ;
-    MDS_ASSIGN_OR_RETURN(m.occ_pipe_, vk::create_graphics_pipeline(ctx.device(), layout, g));
+    MDS_ASSIGN_OR_RETURN(m.occ_pipe_, ctx.pipelines().graphics(layout, g));
   }
   return m;
 }

@@ -76,8 +76,8 @@ class MeshSprites {
                    bool particle_test) const;
 
  private:
-  vk::UniquePipeline pipe_;
-  vk::UniquePipeline occ_pipe_;  // with the particle occlusion test (when created with it)
+  VkPipeline pipe_ = VK_NULL_HANDLE;      // the context's (vk/pipeline_cache.h)
+  VkPipeline occ_pipe_ = VK_NULL_HANDLE;  // with the particle occlusion test (when created with it)
   VkPipelineLayout layout_ = VK_NULL_HANDLE;
   PFN_vkCmdDrawMeshTasksIndirectEXT draw_indirect_ = nullptr;
 };

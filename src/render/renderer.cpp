@@ -235,12 +235,12 @@ void Renderer::Impl::write_accumulation_descriptors() {
 
 Status Renderer::Impl::create_accumulate_pipeline() {
   // list: visibility_resolve.comp's kCoveredList and its local size.
-  auto make = [&](const char* shader, bool list) -> Result<vk::UniquePipeline> {
+  auto make = [&](const char* shader, bool list) -> Result<VkPipeline> {
     vk::SpecConstants spec;
     spec.add(0u, VkBool32(accum_in_buffer));  // accumulation.h: kAccumBuffer
     if (vis_route)
       spec.add(1u, VkBool32(list)).add(2u, list ? 64u : 16u).add(3u, list ? 1u : 16u).add(4u, VkBool32(chunked_ids()));
-    return vk::create_compute_pipeline(ctx->device(), layout.get(), shader, &spec);
+    return ctx->pipelines().compute(layout, shader, &spec);
   };
   if (vis_route) {
     MDS_ASSIGN_OR_RETURN(full_resolve_pipe, make("visibility_resolve.comp", false));
@@ -305,8 +305,9 @@ Status Renderer::Impl::create_pipelines() {
   set.write_buffer(gpu::kBindSpriteDraw, SSBO, sprite_draw.get());
   set.write_buffer(gpu::kBindVisibility, SSBO, visibility.get());
   write_occlusion_descriptor();
-  MDS_ASSIGN_OR_RETURN(layout, vk::create_pipeline_layout(dev, set.layout()));
-  MDS_ASSIGN_OR_RETURN(draw_list_pipe, vk::create_compute_pipeline(dev, layout, "draw_list_all.comp"));
+  const vk::DescriptorSet* sets[] = {&set};
+  MDS_ASSIGN_OR_RETURN(layout, ctx->pipelines().layout(sets));
+  MDS_ASSIGN_OR_RETURN(draw_list_pipe, ctx->pipelines().compute(layout, "draw_list_all.comp"));
   // Sprites: a compute pre-pass computes every glyph once, the vertex stages only load (on
   // lavapipe vertex processing and primitive setup run mostly on one thread, compute on all).
   // Visibility route (vis_route, see renderer_impl.h): sprites up to kSmallSpritePx pixels are
@@ -336,7 +337,7 @@ Status Renderer::Impl::create_pipelines() {
   if (const char* e = std::getenv("MDSTREAM_SPRITES")) point_sprites = points_ok && std::string(e) == "points";
   small_px = vis_route ? (mesh_path ? mesh_small_px : kSmallSpritePx) : 0.0f;
   if (const char* e = std::getenv("MDSTREAM_SMALL_PX")) small_px = vis_route ? float(std::atof(e)) : 0.0f;
-  MDS_ASSIGN_OR_RETURN(sprite_args_pipe, vk::create_compute_pipeline(dev, layout, "sprite_args.comp"));
+  MDS_ASSIGN_OR_RETURN(sprite_args_pipe, ctx->pipelines().compute(layout, "sprite_args.comp"));
   // Task/mesh sprites where the device has them (--mesh-shaders): no pre-pass records, no
   // points; on the visibility route the mesh stage ray casts the small glyphs itself (the
   // compute rasterization's threshold) and the resolve rebuilds spheres from the particles'
@@ -350,20 +351,20 @@ Status Renderer::Impl::create_pipelines() {
   }
   MDS_TRY(create_accumulate_pipeline());
   if (covered_list) {  // decided with the route (create_targets); a resize keeps it
-    MDS_ASSIGN_OR_RETURN(compact_pipe, vk::create_compute_pipeline(dev, layout, "visibility_compact.comp"));
+    MDS_ASSIGN_OR_RETURN(compact_pipe, ctx->pipelines().compute(layout, "visibility_compact.comp"));
   }
   auto prepass = [&](bool particle_occlusion) {  // specialization constant 3: kParticleOcclusion
     vk::SpecConstants spec;
     spec.add(0u, VkBool32(point_sprites)).add(1u, max_point).add(2u, small_px).add(3u, VkBool32(particle_occlusion));
     spec.add(4u, VkBool32(chunked_ids()));  // kChunkedIds: visibility ids by particle, not by record
-    return vk::create_compute_pipeline(dev, layout, "sphere_prepass.comp", &spec);
+    return ctx->pipelines().compute(layout, "sphere_prepass.comp", &spec);
   };
   MDS_ASSIGN_OR_RETURN(prepass_pipe, prepass(false));
   if (settings.cull && settings.particle_occlusion) {
     MDS_ASSIGN_OR_RETURN(prepass_occ_pipe, prepass(true));
   }
   if (small_px > 0.0f && !mesh_path) {  // shaderInt64 + 64-bit atomics: only on the visibility route
-    MDS_ASSIGN_OR_RETURN(raster_pipe, vk::create_compute_pipeline(dev, layout, "sprite_raster.comp"));
+    MDS_ASSIGN_OR_RETURN(raster_pipe, ctx->pipelines().compute(layout, "sprite_raster.comp"));
   }
   vk::SpecConstants quad_spec;
   quad_spec.add(0u, VkBool32(point_sprites));  // quads come from the quad list
@@ -379,13 +380,13 @@ Status Renderer::Impl::create_pipelines() {
     g.color_formats = {kColorFormat};
     g.depth_format = kDepthFormat;
   }
-  MDS_ASSIGN_OR_RETURN(sphere_pipe, vk::create_graphics_pipeline(dev, layout, g));
+  MDS_ASSIGN_OR_RETURN(sphere_pipe, ctx->pipelines().graphics(layout, g));
   if (point_sprites) {
     vk::GraphicsPipelineDesc gp = g;
     gp.vertex_shader = "sphere_point.vert";
     gp.vertex_spec = nullptr;
     gp.topology = VK_PRIMITIVE_TOPOLOGY_POINT_LIST;
-    MDS_ASSIGN_OR_RETURN(point_pipe, vk::create_graphics_pipeline(dev, layout, gp));
+    MDS_ASSIGN_OR_RETURN(point_pipe, ctx->pipelines().graphics(layout, gp));
   }
   return {};
 }

@@ -95,13 +95,16 @@ struct Renderer::Impl {
   bool accum_in_buffer = false;
   bool accum_pipe_in_buffer = false;  // the accumulation the resolve/accumulate pipeline was built for
   vk::DescriptorSet set;
-  vk::UniquePipelineLayout layout;
-  vk::UniquePipeline draw_list_pipe, sprite_args_pipe, prepass_pipe, raster_pipe, sphere_pipe, point_pipe,
-      resolve_pipe, full_resolve_pipe, accum_pipe, compact_pipe;  // resolve_pipe: over the covered list
+  // Layout and pipelines: the context's (vk/pipeline_cache.h), kept for the next renderer.
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+  VkPipeline draw_list_pipe = VK_NULL_HANDLE, sprite_args_pipe = VK_NULL_HANDLE, prepass_pipe = VK_NULL_HANDLE,
+             raster_pipe = VK_NULL_HANDLE, sphere_pipe = VK_NULL_HANDLE, point_pipe = VK_NULL_HANDLE,
+             resolve_pipe = VK_NULL_HANDLE, full_resolve_pipe = VK_NULL_HANDLE, accum_pipe = VK_NULL_HANDLE,
+             compact_pipe = VK_NULL_HANDLE;  // resolve_pipe: over the covered list
   // The pre-pass with the particle occlusion test compiled in (specialization constant 3), bound
   // in the frames whose uniforms switch the test on (particle_test, write_frame_uniforms); null
   // without culling or with RenderSettings::particle_occlusion off.
-  vk::UniquePipeline prepass_occ_pipe;
+  VkPipeline prepass_occ_pipe = VK_NULL_HANDLE;
   bool particle_test = false;
   vk::FrameSlot slot;
   vk::TimestampPool timestamps;

@@ -299,6 +299,7 @@ Result<std::unique_ptr<Context>> Context::create(const ContextOptions& options) 
   MDS_VK_TRY(vkCreateDevice(c->physical_, &dinfo, nullptr, &c->device_));
   vkGetDeviceQueue(c->device_, c->queue_family_, 0, &c->queue_);
   c->allocator_ = std::make_unique<Allocator>(c->physical_, c->device_, options.budget);
+  c->pipelines_ = std::make_unique<PipelineCache>(c->device_);
 
   VkCommandPoolCreateInfo pinfo{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
   pinfo.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT | VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
@@ -314,6 +315,7 @@ Context::~Context() {
     vkDeviceWaitIdle(device_);
     if (fence_) vkDestroyFence(device_, fence_, nullptr);
     if (pool_) vkDestroyCommandPool(device_, pool_, nullptr);
+    pipelines_.reset();
     allocator_.reset();
     vkDestroyDevice(device_, nullptr);
   }

@@ -22,6 +22,7 @@
 
 #include "core/result.h"
 #include "vk/memory.h"
+#include "vk/pipeline_cache.h"
 
 namespace mds::vk {
 
@@ -91,6 +92,8 @@ class Context {
   // Number of validation warnings/errors reported so far (0 without validation).
   uint64_t validation_messages() const;
   Allocator& allocator() { return *allocator_; }
+  // Pipelines and their layouts, kept for the device's life (vk/pipeline_cache.h).
+  PipelineCache& pipelines() const { return *pipelines_; }
 
   // Records `record` into a fresh primary command buffer, submits it and waits for completion.
   Status submit_and_wait(const std::function<void(VkCommandBuffer)>& record);
@@ -121,6 +124,7 @@ class Context {
   VkPhysicalDeviceProperties props_{};
   uint32_t device_storage_range_ = 0;  // props_.limits.maxStorageBufferRange before the clamp above
   std::unique_ptr<Allocator> allocator_;
+  std::unique_ptr<PipelineCache> pipelines_;
   VkCommandPool pool_ = VK_NULL_HANDLE;
   VkFence fence_ = VK_NULL_HANDLE;
 };

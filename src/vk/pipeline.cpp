@@ -22,6 +22,7 @@ Result<UniqueShaderModule> load_shader(VkDevice device, const std::string& name)
 Result<DescriptorSet> DescriptorSet::create(VkDevice device, const std::vector<VkDescriptorSetLayoutBinding>& bindings) {
   DescriptorSet d;
   d.device_ = device;
+  d.bindings_ = bindings;
   VkDescriptorSetLayoutCreateInfo linfo{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
   linfo.bindingCount = uint32_t(bindings.size());
   linfo.pBindings = bindings.data();

@@ -26,6 +26,12 @@ class SpecConstants {
     std::memcpy(data_.data() + e.offset, &value, sizeof(T));
     return *this;
   }
+  // The constants as bytes (ids, offsets, sizes, values): equal bytes, equal specialization.
+  std::string key() const {
+    std::string k(reinterpret_cast<const char*>(entries_.data()), entries_.size() * sizeof(VkSpecializationMapEntry));
+    k.append(reinterpret_cast<const char*>(data_.data()), data_.size());
+    return k;
+  }
   // Valid while this object lives and is not modified.
   const VkSpecializationInfo* info() {
     if (entries_.empty()) return nullptr;
@@ -55,9 +61,12 @@ class DescriptorSet {
   void write_storage_image(uint32_t binding, VkImageView view, VkImageLayout layout = VK_IMAGE_LAYOUT_GENERAL);
   VkDescriptorSetLayout layout() const { return layout_.get(); }
   VkDescriptorSet set() const { return set_; }
+  // The bindings it was created with (PipelineCache::layout keys on them).
+  const std::vector<VkDescriptorSetLayoutBinding>& bindings() const { return bindings_; }
 
  private:
   VkDevice device_ = VK_NULL_HANDLE;
+  std::vector<VkDescriptorSetLayoutBinding> bindings_;
   UniqueDescriptorSetLayout layout_;
   UniqueDescriptorPool pool_;
   VkDescriptorSet set_ = VK_NULL_HANDLE;
@@ -69,6 +78,7 @@ Result<UniquePipelineLayout> create_pipeline_layout(VkDevice device, VkDescripto
 Result<UniquePipeline> create_compute_pipeline(VkDevice device, VkPipelineLayout layout, const std::string& shader,
                                                SpecConstants* spec = nullptr);
 
+// A field added here joins PipelineCache::graphics's key (vk/pipeline_cache.cpp).
 struct GraphicsPipelineDesc {
   std::string vertex_shader;  // empty when mesh_shader is set
   std::string fragment_shader;

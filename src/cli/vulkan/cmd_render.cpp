@@ -6,6 +6,7 @@
 // and one colour range for all of them (render/series_look.h).
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -106,6 +107,10 @@ NodeGranularity node_granularity(const store::StoreReader& reader, std::span<con
 
 nlohmann::json vec3_json(const glm::dvec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); }
 
+double ms_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
+}
+
 
 // Renders o.store (one store) to o.output; the stats go to *stats_out when given, else to o.stats.
 Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_ptr<vk::Context>& ctx,
@@ -130,6 +135,7 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
       if (path.empty()) return make_error(Errc::invalid_argument, "--path {}: no camera keyframes", o.path);
     }
   }
+  const auto setup_start = std::chrono::steady_clock::now();  // stats "setup_ms"
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
   render::AoChoice ao;
   MDS_TRY(apply_appearance(look, *reader, rs, &ao));
@@ -180,10 +186,13 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
   camera.fov_y_deg = o.fov;
   camera.ortho = o.ortho;
 
+  double context_ms = 0.0;
   if (!ctx) {
+    const auto t = std::chrono::steady_clock::now();
     vk::ContextOptions copt = vk::ContextOptions::from_env();
     copt.device_index = o.device;
     MDS_ASSIGN_OR_RETURN(ctx, vk::Context::create(copt));
+    context_ms = ms_since(t);
   }
   rs.width = o.width;
   rs.height = o.height;
@@ -195,12 +204,19 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
     if (scene.left_out()) vol = render::culling::density_on_grid(scene, std::move(vol));
     rs.density = std::make_shared<const render::culling::DensityVolume>(std::move(vol));
   }
+  // Setup: the store (decoded in memory, its directory streaming) and the density volume, then
+  // the renderer (buffers, upload, pipelines: made once per process, vk/pipeline_cache.h).
+  const double scene_ms = ms_since(setup_start) - context_ms;
+  const vk::PipelineCache::Counts pipelines_before = ctx->pipelines().counts();
+  const auto renderer_start = std::chrono::steady_clock::now();
   std::unique_ptr<render::Renderer> renderer;
   if (streaming) {
     MDS_ASSIGN_OR_RETURN(renderer, render::Renderer::create_streaming(*ctx, *reader, rs, ss));
   } else {
     MDS_ASSIGN_OR_RETURN(renderer, render::Renderer::create(*ctx, scene, rs));
   }
+  const double renderer_ms = ms_since(renderer_start);
+  const vk::PipelineCache::Counts pipelines_after = ctx->pipelines().counts();
   if (!o.path.empty()) {
     if (builtin) {
       path = render::builtin_path(*builtin, scene.bounds, o.path_frames, o.fov, aspect);
@@ -378,6 +394,9 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
     }
     j["pass_ms_median"] = stats.pass_ms_median;
     j["wall_ms"] = stats.wall_ms;
+    j["setup_ms"] = {{"context", context_ms}, {"scene", scene_ms}, {"renderer", renderer_ms}};
+    j["pipelines"] = {{"made", pipelines_after.pipelines - pipelines_before.pipelines},
+                      {"reused", pipelines_after.reused - pipelines_before.reused}};
     j["upload_bytes"] = stats.upload_bytes;
     j["device_bytes_peak"] = stats.device_bytes;
     j["camera"] = {{"eye", vec3_json(camera.eye)},   {"target", vec3_json(camera.target)},

@@ -408,7 +408,7 @@ void CullLoop::record_iteration(VkCommandBuffer cmd, vk::TimestampPool* ts, uint
   vkCmdFillBuffer(cmd, m.counters.get(), offsetof(gpu::CullCounters, node_class_count), 20, 0);  // + node_changed
   compute_barrier(cmd);
   m.bind(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
-         m.moving && m.classify_coarse_pipe ? m.classify_coarse_pipe.get() : m.classify_pipe.get(), m.set0_sample);
+         m.moving && m.classify_coarse_pipe ? m.classify_coarse_pipe : m.classify_pipe, m.set0_sample);
   if (m.nodes_per_group > 0) {
     m.push(cmd, 2);  // a subgroup per node (cull_classify.comp)
     vk::dispatch_rows(cmd, (m.node_count + m.nodes_per_group - 1) / m.nodes_per_group, gpu::kDispatchRow);

@@ -78,21 +78,24 @@ struct CullLoop::Impl {
   // kSampledListMaxFraction.
   mutable double sampled_fraction = -1.0;  // -1: not measured in this view
   vk::DescriptorSet set0_sample, set0_draw, set1;
-  vk::UniquePipelineLayout layout;
+  VkPipelineLayout layout = VK_NULL_HANDLE;  // and the pipelines: the context's (vk/pipeline_cache.h)
   bool shared_box_tests = false;  // classify_pipe is cull_classify_coop.comp
   bool shared_cells = false;      // its kSharedCells (a shared test's cells one at a time)
   // Nodes per 64-lane workgroup of the node classification with one subgroup per node
   // (cull_classify_coop.comp push.mode 2: 64 / subgroupSize); 0: one thread per node (mode 0).
   uint32_t nodes_per_group = 0;
-  vk::UniquePipeline classify_coarse_pipe;  // kNodeExtentInMemory, while moving (set_moving); null when node_extent is that
+  VkPipeline classify_coarse_pipe = VK_NULL_HANDLE;  // kNodeExtentInMemory, while moving (set_moving); null when node_extent is that
   bool moving = false;
   bool view_pending = false;  // prepare_view ran; record_view_start not yet recorded
   uint32_t view_live = 0;     // its initial |P| (live meshlets)
   double moving_share = 1.0;  // set_moving: share of the budget per sampling pass while moving
   bool histogram_pending = false;  // the last iteration's classification may have changed the volume
   bool histogram_recast = false;   // the view's stride changed (set_moving(false)): cast every block
-  vk::UniquePipeline reset_pipe, histogram_pipe, select_pipe, update_pipe, pyramid_pipe, classify_pipe,
-      draw_list_pipe, sample_pipe, sample_comp_pipe, update_buffer_pipe, sample_compact_pipe, update_list_pipe;
+  VkPipeline reset_pipe = VK_NULL_HANDLE, histogram_pipe = VK_NULL_HANDLE, select_pipe = VK_NULL_HANDLE,
+             update_pipe = VK_NULL_HANDLE, pyramid_pipe = VK_NULL_HANDLE, classify_pipe = VK_NULL_HANDLE,
+             draw_list_pipe = VK_NULL_HANDLE, sample_pipe = VK_NULL_HANDLE, sample_comp_pipe = VK_NULL_HANDLE,
+             update_buffer_pipe = VK_NULL_HANDLE, sample_compact_pipe = VK_NULL_HANDLE,
+             update_list_pipe = VK_NULL_HANDLE;
 
   Status create_buffers(const CullScene& scene_data, const DensityVolume& vol);
   // A device-local storage buffer of `bytes` (at least 16) into b; an error naming `what` when

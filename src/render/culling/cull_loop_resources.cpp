@@ -202,20 +202,12 @@ Status CullLoop::Impl::create_sets() {
 }
 
 Status CullLoop::Impl::create_pipelines() {
-  VkDevice dev = ctx->device();
-  VkDescriptorSetLayout sl[2] = {set0_sample.layout(), set1.layout()};
-  VkPushConstantRange pc{VK_SHADER_STAGE_ALL, 0, sizeof(gpu::CullPush)};
-  VkPipelineLayoutCreateInfo li{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
-  li.setLayoutCount = 2;
-  li.pSetLayouts = sl;
-  li.pushConstantRangeCount = 1;
-  li.pPushConstantRanges = &pc;
-  VkPipelineLayout pl = VK_NULL_HANDLE;
-  MDS_VK_TRY(vkCreatePipelineLayout(dev, &li, nullptr, &pl));
-  layout = vk::UniquePipelineLayout(dev, pl);
-  MDS_ASSIGN_OR_RETURN(reset_pipe, vk::create_compute_pipeline(dev, layout, "cull_reset.comp"));
-  MDS_ASSIGN_OR_RETURN(histogram_pipe, vk::create_compute_pipeline(dev, layout, "cull_histogram.comp"));
-  MDS_ASSIGN_OR_RETURN(select_pipe, vk::create_compute_pipeline(dev, layout, "cull_select.comp"));
+  const vk::DescriptorSet* sets[] = {&set0_sample, &set1};  // set0_draw: as set0_sample
+  vk::PipelineCache& cache = ctx->pipelines();
+  MDS_ASSIGN_OR_RETURN(layout, cache.layout(sets, sizeof(gpu::CullPush)));
+  MDS_ASSIGN_OR_RETURN(reset_pipe, cache.compute(layout, "cull_reset.comp"));
+  MDS_ASSIGN_OR_RETURN(histogram_pipe, cache.compute(layout, "cull_histogram.comp"));
+  MDS_ASSIGN_OR_RETURN(select_pipe, cache.compute(layout, "cull_select.comp"));
   {
     // cull_update.comp: kSampleBuffer, kSampledList, local size x, y.
     auto update_spec = [](bool buffer, bool list) {
@@ -225,15 +217,15 @@ Status CullLoop::Impl::create_pipelines() {
     };
     vk::SpecConstants image_spec = update_spec(false, false), buffer_spec = update_spec(true, false),
                       list_spec = update_spec(true, true);
-    MDS_ASSIGN_OR_RETURN(update_pipe, vk::create_compute_pipeline(dev, layout, "cull_update.comp", &image_spec));
+    MDS_ASSIGN_OR_RETURN(update_pipe, cache.compute(layout, "cull_update.comp", &image_spec));
     if (ctx->int64_atomics()) {
       MDS_ASSIGN_OR_RETURN(update_buffer_pipe,
-                           vk::create_compute_pipeline(dev, layout, "cull_update.comp", &buffer_spec));
+                           cache.compute(layout, "cull_update.comp", &buffer_spec));
     }
     if (ctx->int64_atomics() && ctx->compute_ballot() && sampled_list_wanted()) {
-      MDS_ASSIGN_OR_RETURN(update_list_pipe, vk::create_compute_pipeline(dev, layout, "cull_update.comp", &list_spec));
+      MDS_ASSIGN_OR_RETURN(update_list_pipe, cache.compute(layout, "cull_update.comp", &list_spec));
       MDS_ASSIGN_OR_RETURN(sample_compact_pipe,
-                           vk::create_compute_pipeline(dev, layout, "cull_sample_compact.comp"));
+                           cache.compute(layout, "cull_sample_compact.comp"));
     }
   }
   if (ctx->int64_atomics()) {
@@ -242,9 +234,9 @@ Status CullLoop::Impl::create_pipelines() {
     const char* coop_env = std::getenv("MDSTREAM_CULL_COOP");
     const bool coop = ctx->compute_shuffle() && !(coop_env && std::string(coop_env) == "0");
     MDS_ASSIGN_OR_RETURN(sample_comp_pipe,
-                         vk::create_compute_pipeline(dev, layout, coop ? "cull_sample_coop.comp" : "cull_sample.comp"));
+                         cache.compute(layout, coop ? "cull_sample_coop.comp" : "cull_sample.comp"));
   }
-  MDS_ASSIGN_OR_RETURN(pyramid_pipe, vk::create_compute_pipeline(dev, layout, "cull_pyramid.comp"));
+  MDS_ASSIGN_OR_RETURN(pyramid_pipe, cache.compute(layout, "cull_pyramid.comp"));
   {
     // Box tests of many texels shared by their subgroup (cull_classify.comp) where the device
     // has ballot, shuffle and arithmetic in compute and subgroups of at least
@@ -274,22 +266,22 @@ Status CullLoop::Impl::create_pipelines() {
     spec.add(0u, int32_t(node_extent));  // cull_classify.comp: kNodeExtent
     spec.add(1u, coop_texels);
     spec.add(2u, VkBool32(shared_cells));
-    MDS_ASSIGN_OR_RETURN(classify_pipe, vk::create_compute_pipeline(dev, layout, classify, &spec));
+    MDS_ASSIGN_OR_RETURN(classify_pipe, cache.compute(layout, classify, &spec));
     if (node_extent != kNodeExtentInMemory) {
       vk::SpecConstants coarse;
       coarse.add(0u, int32_t(kNodeExtentInMemory));
       coarse.add(1u, coop_texels);
       coarse.add(2u, VkBool32(shared_cells));
-      MDS_ASSIGN_OR_RETURN(classify_coarse_pipe, vk::create_compute_pipeline(dev, layout, classify, &coarse));
+      MDS_ASSIGN_OR_RETURN(classify_coarse_pipe, cache.compute(layout, classify, &coarse));
     }
   }
-  MDS_ASSIGN_OR_RETURN(draw_list_pipe, vk::create_compute_pipeline(dev, layout, "cull_draw_list.comp"));
+  MDS_ASSIGN_OR_RETURN(draw_list_pipe, cache.compute(layout, "cull_draw_list.comp"));
   vk::GraphicsPipelineDesc g;
   g.vertex_shader = "cull_sample.vert";
   g.fragment_shader = "cull_sample.frag";
   g.color_formats = {kSampleFormat};
   g.depth_format = kDepthFormat;
-  MDS_ASSIGN_OR_RETURN(sample_pipe, vk::create_graphics_pipeline(dev, layout, g));
+  MDS_ASSIGN_OR_RETURN(sample_pipe, cache.graphics(layout, g));
   return {};
 }
 
