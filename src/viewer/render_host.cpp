@@ -1,6 +1,8 @@
 #include "viewer/render_host.h"
 
 #include <algorithm>
+#include <chrono>
+#include <cstdlib>
 
 #include "render/ambient_occlusion_setup.h"
 #include "render/culling/density_volume.h"
@@ -8,6 +10,11 @@
 #include "render/scene.h"
 
 namespace mds::viewer {
+
+RenderHost::RenderHost() {
+  const char* e = std::getenv("MDSTREAM_SERIES_PRELOAD");
+  preload_enabled_ = !(e && std::string(e) == "0");
+}
 
 Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const ViewerOptions& options) {
   std::unique_ptr<RenderHost> h(new RenderHost());
@@ -67,9 +74,7 @@ const store::SeriesFrame* RenderHost::series_entry() const {
   return series_ ? &series_->frames[size_t(series_frames_[series_pos_])] : nullptr;
 }
 
-Status RenderHost::set_series_position(size_t position) {
-  if (!series_ || position >= series_frames_.size())
-    return make_error(Errc::invalid_argument, "no series position {}", position);
+Result<RenderHost::Prepared> RenderHost::prepare(size_t position, const std::vector<store::Slice>& slices) const {
   const store::SeriesFrame& f = series_->frames[size_t(series_frames_[position])];
   auto opened = store::StoreReader::open(f.path);
   if (!opened.ok()) {
@@ -77,10 +82,39 @@ Status RenderHost::set_series_position(size_t position) {
     e.message = fmt::format("{}: frame {} ({}): {}", store_arg_, series_frames_[position], f.name, e.message);
     return e;
   }
-  std::unique_ptr<store::StoreReader> reader = std::move(*opened);
+  Prepared p;
+  p.reader = std::move(*opened);
+  MDS_ASSIGN_OR_RETURN(p.loaded, load(*p.reader, slices));
+  return p;
+}
+
+void RenderHost::preload(size_t position) {
+  if (!preload_enabled_ || !series_ || position >= series_frames_.size() || position == series_pos_) return;
+  if (preload_.valid() && preload_pos_ == position && preload_slices_ == stream_.slices) return;
+  if (preload_.valid()) preload_.wait();  // one load at a time
+  preload_pos_ = position;
+  preload_slices_ = stream_.slices;
+  preload_ = std::async(std::launch::async, [this, position, slices = preload_slices_] { return prepare(position, slices); });
+}
+
+bool RenderHost::preload_ready(size_t position) const {
+  return preload_.valid() && preload_pos_ == position &&
+         preload_.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+}
+
+Status RenderHost::set_series_position(size_t position) {
+  if (!series_ || position >= series_frames_.size())
+    return make_error(Errc::invalid_argument, "no series position {}", position);
+  // The preloaded store when it is this position's with these slices, else loaded now; the
+  // current frame stays until this worked.
+  Result<Prepared> prepared = preload_.valid() && preload_pos_ == position && preload_slices_ == stream_.slices
+                                  ? preload_.get()
+                                  : prepare(position, stream_.slices);
+  if (!prepared.ok()) return prepared.error();
+  std::unique_ptr<store::StoreReader> reader = std::move(prepared->reader);
+  Loaded loaded = std::move(prepared->loaded);
   render::RenderSettings rs = settings_;
   MDS_TRY(resolve_colors(*reader, rs));
-  MDS_ASSIGN_OR_RETURN(Loaded loaded, load(*reader, stream_.slices));  // the current frame stays until this worked
   renderer_.reset();  // before the scene and the store it drew go
   std::unique_ptr<store::StoreReader> before = std::move(reader_);
   reader_ = std::move(reader);

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <future>
 #include <memory>
 #include <optional>
 #include <span>
@@ -47,6 +48,14 @@ class RenderHost {
   int64_t series_frame() const { return series_frames_.empty() ? 0 : series_frames_[series_pos_]; }
   const store::SeriesFrame* series_entry() const;
   Status set_series_position(size_t position);
+  // Reads and loads the store of series position `position` on a background thread (the viewer
+  // asks for the next frame while the series plays), for set_series_position to take instead of
+  // loading it then: the step keeps only the renderer's creation. A no-op for the shown position,
+  // the one already asked for, or MDSTREAM_SERIES_PRELOAD=0 (A/B runs). Loaded with the slices of
+  // the time of the call: set_series_position loads again when they changed since.
+  void preload(size_t position);
+  // The preload of `position` has finished (loaded or failed); false when none was asked for.
+  bool preload_ready(size_t position) const;
   // The bounds the home camera frames: every picked frame's for a series, else bounds().
   const render::Bounds& view_bounds() const { return series_ ? look_.bounds : bounds_; }
   // The ambient occlusion the L key switches on: --ao-radius (or its default for the store) and
@@ -76,8 +85,15 @@ class RenderHost {
     render::Bounds bounds;
     std::vector<Box> node_boxes;
   };
-  RenderHost() = default;
+  // A series frame's store, opened and loaded (on a preload thread or in set_series_position).
+  struct Prepared {
+    std::unique_ptr<store::StoreReader> reader;
+    Loaded loaded;
+  };
+  RenderHost();
   Result<Loaded> load(const store::StoreReader& reader, const std::vector<store::Slice>& slices) const;
+  // Reads only what open() set (the options, the series), so it runs beside the render thread.
+  Result<Prepared> prepare(size_t position, const std::vector<store::Slice>& slices) const;
   // The store's colours: --color-by resolved against it (the series' range), --type-color.
   Status resolve_colors(const store::StoreReader& reader, render::RenderSettings& rs) const;
   void take(Loaded&& loaded);
@@ -102,6 +118,11 @@ class RenderHost {
   render::Bounds bounds_;
   std::vector<Box> node_boxes_;
   std::unique_ptr<render::Renderer> renderer_;
+  // preload(): the position asked for, the slices it loads with, and the load in flight (or done).
+  bool preload_enabled_ = true;
+  size_t preload_pos_ = 0;
+  std::vector<store::Slice> preload_slices_;
+  std::future<Result<Prepared>> preload_;
 };
 
 }  // namespace mds::viewer

@@ -517,6 +517,9 @@ Status Viewer::run() {
       show_series_position((host_->series_position() + 1) % host_->series_positions());
       r = host_->renderer();  // a new renderer for the new store
     }
+    // ... whose store is read and loaded meanwhile, beside the rendering (RenderHost::preload).
+    if (series_playing_ && !render_error_ && host_->series_positions() > 1)
+      host_->preload((host_->series_position() + 1) % host_->series_positions());
     if (render_error_) {
       idle_ = true;
       if (image_.width() != host_->settings().width || image_.height() != host_->settings().height)

@@ -1,0 +1,119 @@
+// The viewer's RenderHost (viewer/render_host.h) without a window, on a real series of stores
+// (synth --frames 3, convert -o run.mds.series) and real Vulkan (lavapipe here):
+//  - a frame preloaded beside the render thread (RenderHost::preload) is the one a step takes:
+//    it is shown even when its store file is gone by then, while a step to a frame not
+//    preloaded fails on the missing file, names it, and keeps the frame before;
+//  - slices changed after the preload are applied: the step loads the frame again with them;
+//  - MDSTREAM_SERIES_PRELOAD=0 preloads nothing.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <thread>
+
+#include "render_test_helpers.h"
+#include "scoped_temp_dir.h"
+#include "store/slice.h"
+#include "viewer/render_host.h"
+
+namespace fs = std::filesystem;
+using namespace mds;
+
+namespace {
+
+class RenderHostSeries : public mds::testing::VulkanSuite {
+ protected:
+  static void SetUpTestSuite() {
+    VulkanSuite::SetUpTestSuite();
+    dir_ = new mds::test::ScopedTempDir("mds_render_host_");
+    const fs::path dump = dir_->p / "gas.lammpstrj";
+    ASSERT_EQ(mds::testing::run_mdstream_quietly("synth --scene gas -n 20000 --frames 3 -q -o " + dump.string()), 0);
+    ASSERT_EQ(mds::testing::run_mdstream_quietly("convert " + dump.string() + " -q -o " + series()), 0);
+  }
+  static void TearDownTestSuite() {
+    delete dir_;
+    dir_ = nullptr;
+    VulkanSuite::TearDownTestSuite();
+  }
+  static std::string series() { return (dir_->p / "run.mds.series").string(); }
+  static fs::path store(int k) { return dir_->p / ("run.000" + std::to_string(k) + ".mds"); }
+
+  std::unique_ptr<viewer::RenderHost> open_host(const std::string& path, std::vector<store::Slice> slices = {}) {
+    viewer::ViewerOptions o;
+    o.store = path;
+    o.render.width = 64;
+    o.render.height = 48;
+    o.render.spp = 1;
+    o.slices = std::move(slices);
+    auto h = viewer::RenderHost::open(*ctx_, o);
+    EXPECT_TRUE(h.ok()) << (h.ok() ? "" : h.error().message);
+    if (!h.ok()) return nullptr;
+    EXPECT_TRUE((*h)->recreate(64, 48).ok());
+    return std::move(*h);
+  }
+  static bool wait_ready(const viewer::RenderHost& h, size_t position) {
+    for (int i = 0; i < 600; ++i) {
+      if (h.preload_ready(position)) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    return false;
+  }
+  static inline mds::test::ScopedTempDir* dir_ = nullptr;
+};
+
+TEST_F(RenderHostSeries, APreloadedFrameIsTakenEvenWithItsFileGone) {
+  auto h = open_host(series());
+  ASSERT_TRUE(h);
+  const uint64_t shown0 = h->scene()->particle_count();
+  h->preload(1);
+  ASSERT_TRUE(wait_ready(*h, 1));
+  const fs::path moved1 = store(1).string() + ".away", moved2 = store(2).string() + ".away";
+  fs::rename(store(1), moved1);
+  fs::rename(store(2), moved2);
+  const Status st1 = h->set_series_position(1);
+  const Status st2 = h->set_series_position(2);  // not preloaded: its file is read now
+  fs::rename(moved1, store(1));
+  fs::rename(moved2, store(2));
+  ASSERT_TRUE(st1.ok()) << st1.error().message;
+  ASSERT_FALSE(st2.ok());
+  EXPECT_NE(st2.error().message.find("frame 2 (run.0002.mds)"), std::string::npos) << st2.error().message;
+  EXPECT_EQ(h->series_frame(), 1) << "a failed step keeps the frame before";
+  ASSERT_NE(h->renderer(), nullptr);
+  EXPECT_EQ(h->reader().path(), store(1));
+  EXPECT_EQ(h->scene()->particle_count(), 20000u);
+  EXPECT_EQ(shown0, 20000u);
+}
+
+TEST_F(RenderHostSeries, SlicesChangedAfterThePreloadAreApplied) {
+  auto h = open_host(series());
+  ASSERT_TRUE(h);
+  h->preload(1);
+  ASSERT_TRUE(wait_ready(*h, 1));
+  auto slab = store::parse_slice("1,0,0,0");  // leaves out x > D: D set to the box's middle
+  ASSERT_TRUE(slab.ok());
+  const store::FileHeader& hd = h->reader().header();
+  slab->distance = 0.5 * (hd.bounds_min[0] + hd.bounds_max[0]);
+  ASSERT_TRUE(h->set_slices({*slab}).ok());
+  ASSERT_TRUE(h->set_series_position(1).ok());
+  auto direct = open_host(store(1).string(), {*slab});  // frame 1's store on its own, with the slice
+  ASSERT_TRUE(direct);
+  const uint64_t kept = h->scene()->particle_count();
+  EXPECT_EQ(kept, direct->scene()->particle_count());
+  EXPECT_GT(kept, 0u);
+  EXPECT_LT(kept, 20000u);
+}
+
+TEST_F(RenderHostSeries, PreloadOffLoadsNothingAhead) {
+  setenv("MDSTREAM_SERIES_PRELOAD", "0", 1);
+  auto h = open_host(series());
+  unsetenv("MDSTREAM_SERIES_PRELOAD");
+  ASSERT_TRUE(h);
+  h->preload(1);
+  EXPECT_FALSE(h->preload_ready(1));
+  EXPECT_TRUE(h->set_series_position(1).ok());
+  EXPECT_EQ(h->series_frame(), 1);
+}
+
+}  // namespace
