@@ -1,17 +1,20 @@
 #!/usr/bin/python3
 """Series rendering benchmark: what stepping from one frame of a store series to the next costs,
-with the Vulkan pipelines kept for the process (vk/pipeline_cache.h, the default) and made anew
-for every frame's renderer (MDSTREAM_PIPELINE_REUSE=0, as before the cache), in one run.
+with the defaults -- the Vulkan pipelines kept for the process (vk/pipeline_cache.h) and, in the
+viewer, the next frame preloaded while a series plays (RenderHost::preload) -- against each
+switched off (MDSTREAM_PIPELINE_REUSE=0: every renderer makes its pipelines, as before the cache;
+MDSTREAM_SERIES_PRELOAD=0), in one run.
 
 A trajectory of F frames of the ablation scene (`synth --frames F`) converted to a series
-(`convert -o run.mds.series`), then, each variant with and without reuse, alternating:
+(`convert -o run.mds.series`), then, the configurations alternating:
   render in memory   `render run.mds.series -o f_%04d.png --stats S`: per frame the stats'
                      setup_ms.renderer (Renderer::create: buffers, upload, pipelines, warm-up)
                      and pipelines.made; the command's wall time;
   render streaming   the same with --gpu-budget (store bytes / 8, at least 1 MiB): Renderer::create_streaming;
   viewer             `view run.mds.series --play-series --frame-log L` under Xvfb (skipped without
                      Xvfb): the frame log's reload_ms of each frame that stepped to the next store
-                     (RenderHost::set_series_position: the store read and decoded, the renderer made).
+                     (RenderHost::set_series_position: the store read and decoded unless preloaded,
+                     the renderer made), and the time from one step to the next.
 Frames after the first only (the first renderer of a process always makes its pipelines).
 Medians over frames and --repeats runs. --max-iterations caps each frame's culling, so that a
 frame's own rendering does not drown its setup; the setup does not depend on it.
@@ -51,7 +54,8 @@ def run_render(mds, series, out, env, args, budget, log):
 
 
 def run_viewer(mds, series, out, env, args, frames, log):
-    """One viewer session playing the series; the reload_ms of every step to another store."""
+    """One viewer session playing the series; the reload_ms of every step to another store and the
+    times between steps."""
     flog = os.path.join(out, "frames.csv")
     # Enough displayed frames for every store once more after the first: a store refines within
     # --max-iterations culling iterations and --spp samples.
@@ -61,7 +65,9 @@ def run_viewer(mds, series, out, env, args, frames, log):
         "--exit-after-frames", str(n), "--frame-log", flog], log, env=env, timeout=1800)
     with open(flog) as f:
         rows = list(csv.DictReader(f))
-    return [float(r["reload_ms"]) for r in rows if float(r["reload_ms"]) > 0]
+    steps = [r for r in rows if float(r["reload_ms"]) > 0]
+    intervals = [float(b["t_ms"]) - float(a["t_ms"]) for a, b in zip(steps, steps[1:])]
+    return [float(r["reload_ms"]) for r in steps], intervals
 
 
 def med(v):
@@ -100,69 +106,84 @@ def main():
 
     viewer = not args.no_viewer and shutil.which("Xvfb") is not None
     xvfb = Xvfb() if viewer else None
-    variants = ["memory", "streaming"] + (["viewer"] if viewer else [])
-    results = {(v, reuse): {"wall": [], "setup": [], "made": []} for v in variants for reuse in (1, 0)}
+    # (name, kind, environment): the default first, then the switches it is compared with.
+    configs = [("memory", "memory", {}), ("memory-anew", "memory", {"MDSTREAM_PIPELINE_REUSE": "0"}),
+               ("streaming", "streaming", {}), ("streaming-anew", "streaming", {"MDSTREAM_PIPELINE_REUSE": "0"})]
+    if viewer:
+        configs += [("viewer", "viewer", {}), ("viewer-anew", "viewer", {"MDSTREAM_PIPELINE_REUSE": "0"}),
+                    ("viewer-no-preload", "viewer", {"MDSTREAM_SERIES_PRELOAD": "0"})]
+    results = {c[0]: {"wall": [], "setup": [], "made": [], "interval": []} for c in configs}
     try:
         for r in range(args.repeats):
-            for v in variants:
-                for reuse in ((1, 0) if r % 2 == 0 else (0, 1)):
-                    env = dict(os.environ, MDSTREAM_PIPELINE_REUSE=str(reuse))
-                    if xvfb:
-                        env["DISPLAY"] = xvfb.display
-                    out = os.path.join(work, f"{v}_{reuse}_{r}")
-                    os.makedirs(out, exist_ok=True)
-                    res = results[(v, reuse)]
-                    if v == "viewer":
-                        res["setup"] += run_viewer(mds, series, out, env, args, args.frames, log)
-                    else:
-                        wall, setup, made = run_render(mds, series, out, env, args,
-                                                       budget if v == "streaming" else 0, log)
-                        res["wall"].append(wall)
-                        res["setup"] += setup
-                        res["made"] += made
-                    shutil.rmtree(out)
+            for name, kind, extra in (configs if r % 2 == 0 else configs[::-1]):
+                env = dict(os.environ, **extra)
+                if xvfb:
+                    env["DISPLAY"] = xvfb.display
+                out = os.path.join(work, f"{name}_{r}")
+                os.makedirs(out, exist_ok=True)
+                res = results[name]
+                if kind == "viewer":
+                    reloads, intervals = run_viewer(mds, series, out, env, args, args.frames, log)
+                    res["setup"] += reloads
+                    res["interval"] += intervals
+                else:
+                    wall, setup, made = run_render(mds, series, out, env, args,
+                                                   budget if kind == "streaming" else 0, log)
+                    res["wall"].append(wall)
+                    res["setup"] += setup
+                    res["made"] += made
+                shutil.rmtree(out)
     finally:
         if xvfb:
             xvfb.stop()
 
-    names = {"memory": "render, in memory (Renderer::create)",
-             "streaming": f"render, --gpu-budget {fmt_bytes(budget)} (Renderer::create_streaming)",
-             "viewer": "viewer, --play-series (store read + decoded + renderer: reload_ms)"}
+    names = {"memory": "render, in memory", "memory-anew": "render, in memory, pipelines made anew",
+             "streaming": f"render, --gpu-budget {fmt_bytes(budget)}",
+             "streaming-anew": f"render, --gpu-budget {fmt_bytes(budget)}, pipelines made anew",
+             "viewer": "viewer, --play-series", "viewer-anew": "viewer, pipelines made anew",
+             "viewer-no-preload": "viewer, no preload (`MDSTREAM_SERIES_PRELOAD=0`)"}
+    base = {"memory": "memory", "memory-anew": "memory", "streaming": "streaming", "streaming-anew": "streaming",
+            "viewer": "viewer", "viewer-anew": "viewer", "viewer-no-preload": "viewer"}
     rows = []
-    for v in variants:
-        on, off = results[(v, 1)], results[(v, 0)]
-        row = {"variant": v, "setup_ms_reuse": round(med(on["setup"]), 1), "setup_ms_anew": round(med(off["setup"]), 1),
-               "setup_ratio": round(med(on["setup"]) / med(off["setup"]), 3), "samples": len(on["setup"])}
-        if v != "viewer":
-            row.update({"wall_s_reuse": round(med(on["wall"]), 2), "wall_s_anew": round(med(off["wall"]), 2),
-                        "made_per_frame_reuse": " ".join(str(x) for x in on["made"][:args.frames]),
-                        "made_per_frame_anew": " ".join(str(x) for x in off["made"][:args.frames])})
+    for name, kind, extra in configs:
+        res = results[name]
+        row = {"config": name, "setup_ms": round(med(res["setup"]), 1),
+               "vs_default": round(med(res["setup"]) / med(results[base[name]]["setup"]), 3),
+               "samples": len(res["setup"]),
+               "wall_s": round(med(res["wall"]), 2) if res["wall"] else "",
+               "step_interval_ms": round(med(res["interval"]), 1) if res["interval"] else "",
+               "made_per_frame": " ".join(str(x) for x in res["made"][:args.frames])}
         rows.append(row)
 
     m = machine_info(REPO)
     md = ["# Rendering a store series: what a step to the next frame costs", "",
           f"`tools/bench_series_render.py{' --quick' if args.quick else ''}`: a series of {args.frames} frames of "
           f"the ablation scene, {args.particles:,} particles each ({fmt_bytes(store_bytes)} per store), "
-          f"{args.width}x{args.height}, --spp {args.spp}, --max-iterations {args.max_iterations}. "
-          f"Each variant with the pipelines kept for the process (vk/pipeline_cache.h, the default) and made anew "
-          f"for every renderer (`MDSTREAM_PIPELINE_REUSE=0`, as before), alternating; medians over the frames after "
-          f"the first and {args.repeats} run(s).", "",
+          f"{args.width}x{args.height}, --spp {args.spp}, --max-iterations {args.max_iterations}. The defaults "
+          f"(pipelines kept for the process, vk/pipeline_cache.h; the viewer preloading the next frame while a "
+          f"series plays, RenderHost::preload) against the pipelines made anew for every renderer "
+          f"(`MDSTREAM_PIPELINE_REUSE=0`, as before) and the viewer without the preload "
+          f"(`MDSTREAM_SERIES_PRELOAD=0`), the configurations alternating; medians over the frames after the first "
+          f"and {args.repeats} run(s).", "",
+          "- setup per frame: `render --stats` `setup_ms.renderer` (Renderer::create or create_streaming: buffers, "
+          "upload, pipelines, warm-up); the viewer's frame log `reload_ms` of each step (RenderHost::set_series_position: "
+          "the store read and decoded unless preloaded, and the renderer made);",
+          "- step interval: the viewer's time from one step to the next (the frame refining at --spp, then the step);",
+          "- wall: the `render` command for all frames.", "",
           f"Machine: {m['cpu']}, {m['nproc']} cores, {m['memory']}; commit {m['commit']}; {m['date']}; "
           f"load average at the end {os.getloadavg()[0]:.2f}.", "",
-          "| variant | setup per frame, reused [ms] | made anew [ms] | ratio | command wall, reused [s] | made anew [s] |",
-          "|---|---:|---:|---:|---:|---:|"]
+          "| configuration | setup per frame [ms] | / default | step interval [ms] | wall [s] | pipelines made per frame |",
+          "|---|---:|---:|---:|---:|---|"]
     for r in rows:
-        wall = (f"{r['wall_s_reuse']:.2f} | {r['wall_s_anew']:.2f}" if "wall_s_reuse" in r else "- | -")
-        md.append(f"| {names[r['variant']]} | {r['setup_ms_reuse']:.1f} | {r['setup_ms_anew']:.1f} | "
-                  f"{r['setup_ratio']:.2f} | {wall} |")
-    md += ["", "Pipelines made per frame (first run; the stats' `pipelines.made`): "
-           + "; ".join(f"{r['variant']}: {r['made_per_frame_reuse']} reused vs {r['made_per_frame_anew']} anew"
-                       for r in rows if "made_per_frame_reuse" in r) + ".", ""]
+        interval = f"{r['step_interval_ms']:.1f}" if r["step_interval_ms"] != "" else "-"
+        wall = f"{r['wall_s']:.2f}" if r["wall_s"] != "" else "-"
+        md.append(f"| {names[r['config']]} | {r['setup_ms']:.1f} | {r['vs_default']:.2f} | {interval} | {wall} | "
+                  f"{r['made_per_frame'] or '-'} |")
+    md.append("")
     if not viewer:
         md += ["The viewer runs were skipped (no Xvfb, or --no-viewer).", ""]
     write_report(args.out, "series-render", md)
-    keys = ["variant", "setup_ms_reuse", "setup_ms_anew", "setup_ratio", "samples", "wall_s_reuse", "wall_s_anew",
-            "made_per_frame_reuse", "made_per_frame_anew"]
+    keys = ["config", "setup_ms", "vs_default", "samples", "step_interval_ms", "wall_s", "made_per_frame"]
     write_csv(args.out, "series-render", rows, keys)
     log.close()
 
