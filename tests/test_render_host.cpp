@@ -13,6 +13,7 @@
 #include <string>
 #include <thread>
 
+#include "render/camera.h"
 #include "render_test_helpers.h"
 #include "scoped_temp_dir.h"
 #include "store/slice.h"
@@ -68,6 +69,11 @@ TEST_F(RenderHostSeries, APreloadedFrameIsTakenEvenWithItsFileGone) {
   ASSERT_TRUE(h);
   const uint64_t shown0 = h->scene()->particle_count();
   h->preload(1);
+  // The current frame renders meanwhile, as in the viewer (ThreadSanitizer: tools/sanitize.sh).
+  auto cam = render::default_view(0, h->view_bounds(), 40.0, 64.0 / 48.0);
+  ASSERT_TRUE(cam.ok());
+  ASSERT_TRUE(h->renderer()->set_view(*cam).ok());
+  for (int i = 0; i < 4; ++i) ASSERT_TRUE(h->renderer()->step().ok());
   ASSERT_TRUE(wait_ready(*h, 1));
   const fs::path moved1 = store(1).string() + ".away", moved2 = store(2).string() + ".away";
   fs::rename(store(1), moved1);

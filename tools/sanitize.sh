@@ -87,7 +87,7 @@ if [ "$mode" != asan ]; then
   logs=$b/sanitizer-logs
   cmake -S "$repo" -B "$b" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMDSTREAM_SANITIZE=thread > /dev/null
   suites=(test_streaming_io test_text_lines test_convert_raw test_convert_roundtrip test_convert_errors test_synth
-          test_store test_streaming_render test_streaming_resize test_stress_cli)
+          test_store test_streaming_render test_streaming_resize test_stress_cli test_render_host)
   cmake --build "$b" -j"$jobs" --target mdstream mdstream_vulkan_module mdstream_pcl_module mdstream_h5md_module "${suites[@]}"
   rm -rf "$logs" && mkdir -p "$logs"
   # Only the suites built above are registered (gtest_discover_tests runs after each build); the
