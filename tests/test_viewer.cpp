@@ -20,6 +20,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <string>
 #include <thread>
 #include <vector>
@@ -718,6 +719,30 @@ class ViewerSeries : public ViewerWindow {
       { "name": "p.mds", "time": 0 }, { "name": "gas.mds", "time": 10 }, { "name": "shell.mds", "time": 20.5 } ] })";
   }
   std::string series() const { return (dir_ / "run.series").string(); }
+  // The rows of a --frame-log CSV, each a column name -> value map (the header names them).
+  static std::vector<std::map<std::string, std::string>> read_frame_log(const fs::path& path) {
+    auto split = [](const std::string& line) {
+      std::vector<std::string> v;
+      for (size_t a = 0, b; a <= line.size(); a = b + 1) {
+        b = line.find(',', a);
+        if (b == std::string::npos) b = line.size();
+        v.push_back(line.substr(a, b - a));
+      }
+      return v;
+    };
+    std::ifstream f(path);
+    std::string line;
+    std::vector<std::map<std::string, std::string>> rows;
+    if (!std::getline(f, line)) return rows;
+    const std::vector<std::string> cols = split(line);
+    while (std::getline(f, line)) {
+      const std::vector<std::string> v = split(line);
+      std::map<std::string, std::string> row;
+      for (size_t i = 0; i < cols.size(); ++i) row[cols[i]] = i < v.size() ? v[i] : "";
+      rows.push_back(std::move(row));
+    }
+    return rows;
+  }
   // The --series-frames values the viewer printed, in order.
   std::vector<std::string> printed_frames(const fs::path& log) const {
     std::vector<std::string> v;
@@ -788,25 +813,45 @@ TEST_F(ViewerSeries, PlaySeriesStepsOnOnceACappedViewHasItsSamples) {
   EXPECT_EQ(printed[0], "1");
   EXPECT_EQ(printed[1], "2");
   EXPECT_EQ(printed[2], "0");
-  std::ifstream f(frames);
-  std::string header, line;
-  ASSERT_TRUE(std::getline(f, header));
-  ASSERT_NE(header.find(",series_frame,reload_ms"), std::string::npos) << header;
+  const auto rows = read_frame_log(frames);
+  ASSERT_EQ(rows.size(), 30u);
+  ASSERT_TRUE(rows[0].count("series_frame") && rows[0].count("reload_ms"));
+  EXPECT_EQ(rows[0].at("series_frame"), "0");
   std::vector<std::string> shown;  // series_frame of the rows whose frame loaded a store
-  int rows = 0;
-  while (std::getline(f, line)) {
-    ++rows;
-    const size_t a = line.rfind(','), b = line.rfind(',', a - 1);
-    const double reload_ms = std::stod(line.substr(a + 1));
-    const std::string frame = line.substr(b + 1, a - b - 1);
-    if (rows == 1) {
-      EXPECT_EQ(frame, "0") << line;
-    }
-    if (reload_ms > 0.0) shown.push_back(frame);
-  }
-  EXPECT_EQ(rows, 30);
+  for (const auto& r : rows)
+    if (std::stod(r.at("reload_ms")) > 0.0) shown.push_back(r.at("series_frame"));
   ASSERT_GE(shown.size(), 3u);
   EXPECT_EQ(std::vector<std::string>(shown.begin(), shown.begin() + 3), std::vector<std::string>(printed.begin(), printed.begin() + 3));
+}
+
+TEST_F(ViewerSeries, StreamingStepsShowTheFrameBeforeUntilTheNextIsComplete) {
+  // Streamed with slow reads (--io-latency-ms): after each step the new store's first frames
+  // have nodes missing; the viewer shows the frame before (held) until the new view is complete.
+  const fs::path log = dir_ / "viewer_err.txt", frames = dir_ / "frames.csv";
+  ASSERT_EQ(sh(env() + MDSTREAM_BIN + " view " + series() +
+               " --play-series --gpu-budget 64MiB --io-latency-ms 40 --max-iterations 2 --width 96 --height 72"
+               " --spp 1 --no-hud --exit-after-frames 160 --frame-log " + frames.string() + " 2>" + log.string()),
+            0)
+      << slurp(log);
+  const auto rows = read_frame_log(frames);
+  ASSERT_FALSE(rows.empty());
+  ASSERT_TRUE(rows[0].count("held"));
+  int steps = 0, incomplete_after_step = 0, held_rows = 0;
+  for (const auto& r : rows) {
+    const bool step = std::stod(r.at("reload_ms")) > 0.0, complete = r.at("complete") == "1", held = r.at("held") == "1";
+    held_rows += held;
+    if (steps > 0 && !step && !complete) {
+      ++incomplete_after_step;
+      EXPECT_TRUE(held) << "an incomplete view shown after a step, frame " << r.at("frame");
+    }
+    if (step) {
+      ++steps;
+      EXPECT_TRUE(held) << "the step's frame keeps the image before, frame " << r.at("frame");
+    }
+  }
+  EXPECT_GE(steps, 2) << slurp(log);
+  EXPECT_GT(incomplete_after_step, 0) << "the reads were too fast to test the hold";
+  EXPECT_GT(held_rows, steps);
 }
 
 TEST_F(ViewerSeries, PlaySeriesOnAStoreIsAnError) {

@@ -25,6 +25,7 @@ struct FrameLogRow {
   uint32_t render_width = 0, render_height = 0;  // the renderer's size this frame
   int64_t series_frame = -1;  // a series: the frame shown after this one (-1: no series)
   double reload_ms = 0.0;     // of frame_ms: loading a store or slices (series step, slice keys)
+  bool held = false;          // the image shown is the frame before's (a series step streaming)
 };
 
 class FrameLog {

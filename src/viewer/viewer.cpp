@@ -102,6 +102,10 @@ class Viewer {
   std::optional<size_t> series_goto_;
   bool series_playing_ = false;
   double reload_ms_ = 0.0;  // this frame's store or slice loads (frame log: reload_ms)
+  // After a series step while streaming, the frame before stays on screen until the new store's
+  // view is complete (every wanted node resident): a playing series shows whole frames, not the
+  // background and then the first waves of nodes. Moving the camera ends it.
+  bool hold_image_ = false;
   std::optional<Error> render_error_;
   std::string message_;
   Clock::time_point message_time_;
@@ -324,6 +328,7 @@ void Viewer::show_series_position(size_t position) {
   }
   hud_.store_name = host_->series_entry()->name;
   hud_.meshlets = host_->meshlets();
+  hold_image_ = host_->streaming() && image_.width() > 0;
   // On stderr too, for `render --series-frames` of the same frame.
   message_ = fmt::format("--series-frames {}", host_->series_frame());
   fmt::print(stderr, "mdstream view: {} ({}, time {:g})\n", message_, host_->series_entry()->name,
@@ -460,6 +465,7 @@ Status Viewer::run() {
 
     const render::Camera& cam = controller_.camera();
     const bool moved = !have_view_ || !same_camera(cam, view_camera_);
+    if (have_view_ && moved) hold_image_ = false;  // the held image shows another camera
     render::Renderer* r = host_->renderer();
     double step_ms = 0.0;
     double gpu_ms = 0.0;  // this frame's GPU passes (0: not timed)
@@ -500,7 +506,10 @@ Status Viewer::run() {
         report = std::move(*rep);
         auto img = r->read_image();
         if (!img.ok()) render_error_ = img.error();
-        else image_.set_from_linear(*img);
+        else if (!hold_image_ || report.complete) {
+          image_.set_from_linear(*img);
+          hold_image_ = false;
+        }
         // read_image() waited for the frame: collect its GPU timestamps (the pacer's split).
         if (Status st = r->finish(); !st.ok()) render_error_ = st.error();
         gpu_ms = r->last_frame_gpu().ms;
@@ -545,8 +554,9 @@ Status Viewer::run() {
     hud_.idle = idle_ && !render_error_;
     hud_.playing = playing || series_playing_;
     if (host_->is_series())
-      hud_.series = fmt::format("series frame {} ({}/{})  time {:g}", host_->series_frame(),
-                                host_->series_position() + 1, host_->series_positions(), host_->series_entry()->time);
+      hud_.series = fmt::format("series frame {} ({}/{})  time {:g}{}", host_->series_frame(),
+                                host_->series_position() + 1, host_->series_positions(), host_->series_entry()->time,
+                                hold_image_ ? "  loading (the frame before shown)" : "");
     hud_.recording = recorder_.has_value();
     hud_.read_mb_s = read_rate;
     hud_.view_name = debug_view_name(vs_.view);
@@ -586,6 +596,7 @@ Status Viewer::run() {
       row.render_height = r ? r->height() : 0;
       row.series_frame = host_->is_series() ? host_->series_frame() : -1;
       row.reload_ms = reload_ms_;
+      row.held = hold_image_;
       log_->add(row);
     }
     ++frame;
