@@ -3,9 +3,10 @@
 // (`render RUN.mds.series`, the viewer's Left/Right/Space), the viewer's slices, a test binary's
 // cases. Not a VkPipelineCache (which keeps compiled code across processes where a driver
 // supports it): this keeps the VkPipeline objects themselves, and with them what a driver builds
-// on their first use. On lavapipe that is most of a renderer's creation: the pipelines of one
-// renderer cost ~280 ms to create and ~230 ms more in their first dispatches (JIT variants of
-// llvmpipe, made on first use and kept with the pipeline); docs/rendering.md "Pipelines".
+// on their first use. On lavapipe that was most of a renderer's creation (2M particles, 640x360):
+// ~290 ms to create the culling loop's pipelines, and its warm-up dispatches took ~240 ms with
+// new pipelines against ~130 ms with reused ones (llvmpipe's JIT variants, made on first use and
+// kept with the pipeline); docs/rendering.md "Pipelines made once per process".
 //
 // Layouts are made by the cache too, one per definition (the descriptor set layouts' bindings
 // and the push constant size), and live as long as the pipelines made with them. A caller
