@@ -219,6 +219,26 @@ TEST(ViewerHud, SeriesLineUnderTheStoreName) {
 }
 
 // The view line says when ambient occlusion is on (key L), with its radius.
+TEST(ViewerHud, StateNamesACappedViewApartFromAConvergedOne) {
+  viewer::HudState s;
+  s.spp = 4;
+  s.report.samples = 2;
+  s.report.complete = true;
+  auto state_line = [&] {
+    for (const std::string& l : viewer::hud_lines(s))
+      if (l.rfind("samples ", 0) == 0) return l;
+    return std::string();
+  };
+  s.report.settled = true;  // culling stopped at --max-iterations, not converged
+  EXPECT_NE(state_line().find("culling capped (--max-iterations), accumulating"), std::string::npos) << state_line();
+  s.report.converged = true;
+  EXPECT_NE(state_line().find("converged, accumulating"), std::string::npos) << state_line();
+  s.idle = true;
+  EXPECT_NE(state_line().find("converged (idle)"), std::string::npos) << state_line();
+  s.report.converged = false;
+  EXPECT_NE(state_line().find("culling capped (idle)"), std::string::npos) << state_line();
+}
+
 TEST(ViewerHud, ViewLineShowsAmbientOcclusion) {
   viewer::HudState s;
   s.fov_y_deg = 40.0;
