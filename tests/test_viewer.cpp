@@ -739,6 +739,11 @@ class ViewerSeries : public ViewerWindow {
       { "name": "p.mds", "time": 0 }, { "name": "gas.mds", "time": 10 }, { "name": "shell.mds", "time": 20.5 } ] })";
   }
   std::string series() const { return (dir_ / "run.series").string(); }
+  // `mdstream view SERIES ARGS --frame-log FRAMES`, stderr to `log`, until it exits; its status.
+  int view_series(const std::string& args, const fs::path& frames, const fs::path& log) const {
+    return sh(env() + MDSTREAM_BIN + " view " + series() + " " + args + " --frame-log " + frames.string() + " 2>" +
+              log.string());
+  }
   // The rows of a --frame-log CSV, each a column name -> value map (the header names them).
   static std::vector<std::map<std::string, std::string>> read_frame_log(const fs::path& path) {
     auto split = [](const std::string& line) {
@@ -823,9 +828,8 @@ TEST_F(ViewerSeries, PlaySeriesStepsOnOnceACappedViewHasItsSamples) {
   // (FrameReport::settled) and the play goes on. The frame log names the frame shown and the
   // time its store took to load.
   const fs::path log = dir_ / "viewer_err.txt", frames = dir_ / "frames.csv";
-  ASSERT_EQ(sh(env() + MDSTREAM_BIN + " view " + series() +
-               " --play-series --max-iterations 2 --width 96 --height 72 --spp 2 --no-hud --exit-after-frames 30"
-               " --frame-log " + frames.string() + " 2>" + log.string()),
+  ASSERT_EQ(view_series("--play-series --max-iterations 2 --width 96 --height 72 --spp 2 --no-hud --exit-after-frames 30",
+                        frames, log),
             0)
       << slurp(log);
   const auto printed = printed_frames(log);
@@ -848,9 +852,9 @@ TEST_F(ViewerSeries, StreamingStepsShowTheFrameBeforeUntilTheNextIsComplete) {
   // Streamed with slow reads (--io-latency-ms): after each step the new store's first frames
   // have nodes missing; the viewer shows the frame before (held) until the new view is complete.
   const fs::path log = dir_ / "viewer_err.txt", frames = dir_ / "frames.csv";
-  ASSERT_EQ(sh(env() + MDSTREAM_BIN + " view " + series() +
-               " --play-series --gpu-budget 64MiB --io-latency-ms 40 --max-iterations 2 --width 96 --height 72"
-               " --spp 1 --no-hud --exit-after-frames 160 --frame-log " + frames.string() + " 2>" + log.string()),
+  ASSERT_EQ(view_series("--play-series --gpu-budget 64MiB --io-latency-ms 40 --max-iterations 2 --width 96 --height 72"
+                        " --spp 1 --no-hud --exit-after-frames 160",
+                        frames, log),
             0)
       << slurp(log);
   const auto rows = read_frame_log(frames);
