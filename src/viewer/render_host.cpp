@@ -90,7 +90,7 @@ Result<RenderHost::Prepared> RenderHost::prepare(size_t position, const std::vec
 
 void RenderHost::preload(size_t position) {
   if (!preload_enabled_ || !series_ || position >= series_frames_.size() || position == series_pos_) return;
-  if (preload_.valid() && preload_pos_ == position && preload_slices_ == stream_.slices) return;
+  if (preloading(position)) return;
   if (preload_.valid()) preload_.wait();  // one load at a time
   preload_pos_ = position;
   preload_slices_ = stream_.slices;
@@ -107,9 +107,7 @@ Status RenderHost::set_series_position(size_t position) {
     return make_error(Errc::invalid_argument, "no series position {}", position);
   // The preloaded store when it is this position's with these slices, else loaded now; the
   // current frame stays until this worked.
-  Result<Prepared> prepared = preload_.valid() && preload_pos_ == position && preload_slices_ == stream_.slices
-                                  ? preload_.get()
-                                  : prepare(position, stream_.slices);
+  Result<Prepared> prepared = preloading(position) ? preload_.get() : prepare(position, stream_.slices);
   if (!prepared.ok()) return prepared.error();
   std::unique_ptr<store::StoreReader> reader = std::move(prepared->reader);
   Loaded loaded = std::move(prepared->loaded);

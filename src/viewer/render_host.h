@@ -94,6 +94,10 @@ class RenderHost {
   Result<Loaded> load(const store::StoreReader& reader, const std::vector<store::Slice>& slices) const;
   // Reads only what open() set (the options, the series), so it runs beside the render thread.
   Result<Prepared> prepare(size_t position, const std::vector<store::Slice>& slices) const;
+  // A preload was asked for `position` with the current slices (in flight or done).
+  bool preloading(size_t position) const {
+    return preload_.valid() && preload_pos_ == position && preload_slices_ == stream_.slices;
+  }
   // The store's colours: --color-by resolved against it (the series' range), --type-color.
   Status resolve_colors(const store::StoreReader& reader, render::RenderSettings& rs) const;
   void take(Loaded&& loaded);

@@ -79,16 +79,7 @@ Result<VkPipeline> PipelineCache::compute(VkPipelineLayout layout, const std::st
   put(key, layout);
   put_string(key, shader);
   put_spec(key, spec);
-  std::lock_guard lock(mutex_);
-  if (!reuse_) put(key, made_++);
-  if (auto it = pipelines_.find(key); it != pipelines_.end()) {
-    ++reused_;
-    return it->second.get();
-  }
-  MDS_ASSIGN_OR_RETURN(UniquePipeline p, create_compute_pipeline(device_, layout, shader, spec));
-  const VkPipeline h = p.get();
-  pipelines_.emplace(std::move(key), std::move(p));
-  return h;
+  return find_or_make(std::move(key), [&] { return create_compute_pipeline(device_, layout, shader, spec); });
 }
 
 Result<VkPipeline> PipelineCache::graphics(VkPipelineLayout layout, const GraphicsPipelineDesc& desc) {
@@ -106,13 +97,17 @@ Result<VkPipeline> PipelineCache::graphics(VkPipelineLayout layout, const Graphi
   put(key, desc.depth_compare);
   put(key, desc.topology);
   put(key, desc.cull);
+  return find_or_make(std::move(key), [&] { return create_graphics_pipeline(device_, layout, desc); });
+}
+
+Result<VkPipeline> PipelineCache::find_or_make(std::string key, const std::function<Result<UniquePipeline>()>& make) {
   std::lock_guard lock(mutex_);
   if (!reuse_) put(key, made_++);
   if (auto it = pipelines_.find(key); it != pipelines_.end()) {
     ++reused_;
     return it->second.get();
   }
-  MDS_ASSIGN_OR_RETURN(UniquePipeline p, create_graphics_pipeline(device_, layout, desc));
+  MDS_ASSIGN_OR_RETURN(UniquePipeline p, make());
   const VkPipeline h = p.get();
   pipelines_.emplace(std::move(key), std::move(p));
   return h;

@@ -22,6 +22,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <span>
@@ -57,6 +58,9 @@ class PipelineCache {
   Counts counts() const;
 
  private:
+  // The pipeline of `key` (reuse_ off: a key made new), else the one `make` creates, kept.
+  Result<VkPipeline> find_or_make(std::string key, const std::function<Result<UniquePipeline>()>& make);
+
   VkDevice device_;
   mutable std::mutex mutex_;
   // Keyed by the definitions' bytes (layouts) and by layout handle + shaders + specialization +
