@@ -4,7 +4,9 @@
 //    it is shown even when its store file is gone by then, while a step to a frame not
 //    preloaded fails on the missing file, names it, and keeps the frame before;
 //  - slices changed after the preload are applied: the step loads the frame again with them;
-//  - MDSTREAM_SERIES_PRELOAD=0 preloads nothing.
+//  - MDSTREAM_SERIES_PRELOAD=0 preloads nothing;
+//  - streaming, a step hands the cache's view to the next frame's renderer (StreamSettings::prior:
+//    its first wave, test_series_stream.cpp), unless --series-first-wave cold.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -41,9 +43,12 @@ class RenderHostSeries : public mds::testing::VulkanSuite {
   static std::string series() { return (dir_->p / "run.mds.series").string(); }
   static fs::path store(int k) { return dir_->p / ("run.000" + std::to_string(k) + ".mds"); }
 
-  std::unique_ptr<viewer::RenderHost> open_host(const std::string& path, std::vector<store::Slice> slices = {}) {
+  std::unique_ptr<viewer::RenderHost> open_host(const std::string& path, std::vector<store::Slice> slices = {},
+                                                uint64_t gpu_budget = 0, bool carry_view = true) {
     viewer::ViewerOptions o;
     o.store = path;
+    o.gpu_budget = gpu_budget;
+    o.stream.carry_view = carry_view;
     o.render.width = 64;
     o.render.height = 48;
     o.render.spp = 1;
@@ -120,6 +125,31 @@ TEST_F(RenderHostSeries, PreloadOffLoadsNothingAhead) {
   EXPECT_FALSE(h->preload_ready(1));
   EXPECT_TRUE(h->set_series_position(1).ok());
   EXPECT_EQ(h->series_frame(), 1);
+}
+
+TEST_F(RenderHostSeries, AStreamingStepCarriesTheViewToTheNextFrame) {
+  for (const bool carry : {true, false}) {
+    auto h = open_host(series(), {}, 4 * fs::file_size(store(0)), carry);
+    ASSERT_TRUE(h);
+    ASSERT_TRUE(h->streaming());
+    auto cam = render::default_view(0, h->view_bounds(), 40.0, 64.0 / 48.0);
+    ASSERT_TRUE(cam.ok());
+    ASSERT_TRUE(h->renderer()->set_view(*cam).ok());
+    for (int i = 0; i < 60; ++i) {
+      auto rep = h->renderer()->step();
+      ASSERT_TRUE(rep.ok()) << rep.error().message;
+      if (rep->settled) break;
+    }
+    const uint64_t wanted = h->renderer()->stats().cache.wanted_nodes;
+    ASSERT_GT(wanted, 0u);
+    ASSERT_TRUE(h->set_series_position(1).ok());
+    const render::CacheStats c = h->renderer()->stats().cache;
+    EXPECT_EQ(c.prior_wanted_nodes, carry ? wanted : 0u) << "carry " << carry;
+    if (carry)
+      EXPECT_GT(c.carried_nodes, 0u);
+    else
+      EXPECT_EQ(c.carried_nodes, 0u);
+  }
 }
 
 }  // namespace

@@ -241,6 +241,44 @@ TEST_F(SeriesCli, RenderAFrameAndAnAnimation) {
   EXPECT_THAT(cli_stderr(), HasSubstr("--path and --camera"));
 }
 
+// A streamed series: each frame's cache starts from what the frame before wanted
+// (--series-first-wave prior, the default; docs/streaming.md "Series steps"), and the stats say
+// how many nodes that carried; `cold` carries nothing and draws the same images.
+TEST_F(SeriesCli, AStreamedSeriesCarriesEachFramesViewToTheNext) {
+  ASSERT_EQ(run_mdstream(fmt::format("convert {} --frames :3 --node-size 500 -o {} -q", dump().string(),
+                                     tmp("s.mds.series").string())),
+            0)
+      << cli_stderr();
+  const std::string common = fmt::format("render {} --width 64 --height 48 --spp 2 --gpu-budget 4MiB",
+                                         tmp("s.mds.series").string());
+  for (const std::string wave : {"prior", "cold"}) {
+    ASSERT_EQ(run_mdstream(fmt::format("{} --series-first-wave {} -o {} --stats {}", common, wave,
+                                       tmp(wave + "%d.png").string(), tmp(wave + ".json").string())),
+              0)
+        << cli_stderr();
+    const auto j = nlohmann::json::parse(textest::read_text(tmp(wave + ".json")));
+    ASSERT_EQ(j["frames"].size(), 3u);
+    EXPECT_EQ(j["frames"][0]["prior_wanted_nodes"], 0) << "the first frame has no frame before";
+    EXPECT_EQ(j["frames"][0]["carried_nodes"], 0);
+    for (int k = 1; k < 3; ++k) {
+      const auto& f = j["frames"][size_t(k)];
+      EXPECT_GT(f["frames_to_complete"].get<int>(), 0) << k;
+      if (wave == "prior") {
+        EXPECT_EQ(f["prior_wanted_nodes"], j["frames"][size_t(k - 1)]["wanted_nodes"]) << k;
+        EXPECT_GT(f["carried_nodes"].get<int>(), 0) << k;
+      } else {
+        EXPECT_EQ(f["prior_wanted_nodes"], 0) << k;
+        EXPECT_EQ(f["carried_nodes"], 0) << k;
+      }
+    }
+  }
+  for (int k = 0; k < 3; ++k)
+    EXPECT_EQ(bytes_of(tmp(fmt::format("prior{}.png", k))), bytes_of(tmp(fmt::format("cold{}.png", k)))) << k;
+  EXPECT_EQ(run_mdstream(fmt::format("{} --series-first-wave warm -o {}", common, tmp("w%d.png").string())), 2);
+  EXPECT_THAT(cli_stderr(), HasSubstr("--series-first-wave"));
+  EXPECT_FALSE(fs::exists(tmp("w0.png")));
+}
+
 // --path with a series: the camera orbits while the frames go, one path frame per picked frame,
 // around the picked frames' bounds (the same distance from their centre in every frame).
 TEST_F(SeriesCli, OrbitWhileTheFramesGo) {

@@ -44,6 +44,7 @@
 #include "store/slice.h"
 #include "store/store_reader.h"
 #include "streaming/io_pool.h"
+#include "streaming/node_match.h"
 #include "streaming/residency.h"
 #include "vk/context.h"
 
@@ -110,6 +111,13 @@ struct StreamSettings {
   // (docs/streaming.md, "Late arrivals"). It never evicts a node drawn this frame.
   bool keep_late_arrivals = true;
   bool record_trace = false;  // FrameReport::wanted filled (stress: offline Belady bound)
+  // A store replaced by the next frame of a series (or a streaming renderer made again): the view
+  // before, whose wanted nodes, matched to this store's nodes by box overlap
+  // (streaming/node_match.h), are the first wave at rest -- all of them at once, front to back --
+  // instead of a cold cache's waves from the front (docs/streaming.md, "Series steps"). Null: a
+  // cold start. Set by the caller from Renderer::prior_view() when carry_view is on.
+  std::shared_ptr<const streaming::PriorView> prior;
+  bool carry_view = true;  // --series-first-wave prior|cold: whether callers pass `prior`
 };
 
 struct RenderSettings {
@@ -262,6 +270,15 @@ struct CacheStats {
   bool pool_device_capped = false;  // the device's limits made the pool smaller than the budget
   uint64_t wanted_nodes = 0;      // the last frame's demand: nodes in the frustum and not in class O
   uint64_t wanted_bytes = 0;      //   ... and the pool pages they take (bytes), resident or not
+  // StreamSettings::prior: the nodes the view before wanted, and this store's nodes matched to one
+  // of them (the carried first wave); 0 without a prior view.
+  uint64_t prior_wanted_nodes = 0;
+  uint64_t carried_nodes = 0;
+  // The current view's first frame with every wanted node resident and nothing in flight
+  // (FrameReport::complete), counted from its first frame (1 = that frame), and the wall time
+  // from set_view to the end of that frame; 0 / -1 before.
+  uint32_t frames_to_complete = 0;
+  double ms_to_complete = -1.0;
   std::vector<std::string> errors;  // one message per failed node
 };
 
@@ -439,6 +456,10 @@ class Renderer {
   // Streaming: 1 for each node whose payload is in the device pool now, else 0 (the viewer's
   // resident-bounds view); empty when in memory.
   std::vector<uint8_t> resident_nodes() const;
+  // Streaming: what the cache knows of the current view (every node's world box, and whether the
+  // view wants it), for the renderer of the next store of a series (StreamSettings::prior); null
+  // when in memory.
+  std::shared_ptr<const streaming::PriorView> prior_view() const;
   bool streaming() const;
   // Depth buffer (z_ndc, 1 = background) of the last drawn frame (render() or step()), row-major
   // from the top-left; waits for the frame in flight.

@@ -150,6 +150,8 @@ struct Renderer::Impl {
   bool pending_iteration = false;
   bool timestamps_reset = false;  // step() reset the timestamp pool this frame (pass "upload")
   uint64_t view_first_frame = 0;
+  uint32_t view_complete_frames = 0;  // streaming: frames of this view until its first complete one (0: none yet)
+  double view_complete_ms = -1.0;     //   ... and the wall time from set_view to its end
   std::vector<double> frame_gpu_ms, frame_wall_ms;  // per step() since set_view
   // The passes of the frame whose timestamps were collected last (Renderer::last_frame_gpu), and
   // the GPU ms collected outside step() (set_view, finish) that the next FrameReport reports.

@@ -247,6 +247,8 @@ Status Renderer::set_view(const Camera& camera_in) {
   m.frame_wall_ms.clear();
   m.view_t0 = std::chrono::steady_clock::now();
   m.view_first_frame = m.frame_index;
+  m.view_complete_frames = 0;
+  m.view_complete_ms = -1.0;
   if (m.cache) m.cache->set_view(camera, double(m.settings.width) / double(m.settings.height), m.path_next);
   m.complete = !m.cache;
   if (m.cull) {
@@ -363,8 +365,13 @@ Result<FrameReport> Renderer::step() {
       rep.node_class_counts[k] = m.cull_iteration > 0 ? c.node_class_count[k] : 0;
     }
   }
-  rep.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  const auto t_end = std::chrono::steady_clock::now();
+  rep.wall_ms = std::chrono::duration<double, std::milli>(t_end - t0).count();
   m.frame_wall_ms.push_back(rep.wall_ms);
+  if (m.cache && m.complete && m.view_complete_frames == 0) {
+    m.view_complete_frames = uint32_t(m.frame_index - m.view_first_frame);  // frame_index counts this frame
+    m.view_complete_ms = std::chrono::duration<double, std::milli>(t_end - m.view_t0).count();
+  }
   return rep;
 }
 
@@ -534,6 +541,8 @@ RenderStats Renderer::stats() const {
   if (m.cache) {
     s.cache = m.cache->stats();
     s.cache.scratch_bytes = m.scratch_bytes;
+    s.cache.frames_to_complete = m.view_complete_frames;
+    s.cache.ms_to_complete = m.view_complete_ms;
   }
   s.frames = uint32_t(m.frame_wall_ms.size());
   s.frame_wall_ms_p50 = percentile(m.frame_wall_ms, 0.5);
@@ -569,6 +578,10 @@ std::vector<uint8_t> Renderer::resident_nodes() const {
   std::vector<uint8_t> r(impl_->cache->directory().size());
   for (uint32_t i = 0; i < r.size(); ++i) r[i] = pool.resident(i) ? 1 : 0;
   return r;
+}
+std::shared_ptr<const streaming::PriorView> Renderer::prior_view() const {
+  if (!impl_->cache) return nullptr;
+  return std::make_shared<const streaming::PriorView>(impl_->cache->prior_view());
 }
 bool Renderer::streaming() const { return impl_->cache != nullptr; }
 

@@ -113,6 +113,7 @@ Status RenderHost::set_series_position(size_t position) {
   Loaded loaded = std::move(prepared->loaded);
   render::RenderSettings rs = settings_;
   MDS_TRY(resolve_colors(*reader, rs));
+  carry_prior();
   renderer_.reset();  // before the scene and the store it drew go
   std::unique_ptr<store::StoreReader> before = std::move(reader_);
   reader_ = std::move(reader);
@@ -193,6 +194,7 @@ void RenderHost::take(Loaded&& l) {
 Status RenderHost::set_slices(const std::vector<store::Slice>& slices) {
   MDS_ASSIGN_OR_RETURN(Loaded loaded, load(*reader_, slices));  // the current scene stays until this worked
   std::vector<store::Slice> before = stream_.slices;
+  carry_prior();
   renderer_.reset();  // before the scene it drew goes
   take(std::move(loaded));
   Status st = recreate(settings_.width, settings_.height);
@@ -213,14 +215,22 @@ uint64_t RenderHost::meshlets() const {
   return m;
 }
 
+void RenderHost::carry_prior() {
+  if (renderer_ && streaming() && stream_.carry_view) prior_ = renderer_->prior_view();
+}
+
 Status RenderHost::recreate(uint32_t width, uint32_t height) {
+  carry_prior();
   renderer_.reset();
   settings_.width = width;
   settings_.height = height;
   render::RenderSettings rs = settings_;
   if (rs.cull && density_) rs.density = density_;
   if (streaming()) {
-    MDS_ASSIGN_OR_RETURN(renderer_, render::Renderer::create_streaming(*ctx_, *reader_, rs, stream_));
+    render::StreamSettings ss = stream_;
+    ss.prior = std::move(prior_);  // what the renderer before knew of the view (carry_prior)
+    prior_.reset();
+    MDS_ASSIGN_OR_RETURN(renderer_, render::Renderer::create_streaming(*ctx_, *reader_, rs, ss));
     bounds_ = renderer_->bounds();
   } else {
     MDS_ASSIGN_OR_RETURN(renderer_, render::Renderer::create(*ctx_, *scene_, rs));

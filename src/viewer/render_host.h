@@ -101,6 +101,9 @@ class RenderHost {
   // The store's colours: --color-by resolved against it (the series' range), --type-color.
   Status resolve_colors(const store::StoreReader& reader, render::RenderSettings& rs) const;
   void take(Loaded&& loaded);
+  // Streaming, before the renderer goes: what its cache knew of the view, for the next one's
+  // first wave (StreamSettings::prior; kept in prior_ until recreate() uses it).
+  void carry_prior();
 
   vk::Context* ctx_ = nullptr;
   std::unique_ptr<store::StoreReader> reader_;
@@ -122,6 +125,7 @@ class RenderHost {
   render::Bounds bounds_;
   std::vector<Box> node_boxes_;
   std::unique_ptr<render::Renderer> renderer_;
+  std::shared_ptr<const streaming::PriorView> prior_;  // carry_prior() for the next recreate()
   // preload(): the position asked for, the slices it loads with, and the load in flight (or done).
   bool preload_enabled_ = true;
   size_t preload_pos_ = 0;

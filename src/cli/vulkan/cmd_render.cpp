@@ -66,6 +66,10 @@ struct FrameSetup {
   const render::SeriesLook* look = nullptr;    // the colour range over every frame
   std::optional<render::AoChoice> ao;          // the first frame's --ao choice, kept for the others
   render::AoChoice* ao_out = nullptr;          // receives this frame's choice
+  // Streaming: the view of the frame before (StreamSettings::prior, with --series-first-wave
+  // prior), and where this frame's goes.
+  std::shared_ptr<const streaming::PriorView> prior;
+  std::shared_ptr<const streaming::PriorView>* prior_out = nullptr;
 };
 
 // What a streaming cache that reads whole nodes would read for this converged view, at two
@@ -211,6 +215,7 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
   const auto renderer_start = std::chrono::steady_clock::now();
   std::unique_ptr<render::Renderer> renderer;
   if (streaming) {
+    if (ss.carry_view) ss.prior = fs.prior;
     MDS_ASSIGN_OR_RETURN(renderer, render::Renderer::create_streaming(*ctx, *reader, rs, ss));
   } else {
     MDS_ASSIGN_OR_RETURN(renderer, render::Renderer::create(*ctx, scene, rs));
@@ -238,6 +243,7 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
     std::fprintf(stderr, "mdstream render: warning: --ao: drawn without ambient occlusion (it needs the visibility "
                          "route: a device with 64-bit buffer atomics)\n");
   MDS_TRY(render::write_image(o.output, image));
+  if (fs.prior_out) *fs.prior_out = renderer->prior_view();
 
   // The meshlets holding a visible particle of the last frame (render/visible_nodes.h): the
   // smallest set the culling could keep, the reference for the culled fraction.
@@ -366,6 +372,10 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
       j["gpu_pool_device_capped"] = c.pool_device_capped;
       j["wanted_nodes"] = c.wanted_nodes;
       j["wanted_bytes"] = c.wanted_bytes;
+      j["frames_to_complete"] = c.frames_to_complete;
+      j["ms_to_complete"] = c.ms_to_complete;
+      j["prior_wanted_nodes"] = c.prior_wanted_nodes;
+      j["carried_nodes"] = c.carried_nodes;
       j["policy"] = o.stream.policy;
       j["frames"] = stats.frames;
       j["frame_ms_p50"] = stats.frame_wall_ms_p50;
@@ -486,6 +496,8 @@ Status run_render_series(const RenderOptions& o) {
   fs.camera = camera;
   fs.look = &look;
   render::AoChoice first_ao;
+  std::shared_ptr<const streaming::PriorView> prior;  // streaming: the view of the frame before
+  fs.prior_out = &prior;
   nlohmann::json frames = nlohmann::json::array();
   for (size_t i = 0; i < picked->size(); ++i) {
     const int64_t k = (*picked)[i];
@@ -501,6 +513,7 @@ Status run_render_series(const RenderOptions& o) {
       fs.camera = path->at(uint32_t(std::min<size_t>(i, path->frame_count() - 1)));
       if (o.ortho) fs.camera->ortho = true;
     }
+    fs.prior = std::move(prior);
     nlohmann::json fj;
     Status st = render_store(fo, fs, ctx, o.stats.empty() ? nullptr : &fj);
     if (!st.ok()) {
@@ -558,7 +571,7 @@ void setup_render(CLI::App& sub, int& exit_code) {
   add_appearance_options(sub, opt->look);
   sub.add_option("--device", opt->device, "Vulkan device index (default: automatic, discrete GPU first)");
   sub.add_option("--stats", opt->stats, "Write statistics (counts, GPU pass times) as JSON");
-  add_stream_options(sub, opt->stream, false);
+  add_stream_options(sub, opt->stream, false, true);
   sub.add_flag("--visible-reference", opt->visible_reference,
                "Also compute, on the CPU, which meshlets hold a visible particle of the last frame "
                "(stats: visible_meshlets, visible_meshlet_fraction, kept_over_visible_meshlets)");

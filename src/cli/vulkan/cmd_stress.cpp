@@ -492,7 +492,7 @@ Status run_stress(const StressOptions& o) {
 void setup_stress(CLI::App& sub, int& exit_code) {
   auto opt = std::make_shared<StressOptions>();
   sub.add_option("store", opt->store, "Store file (.mds)")->required();
-  add_stream_options(sub, opt->stream, true);
+  add_stream_options(sub, opt->stream, true, false);
   add_pacing_options(sub, opt->pacing, false);
   sub.add_option("--path", opt->path,
                  "Camera path: orbit, flythrough, jumps (built-in), view0..view2 (a default view held), or a camera path file (docs/camera-path.md)")

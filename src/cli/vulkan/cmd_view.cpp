@@ -56,7 +56,7 @@ void setup_view(CLI::App& sub, int& exit_code) {
                  "Frames of a series to step through: all, last, K, or a slice A:B[:S] (the first is shown first; "
                  "one colour range over all of them)")
       ->capture_default_str();
-  add_stream_options(sub, opt->stream, false);
+  add_stream_options(sub, opt->stream, false, true);
   add_pacing_options(sub, opt->pacing, true);
   sub.add_option("--width", opt->width, "Initial window width")->check(CLI::Range(16u, 16384u))->capture_default_str();
   sub.add_option("--height", opt->height, "Initial window height")->check(CLI::Range(16u, 16384u))->capture_default_str();

@@ -6,7 +6,7 @@
 
 namespace mds::cli {
 
-void add_stream_options(CLI::App& sub, StreamOptions& o, bool budget_required) {
+void add_stream_options(CLI::App& sub, StreamOptions& o, bool budget_required, bool series) {
   auto* b = sub.add_option("--gpu-budget", o.gpu_budget,
                            std::string("Stream node payloads through a GPU cache of this size (e.g. 512MiB, 2GiB)") +
                                (budget_required ? "" : "; default: the whole store in memory"));
@@ -57,6 +57,13 @@ void add_stream_options(CLI::App& sub, StreamOptions& o, bool budget_required) {
                  "confirmed it for this many frames (docs/streaming.md, \"Camera changes\")")
       ->check(CLI::Range(0u, 1000000u))
       ->capture_default_str();
+  if (!series) return;
+  sub.add_option("--series-first-wave", o.series_first_wave,
+                 "A series step (or a cache made again): prior = the first wave reads, all at once, the nodes "
+                 "whose boxes match those the view before wanted; cold = an empty cache's waves "
+                 "(docs/streaming.md, \"Series steps\")")
+      ->check(CLI::IsMember({"prior", "cold"}))
+      ->capture_default_str();
 }
 
 Result<render::StreamSettings> stream_settings(const StreamOptions& o) {
@@ -86,6 +93,7 @@ Result<render::StreamSettings> stream_settings(const StreamOptions& o) {
   ss.front_node_alone = o.front_node_alone;
   ss.keep_late_arrivals = o.keep_late_arrivals;
   ss.occluded_hold_frames = o.occluded_hold_frames;
+  ss.carry_view = o.series_first_wave == "prior";
   return ss;
 }
 

@@ -29,10 +29,12 @@ struct StreamOptions {
   bool front_node_alone = true;     // render::StreamSettings::front_node_alone
   bool keep_late_arrivals = true;   // render::StreamSettings::keep_late_arrivals
   uint32_t occluded_hold_frames = 1;  // render::StreamSettings::occluded_hold_frames
+  std::string series_first_wave = "prior";  // prior|cold: render::StreamSettings::carry_view
 };
 
-// Adds --gpu-budget (required when budget_required) and the others.
-void add_stream_options(CLI::App& sub, StreamOptions& o, bool budget_required);
+// Adds --gpu-budget (required when budget_required) and the others; --series-first-wave only for
+// the commands that take a series (`series`).
+void add_stream_options(CLI::App& sub, StreamOptions& o, bool budget_required, bool series);
 // The settings; Errc::invalid_argument naming the option for a bad value. Precondition:
 // !o.gpu_budget.empty().
 Result<render::StreamSettings> stream_settings(const StreamOptions& o);

@@ -177,6 +177,13 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
   c->window_ = mds::streaming::ReadWindow(
       {.min = settings.wave_settle_frames > 0 ? std::max(1u, settings.wave_nodes) : 4u, .calm_frames = 3,
        .cap = settings.max_outstanding, .moving_waste_share = settings.moving_waste_share});
+  if (settings.prior && !settings.prior->boxes.empty()) {
+    // A series step: the nodes that match what the view before wanted are the first wave.
+    c->carried_ = mds::streaming::carried_wanted(*settings.prior, c->node_boxes(), kPriorMinIou);
+    c->stats_.prior_wanted_nodes = settings.prior->wanted_count();
+    c->stats_.carried_nodes = uint64_t(std::count(c->carried_.begin(), c->carried_.end(), uint8_t(1)));
+    c->carried_wave_ = c->stats_.carried_nodes > 0;
+  }
   c->placed_frame_.assign(nodes.size(), 0);
   c->placed_late_.assign(nodes.size(), 0);
   c->o_confirmed_.assign(nodes.size(), 0);
@@ -309,6 +316,30 @@ void StreamCache::set_classes(std::span<const uint32_t> classes, bool mature) {
     if (next != c) plan_stale_ = true;
     table_->set_class(i, next);
   }
+}
+
+std::vector<mds::streaming::NodeBox> StreamCache::node_boxes() const {
+  // From the directory's double-precision centre bounds, grown by the largest radius (the boxes
+  // of the viewer's bounds view, RenderHost::load).
+  std::vector<mds::streaming::NodeBox> boxes;
+  boxes.reserve(reader_->nodes().size());
+  for (const store::NodeEntry& e : reader_->nodes()) {
+    mds::streaming::NodeBox b;
+    for (int k = 0; k < 3; ++k) {
+      b.lo[k] = e.center_min[k] - double(e.max_radius);
+      b.hi[k] = e.center_max[k] + double(e.max_radius);
+    }
+    boxes.push_back(b);
+  }
+  return boxes;
+}
+
+mds::streaming::PriorView StreamCache::prior_view() const {
+  mds::streaming::PriorView p;
+  p.boxes = node_boxes();
+  p.wanted.resize(p.boxes.size());
+  for (uint32_t i = 0; i < p.wanted.size(); ++i) p.wanted[i] = demanded(i) ? 1 : 0;
+  return p;
 }
 
 bool StreamCache::demanded(uint32_t i) const {
@@ -520,6 +551,17 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
     const size_t limit = size_t(window_.settings().cap) + 64;
     std::vector<uint32_t> order_next = table_->prefetch_order(limit);
     bool truncated = order_next.size() == limit;
+    // The first plan of a series step at rest: the wave is the nodes that match what the view
+    // before wanted, front to back, all of them (up to the cap and the room): one layer of
+    // occluders where the frame before had its visible surface, sampled before anything behind
+    // it is chosen. Neither the window, nor the coverage, nor a lone front node bounds it.
+    const bool carried = waves && carried_wave_;
+    if (carried) {
+      order_next = table_->prefetch_order();
+      std::erase_if(order_next, [&](uint32_t i) { return carried_[i] == 0; });
+      truncated = false;
+    }
+    carried_wave_ = false;  // one wave, in the store's first view
     std::vector<uint64_t> evictable = table_->evictable_bytes_in_order(order_next, frame);
     uint64_t planned = 0;
     double coverage = 0.0;  // images covered by this wave's bounding spheres (screen_share)
@@ -548,8 +590,8 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
         break;
       }
       // A wave at rest is full with the window's nodes and wave_coverage images of them.
-      const bool full = requested_.size() >= window && !(waves && coverage < settings_.wave_coverage);
-      if (full || requested_.size() >= window_.settings().cap) {
+      const bool full = !carried && requested_.size() >= window && !(waves && coverage < settings_.wave_coverage);
+      if (full || (!carried && requested_.size() >= window_.settings().cap)) {
         pending = true;
         break;
       }
@@ -563,7 +605,7 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
       MDS_TRY(table_->mark_requested(i));
       requested_.push_back(i);
       if (waves) coverage += mds::streaming::screen_share(table_->node(i).projected_size, aspect_);
-      if (waves && settings_.front_node_alone && rank == 1.0 && dense_[i] &&
+      if (waves && !carried && settings_.front_node_alone && rank == 1.0 && dense_[i] &&
           table_->node(i).projected_size >= kLoneFrontProjected) {
         pending = true;  // a large dense node first: alone in its wave (StreamSettings::front_node_alone)
         break;

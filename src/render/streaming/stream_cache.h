@@ -46,6 +46,7 @@
 #include "render/streaming/node_pool.h"
 #include "store/store_reader.h"
 #include "streaming/io_pool.h"
+#include "streaming/node_match.h"
 #include "streaming/read_window.h"
 #include "streaming/residency.h"
 #include "vk/context.h"
@@ -127,6 +128,12 @@ class StreamCache {
   // drawn for the rest of the path (porous 1M: from frame 19 of 48), and the demand trace, so
   // the hit rates and the Belady bound, described an empty view.
   void set_classes(std::span<const uint32_t> classes, bool mature);
+  // Every node's world box and whether the current view wants it (demanded: in the frustum, not
+  // O), for the cache of the next store of a series (StreamSettings::prior).
+  mds::streaming::PriorView prior_view() const;
+  // A node of this store matches a node of the prior view when their boxes' IoU is at least this
+  // (match_boxes). Porous / ablation series of 1000-particle nodes: docs/streaming.md "Series steps".
+  static constexpr double kPriorMinIou = 0.5;
   // One frame (see the file comment); transfers are recorded into cmd.
   Result<CacheFrame> update(VkCommandBuffer cmd, uint64_t frame);
   CacheStats stats() const;
@@ -134,6 +141,7 @@ class StreamCache {
  private:
   StreamCache() = default;
   bool demanded(uint32_t node) const;
+  std::vector<mds::streaming::NodeBox> node_boxes() const;  // world boxes of the store's nodes
   Status evict_for(VkCommandBuffer cmd, uint32_t incoming, uint64_t frame, bool& stalled);
   // Whether a finished read of node i, no longer fetchable (found O meanwhile), is placed anyway
   // (StreamSettings::keep_late_arrivals): in the frustum, within the frame's upload and staging
@@ -142,6 +150,10 @@ class StreamCache {
 
   const store::StoreReader* reader_ = nullptr;
   StreamSettings settings_;
+  // StreamSettings::prior: per node, 1 = it matches a node the view before wanted; the first wave
+  // at rest is these nodes, all at once (carried_wave_ until it went out).
+  std::vector<uint8_t> carried_;
+  bool carried_wave_ = false;
   std::unique_ptr<NodePool> pool_;
   std::unique_ptr<mds::streaming::IoPool> io_;
   std::unique_ptr<mds::streaming::ResidencyTable> table_;

@@ -1,0 +1,248 @@
+#!/usr/bin/python3
+"""Streamed series benchmark: what a step to the next frame of a store series costs the GPU cache,
+with the first wave carried from the frame before (`--series-first-wave prior`, the default:
+the nodes of the new store whose boxes match, by IoU >= 0.5, the nodes the view before wanted,
+read in one wave; docs/streaming.md "Series steps") against a cold cache (`--series-first-wave
+cold`: waves from the front, as before), in one run, alternating.
+
+Trajectories of F frames of the porous and ablation scenes (`synth --frames F`) converted to
+series with nodes of <= 1000 particles; for each (scene, view, budget) `render SERIES
+--gpu-budget B --view V --stats S` renders every frame to convergence (the same camera for all),
+and the stats of the frames after the first give, per step:
+  frames to complete   the first frame with every wanted node resident and nothing in flight
+                       (the viewer holds the frame before on screen until then);
+  ms to complete       the wall time from the view's start to the end of that frame;
+  bytes read           compressed node bytes read for the frame's view, until it converged;
+  wanted at the end    nodes the converged (or capped) view wants;
+  wall                 the frame's render (convergence and --spp samples).
+The images of both are compared (pixels with a channel more than 0.1 apart, the renderer's
+tolerance). With Xvfb, the viewer plays the porous close-up (`view --play-series`) with each, and
+its frame log gives the frames held on screen after each step (`held`).
+
+Writes docs/results/series-stream.md and series-stream.csv.
+
+  /usr/bin/python3 tools/bench_series_stream.py [--quick] [--mdstream build/mdstream]
+"""
+import argparse
+import csv
+import json
+import os
+import shutil
+import statistics
+import sys
+
+import numpy as np
+from PIL import Image
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench_common import Xvfb, fmt_bytes, machine_info, newest_mdstream, open_work, sh, write_csv, write_report  # noqa: E402
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+WAVES = ("prior", "cold")
+
+
+def med(v):
+    return statistics.median(v) if v else float("nan")
+
+
+def srgb_to_linear(c):
+    c = c / 255.0
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def differing_fraction(a, b, tol=0.1):
+    """Share of pixels with a channel more than `tol` apart in linear RGB (render/image_compare.h)."""
+    x = srgb_to_linear(np.asarray(Image.open(a).convert("RGB"), dtype=np.float64))
+    y = srgb_to_linear(np.asarray(Image.open(b).convert("RGB"), dtype=np.float64))
+    return float((np.abs(x - y).max(axis=2) > tol).mean())
+
+
+def run_render(mds, series, out, wave, view, budget, args, log):
+    stats = os.path.join(out, "stats.json")
+    sh([mds, "render", series, "-o", os.path.join(out, "f_%04d.png"), "--width", str(args.width), "--height",
+        str(args.height), "--view", str(view), "--gpu-budget", str(budget), "--series-first-wave", wave,
+        "--stats", stats], log, timeout=3600)
+    return json.load(open(stats))["frames"]
+
+
+def run_viewer(mds, series, out, wave, view, budget, args, env, log):
+    """Frames held after each step, and the time from the step to the first frame not held."""
+    flog = os.path.join(out, "frames.csv")
+    sh([mds, "view", series, "--play-series", "--no-hud", "--width", str(args.width), "--height", str(args.height),
+        "--view", str(view), "--gpu-budget", str(budget), "--series-first-wave", wave, "--spp", "4",
+        "--fixed-resolution", "--exit-after-frames", str(args.viewer_frames), "--frame-log", flog], log, env=env,
+       timeout=3600)
+    with open(flog) as f:
+        rows = list(csv.DictReader(f))
+    held, held_ms = [], []
+    k = 0
+    while k < len(rows):
+        if float(rows[k]["reload_ms"]) > 0 and k > 0:
+            t0 = float(rows[k]["t_ms"])
+            n = 0
+            j = k
+            while j < len(rows) and rows[j]["held"] == "1":
+                n += 1
+                j += 1
+            if j < len(rows):  # a step whose hold ended within the log
+                held.append(n)
+                held_ms.append(float(rows[j]["t_ms"]) - t0)
+            k = j
+        else:
+            k += 1
+    return held, held_ms
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--mdstream", default=None, help="mdstream binary (default: newest build-*/mdstream)")
+    ap.add_argument("--quick", action="store_true", help="smoke run: small stores, one repeat")
+    ap.add_argument("--particles", type=int, default=1_000_000)
+    ap.add_argument("--frames", type=int, default=4)
+    ap.add_argument("--repeats", type=int, default=1)
+    ap.add_argument("--width", type=int, default=320)
+    ap.add_argument("--height", type=int, default=180)
+    ap.add_argument("--viewer-frames", type=int, default=300)
+    ap.add_argument("--no-viewer", action="store_true", help="skip the viewer runs")
+    ap.add_argument("--work", default="", help="work folder (default: a temporary one)")
+    ap.add_argument("--out", default=os.path.join(REPO, "docs", "results"))
+    args = ap.parse_args()
+    mds = args.mdstream or newest_mdstream(REPO)
+    if args.quick:
+        args.particles, args.frames, args.repeats, args.viewer_frames = 50_000, 3, 1, 120
+    work, log = open_work("series-stream", args.work, args.out)
+
+    series, store_bytes = {}, {}
+    for scene in ("porous", "ablation"):
+        traj = os.path.join(work, f"{scene}.lammpstrj")
+        sh([mds, "synth", "--scene", scene, "-n", str(args.particles), "--frames", str(args.frames), "-q", "-o", traj],
+           log)
+        series[scene] = os.path.join(work, f"{scene}.mds.series")
+        sh([mds, "convert", traj, "-q", "--node-size", "1000", "-o", series[scene]], log)
+        os.remove(traj)
+        store_bytes[scene] = os.path.getsize(os.path.join(work, f"{scene}.0000.mds"))
+    # (scene, view, budget, what the budget is): close-ups at a pool that holds their view (porous: 1/8
+    # of the store, as in the cache benchmark; the ablation close-up wants ~250 nodes of ~1000), the
+    # front views at a pool that holds the whole store.
+    cases = [("porous", 2, max(store_bytes["porous"] // 8, 64 << 10), "store / 8"),
+             ("ablation", 2, int(store_bytes["ablation"] * 0.65), "store x 0.65"),
+             ("ablation", 0, 4 * store_bytes["ablation"], "store x 4 (all)"),
+             ("porous", 0, 4 * store_bytes["porous"], "store x 4 (all)")]
+    viewer = not args.no_viewer and shutil.which("Xvfb") is not None
+    rows = []
+    per_step = {}  # (case index, wave) -> list of per-step dicts
+    diffs = {}     # case index -> list of differing fractions (frames after the first)
+    for r in range(args.repeats):
+        for ci, (scene, view, budget, _) in enumerate(cases):
+            images = {}
+            for wave in (WAVES if (r + ci) % 2 == 0 else WAVES[::-1]):
+                out = os.path.join(work, f"{scene}_v{view}_{wave}_{r}")
+                os.makedirs(out, exist_ok=True)
+                frames = run_render(mds, series[scene], out, wave, view, budget, args, log)
+                for f in frames[1:]:
+                    per_step.setdefault((ci, wave), []).append({
+                        "ftc": f["frames_to_complete"], "mtc": f["ms_to_complete"], "read": f["bytes_read"],
+                        "loaded": f["nodes_loaded"], "wanted": f["wanted_nodes"], "wall": f["wall_ms"],
+                        "frames": f["frames"], "converged": bool(f.get("iterations_to_converge", 0)),
+                        "carried": f["carried_nodes"], "prior": f["prior_wanted_nodes"]})
+                images[wave] = out
+            for k in range(1, args.frames):
+                diffs.setdefault(ci, []).append(differing_fraction(os.path.join(images["prior"], f"f_{k:04d}.png"),
+                                                                   os.path.join(images["cold"], f"f_{k:04d}.png")))
+            for wave in WAVES:
+                shutil.rmtree(os.path.join(work, f"{scene}_v{view}_{wave}_{r}"))
+
+    held = {}
+    if viewer:
+        xvfb = Xvfb()
+        try:
+            env = dict(os.environ, DISPLAY=xvfb.display)
+            scene, view, budget, _ = cases[0]
+            for r in range(args.repeats):
+                for wave in (WAVES if r % 2 == 0 else WAVES[::-1]):
+                    out = os.path.join(work, f"viewer_{wave}_{r}")
+                    os.makedirs(out, exist_ok=True)
+                    h, hm = run_viewer(mds, series[scene], out, wave, view, budget, args, env, log)
+                    held.setdefault(wave, ([], []))
+                    held[wave][0].extend(h)
+                    held[wave][1].extend(hm)
+                    shutil.rmtree(out)
+        finally:
+            xvfb.stop()
+
+    for ci, (scene, view, budget, what) in enumerate(cases):
+        for wave in WAVES:
+            s = per_step[(ci, wave)]
+            rows.append({
+                "scene": scene, "view": view, "budget_bytes": budget, "budget": what, "first_wave": wave,
+                "steps": len(s),
+                "frames_to_complete": med([x["ftc"] for x in s]),
+                "ms_to_complete": round(med([x["mtc"] for x in s]), 1),
+                "bytes_read": round(med([x["read"] for x in s])),
+                "nodes_loaded": med([x["loaded"] for x in s]),
+                "wanted_at_end": med([x["wanted"] for x in s]),
+                "frames": med([x["frames"] for x in s]),
+                "converged_steps": sum(1 for x in s if x["converged"]),
+                "wall_ms": round(med([x["wall"] for x in s]), 1),
+                "carried_nodes": med([x["carried"] for x in s]),
+                "prior_wanted_nodes": med([x["prior"] for x in s]),
+                "differing_vs_cold": round(max(diffs.get(ci, [0.0])), 5) if wave == "prior" else "",
+            })
+
+    m = machine_info(REPO)
+    md = ["# Streamed series: the first wave carried from the frame before", "",
+          f"`tools/bench_series_stream.py{' --quick' if args.quick else ''}`: series of {args.frames} frames of the "
+          f"porous and ablation scenes (`synth --frames {args.frames}`: thermal motion, an expanding plume), "
+          f"{args.particles:,} particles each, nodes of <= 1000 ({fmt_bytes(store_bytes['porous'])} / "
+          f"{fmt_bytes(store_bytes['ablation'])} per store), rendered streamed at {args.width}x{args.height} "
+          f"(`render SERIES --gpu-budget B --view V --stats`, the default --spp), with `--series-first-wave "
+          f"prior` (default) and `cold`, alternating, {args.repeats} run(s). Per step (the frames after the first), "
+          f"medians:", "",
+          "- frames / ms to complete: until the first frame with every wanted node resident and nothing in "
+          "flight (`frames_to_complete`, `ms_to_complete` of `render --stats`); the viewer holds the frame before "
+          "on screen until then;",
+          "- bytes read: compressed node bytes read for the frame's view until it converged (or its culling "
+          "reached --max-iterations: `converged` counts the steps that converged);",
+          "- wanted at the end: nodes the last frame of the view wants; carried: nodes of the store matched to "
+          "one the view before wanted (the first wave);",
+          "- differing: the largest share over the steps of pixels of the prior image more than 0.1 from the cold "
+          "one (the renderer's tolerance: 1 %).", "",
+          f"Machine: {m['cpu']}, {m['nproc']} cores, {m['memory']}; commit {m['commit']}; {m['date']}; "
+          f"load average at the end {os.getloadavg()[0]:.2f}.", "",
+          "| scene, view | budget | first wave | frames to complete | ms to complete | bytes read | nodes read | "
+          "wanted at the end | converged | carried / wanted before | frame wall [ms] | differing |",
+          "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        carried = f"{r['carried_nodes']:.0f} / {r['prior_wanted_nodes']:.0f}" if r["first_wave"] == "prior" else "-"
+        diff = f"{100 * r['differing_vs_cold']:.2f} %" if r["differing_vs_cold"] != "" else "-"
+        md.append(f"| {r['scene']}, view {r['view']} | {fmt_bytes(r['budget_bytes'])} ({r['budget']}) | "
+                  f"{r['first_wave']} | {r['frames_to_complete']:.0f} | {r['ms_to_complete']:.0f} | "
+                  f"{fmt_bytes(r['bytes_read'])} | {r['nodes_loaded']:.0f} | {r['wanted_at_end']:.0f} | "
+                  f"{r['converged_steps']} / {r['steps']} | {carried} | {r['wall_ms']:.0f} | {diff} |")
+    md.append("")
+    if held:
+        scene, view, budget, what = cases[0]
+        md += [f"The viewer (`view --play-series --gpu-budget {fmt_bytes(budget)} --view {view} --spp 4`, "
+               f"{scene}, {args.width}x{args.height}, {args.viewer_frames} displayed frames): frames held on screen "
+               "after each step until the new view was complete, and the time from the step to the first frame "
+               "not held, medians over the steps:", "",
+               "| first wave | steps | frames held | ms held |", "|---|---:|---:|---:|"]
+        for wave in WAVES:
+            h, hm = held.get(wave, ([], []))
+            md.append(f"| {wave} | {len(h)} | {med(h):.0f} | {med(hm):.0f} |")
+            rows.append({"scene": scene, "view": view, "budget_bytes": budget, "budget": what,
+                         "first_wave": f"viewer-{wave}", "steps": len(h), "frames_to_complete": med(h),
+                         "ms_to_complete": round(med(hm), 1)})
+        md.append("")
+    else:
+        md += ["The viewer runs were skipped (no Xvfb, or --no-viewer).", ""]
+    write_report(args.out, "series-stream", md)
+    keys = ["scene", "view", "budget_bytes", "budget", "first_wave", "steps", "frames_to_complete", "ms_to_complete",
+            "bytes_read", "nodes_loaded", "wanted_at_end", "frames", "converged_steps", "wall_ms", "carried_nodes",
+            "prior_wanted_nodes", "differing_vs_cold"]
+    write_csv(args.out, "series-stream", rows, keys)
+    log.close()
+
+
+if __name__ == "__main__":
+    main()
