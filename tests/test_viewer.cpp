@@ -193,7 +193,8 @@ TEST(ViewerHud, ColormapLegendLabelsTheRange) {
   }
 }
 
-// The HUD's cache line counts the nodes --slice left out (never read) when there are any.
+// The HUD's cache line counts the nodes --slice left out (never read) and the nodes a series step
+// carried (the first wave) when there are any.
 TEST(ViewerHud, CacheLineCountsSlicedOutNodes) {
   viewer::HudState s;
   s.streaming = true;
@@ -204,6 +205,10 @@ TEST(ViewerHud, CacheLineCountsSlicedOutNodes) {
   EXPECT_FALSE(has(viewer::hud_lines(s), "sliced out"));
   s.cache.nodes_sliced_out = 193;
   EXPECT_TRUE(has(viewer::hud_lines(s), "nodes 0/305  in flight 0  sliced out 193"));
+  // ... and, after a series step, the nodes of the first wave carried from the frame before.
+  EXPECT_FALSE(has(viewer::hud_lines(s), "carried"));
+  s.cache.carried_nodes = 12;
+  EXPECT_TRUE(has(viewer::hud_lines(s), "sliced out 193  carried 12"));
 }
 
 // A series' frame line comes second (under the store's name), only for a series.

@@ -42,11 +42,13 @@ std::vector<std::string> hud_lines(const HudState& s) {
                           r.node_class_counts[2], r.node_class_counts[3]));
   if (s.streaming) {
     const auto& c = s.cache;
-    l.push_back(fmt::format("cache {:.1f}/{:.1f} MB ({:.0f}%)  nodes {}/{}  in flight {}{}", c.resident_bytes / 1e6,
+    l.push_back(fmt::format("cache {:.1f}/{:.1f} MB ({:.0f}%)  nodes {}/{}  in flight {}{}{}", c.resident_bytes / 1e6,
                             c.gpu_budget_bytes / 1e6,
                             c.gpu_budget_bytes ? 100.0 * double(c.resident_bytes) / double(c.gpu_budget_bytes) : 0.0,
                             c.nodes_resident, c.nodes, c.in_flight,
-                            c.nodes_sliced_out ? fmt::format("  sliced out {}", c.nodes_sliced_out) : std::string()));
+                            c.nodes_sliced_out ? fmt::format("  sliced out {}", c.nodes_sliced_out) : std::string(),
+                            // a series step: the first wave carried from the frame before (docs/streaming.md)
+                            c.carried_nodes ? fmt::format("  carried {}", c.carried_nodes) : std::string()));
     l.push_back(fmt::format("read {:.1f} MB/s  total {:.1f} MB  hits {}  misses {}{}", s.read_mb_s, c.bytes_read / 1e6,
                             r.frame_hits, r.frame_misses, c.budget_exhausted ? "  BUDGET FULL" : ""));
   }

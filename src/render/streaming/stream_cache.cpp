@@ -552,9 +552,10 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
     std::vector<uint32_t> order_next = table_->prefetch_order(limit);
     bool truncated = order_next.size() == limit;
     // The first plan of a series step at rest: the wave is the nodes that match what the view
-    // before wanted, front to back, all of them (up to the cap and the room): one layer of
+    // before wanted, front to back, all of them that the pool has room for: one layer of
     // occluders where the frame before had its visible surface, sampled before anything behind
-    // it is chosen. Neither the window, nor the coverage, nor a lone front node bounds it.
+    // it is chosen. Neither the window and its cap, nor the coverage, nor a lone front node
+    // bounds it: it is the working set of the view before, which that pool held.
     const bool carried = waves && carried_wave_;
     if (carried) {
       order_next = table_->prefetch_order();

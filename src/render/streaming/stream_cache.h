@@ -26,6 +26,8 @@
 //      waves: no new read while a read is in flight or a wanted node was placed fewer than
 //      wave_settle_frames frames ago, so every wave is chosen from classes that already saw the
 //      previous one; a node of a wave that turns O within those frames counts as waste.
+//      A series step (StreamSettings::prior): the first wave at rest is every node matching, by
+//      box overlap, a node the view of the frame before wanted (docs/streaming.md, "Series steps").
 //   5. hits / misses of the frame's demand, counted after step 3 (the frame draws after it).
 // The render loop never waits on disk: update() only polls.
 #pragma once
