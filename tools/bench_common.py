@@ -70,7 +70,6 @@ def newest_mdstream(repo):
 def open_work(name, work, out):
     """Creates the work folder (a temporary one when `work` is empty) and `out`; returns the work
     folder and an open log file in it."""
-    import sys
     import tempfile
     work = work or tempfile.mkdtemp(prefix=f"mds_{name}_")
     os.makedirs(work, exist_ok=True)
@@ -100,6 +99,32 @@ def make_store(mds, work, scene, particles, node_size, log):
     sh([mds, "convert", dump, "-o", store, "--node-size", str(node_size)], log)
     os.remove(dump)
     return store
+
+
+def add_series_arguments(ap, repo, repeats, width, height):
+    """The arguments the series benchmarks share: the binary, a quick smoke run, the series
+    (particles per frame, frames), repeats, image size, the viewer switch, work and output folders."""
+    ap.add_argument("--mdstream", default=None, help="mdstream binary (default: newest build-*/mdstream)")
+    ap.add_argument("--quick", action="store_true", help="smoke run: small stores, one repeat")
+    ap.add_argument("--particles", type=int, default=1_000_000)
+    ap.add_argument("--frames", type=int, default=4)
+    ap.add_argument("--repeats", type=int, default=repeats)
+    ap.add_argument("--width", type=int, default=width)
+    ap.add_argument("--height", type=int, default=height)
+    ap.add_argument("--no-viewer", action="store_true", help="skip the viewer runs")
+    ap.add_argument("--work", default="", help="work folder (default: a temporary one)")
+    ap.add_argument("--out", default=os.path.join(repo, "docs", "results"))
+
+
+def make_series(mds, work, scene, particles, frames, log, extra=()):
+    """`mdstream synth --frames` + `convert -o SCENE.mds.series` (with `extra` convert options) into
+    `work`; the index's path. The trajectory is removed."""
+    traj = os.path.join(work, f"{scene}.lammpstrj")
+    sh([mds, "synth", "--scene", scene, "-n", str(particles), "--frames", str(frames), "-q", "-o", traj], log)
+    series = os.path.join(work, f"{scene}.mds.series")
+    sh([mds, "convert", traj, "-q", *extra, "-o", series], log)
+    os.remove(traj)
+    return series
 
 
 def write_report(out, name, md):

@@ -6,12 +6,12 @@ switched off (MDSTREAM_PIPELINE_REUSE=0: every renderer makes its pipelines, as 
 MDSTREAM_SERIES_PRELOAD=0), in one run.
 
 A trajectory of F frames of the ablation scene (`synth --frames F`) converted to a series
-(`convert -o run.mds.series`), then, the configurations alternating:
-  render in memory   `render run.mds.series -o f_%04d.png --stats S`: per frame the stats'
+(`convert -o ablation.mds.series`), then, the configurations alternating:
+  render in memory   `render ablation.mds.series -o f_%04d.png --stats S`: per frame the stats'
                      setup_ms.renderer (Renderer::create: buffers, upload, pipelines, warm-up)
                      and pipelines.made; the command's wall time;
   render streaming   the same with --gpu-budget (store bytes / 8, at least 1 MiB): Renderer::create_streaming;
-  viewer             `view run.mds.series --play-series --frame-log L` under Xvfb (skipped without
+  viewer             `view ablation.mds.series --play-series --frame-log L` under Xvfb (skipped without
                      Xvfb): the frame log's reload_ms of each frame that stepped to the next store
                      (RenderHost::set_series_position: the store read and decoded unless preloaded,
                      the renderer made), and the time from one step to the next.
@@ -33,7 +33,8 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench_common import Xvfb, fmt_bytes, machine_info, newest_mdstream, open_work, sh, write_csv, write_report  # noqa: E402
+from bench_common import (Xvfb, add_series_arguments, fmt_bytes, machine_info, make_series, newest_mdstream,  # noqa: E402
+                          open_work, sh, write_csv, write_report)
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -76,18 +77,9 @@ def med(v):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--mdstream", default=None, help="mdstream binary (default: newest build-*/mdstream)")
-    ap.add_argument("--quick", action="store_true", help="smoke run: small frames, one repeat")
-    ap.add_argument("--particles", type=int, default=1_000_000)
-    ap.add_argument("--frames", type=int, default=4)
-    ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--width", type=int, default=640)
-    ap.add_argument("--height", type=int, default=360)
+    add_series_arguments(ap, REPO, repeats=3, width=640, height=360)
     ap.add_argument("--spp", type=int, default=4)
     ap.add_argument("--max-iterations", type=int, default=8)
-    ap.add_argument("--no-viewer", action="store_true", help="skip the viewer runs")
-    ap.add_argument("--work", default="", help="work folder (default: a temporary one)")
-    ap.add_argument("--out", default=os.path.join(REPO, "docs", "results"))
     args = ap.parse_args()
     mds = args.mdstream or newest_mdstream(REPO)
     if args.quick:
@@ -95,13 +87,8 @@ def main():
         args.width, args.height = 320, 180
     work, log = open_work("series-render", args.work, args.out)
 
-    traj = os.path.join(work, "traj.lammpstrj")
-    sh([mds, "synth", "--scene", "ablation", "-n", str(args.particles), "--frames", str(args.frames), "-q",
-        "-o", traj], log)
-    series = os.path.join(work, "run.mds.series")
-    sh([mds, "convert", traj, "-q", "-o", series], log)
-    os.remove(traj)
-    store_bytes = os.path.getsize(os.path.join(work, "run.0000.mds"))
+    series = make_series(mds, work, "ablation", args.particles, args.frames, log)
+    store_bytes = os.path.getsize(os.path.join(work, "ablation.0000.mds"))
     budget = max(store_bytes // 8, 1 << 20)  # a quick run's nodes need more than 1/8 of its small stores
 
     viewer = not args.no_viewer and shutil.which("Xvfb") is not None

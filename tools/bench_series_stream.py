@@ -35,7 +35,8 @@ import numpy as np
 from PIL import Image
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench_common import Xvfb, fmt_bytes, machine_info, newest_mdstream, open_work, sh, write_csv, write_report  # noqa: E402
+from bench_common import (Xvfb, add_series_arguments, fmt_bytes, machine_info, make_series, newest_mdstream,  # noqa: E402
+                          open_work, sh, write_csv, write_report)
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 WAVES = ("prior", "cold")
@@ -95,17 +96,8 @@ def run_viewer(mds, series, out, wave, view, budget, args, env, log):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--mdstream", default=None, help="mdstream binary (default: newest build-*/mdstream)")
-    ap.add_argument("--quick", action="store_true", help="smoke run: small stores, one repeat")
-    ap.add_argument("--particles", type=int, default=1_000_000)
-    ap.add_argument("--frames", type=int, default=4)
-    ap.add_argument("--repeats", type=int, default=1)
-    ap.add_argument("--width", type=int, default=320)
-    ap.add_argument("--height", type=int, default=180)
+    add_series_arguments(ap, REPO, repeats=1, width=320, height=180)
     ap.add_argument("--viewer-frames", type=int, default=300)
-    ap.add_argument("--no-viewer", action="store_true", help="skip the viewer runs")
-    ap.add_argument("--work", default="", help="work folder (default: a temporary one)")
-    ap.add_argument("--out", default=os.path.join(REPO, "docs", "results"))
     args = ap.parse_args()
     mds = args.mdstream or newest_mdstream(REPO)
     if args.quick:
@@ -114,12 +106,7 @@ def main():
 
     series, store_bytes = {}, {}
     for scene in ("porous", "ablation"):
-        traj = os.path.join(work, f"{scene}.lammpstrj")
-        sh([mds, "synth", "--scene", scene, "-n", str(args.particles), "--frames", str(args.frames), "-q", "-o", traj],
-           log)
-        series[scene] = os.path.join(work, f"{scene}.mds.series")
-        sh([mds, "convert", traj, "-q", "--node-size", "1000", "-o", series[scene]], log)
-        os.remove(traj)
+        series[scene] = make_series(mds, work, scene, args.particles, args.frames, log, ["--node-size", "1000"])
         store_bytes[scene] = os.path.getsize(os.path.join(work, f"{scene}.0000.mds"))
     # (scene, view, budget, what the budget is): close-ups at a pool that holds their view (porous: 1/8
     # of the store, as in the cache benchmark; the ablation close-up wants ~250 nodes of ~1000), the
