@@ -5,6 +5,8 @@
 //    preloaded fails on the missing file, names it, and keeps the frame before;
 //  - slices changed after the preload are applied: the step loads the frame again with them;
 //  - MDSTREAM_SERIES_PRELOAD=0 preloads nothing;
+//  - in memory, the culling scene made with the loaded frame (RenderSettings::cull_scene) gives
+//    the image a renderer that makes its own gives, bit for bit; one of another scene is refused;
 //  - streaming, a step hands the cache's view to the next frame's renderer (StreamSettings::prior:
 //    its first wave, test_series_stream.cpp), unless --series-first-wave cold.
 #include <gtest/gtest.h>
@@ -16,6 +18,7 @@
 #include <thread>
 
 #include "render/camera.h"
+#include "render/culling/density_volume.h"
 #include "render_test_helpers.h"
 #include "scoped_temp_dir.h"
 #include "store/slice.h"
@@ -125,6 +128,40 @@ TEST_F(RenderHostSeries, PreloadOffLoadsNothingAhead) {
   EXPECT_FALSE(h->preload_ready(1));
   EXPECT_TRUE(h->set_series_position(1).ok());
   EXPECT_EQ(h->series_frame(), 1);
+}
+
+TEST_F(RenderHostSeries, TheLoadedCullingSceneRendersWhatARendererMakesItself) {
+  auto h = open_host(series());
+  ASSERT_TRUE(h);
+  h->settings().cull = true;
+  ASSERT_TRUE(h->recreate(64, 48).ok());
+  h->preload(1);
+  ASSERT_TRUE(wait_ready(*h, 1));
+  ASSERT_TRUE(h->set_series_position(1).ok());  // the renderer of frame 1 takes the preloaded culling scene
+  auto cam = render::default_view(0, h->view_bounds(), 40.0, 64.0 / 48.0);
+  ASSERT_TRUE(cam.ok());
+  auto with_loaded = h->renderer()->render(*cam);
+  ASSERT_TRUE(with_loaded.ok()) << with_loaded.error().message;
+  // The same scene, settings and density volume; the renderer makes its own culling scene.
+  render::RenderSettings rs = h->settings();
+  ASSERT_TRUE(rs.cull);
+  auto vol = render::culling::density_from_store(h->reader(), *h->scene());
+  ASSERT_TRUE(vol.ok());
+  rs.density = std::make_shared<const render::culling::DensityVolume>(std::move(*vol));
+  rs.cull_scene = nullptr;
+  auto own = render::Renderer::create(*ctx_, *h->scene(), rs);
+  ASSERT_TRUE(own.ok()) << own.error().message;
+  auto with_own = (*own)->render(*cam);
+  ASSERT_TRUE(with_own.ok());
+  EXPECT_EQ(with_loaded->rgba, with_own->rgba);
+  // A culling scene of another scene is refused.
+  auto other = std::make_shared<render::culling::CullScene>();
+  other->meshlet_slots = uint32_t(h->scene()->meshlets.size()) + 1;
+  other->node_count = uint32_t(h->scene()->nodes.size());
+  rs.cull_scene = other;
+  auto refused = render::Renderer::create(*ctx_, *h->scene(), rs);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().message.find("cull_scene"), std::string::npos) << refused.error().message;
 }
 
 TEST_F(RenderHostSeries, AStreamingStepCarriesTheViewToTheNextFrame) {

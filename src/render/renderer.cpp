@@ -431,7 +431,13 @@ Result<std::unique_ptr<Renderer>> Renderer::create(vk::Context& ctx, const Scene
   if (settings.cull) {
     std::shared_ptr<const culling::DensityVolume> vol = settings.density;
     if (!vol) vol = std::make_shared<culling::DensityVolume>(culling::density_from_scene(scene));
-    MDS_TRY(m.create_cull(culling::cull_scene(scene, *vol), *vol));
+    if (const auto& cs = settings.cull_scene) {
+      if (!settings.density || cs->meshlet_slots != scene.meshlets.size() || cs->node_count != scene.nodes.size())
+        return make_error(Errc::internal, "RenderSettings::cull_scene: not made from this scene and density volume");
+      MDS_TRY(m.create_cull(*cs, *vol));
+    } else {
+      MDS_TRY(m.create_cull(culling::cull_scene(scene, *vol), *vol));
+    }
   }
   return r;
 }

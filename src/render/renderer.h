@@ -134,6 +134,11 @@ struct RenderSettings {
   bool cull = false;                                 // probabilistic occlusion culling (false: --no-cull)
   culling::CullSettings cull_settings;               // used when cull is set
   std::shared_ptr<const culling::DensityVolume> density;  // from the store; null: built from the scene
+  // In memory: the culling loop's scene (culling::cull_scene of the scene and `density`), made
+  // beforehand -- the viewer makes it on the thread that preloads a series' next frame (80-90 ms
+  // of a 1M step). Precondition: made from this scene and this density volume; null: made by
+  // create. Unused when streaming.
+  std::shared_ptr<const culling::CullScene> cull_scene;
   MeshShaderMode mesh_shaders = MeshShaderMode::automatic;  // sprite path (render/mesh_sprites.h)
   // Visibility route (one uint64 of depth and sprite index per pixel, each pixel shaded once)
   // where the device has 64-bit buffer atomics, on either sprite path; false: colour + depth

@@ -177,6 +177,7 @@ Result<RenderHost::Loaded> RenderHost::load(const store::StoreReader& reader,
         l.node_boxes.push_back(b);
       }
     }
+    l.cull_scene = std::make_shared<const render::culling::CullScene>(render::culling::cull_scene(*l.scene, vol));
     l.density = std::make_shared<const render::culling::DensityVolume>(std::move(vol));
   }
   return l;
@@ -187,6 +188,7 @@ void RenderHost::take(Loaded&& l) {
   shown_types_ = std::move(l.shown_types);
   scene_ = std::move(l.scene);
   density_ = std::move(l.density);
+  cull_scene_ = std::move(l.cull_scene);
   bounds_ = l.bounds;
   node_boxes_ = std::move(l.node_boxes);
 }
@@ -225,7 +227,10 @@ Status RenderHost::recreate(uint32_t width, uint32_t height) {
   settings_.width = width;
   settings_.height = height;
   render::RenderSettings rs = settings_;
-  if (rs.cull && density_) rs.density = density_;
+  if (rs.cull && density_) {
+    rs.density = density_;
+    rs.cull_scene = cull_scene_;  // made with the scene (load)
+  }
   if (streaming()) {
     render::StreamSettings ss = stream_;
     ss.prior = std::move(prior_);  // what the renderer before knew of the view (carry_prior)

@@ -82,6 +82,9 @@ class RenderHost {
     std::vector<uint8_t> shown_types;
     std::unique_ptr<render::SceneData> scene;
     std::shared_ptr<const render::culling::DensityVolume> density;
+    // In memory: the culling loop's scene of `scene` and `density` (RenderSettings::cull_scene),
+    // made here so that a preloaded frame's step does not make it.
+    std::shared_ptr<const render::culling::CullScene> cull_scene;
     render::Bounds bounds;
     std::vector<Box> node_boxes;
   };
@@ -120,6 +123,7 @@ class RenderHost {
   std::vector<uint8_t> shown_types_;
   std::unique_ptr<render::SceneData> scene_;
   std::shared_ptr<const render::culling::DensityVolume> density_;
+  std::shared_ptr<const render::culling::CullScene> cull_scene_;
   render::RenderSettings settings_;
   render::StreamSettings stream_;
   render::Bounds bounds_;
