@@ -18,6 +18,20 @@ double volume(const NodeBox& b) {
 }
 }  // namespace
 
+std::vector<NodeBox> node_boxes(const store::StoreReader& reader) {
+  std::vector<NodeBox> boxes;
+  boxes.reserve(reader.nodes().size());
+  for (const store::NodeEntry& e : reader.nodes()) {
+    NodeBox b;
+    for (int k = 0; k < 3; ++k) {
+      b.lo[k] = e.center_min[k] - double(e.max_radius);
+      b.hi[k] = e.center_max[k] + double(e.max_radius);
+    }
+    boxes.push_back(b);
+  }
+  return boxes;
+}
+
 double box_iou(const NodeBox& a, const NodeBox& b) {
   const NodeBox inter{glm::max(a.lo, b.lo), glm::min(a.hi, b.hi)};
   if (inter.lo.x > inter.hi.x || inter.lo.y > inter.hi.y || inter.lo.z > inter.hi.z) return 0.0;

@@ -14,11 +14,17 @@
 
 #include <glm/glm.hpp>
 
+#include "store/store_reader.h"
+
 namespace mds::streaming {
 
 struct NodeBox {
   glm::dvec3 lo{0.0}, hi{0.0};  // world coordinates; lo <= hi on every axis
 };
+
+// The world box of every node of `reader`: its directory's centre bounds (double precision)
+// grown by its largest radius.
+std::vector<NodeBox> node_boxes(const store::StoreReader& reader);
 
 // Volume of the intersection over the volume of the union, in [0, 1]. Boxes of zero volume
 // (flat on an axis) are compared by that: two equal boxes 1, otherwise 0 unless they overlap

@@ -93,18 +93,6 @@ class SeriesStream : public mds::testing::VulkanSuite {
     EXPECT_TRUE(img.ok()) << (img.ok() ? "" : img.error().message);
     return r->prior_view();
   }
-  static std::vector<streaming::NodeBox> boxes(const store::StoreReader& reader) {
-    std::vector<streaming::NodeBox> out;
-    for (const store::NodeEntry& e : reader.nodes()) {
-      streaming::NodeBox b;
-      for (int a = 0; a < 3; ++a) {
-        b.lo[a] = e.center_min[a] - double(e.max_radius);
-        b.hi[a] = e.center_max[a] + double(e.max_radius);
-      }
-      out.push_back(b);
-    }
-    return out;
-  }
   // Reads the first frame of a fresh view requests.
   static uint32_t first_reads(Renderer& r, const Camera& cam) {
     EXPECT_TRUE(r.set_view(cam).ok());
@@ -124,7 +112,7 @@ TEST_F(SeriesStream, TheFirstWaveIsTheNodesTheFrameBeforeWanted) {
   ASSERT_EQ(prior->boxes.size(), frame(0).nodes().size());
   EXPECT_GT(prior->wanted_count(), 0u);
   const std::vector<uint8_t> carried =
-      streaming::carried_wanted(*prior, boxes(frame(1)), streaming_gpu::StreamCache::kPriorMinIou);
+      streaming::carried_wanted(*prior, streaming::node_boxes(frame(1)), streaming_gpu::StreamCache::kPriorMinIou);
   const auto n_carried = uint32_t(std::count(carried.begin(), carried.end(), uint8_t(1)));
   EXPECT_GT(n_carried, prior->wanted_count() / 2) << "the nodes of the next frame are nearly where they were";
 

@@ -179,7 +179,7 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
        .cap = settings.max_outstanding, .moving_waste_share = settings.moving_waste_share});
   if (settings.prior && !settings.prior->boxes.empty()) {
     // A series step: the nodes that match what the view before wanted are the first wave.
-    c->carried_ = mds::streaming::carried_wanted(*settings.prior, c->node_boxes(), kPriorMinIou);
+    c->carried_ = mds::streaming::carried_wanted(*settings.prior, mds::streaming::node_boxes(reader), kPriorMinIou);
     c->stats_.prior_wanted_nodes = settings.prior->wanted_count();
     c->stats_.carried_nodes = uint64_t(std::count(c->carried_.begin(), c->carried_.end(), uint8_t(1)));
     c->carried_wave_ = c->stats_.carried_nodes > 0;
@@ -318,25 +318,9 @@ void StreamCache::set_classes(std::span<const uint32_t> classes, bool mature) {
   }
 }
 
-std::vector<mds::streaming::NodeBox> StreamCache::node_boxes() const {
-  // From the directory's double-precision centre bounds, grown by the largest radius (the boxes
-  // of the viewer's bounds view, RenderHost::load).
-  std::vector<mds::streaming::NodeBox> boxes;
-  boxes.reserve(reader_->nodes().size());
-  for (const store::NodeEntry& e : reader_->nodes()) {
-    mds::streaming::NodeBox b;
-    for (int k = 0; k < 3; ++k) {
-      b.lo[k] = e.center_min[k] - double(e.max_radius);
-      b.hi[k] = e.center_max[k] + double(e.max_radius);
-    }
-    boxes.push_back(b);
-  }
-  return boxes;
-}
-
 mds::streaming::PriorView StreamCache::prior_view() const {
   mds::streaming::PriorView p;
-  p.boxes = node_boxes();
+  p.boxes = mds::streaming::node_boxes(*reader_);
   p.wanted.resize(p.boxes.size());
   for (uint32_t i = 0; i < p.wanted.size(); ++i) p.wanted[i] = demanded(i) ? 1 : 0;
   return p;
@@ -549,19 +533,15 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
     // past them continues in the whole order. (A full sort of every candidate was most of the
     // cache's update at 11,300 nodes.)
     const size_t limit = size_t(window_.settings().cap) + 64;
-    std::vector<uint32_t> order_next = table_->prefetch_order(limit);
-    bool truncated = order_next.size() == limit;
     // The first plan of a series step at rest: the wave is the nodes that match what the view
     // before wanted, front to back, all of them that the pool has room for: one layer of
     // occluders where the frame before had its visible surface, sampled before anything behind
     // it is chosen. Neither the window and its cap, nor the coverage, nor a lone front node
     // bounds it: it is the working set of the view before, which that pool held.
     const bool carried = waves && carried_wave_;
-    if (carried) {
-      order_next = table_->prefetch_order();
-      std::erase_if(order_next, [&](uint32_t i) { return carried_[i] == 0; });
-      truncated = false;
-    }
+    std::vector<uint32_t> order_next = table_->prefetch_order(carried ? SIZE_MAX : limit);
+    bool truncated = !carried && order_next.size() == limit;
+    if (carried) std::erase_if(order_next, [&](uint32_t i) { return carried_[i] == 0; });
     carried_wave_ = false;  // one wave, in the store's first view
     std::vector<uint64_t> evictable = table_->evictable_bytes_in_order(order_next, frame);
     uint64_t planned = 0;

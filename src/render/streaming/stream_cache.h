@@ -143,7 +143,6 @@ class StreamCache {
  private:
   StreamCache() = default;
   bool demanded(uint32_t node) const;
-  std::vector<mds::streaming::NodeBox> node_boxes() const;  // world boxes of the store's nodes
   Status evict_for(VkCommandBuffer cmd, uint32_t incoming, uint64_t frame, bool& stalled);
   // Whether a finished read of node i, no longer fetchable (found O meanwhile), is placed anyway
   // (StreamSettings::keep_late_arrivals): in the frustum, within the frame's upload and staging
