@@ -308,6 +308,41 @@ TEST(CullParity, MovingSamplingPassSelectsItsShareOfTheBudget) {
   EXPECT_EQ(loop->pass_budget(), budget);
 }
 
+// Streaming at rest: a sampling pass selects at most max_resident_share of the resident meshlets
+// while the pool fills (CullLoop::set_resident_meshlets), the whole budget otherwise, and while
+// moving the moving share of the whole budget.
+TEST(CullParity, RestingPassSelectsAtMostItsShareOfTheResidentMeshlets) {
+  Fixture f = make_fixture(false);
+  rc::CullLoop* loop = f.renderer->cull_loop();
+  ASSERT_NE(loop, nullptr);
+  const uint32_t budget = loop->budget();
+  ASSERT_GE(budget, 100u);
+  auto selected = [&]() {
+    EXPECT_TRUE(loop->begin_view(f.camera).ok());
+    EXPECT_TRUE(f.ctx->submit_and_wait([&](VkCommandBuffer cmd) { loop->record_iteration(cmd, nullptr, 0); }).ok());
+    return loop->counters().selected;
+  };
+  ASSERT_EQ(rc::kDefaultMaxResidentShare, 0.5);
+  loop->set_resident_meshlets(budget, true);  // as many resident as the budget: half of them
+  EXPECT_EQ(loop->budget(), budget / 2);
+  EXPECT_EQ(loop->pass_budget(), budget / 2);
+  const uint32_t half = selected();  // every meshlet in P, more than the budget: about budget / 2
+  EXPECT_GT(half, budget * 3 / 8);
+  EXPECT_LT(half, budget * 5 / 8);
+  loop->set_resident_meshlets(budget, false);  // a full pool, or a view wanting more than it holds
+  EXPECT_EQ(loop->pass_budget(), budget);
+  loop->set_resident_meshlets(4 * budget, true);  // the cap above the budget: the budget
+  EXPECT_EQ(loop->pass_budget(), budget);
+  loop->set_resident_meshlets(1, true);
+  EXPECT_EQ(loop->pass_budget(), 1u);
+  loop->set_resident_meshlets(0, true);  // nothing resident yet: still one
+  EXPECT_EQ(loop->pass_budget(), 1u);
+  loop->set_moving(true, 1.0);  // moving: the whole budget
+  EXPECT_EQ(loop->pass_budget(), budget);
+  loop->set_moving(false);
+  EXPECT_EQ(loop->pass_budget(), 1u);
+}
+
 // CullLoop::warm_up (run by Renderer::create) leaves no trace: a renderer warmed up once more,
 // on another view, runs a view with the same classes after every frame and the same image as
 // one warmed up only at creation (the sampling-route choice, the histogram state and the

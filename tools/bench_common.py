@@ -127,6 +127,19 @@ def make_series(mds, work, scene, particles, frames, log, extra=()):
     return series
 
 
+def differing_fraction(a, b, tol=0.1):
+    """Share of pixels of two PNGs with a channel more than `tol` apart in linear RGB (the
+    renderer's image comparison, render/image_compare.h)."""
+    import numpy as np
+    from PIL import Image
+
+    def linear(path):
+        c = np.asarray(Image.open(path).convert("RGB"), dtype=np.float64) / 255.0
+        return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+    return float((np.abs(linear(a) - linear(b)).max(axis=2) > tol).mean())
+
+
 def write_report(out, name, md):
     """Ends the report `md` (a list of lines) with the link to `name`.csv, writes it as `name`.md
     in `out` and prints its path."""

@@ -31,12 +31,9 @@ import shutil
 import statistics
 import sys
 
-import numpy as np
-from PIL import Image
-
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench_common import (Xvfb, add_series_arguments, fmt_bytes, machine_info, make_series, newest_mdstream,  # noqa: E402
-                          open_work, sh, write_csv, write_report)
+from bench_common import (Xvfb, add_series_arguments, differing_fraction, fmt_bytes, machine_info,  # noqa: E402
+                          make_series, newest_mdstream, open_work, sh, write_csv, write_report)
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 WAVES = ("prior", "cold")
@@ -44,18 +41,6 @@ WAVES = ("prior", "cold")
 
 def med(v):
     return statistics.median(v) if v else float("nan")
-
-
-def srgb_to_linear(c):
-    c = c / 255.0
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-
-
-def differing_fraction(a, b, tol=0.1):
-    """Share of pixels with a channel more than `tol` apart in linear RGB (render/image_compare.h)."""
-    x = srgb_to_linear(np.asarray(Image.open(a).convert("RGB"), dtype=np.float64))
-    y = srgb_to_linear(np.asarray(Image.open(b).convert("RGB"), dtype=np.float64))
-    return float((np.abs(x - y).max(axis=2) > tol).mean())
 
 
 def run_render(mds, series, out, wave, view, budget, args, log):

@@ -325,6 +325,8 @@ Result<FrameReport> Renderer::step() {
     }
   }
   m.pending_iteration = m.cull && m.cull_active;
+  if (m.pending_iteration && m.cache)  // at most a share of what is resident while the pool fills (cull_loop.h)
+    m.cull->set_resident_meshlets(uint32_t(m.cache->live_meshlets()), m.cache->filling() && !rep.budget_exhausted);
   if (m.pending_iteration) {
     // Sampling passes of this iteration: one while moving, else the configured passes, paced.
     m.iteration_moving = m.moving;

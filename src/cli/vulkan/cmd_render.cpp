@@ -325,6 +325,7 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
       j["parameters"] = {{"cocc", o.cull.cocc},
                          {"acceptance", o.cull.acceptance},
                          {"occluder_budget", c.budget},
+                         {"max_occluder_share", o.cull.max_resident_share},
                          {"converge_iterations", o.cull.converge_iterations},
                          {"samples_per_iteration", c.samples_per_iteration},
                          {"max_iterations", o.cull.max_iterations},

@@ -15,6 +15,13 @@ void add_culling_options(CLI::App& sub, CullingOptions& o, const std::string& no
                  "Occluder meshlets drawn per occlusion sampling pass (0: max(2 per node, meshlets / " +
                      std::to_string(render::culling::kDefaultBudgetDivisor) + "))")
       ->capture_default_str();
+  sub.add_option("--max-occluder-share", o.max_resident_share,
+                 "With --gpu-budget and the default --occluder-budget: at rest, while the pool fills (room for any "
+                 "node, the view's nodes within it), an occlusion sampling pass draws at most this share of the resident meshlets (1: the default "
+                 "budget alone, which while the cache fills draws every resident meshlet in every pass); "
+                 "docs/streaming.md")
+      ->check(CLI::Range(0.001, 1.0))
+      ->capture_default_str();
   sub.add_option("--samples-per-iteration", o.samples_per_iteration,
                  "Occlusion sampling passes (one depth sample per pixel each) per culling iteration")
       ->check(CLI::Range(1u, 64u))
@@ -85,6 +92,7 @@ Status apply_culling_options(const CullingOptions& o, render::RenderSettings& rs
   c.c_occ = o.cocc;
   c.acceptance = o.acceptance == "random" ? MDS_CULL_ACCEPT_RANDOM : MDS_CULL_ACCEPT_NORMAL;
   c.budget = o.budget;
+  c.max_resident_share = o.max_resident_share;
   c.samples_per_iteration = o.samples_per_iteration;
   c.converge_iterations = o.converge_iterations;
   c.max_iterations = o.max_iterations;

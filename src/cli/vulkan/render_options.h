@@ -24,6 +24,7 @@ struct CullingOptions {
   std::string acceptance = "normal";  // normal (Eq. 21) | random (50:50 coin, paper Table 4)
   double cocc = MDS_CULL_C_OCC_DEFAULT;
   uint32_t budget = 0;  // occluder meshlets per sampling pass (0: automatic)
+  double max_resident_share = render::culling::kDefaultMaxResidentShare;  // CullSettings::max_resident_share
   uint32_t samples_per_iteration = render::culling::kDefaultSamplesPerIteration;
   uint32_t converge_iterations = render::culling::kDefaultConvergeIterations;
   uint32_t max_iterations = render::culling::kDefaultMaxIterations;

@@ -64,7 +64,8 @@ void CullLoop::Impl::push(VkCommandBuffer cmd, uint32_t mode, uint32_t pass, glm
 }
 
 uint32_t CullLoop::Impl::pass_budget() const {
-  if (!moving || moving_share >= 1.0) return budget;
+  if (!moving) return rest_budget > 0 ? rest_budget : budget;
+  if (moving_share >= 1.0) return budget;
   return std::max(1u, uint32_t(std::lround(double(budget) * moving_share)));
 }
 
@@ -212,7 +213,15 @@ Result<std::unique_ptr<CullLoop>> CullLoop::create(vk::Context& ctx, const CullS
 CullLoop::~CullLoop() = default;
 
 uint32_t CullLoop::bins() const { return impl_->bins; }
-uint32_t CullLoop::budget() const { return impl_->budget; }
+uint32_t CullLoop::budget() const { return impl_->rest_budget > 0 ? impl_->rest_budget : impl_->budget; }
+void CullLoop::set_resident_meshlets(uint32_t live, bool filling) {
+  Impl& m = *impl_;
+  const double share = m.settings.max_resident_share;
+  m.rest_budget = 0;
+  if (m.settings.budget > 0 || !(share < 1.0) || !filling) return;
+  const auto cap = uint32_t(std::clamp(std::floor(double(live) * share), 1.0, double(UINT32_MAX)));
+  m.rest_budget = std::min(m.budget, cap);
+}
 uint32_t CullLoop::pass_budget() const { return impl_->pass_budget(); }
 uint32_t CullLoop::samples_per_iteration() const { return impl_->passes; }
 void CullLoop::set_samples_per_iteration(uint32_t passes) {

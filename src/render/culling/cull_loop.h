@@ -59,6 +59,10 @@ inline constexpr uint32_t kDefaultSamplesPerIteration = 4;
 inline constexpr uint32_t kDefaultConvergeIterations = 3;
 inline constexpr uint32_t kDefaultBudgetDivisor = 8;
 inline constexpr uint32_t kDefaultMaxIterations = 256;
+// Streaming, at rest: a sampling pass draws at most this share of the resident meshlets
+// (CullSettings::max_resident_share, CullLoop::set_resident_meshlets; docs/streaming.md,
+// "Occluder share of a filling cache").
+inline constexpr double kDefaultMaxResidentShare = 0.5;
 
 // Occluder meshlets per sampling pass when CullSettings::budget is 0: 2 per node (paper Tables
 // 3/4, "b = 2 meshlets/node"), at least meshlets / kDefaultBudgetDivisor: the paper's nodes hold
@@ -86,6 +90,9 @@ struct CullSettings {
   int acceptance = MDS_CULL_ACCEPT_NORMAL;      // or MDS_CULL_ACCEPT_RANDOM (--acceptance random)
   uint32_t n_budget = MDS_CULL_N_BUDGET_DEFAULT;
   uint32_t budget = 0;  // occluder meshlets per sampling pass; 0: default_budget()
+  // Streaming, at rest, with budget 0: at most this share (0, 1] of the resident meshlets per
+  // sampling pass (set_resident_meshlets); 1: the default budget alone.
+  double max_resident_share = kDefaultMaxResidentShare;
   uint32_t samples_per_iteration = kDefaultSamplesPerIteration;  // sampling passes per iteration (Sect. 3.2)
   uint32_t converge_iterations = kDefaultConvergeIterations;      // Sect. 5.3: iterations without class changes
   uint32_t max_iterations = kDefaultMaxIterations;  // cap when not converged (the renderer keeps iterating past spp)
@@ -223,7 +230,21 @@ class CullLoop {
   uint32_t meshlet_slots() const;
 
   uint32_t bins() const;
+  // Occluder meshlets per sampling pass at rest: CullSettings::budget, default_budget(), or the
+  // cap of set_resident_meshlets.
   uint32_t budget() const;
+  // Streaming: `live` meshlets are resident (the pool's occupied slots). With CullSettings::
+  // budget 0, max_resident_share < 1 and `filling` (the pool has room for any node and holds
+  // what the view wants), a sampling pass at rest draws at most that share of them.
+  // default_budget() counts the store's nodes and the pool's slots, and while the cache fills
+  // it exceeds what is resident: every resident meshlet was drawn in every pass, a pixel then
+  // only ever sampled its frontmost resident particle, and where that particle covers part of
+  // the pixel its confidence stayed short of c_occ (Sect. 4.3, Eq. 8: the samples are meant to
+  // be random draws of the particles in front). A full pool, or a view that wants more than it
+  // holds, keeps the whole budget (measured: the cap slowed the views held after jumps at a
+  // small pool and raised their frame p99 / p50), and so does a moving camera (one iteration per
+  // view). Takes effect from the next recorded iteration.
+  void set_resident_meshlets(uint32_t live, bool filling);
   // Sampling passes recorded with the compute / rasterized route (this loop's lifetime).
   uint32_t sample_route_passes(SampleRoute route) const;
   // The classification shares large box tests over subgroups (cull_classify_coop.comp).

@@ -26,6 +26,7 @@ struct CullLoop::Impl {
   vk::Context* ctx = nullptr;
   CullSettings settings;
   uint32_t width = 0, height = 0, bins = 0, budget = 0, levels = 0, passes = 1;
+  uint32_t rest_budget = 0;  // set_resident_meshlets: the budget at rest (0: budget)
   // Passes per iteration at most (the numbering stride of the sampling passes).
   uint32_t max_passes() const { return std::max(1u, settings.samples_per_iteration); }
   uint32_t meshlet_count = 0, node_count = 0, max_meshlet = 0, frame_flags = 0;

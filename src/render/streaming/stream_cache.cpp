@@ -152,6 +152,7 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
     return make_error(Errc::budget, "the device's maxStorageBufferRange ({}) limits the pool to {}, less than node {} ({})",
                       format_bytes(ctx.limits().maxStorageBufferRange), format_bytes(c->pool_->budget().pool_bytes()),
                       largest_node, format_bytes(largest));
+  c->largest_node_bytes_ = largest;
   c->table_ = std::make_unique<mds::streaming::ResidencyTable>(c->node_bytes_, settings.policy);
   // The meshlet bounds of a node and its particle records are made by the reader thread that
   // decoded it (node_pool.h meshlet_bounds, pack_particles), not by the render loop: most of
@@ -325,6 +326,8 @@ mds::streaming::PriorView StreamCache::prior_view() const {
   for (uint32_t i = 0; i < p.wanted.size(); ++i) p.wanted[i] = demanded(i) ? 1 : 0;
   return p;
 }
+
+bool StreamCache::filling() const { return pool_->budget().free_bytes() >= largest_node_bytes_; }
 
 bool StreamCache::demanded(uint32_t i) const {
   const auto& n = table_->node(i);

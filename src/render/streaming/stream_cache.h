@@ -93,6 +93,8 @@ class StreamCache {
   // that the volume and the nodes' subtractions agree; without, v unchanged.
   void slice_density(culling::DensityVolume& v) const;
   uint64_t live_meshlets() const { return live_meshlets_; }
+  // The pool still fills: its free room holds the store's largest node (it has not filled up).
+  bool filling() const;
   std::vector<uint64_t> node_device_bytes() const { return node_bytes_; }
   // node_device_bytes() with every node the slices cut at the pages of what it keeps (0 when
   // nothing): the cut nodes not read yet are read and thinned here, synchronously (StoreReader's
@@ -173,6 +175,7 @@ class StreamCache {
   std::vector<glm::uvec2> voxel_refs_;
   uint32_t max_meshlet_ = 0;
   uint64_t live_meshlets_ = 0;  // meshlets of resident nodes
+  uint64_t largest_node_bytes_ = 0;  // the store's largest node in the pool (pages)
   std::vector<uint32_t> node_meshlets_;
   std::unordered_map<uint32_t, mds::streaming::IoCompletion> ready_;  // read, not yet placed
   std::vector<uint32_t> requested_;                                   // queued, in flight or ready
