@@ -4,7 +4,8 @@
 //   - a --play path replayed to convergence with --screenshot matches a headless `mdstream
 //     render` of the path's final camera;
 //   - mouse and key input driven by xdotool moves the camera (orbit, wheel zoom) and 'r' resets
-//     it, checked on the --record camera path.
+//     it, checked on the --record camera path;
+//   - a right click names the particle `render --pick` names at that pixel and marks it.
 #include <gtest/gtest.h>
 #include <png.h>
 #include <signal.h>
@@ -16,6 +17,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -26,6 +28,7 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include "culling/culling_constants.h"
 #include "render/camera.h"
@@ -693,6 +696,55 @@ TEST_F(ViewerWindow, SliceKeysMoveTheCutAsRenderDrawsIt) {
 
   ASSERT_EQ(mdstream(fmt::format("render {} -o {} {} {}", store(), ref.string(), look, options)), 0) << err();
   expect_screenshot_matches(shot, ref, W, H);
+}
+
+// A right click names the particle under the cursor: the viewer prints it, `render --pick` of the
+// same pixel, camera and size names the same particle, and the screenshot (the HUD on) marks it
+// with a magenta cross around that pixel.
+TEST_F(ViewerWindow, RightClickNamesTheParticleRenderPickNames) {
+  if (!have_program("xdotool")) GTEST_SKIP() << "xdotool is not installed (apt-get install xdotool)";
+  const uint32_t W = 320, H = 240, X = 190, Y = 150;
+  const fs::path shot = dir_ / "view.png", log = dir_ / "viewer_err.txt", picks = dir_ / "picks.txt";
+  const std::string look = fmt::format("--width {} --height {} --spp 1 --no-cull --camera 90,-60,80,31,31,29", W, H);
+  RunningViewer v;
+  ASSERT_NO_FATAL_FAILURE(start_viewer(env(), store() + " " + look + " --screenshot " + shot.string(), dir_, v));
+  const std::string x = env() + "timeout 20 xdotool ";
+  pause_for_viewer();
+  ASSERT_EQ(sh(fmt::format("{}mousemove --window {} {} {} click 3", x, v.window, X, Y)), 0);
+  pause_for_viewer();
+  ASSERT_EQ(sh(x + "windowfocus --sync " + v.window + " key Escape"), 0);
+  ASSERT_TRUE(v.wait_exit()) << "the viewer did not exit on Esc\n" << slurp(log);
+  ASSERT_TRUE(WIFEXITED(v.status) && WEXITSTATUS(v.status) == 0) << slurp(log);
+
+  std::string line;  // "mdstream view: pick X,Y: node N particle K (store index I) type ..."
+  {
+    std::ifstream f(log);
+    for (std::string l; std::getline(f, l);)
+      if (l.rfind("mdstream view: pick ", 0) == 0) line = l;
+  }
+  const std::string head = fmt::format("mdstream view: pick {},{}: node ", X, Y);
+  ASSERT_EQ(line.rfind(head, 0), 0u) << slurp(log);
+  unsigned node = 0, particle = 0;
+  ASSERT_EQ(std::sscanf(line.c_str() + head.size(), "%u particle %u", &node, &particle), 2) << line;
+
+  ASSERT_EQ(sh(fmt::format("{} render {} -o {} {} --pick {},{} > {} 2>{}", MDSTREAM_BIN, store(),
+                           (dir_ / "r.png").string(), look, X, Y, picks.string(), (dir_ / "err.txt").string())),
+            0)
+      << err();
+  const nlohmann::json j = nlohmann::json::parse(slurp(picks));
+  ASSERT_FALSE(j["particle"].is_null()) << j.dump();
+  EXPECT_EQ(j["particle"]["node"].get<unsigned>(), node) << line;
+  EXPECT_EQ(j["particle"]["index_in_node"].get<unsigned>(), particle) << line;
+
+  const Png a = read_png(shot);
+  ASSERT_EQ(a.width, W);
+  size_t cross = 0;
+  for (uint32_t py = Y - 40; py < Y + 40; ++py)
+    for (uint32_t px = X - 40; px < X + 40; ++px) {
+      const uint8_t* c = &a.rgb[3 * (size_t(py) * W + px)];
+      cross += c[0] == 255 && c[1] == 0 && c[2] == 255;
+    }
+  EXPECT_GE(cross, 20u) << "no magenta cross around the picked particle";
 }
 
 // The L key switches ambient occlusion on in the window: the screenshot equals `mdstream render

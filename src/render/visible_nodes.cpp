@@ -6,41 +6,14 @@
 
 #include <glm/glm.hpp>
 
+#include "render/pixel_rays.h"
+
 namespace mds::render {
 namespace {
 
-struct Frame {
-  glm::dmat4 view, proj, inv_proj;
-  uint32_t w = 0, h = 0;
-  double near = 0.0;  // the camera's near plane (view distance)
-  bool ortho = false;
-
-  // Pixel coordinates (x right, y down, pixel centres at +0.5) and z_ndc of a view-space point;
-  // false behind the eye.
-  bool project(const glm::dvec3& v, glm::dvec3& out) const {
-    const glm::dvec4 c = proj * glm::dvec4(v, 1.0);
-    if (c.w <= 0.0) return false;
-    out = glm::dvec3((c.x / c.w * 0.5 + 0.5) * w, (c.y / c.w * 0.5 + 0.5) * h, c.z / c.w);
-    return true;
-  }
-  // The view-space ray through a screen point (pixel coordinates).
-  void ray(double px, double py, glm::dvec3& o, glm::dvec3& d) const {
-    const glm::dvec2 ndc(px / w * 2.0 - 1.0, py / h * 2.0 - 1.0);
-    const glm::dvec4 n = inv_proj * glm::dvec4(ndc, 0.0, 1.0), f = inv_proj * glm::dvec4(ndc, 1.0, 1.0);
-    o = glm::dvec3(n) / n.w;
-    d = glm::normalize(glm::dvec3(f) / f.w - o);
-  }
-  // View distance (-z in view space) of a z_ndc value: it depends on z alone (perspective and
-  // orthographic projections).
-  double view_distance(double z_ndc) const {
-    const glm::dvec4 v = inv_proj * glm::dvec4(0.0, 0.0, z_ndc, 1.0);
-    return -v.z / v.w;
-  }
-};
-
 // Screen rectangle [x0, x1) x [y0, y1) and nearest z_ndc of a view-space box; false when it is
 // entirely behind the eye or off screen.
-bool screen_rect(const Frame& f, const glm::dvec3& lo, const glm::dvec3& hi, int& x0, int& x1, int& y0, int& y1,
+bool screen_rect(const PixelRays& f, const glm::dvec3& lo, const glm::dvec3& hi, int& x0, int& x1, int& y0, int& y1,
                  double& zmin) {
   glm::dvec2 a(1e300), b(-1e300);
   zmin = 1e300;
@@ -64,25 +37,13 @@ bool screen_rect(const Frame& f, const glm::dvec3& lo, const glm::dvec3& hi, int
   return x0 < x1 && y0 < y1;
 }
 
-// View-space box of a world-space box under the view matrix (its 8 corners).
-void view_box(const glm::dmat4& view, const glm::dvec3& lo, const glm::dvec3& hi, glm::dvec3& vlo, glm::dvec3& vhi) {
-  vlo = glm::dvec3(1e300);
-  vhi = glm::dvec3(-1e300);
-  for (int c = 0; c < 8; ++c) {
-    const glm::dvec3 p((c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z);
-    const glm::dvec3 v = glm::dvec3(view * glm::dvec4(p, 1.0));
-    vlo = glm::min(vlo, v);
-    vhi = glm::max(vhi, v);
-  }
-}
-
 // Whether the sphere (view-space centre c, radius r) is visible at some pixel of the frame.
-bool sphere_visible(const Frame& f, std::span<const float> depth, const glm::dvec3& c, double r) {
+bool sphere_visible(const PixelRays& f, std::span<const float> depth, const glm::dvec3& c, double r) {
   // Wholly on the eye's side of the near plane: clipped, as the renderer hides it
   // (sprite_make.h). Its box has corners behind the eye, so screen_rect would give the whole
   // screen: a camera inside the data used to test every such particle against every pixel
   // (a fly-in to the block's centre, 100k particles at 160x120: 107 s).
-  if (c.z - r >= -f.near) return false;
+  if (before_near_plane(c, r, f.near)) return false;
   int x0, x1, y0, y1;
   double zmin;
   if (!screen_rect(f, c - r, c + r, x0, x1, y0, y1, zmin)) return false;
@@ -97,12 +58,7 @@ bool sphere_visible(const Frame& f, std::span<const float> depth, const glm::dve
       for (const auto& p : kPts) {
         glm::dvec3 o, dir;
         f.ray(x + p[0], y + p[1], o, dir);
-        const glm::dvec3 oc = o - c;
-        const double b = glm::dot(oc, dir);
-        const glm::dvec3 perp = oc - b * dir;
-        const double disc = r * r - glm::dot(perp, perp);
-        if (disc < 0.0) continue;
-        const double t = -b - std::sqrt(disc);
+        const double t = ray_sphere_front(o, dir, c, r);
         if (t < 0.0) continue;
         const double z = -(o + t * dir).z;
         lo = std::min(lo, z);
@@ -122,13 +78,7 @@ Result<VisibleSet> visible_set(const store::StoreReader& reader, const Camera& c
                       width, height);
   if (!(camera.near > 0.0 && camera.far > camera.near))
     return make_error(Errc::invalid_argument, "visible_nodes: the camera needs fitted near/far planes");
-  Frame f;
-  f.w = width;
-  f.h = height;
-  f.near = camera.near;
-  f.view = view_matrix(camera, glm::dvec3(0.0));
-  f.proj = projection_matrix(camera, double(width) / double(height));
-  f.inv_proj = glm::inverse(f.proj);
+  const PixelRays f(camera, width, height);
   // Per-pixel maximum depth over screen tiles would be faster; nodes are few, rectangles small.
   const auto nodes = reader.nodes();
   const auto types = reader.types();

@@ -69,6 +69,7 @@ void Input::on_button(GLFWwindow* w, int button, int action, int mods) {
       in->last_cursor_ = to_pixels(w, x, y);
       in->have_cursor_ = true;
     }
+    if (button == GLFW_MOUSE_BUTTON_RIGHT) in->pending_.picks.push_back(in->last_cursor_);
   } else if (action == GLFW_RELEASE) {
     if (button == GLFW_MOUSE_BUTTON_LEFT || button == GLFW_MOUSE_BUTTON_MIDDLE) in->drag_ = DragMode::none;
   }

@@ -1,5 +1,5 @@
 // Input of the viewer window: GLFW callbacks gathered into per-frame events (key presses, mouse
-// drags, wheel) and the held keys for flying. poll() hands over what happened since the last call.
+// drags, wheel, right clicks) and the held keys for flying. poll() hands over what happened since the last call.
 #pragma once
 
 #include <vector>
@@ -20,9 +20,10 @@ struct InputFrame {
   double wheel = 0.0;             // wheel steps (positive: away from the user = zoom in)
   glm::dvec3 fly{0.0};            // held WASD/QE: right, up, forward in {-1, 0, 1}
   glm::dvec2 cursor{0.0};         // cursor position in framebuffer pixels
+  std::vector<glm::dvec2> picks;  // right clicks: where (framebuffer pixels), in order
   bool resized = false;
   bool any() const {
-    return !keys_pressed.empty() || orbit_delta != glm::dvec2(0.0) || pan_delta != glm::dvec2(0.0) || wheel != 0.0 ||
+    return !keys_pressed.empty() || !picks.empty() || orbit_delta != glm::dvec2(0.0) || pan_delta != glm::dvec2(0.0) || wheel != 0.0 ||
            fly != glm::dvec3(0.0) || resized;
   }
 };

@@ -144,6 +144,7 @@ Result<RenderHost::Loaded> RenderHost::load(const store::StoreReader& reader,
   MDS_ASSIGN_OR_RETURN(const render::SceneOptions so,
                        render::resolve_scene_options(reader, hide_types_, type_radii_, slices, streaming()));
   l.shown_types = so.shown_types;
+  l.type_radius = so.type_radius;
   // Bounds of the particle centres and the largest radius, from the node directory (the
   // in-memory scene replaces them with its decoded bounds).
   l.bounds.min = glm::dvec3(1e300);
@@ -186,6 +187,7 @@ Result<RenderHost::Loaded> RenderHost::load(const store::StoreReader& reader,
 void RenderHost::take(Loaded&& l) {
   stream_.slices = std::move(l.slices);
   shown_types_ = std::move(l.shown_types);
+  type_radius_ = std::move(l.type_radius);
   scene_ = std::move(l.scene);
   density_ = std::move(l.density);
   cull_scene_ = std::move(l.cull_scene);

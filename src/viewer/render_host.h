@@ -71,6 +71,8 @@ class RenderHost {
   const store::StoreReader& reader() const { return *reader_; }
   // One entry per type, 0 = hidden (--hide-type); empty: every type drawn.
   std::span<const uint8_t> shown_types() const { return shown_types_; }
+  // What the shown store was loaded with (hidden types, --type-radius, slices): for picking.
+  render::SceneOptions scene_options() const { return {shown_types_, type_radius_, stream_.slices}; }
   uint64_t meshlets() const;
   // Node boxes in world coordinates (from the store's node directory).
   const std::vector<Box>& node_boxes() const { return node_boxes_; }
@@ -80,6 +82,7 @@ class RenderHost {
   struct Loaded {
     std::vector<store::Slice> slices;
     std::vector<uint8_t> shown_types;
+    std::vector<float> type_radius;
     std::unique_ptr<render::SceneData> scene;
     std::shared_ptr<const render::culling::DensityVolume> density;
     // In memory: the culling loop's scene of `scene` and `density` (RenderSettings::cull_scene),
@@ -121,6 +124,7 @@ class RenderHost {
   render::SeriesLook look_;
   double ao_radius_ = 0.0, ao_strength_ = 1.0;
   std::vector<uint8_t> shown_types_;
+  std::vector<float> type_radius_;
   std::unique_ptr<render::SceneData> scene_;
   std::shared_ptr<const render::culling::DensityVolume> density_;
   std::shared_ptr<const render::culling::CullScene> cull_scene_;

@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "render/camera_path.h"
+#include "render/pick.h"
 #include "viewer/camera_controller.h"
 #include "viewer/canvas.h"
 #include "viewer/debug_views.h"
@@ -27,7 +28,8 @@
 namespace mds::viewer {
 
 const char* key_help() {
-  return "Mouse: left drag orbit, middle or shift+left drag pan, wheel zoom\n"
+  return "Mouse: left drag orbit, middle or shift+left drag pan, wheel zoom, right click names the particle under the "
+         "cursor\n"
          "W/S A/D Q/E  fly forward/back, left/right, down/up (held)\n"
          "R  reset the view      F/G  field of view -/+ 5 deg      O  orthographic on/off\n"
          "H  HUD on/off          1  normal view   2  occlusion classes   3  cull buffer depth   4  confidence\n"
@@ -76,6 +78,10 @@ class Viewer {
   void apply_slice_keys(double steps, bool invert);
   // A series: shows its picked frame at `position` (RenderHost::set_series_position).
   void show_series_position(size_t position);
+  // A right click at `cursor` (framebuffer pixels): the particle the pixel under it shows
+  // (render/pick.h, the ray through the pixel's centre), named in the message line and on
+  // stderr, and marked on the image until the next pick, a new slice or series frame.
+  void pick_at(glm::dvec2 cursor);
   Status compose(const InputFrame& in);
 
   const ViewerOptions& o_;
@@ -109,6 +115,7 @@ class Viewer {
   std::optional<Error> render_error_;
   std::string message_;
   Clock::time_point message_time_;
+  std::optional<render::PickedParticle> picked_;
 };
 
 Status Viewer::setup() {
@@ -308,8 +315,31 @@ void Viewer::apply_slice_keys(double steps, bool invert) {
     message_ = st.error().message;
     return;
   }
+  picked_.reset();  // the cut may have left it out
   // On stderr too, for `render` with the same cut.
   message_ = slice_options(host_->slices());
+  fmt::print(stderr, "mdstream view: {}\n", message_);
+}
+
+void Viewer::pick_at(glm::dvec2 cursor) {
+  message_time_ = Clock::now();
+  picked_.reset();
+  const uint32_t w = host_->settings().width, h = host_->settings().height;
+  if (w == 0 || h == 0) return;
+  const glm::uvec2 px(uint32_t(std::clamp(std::floor(cursor.x), 0.0, double(w - 1))),
+                      uint32_t(std::clamp(std::floor(cursor.y), 0.0, double(h - 1))));
+  render::Camera cam = have_view_ ? view_camera_ : controller_.camera();
+  render::fit_clip_planes(cam, host_->bounds());
+  auto p = render::pick_particle(host_->reader(), cam, w, h, glm::dvec2(px) + 0.5, host_->scene_options());
+  if (!p.ok()) {
+    message_ = "pick: " + p.error().message;
+  } else if (!*p) {
+    message_ = fmt::format("pick {},{}: no particle", px.x, px.y);
+  } else {
+    picked_ = **p;
+    message_ = fmt::format("pick {},{}: {}", px.x, px.y, render::describe_pick(host_->reader(), *picked_));
+  }
+  // On stderr too: `render --pick X,Y` at this window size and camera answers the same.
   fmt::print(stderr, "mdstream view: {}\n", message_);
 }
 
@@ -327,6 +357,7 @@ void Viewer::show_series_position(size_t position) {
     return;
   }
   hud_.store_name = host_->series_entry()->name;
+  picked_.reset();  // it named a particle of the frame before's store
   hud_.meshlets = host_->meshlets();
   hold_image_ = host_->streaming() && image_.width() > 0;
   // On stderr too, for `render --series-frames` of the same frame.
@@ -396,6 +427,18 @@ Status Viewer::compose(const InputFrame& in) {
       draw_box(display_, proj, cam, boxes[show[k]], {80, 200, 255, 160});
     if (host_->streaming()) note(fmt::format("bounds: the {} resident nodes of {}", show.size(), boxes.size()));
   }
+  if (picked_ && vs_.hud) {  // a cross around the picked particle's centre, its arms outside the sphere
+    const Projector proj(cam, display_.width(), display_.height());
+    glm::dvec3 c, edge;
+    const glm::dvec3 side = glm::normalize(glm::cross(cam.target - cam.eye, cam.up));
+    if (proj.project(picked_->position, c) && proj.project(picked_->position + picked_->radius * side, edge)) {
+      const double gap = std::max(glm::length(glm::dvec2(edge) - glm::dvec2(c)), 3.0), arm = gap + 8.0;
+      const Rgba8 color{255, 0, 255, 255};
+      const glm::dvec2 m(c);
+      for (const glm::dvec2 dir : {glm::dvec2(1, 0), glm::dvec2(-1, 0), glm::dvec2(0, 1), glm::dvec2(0, -1)})
+        display_.line(m + gap * dir, m + arm * dir, color);
+    }
+  }
   if (vs_.hud) draw_hud(display_, hud_);
   return {};
 }
@@ -425,6 +468,7 @@ Status Viewer::run() {
     double slice_steps = 0.0;
     // Esc: this frame is still shown (and recorded), then the loop ends.
     handle_keys(in, recreate, quit, slice_steps, slice_invert);
+    for (const glm::dvec2& c : in.picks) pick_at(c);
 
     // Camera: the path while playing, else the controller.
     if (playing) {

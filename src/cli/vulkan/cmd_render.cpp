@@ -8,6 +8,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <algorithm>
@@ -15,6 +16,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -28,6 +30,7 @@
 #include "render/camera.h"
 #include "render/culling/cull_loop.h"
 #include "render/image_io.h"
+#include "render/pick.h"
 #include "render/renderer.h"
 #include "render/scene.h"
 #include "render/series_look.h"
@@ -58,6 +61,7 @@ struct RenderOptions {
   std::string path;           // --path: a built-in camera path or a path file (render_path.h)
   uint32_t path_frames = 60;  // --frames of a built-in path
   std::string series_frames = "all";  // --series-frames of a .series STORE
+  std::vector<std::string> picks;     // --pick X,Y: the particle a pixel shows (render/pick.h)
 };
 
 // What a series render fixes for every frame (run_render_series); empty for one store.
@@ -111,6 +115,48 @@ NodeGranularity node_granularity(const store::StoreReader& reader, std::span<con
 
 nlohmann::json vec3_json(const glm::dvec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); }
 
+// The pixels of --pick, each inside the image: checked before anything is rendered.
+Result<std::vector<glm::uvec2>> pick_pixels(const RenderOptions& o) {
+  std::vector<glm::uvec2> out;
+  for (const std::string& spec : o.picks) {
+    auto px = render::parse_pick_pixel(spec);
+    if (!px) return make_error(Errc::invalid_argument, "--pick {}", px.error().message);
+    if (px->x >= o.width || px->y >= o.height)
+      return make_error(Errc::invalid_argument, "--pick {}: outside the {}x{} image", spec, o.width, o.height);
+    out.push_back(*px);
+  }
+  return out;
+}
+
+// One --pick answer: the pixel, and the particle or null.
+nlohmann::json pick_json(const store::StoreReader& reader, glm::uvec2 pixel,
+                         const std::optional<render::PickedParticle>& p) {
+  nlohmann::json j;
+  j["pixel"] = {pixel.x, pixel.y};
+  if (!p) {
+    j["particle"] = nullptr;
+    return j;
+  }
+  const store::TypeEntry& t = reader.types()[p->type];
+  nlohmann::json q = {{"node", p->node},
+                      {"index_in_node", p->index_in_node},
+                      {"index", p->index},
+                      {"meshlet", p->meshlet},
+                      {"type", p->type},
+                      {"type_id", t.input_id},
+                      {"type_name", std::string(t.name, strnlen(t.name, sizeof(t.name)))},
+                      {"position", vec3_json(p->position)},
+                      {"radius", p->radius},
+                      {"hit", vec3_json(p->hit)},
+                      {"distance", p->distance}};
+  if (p->property) {
+    const char* name = reader.header().property_name;
+    q["property"] = {{"name", std::string(name, strnlen(name, store::kPropertyNameBytes))}, {"value", *p->property}};
+  }
+  j["particle"] = std::move(q);
+  return j;
+}
+
 double ms_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
 }
@@ -124,13 +170,15 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
   if (o.fov <= 0.0 || o.fov >= 180.0)
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.fov);
   MDS_ASSIGN_OR_RETURN(const Appearance look, parse_appearance_options(o.look));
+  MDS_ASSIGN_OR_RETURN(const std::vector<glm::uvec2> picks, pick_pixels(o));
   // --path: an animation (render_path.h). A path file is read before any other work.
   std::optional<render::BuiltinPath> builtin;
   render::CameraPath path;
   if (!o.path.empty()) {
     if (!o.camera.empty()) return make_error(Errc::invalid_argument, "--path and --camera: give one of them");
-    if (o.visible_reference || o.paired_frames > 0)
-      return make_error(Errc::invalid_argument, "--visible-reference and --paired-frames measure one view: not with --path");
+    if (o.visible_reference || o.paired_frames > 0 || !picks.empty())
+      return make_error(Errc::invalid_argument,
+                        "--visible-reference, --paired-frames and --pick ask about one view: not with --path");
     MDS_TRY(frame_file_name(o.output, 0));
     if (auto b = render::parse_builtin_path(o.path); b.ok()) {
       builtin = *b;
@@ -258,6 +306,20 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
       MDS_ASSIGN_OR_RETURN(std::vector<uint32_t> mc, renderer->cull_loop()->read_meshlet_classes());
       granularity = node_granularity(*reader, renderer->cull_loop()->node_classes(), mc, visible->nodes);
     }
+  }
+
+  // --pick: the particle each pixel shows, on stdout (a JSON object per line) and in the stats.
+  nlohmann::json pick_answers = nlohmann::json::array();
+  if (!picks.empty()) {
+    render::Camera cam = camera;
+    render::fit_clip_planes(cam, renderer->bounds());
+    for (const glm::uvec2 px : picks) {
+      MDS_ASSIGN_OR_RETURN(const std::optional<render::PickedParticle> p,
+                           render::pick_particle(*reader, cam, o.width, o.height, glm::dvec2(px) + 0.5, so));
+      pick_answers.push_back(pick_json(*reader, px, p));
+      std::printf("%s\n", pick_answers.back().dump().c_str());
+    }
+    std::fflush(stdout);
   }
 
   if (!o.stats.empty() || stats_out) {
@@ -434,6 +496,7 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
     for (const store::Slice& sl : so.slices) slices.push_back(store::slice_spec(sl));
     j["slices"] = slices;  // as --slice reads them, the normal unit length
     if (!so.type_radius.empty()) j["type_radius"] = so.type_radius;  // per type index, as drawn
+    if (!picks.empty()) j["picks"] = pick_answers;
     j["validation"] = ctx->validation_enabled();
     j["validation_messages"] = ctx->validation_messages();
     if (stats_out) {
@@ -581,6 +644,11 @@ void setup_render(CLI::App& sub, int& exit_code) {
                  "jumps) or a path file (docs/camera-path.md); -o names the frames with %d or %04d "
                  "(frame_%04d.png); each frame converges, the GPU cache stays warm between frames. With a series "
                  "(.series) the camera moves as its frames go: picked frame i takes the path's frame i");
+  sub.add_option("--pick", opt->picks,
+                 "X,Y: name the particle pixel (X, Y) shows (0,0 top left; the ray through its centre; "
+                 "repeatable): one JSON object per pixel on stdout and under \"picks\" in --stats, null where "
+                 "no particle is hit. Answered on the CPU from the store, as an unculled render shows it")
+      ->type_name("X,Y");
   sub.add_option("--frames", opt->path_frames, "Frames of a built-in --path")
       ->check(CLI::Range(1u, 1000000u))
       ->capture_default_str();
