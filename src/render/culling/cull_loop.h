@@ -234,15 +234,16 @@ class CullLoop {
   // cap of set_resident_meshlets.
   uint32_t budget() const;
   // Streaming: `live` meshlets are resident (the pool's occupied slots). With CullSettings::
-  // budget 0, max_resident_share < 1 and `filling` (the pool has room for any node and holds
-  // what the view wants), a sampling pass at rest draws at most that share of them.
+  // budget 0, max_resident_share < 1 and `filling` (the pool has room for any node, and what the
+  // view wants fits it: StreamCache::filling), a sampling pass at rest draws at most that share.
   // default_budget() counts the store's nodes and the pool's slots, and while the cache fills
   // it exceeds what is resident: every resident meshlet was drawn in every pass, a pixel then
   // only ever sampled its frontmost resident particle, and where that particle covers part of
   // the pixel its confidence stayed short of c_occ (Sect. 4.3, Eq. 8: the samples are meant to
   // be random draws of the particles in front). A full pool, or a view that wants more than it
   // holds, keeps the whole budget (measured: the cap slowed the views held after jumps at a
-  // small pool and raised their frame p99 / p50), and so does a moving camera (one iteration per
+  // small pool and raised their frame p99 / p50: a capped first iteration leaves most meshlets
+  // in P, and the passes after it draw more), and so does a moving camera (one iteration per
   // view). Takes effect from the next recorded iteration.
   void set_resident_meshlets(uint32_t live, bool filling);
   // Sampling passes recorded with the compute / rasterized route (this loop's lifetime).
