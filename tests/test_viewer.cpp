@@ -700,47 +700,75 @@ TEST_F(ViewerWindow, SliceKeysMoveTheCutAsRenderDrawsIt) {
 
 // A right click names the particle under the cursor: the viewer prints it, `render --pick` of the
 // same pixel, camera and size names the same particle, and the screenshot (the HUD on) marks it
-// with a magenta cross around that pixel.
+// with a magenta cross around that pixel. A second right click also prints the distance between
+// the two particles' centres.
 TEST_F(ViewerWindow, RightClickNamesTheParticleRenderPickNames) {
   if (!have_program("xdotool")) GTEST_SKIP() << "xdotool is not installed (apt-get install xdotool)";
-  const uint32_t W = 320, H = 240, X = 190, Y = 150;
+  const uint32_t W = 320, H = 240;
+  const glm::uvec2 first(150, 120), second(190, 150);
   const fs::path shot = dir_ / "view.png", log = dir_ / "viewer_err.txt", picks = dir_ / "picks.txt";
   const std::string look = fmt::format("--width {} --height {} --spp 1 --no-cull --camera 90,-60,80,31,31,29", W, H);
   RunningViewer v;
   ASSERT_NO_FATAL_FAILURE(start_viewer(env(), store() + " " + look + " --screenshot " + shot.string(), dir_, v));
   const std::string x = env() + "timeout 20 xdotool ";
   pause_for_viewer();
-  ASSERT_EQ(sh(fmt::format("{}mousemove --window {} {} {} click 3", x, v.window, X, Y)), 0);
-  pause_for_viewer();
+  for (const glm::uvec2 p : {first, second}) {
+    ASSERT_EQ(sh(fmt::format("{}mousemove --window {} {} {} click 3", x, v.window, p.x, p.y)), 0);
+    pause_for_viewer();
+  }
   ASSERT_EQ(sh(x + "windowfocus --sync " + v.window + " key Escape"), 0);
   ASSERT_TRUE(v.wait_exit()) << "the viewer did not exit on Esc\n" << slurp(log);
   ASSERT_TRUE(WIFEXITED(v.status) && WEXITSTATUS(v.status) == 0) << slurp(log);
 
-  std::string line;  // "mdstream view: pick X,Y: node N particle K (store index I) type ..."
+  // "mdstream view: pick X,Y: node N particle K (store index I) type ..., distance D[; L from node M particle J]"
+  std::vector<std::string> lines;
   {
     std::ifstream f(log);
     for (std::string l; std::getline(f, l);)
-      if (l.rfind("mdstream view: pick ", 0) == 0) line = l;
+      if (l.rfind("mdstream view: pick ", 0) == 0) lines.push_back(l);
   }
-  const std::string head = fmt::format("mdstream view: pick {},{}: node ", X, Y);
-  ASSERT_EQ(line.rfind(head, 0), 0u) << slurp(log);
-  unsigned node = 0, particle = 0;
-  ASSERT_EQ(std::sscanf(line.c_str() + head.size(), "%u particle %u", &node, &particle), 2) << line;
-
-  ASSERT_EQ(sh(fmt::format("{} render {} -o {} {} --pick {},{} > {} 2>{}", MDSTREAM_BIN, store(),
-                           (dir_ / "r.png").string(), look, X, Y, picks.string(), (dir_ / "err.txt").string())),
+  ASSERT_EQ(lines.size(), 2u) << slurp(log);
+  ASSERT_EQ(sh(fmt::format("{} render {} -o {} {} --pick {},{} --pick {},{} > {} 2>{}", MDSTREAM_BIN, store(),
+                           (dir_ / "r.png").string(), look, first.x, first.y, second.x, second.y, picks.string(),
+                           (dir_ / "err.txt").string())),
             0)
       << err();
-  const nlohmann::json j = nlohmann::json::parse(slurp(picks));
-  ASSERT_FALSE(j["particle"].is_null()) << j.dump();
-  EXPECT_EQ(j["particle"]["node"].get<unsigned>(), node) << line;
-  EXPECT_EQ(j["particle"]["index_in_node"].get<unsigned>(), particle) << line;
+  std::vector<nlohmann::json> answers;
+  {
+    std::ifstream f(picks);
+    for (std::string l; std::getline(f, l);) answers.push_back(nlohmann::json::parse(l));
+  }
+  ASSERT_EQ(answers.size(), 2u);
+  glm::dvec3 centre[2];
+  for (size_t i = 0; i < 2; ++i) {
+    const glm::uvec2 p = i == 0 ? first : second;
+    const std::string head = fmt::format("mdstream view: pick {},{}: node ", p.x, p.y);
+    ASSERT_EQ(lines[i].rfind(head, 0), 0u) << lines[i];
+    unsigned node = 0, particle = 0;
+    ASSERT_EQ(std::sscanf(lines[i].c_str() + head.size(), "%u particle %u", &node, &particle), 2) << lines[i];
+    const nlohmann::json& q = answers[i]["particle"];
+    ASSERT_FALSE(q.is_null()) << answers[i].dump();
+    EXPECT_EQ(q["node"].get<unsigned>(), node) << lines[i];
+    EXPECT_EQ(q["index_in_node"].get<unsigned>(), particle) << lines[i];
+    for (int a = 0; a < 3; ++a) centre[i][a] = q["position"][a].get<double>();
+  }
+  const size_t semi = lines[1].rfind("; ");
+  ASSERT_NE(semi, std::string::npos) << lines[1];
+  double distance = 0.0;
+  unsigned before_node = 0, before_particle = 0;
+  ASSERT_EQ(std::sscanf(lines[1].c_str() + semi + 2, "%lf from node %u particle %u", &distance, &before_node,
+                        &before_particle),
+            3)
+      << lines[1];
+  EXPECT_EQ(before_node, answers[0]["particle"]["node"].get<unsigned>());
+  EXPECT_EQ(before_particle, answers[0]["particle"]["index_in_node"].get<unsigned>());
+  EXPECT_NEAR(distance, glm::length(centre[1] - centre[0]), 1e-5 * glm::length(centre[1] - centre[0])) << lines[1];
 
   const Png a = read_png(shot);
   ASSERT_EQ(a.width, W);
   size_t cross = 0;
-  for (uint32_t py = Y - 40; py < Y + 40; ++py)
-    for (uint32_t px = X - 40; px < X + 40; ++px) {
+  for (uint32_t py = second.y - 40; py < second.y + 40; ++py)
+    for (uint32_t px = second.x - 40; px < second.x + 40; ++px) {
       const uint8_t* c = &a.rgb[3 * (size_t(py) * W + px)];
       cross += c[0] == 255 && c[1] == 0 && c[2] == 255;
     }

@@ -29,7 +29,7 @@ namespace mds::viewer {
 
 const char* key_help() {
   return "Mouse: left drag orbit, middle or shift+left drag pan, wheel zoom, right click names the particle under the "
-         "cursor\n"
+         "cursor (a second one: their distance)\n"
          "W/S A/D Q/E  fly forward/back, left/right, down/up (held)\n"
          "R  reset the view      F/G  field of view -/+ 5 deg      O  orthographic on/off\n"
          "H  HUD on/off          1  normal view   2  occlusion classes   3  cull buffer depth   4  confidence\n"
@@ -80,7 +80,8 @@ class Viewer {
   void show_series_position(size_t position);
   // A right click at `cursor` (framebuffer pixels): the particle the pixel under it shows
   // (render/pick.h, the ray through the pixel's centre), named in the message line and on
-  // stderr, and marked on the image until the next pick, a new slice or series frame.
+  // stderr with its distance from the particle picked before (OVITO's distance measurement),
+  // and both marked on the image until a pick misses, a new slice or series frame.
   void pick_at(glm::dvec2 cursor);
   Status compose(const InputFrame& in);
 
@@ -115,7 +116,7 @@ class Viewer {
   std::optional<Error> render_error_;
   std::string message_;
   Clock::time_point message_time_;
-  std::optional<render::PickedParticle> picked_;
+  std::optional<render::PickedParticle> picked_, picked_before_;
 };
 
 Status Viewer::setup() {
@@ -316,6 +317,7 @@ void Viewer::apply_slice_keys(double steps, bool invert) {
     return;
   }
   picked_.reset();  // the cut may have left it out
+  picked_before_.reset();
   // On stderr too, for `render` with the same cut.
   message_ = slice_options(host_->slices());
   fmt::print(stderr, "mdstream view: {}\n", message_);
@@ -323,7 +325,9 @@ void Viewer::apply_slice_keys(double steps, bool invert) {
 
 void Viewer::pick_at(glm::dvec2 cursor) {
   message_time_ = Clock::now();
+  const std::optional<render::PickedParticle> before = picked_;
   picked_.reset();
+  picked_before_.reset();
   const uint32_t w = host_->settings().width, h = host_->settings().height;
   if (w == 0 || h == 0) return;
   const glm::uvec2 px(uint32_t(std::clamp(std::floor(cursor.x), 0.0, double(w - 1))),
@@ -338,6 +342,11 @@ void Viewer::pick_at(glm::dvec2 cursor) {
   } else {
     picked_ = **p;
     message_ = fmt::format("pick {},{}: {}", px.x, px.y, render::describe_pick(host_->reader(), *picked_));
+    if (before && (before->node != picked_->node || before->index_in_node != picked_->index_in_node)) {
+      picked_before_ = before;
+      message_ += fmt::format("; {:.6g} from node {} particle {}", glm::length(picked_->position - before->position),
+                              before->node, before->index_in_node);
+    }
   }
   // On stderr too: `render --pick X,Y` at this window size and camera answers the same.
   fmt::print(stderr, "mdstream view: {}\n", message_);
@@ -358,6 +367,7 @@ void Viewer::show_series_position(size_t position) {
   }
   hud_.store_name = host_->series_entry()->name;
   picked_.reset();  // it named a particle of the frame before's store
+  picked_before_.reset();
   hud_.meshlets = host_->meshlets();
   hold_image_ = host_->streaming() && image_.width() > 0;
   // On stderr too, for `render --series-frames` of the same frame.
@@ -427,17 +437,23 @@ Status Viewer::compose(const InputFrame& in) {
       draw_box(display_, proj, cam, boxes[show[k]], {80, 200, 255, 160});
     if (host_->streaming()) note(fmt::format("bounds: the {} resident nodes of {}", show.size(), boxes.size()));
   }
-  if (picked_ && vs_.hud) {  // a cross around the picked particle's centre, its arms outside the sphere
+  if (picked_ && vs_.hud) {
+    // A cross around each picked particle's centre, its arms outside the sphere; the particle
+    // picked before dimmer, and a line between the two.
     const Projector proj(cam, display_.width(), display_.height());
-    glm::dvec3 c, edge;
     const glm::dvec3 side = glm::normalize(glm::cross(cam.target - cam.eye, cam.up));
-    if (proj.project(picked_->position, c) && proj.project(picked_->position + picked_->radius * side, edge)) {
+    auto mark = [&](const render::PickedParticle& q, Rgba8 color) -> std::optional<glm::dvec2> {
+      glm::dvec3 c, edge;
+      if (!proj.project(q.position, c) || !proj.project(q.position + q.radius * side, edge)) return std::nullopt;
       const double gap = std::max(glm::length(glm::dvec2(edge) - glm::dvec2(c)), 3.0), arm = gap + 8.0;
-      const Rgba8 color{255, 0, 255, 255};
       const glm::dvec2 m(c);
       for (const glm::dvec2 dir : {glm::dvec2(1, 0), glm::dvec2(-1, 0), glm::dvec2(0, 1), glm::dvec2(0, -1)})
         display_.line(m + gap * dir, m + arm * dir, color);
-    }
+      return m;
+    };
+    const auto a = mark(*picked_, {255, 0, 255, 255});
+    const auto b = picked_before_ ? mark(*picked_before_, {255, 140, 255, 255}) : std::nullopt;
+    if (a && b) display_.line(*a, *b, {255, 0, 255, 110});
   }
   if (vs_.hud) draw_hud(display_, hud_);
   return {};
