@@ -129,14 +129,14 @@ TEST_F(StreamingRender, AFillingCacheSamplesAShareOfWhatIsResident) {
   EXPECT_LE(differing_pixels(mem.img, shared.value().img), size_t(kW * kH / 100));
 }
 
-// The share cap waits for a view whose wanted nodes fit the pool. Before its first
-// classification a view wants every node in its frustum: with a pool of 1/2 of the store, which
-// the first wave leaves room in, the front view wants more than the pool holds, so its first
-// passes draw the whole budget (a capped first iteration left most meshlets in P, and the passes
-// after it, at a full pool, drew ~30 % more: docs/streaming.md, "Occluder share of a filling
-// cache"). With the pool holding the store they are capped. (Checked by mutation: without the
-// wanted-bytes condition of StreamCache::filling the first case fails.)
-TEST_F(StreamingRender, TheShareCapWaitsForAViewThatFitsThePool) {
+// The share cap spares the first sampled iteration of a view that wants more than the pool
+// holds. Before its first classification a view wants every node in its frustum: with a pool of
+// 1/2 of the store, which the first wave leaves room in, the front view wants more than the pool
+// holds, so its first frames draw the whole budget (a capped first iteration left most meshlets
+// in P, and the passes after it, at a full pool, drew ~30 % more: docs/streaming.md, "Occluder
+// share of a filling cache"). With the pool holding the store they are capped. (Checked by
+// mutation: without StreamCache::holds_wanted in the condition the first case fails.)
+TEST_F(StreamingRender, TheShareCapSparesTheFirstIterationOfAViewLargerThanThePool) {
   auto reader = store::StoreReader::open(store_path());
   ASSERT_TRUE(reader.ok()) << reader.error().message;
   for (const uint64_t budget : {file_size() / 2, 16 * file_size()}) {

@@ -114,6 +114,8 @@ struct Renderer::Impl {
   std::unique_ptr<culling::CullLoop> cull;  // occlusion culling (RenderSettings::cull)
   bool cull_active = false;                 // record a culling iteration in this pass
   uint32_t cull_iteration = 0;
+  // Streaming: an iteration of this view has sampled occluders (CullCounters::selected > 0).
+  bool view_sampled = false;
   std::function<void(uint32_t)> iteration_hook;
 
   // Named passes per frame: 3 per occlusion sampling pass and 2 of a route probe (select, sample;

@@ -194,6 +194,7 @@ void Renderer::Impl::after_iteration() {
   view_cull.culled_per_iteration.push_back(c.class_count[MDS_CULL_CLASS_O]);
   view_cull.class_counts.assign(c.class_count, c.class_count + 4);
   view_cull.node_class_counts.assign(c.node_class_count, c.node_class_count + 4);
+  view_sampled = view_sampled || c.selected > 0;
   if (iteration_hook) iteration_hook(cull_iteration);
   ++cull_iteration;
   view_passes += iteration_passes;
@@ -239,6 +240,7 @@ Status Renderer::set_view(const Camera& camera_in) {
   m.quiet = 0;
   m.culling_converged = false;
   m.cull_iteration = 0;
+  m.view_sampled = false;
   m.view_pass_ms = -1.0;
   m.view_passes = 0;
   m.sample_pacer.new_view();
@@ -325,8 +327,13 @@ Result<FrameReport> Renderer::step() {
     }
   }
   m.pending_iteration = m.cull && m.cull_active;
-  if (m.pending_iteration && m.cache)  // at most a share of what is resident while the pool fills (cull_loop.h)
-    m.cull->set_resident_meshlets(uint32_t(m.cache->live_meshlets()), m.cache->filling() && !rep.budget_exhausted);
+  // At most a share of what is resident while the pool fills (cull_loop.h); a view that wants
+  // more than the pool holds draws the whole budget in its first sampled iteration
+  // (docs/streaming.md, "Occluder share of a filling cache").
+  if (m.pending_iteration && m.cache)
+    m.cull->set_resident_meshlets(uint32_t(m.cache->live_meshlets()),
+                                  m.cache->filling() && (m.cache->holds_wanted() || m.view_sampled) &&
+                                      !rep.budget_exhausted);
   if (m.pending_iteration) {
     // Sampling passes of this iteration: one while moving, else the configured passes, paced.
     m.iteration_moving = m.moving;

@@ -234,8 +234,9 @@ class CullLoop {
   // cap of set_resident_meshlets.
   uint32_t budget() const;
   // Streaming: `live` meshlets are resident (the pool's occupied slots). With CullSettings::
-  // budget 0, max_resident_share < 1 and `filling` (the pool has room for any node, and what the
-  // view wants fits it: StreamCache::filling), a sampling pass at rest draws at most that share.
+  // budget 0, max_resident_share < 1 and `filling` (the pool has room for any node, and the view
+  // wants no more than it holds or has had its first sampled iteration: Renderer), a sampling
+  // pass at rest draws at most that share.
   // default_budget() counts the store's nodes and the pool's slots, and while the cache fills
   // it exceeds what is resident: every resident meshlet was drawn in every pass, a pixel then
   // only ever sampled its frontmost resident particle, and where that particle covers part of

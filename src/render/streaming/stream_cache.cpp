@@ -327,10 +327,8 @@ mds::streaming::PriorView StreamCache::prior_view() const {
   return p;
 }
 
-bool StreamCache::filling() const {
-  const mds::streaming::DeviceBudget& b = pool_->budget();
-  return b.free_bytes() >= largest_node_bytes_ && stats_.wanted_bytes <= b.pool_bytes();
-}
+bool StreamCache::filling() const { return pool_->budget().free_bytes() >= largest_node_bytes_; }
+bool StreamCache::holds_wanted() const { return stats_.wanted_bytes <= pool_->budget().pool_bytes(); }
 
 bool StreamCache::demanded(uint32_t i) const {
   const auto& n = table_->node(i);

@@ -93,12 +93,12 @@ class StreamCache {
   // that the volume and the nodes' subtractions agree; without, v unchanged.
   void slice_density(culling::DensityVolume& v) const;
   uint64_t live_meshlets() const { return live_meshlets_; }
-  // The pool still fills, with what the view wants: its free room holds the store's largest node
-  // (it has not filled up), and the pages of the nodes the last update() counted as wanted (in
-  // the frustum, not O; CacheStats::wanted_bytes) fit the pool. A view that wants more than the
-  // pool holds (before its first classification: every node in the frustum) fills it with its
-  // first waves and is not "filling" (CullLoop::set_resident_meshlets).
+  // The pool still fills: its free room holds the store's largest node (it has not filled up).
   bool filling() const;
+  // The pages of the nodes the last update() counted as wanted (in the frustum, not O;
+  // CacheStats::wanted_bytes) fit the pool. Before a view's first classification it wants every
+  // node in its frustum.
+  bool holds_wanted() const;
   std::vector<uint64_t> node_device_bytes() const { return node_bytes_; }
   // node_device_bytes() with every node the slices cut at the pages of what it keeps (0 when
   // nothing): the cut nodes not read yet are read and thinned here, synchronously (StoreReader's
