@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <sstream>
 #include <string>
 
 #include <fmt/format.h>
@@ -182,8 +183,9 @@ TEST_F(SeriesCli, RenderAFrameAndAnAnimation) {
   ASSERT_EQ(run_mdstream(fmt::format("convert {} -o {} -q", dump().string(), tmp("r.mds.series").string())), 0)
       << cli_stderr();
   const std::string look = "--width 96 --height 72 --spp 2 --color-by z";
-  ASSERT_EQ(run_mdstream(fmt::format("render {} --series-frames 1:4 -o {} {} --stats {}", tmp("r.mds.series").string(),
-                                     tmp("f%02d.png").string(), look, tmp("anim.json").string())),
+  ASSERT_EQ(run_mdstream(fmt::format("render {} --series-frames 1:4 -o {} {} --stats {} --pick 48,36 > {}",
+                                     tmp("r.mds.series").string(), tmp("f%02d.png").string(), look,
+                                     tmp("anim.json").string(), tmp("picks.txt").string())),
             0)
       << cli_stderr();
   EXPECT_FALSE(fs::exists(tmp("f00.png")));
@@ -208,6 +210,18 @@ TEST_F(SeriesCli, RenderAFrameAndAnAnimation) {
   }
   EXPECT_EQ(j["frames"][2]["series_frame"], 3);
   EXPECT_EQ(j["frames"][2]["time"], 150.0);
+  // --pick: a line per frame naming its series frame, as in that frame's stats.
+  {
+    std::istringstream lines(textest::read_text(tmp("picks.txt")));
+    int k = 1;
+    for (std::string line; std::getline(lines, line); ++k) {
+      const auto p = nlohmann::json::parse(line);
+      EXPECT_EQ(p["series_frame"], k) << line;
+      ASSERT_LT(size_t(k - 1), j["frames"].size());
+      EXPECT_EQ(p, j["frames"][size_t(k - 1)]["picks"][0]);
+    }
+    EXPECT_EQ(k, 4) << "one line per frame";
+  }
 
   // Frame 2 alone with the animation's camera and range equals the store's own render.
   const auto& cam = j["frames"][1]["camera"];

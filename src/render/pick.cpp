@@ -57,6 +57,9 @@ Result<std::optional<PickedParticle>> pick_particle(const store::StoreReader& re
   const bool has_property = (h.flags & store::kFlagProperty) != 0;
   std::vector<double> type_radius(types.size());
   double largest_override = 0.0;  // node boxes hold the store's radii; --type-radius may grow them
+  // A node's max_radius is the converter's, before the radii were quantized: a decoded radius may
+  // exceed it by half a quantization step.
+  const double radius_slack = ppr ? 0.5 * (double(h.radius_max) - h.radius_min) / store::kQuantMax : 0.0;
   for (size_t t = 0; t < types.size(); ++t) {
     type_radius[t] = t < options.type_radius.size() ? double(options.type_radius[t]) : double(types[t].radius);
     if (t < options.type_radius.size()) largest_override = std::max(largest_override, type_radius[t]);
@@ -72,7 +75,7 @@ Result<std::optional<PickedParticle>> pick_particle(const store::StoreReader& re
       store::decoded_box(e.center_min, e.center_max, lo, hi);
       if (store::slices_cover(options.slices, lo, hi) == store::SliceCover::none) continue;
     }
-    const double r = std::max(double(e.max_radius), largest_override);
+    const double r = std::max(double(e.max_radius) + radius_slack, largest_override);
     glm::dvec3 vlo, vhi;
     view_box(f.view, glm::dvec3(e.center_min[0], e.center_min[1], e.center_min[2]) - r,
              glm::dvec3(e.center_max[0], e.center_max[1], e.center_max[2]) + r, vlo, vhi);

@@ -216,6 +216,10 @@ struct CullStats {
   std::vector<uint32_t> node_class_counts;  // nodes P, L, M, O then (without the nodes --slice leaves out)
   std::vector<uint32_t> changed_per_iteration;
   std::vector<uint32_t> culled_per_iteration;
+  // Streaming (Renderer::step): per iteration of the view, its passes' occluder budget
+  // (CullLoop::pass_budget) and the occluders its last pass selected (CullCounters::selected).
+  std::vector<uint32_t> budget_per_iteration;
+  std::vector<uint32_t> selected_per_iteration;
   double time_to_converge_ms = 0.0;     // wall time from render() start
   // GPU ms per frame (sum of its timestamped passes), medians: frames with a culling iteration;
   // frames after convergence (including the timing frames after a convergence past spp, which

@@ -146,6 +146,7 @@ struct Renderer::Impl {
   uint32_t view_passes = 0;       // sampling passes of this view's completed iterations
   uint32_t iteration_passes = 0;  // passes of the iteration in flight ...
   uint32_t iteration_full = 0;    // ... and of an unpaced one (1 moving, else samples_per_iteration)
+  uint32_t iteration_budget = 0;  // ... and its passes' occluder budget (CullLoop::pass_budget)
   bool iteration_moving = false;  // ... recorded while moving
   bool culling_converged = false;
   bool complete = true;        // streaming: the cache holds every wanted node

@@ -194,6 +194,8 @@ void Renderer::Impl::after_iteration() {
   view_cull.culled_per_iteration.push_back(c.class_count[MDS_CULL_CLASS_O]);
   view_cull.class_counts.assign(c.class_count, c.class_count + 4);
   view_cull.node_class_counts.assign(c.node_class_count, c.node_class_count + 4);
+  view_cull.budget_per_iteration.push_back(iteration_budget);
+  view_cull.selected_per_iteration.push_back(c.selected);
   view_sampled = view_sampled || c.selected > 0;
   if (iteration_hook) iteration_hook(cull_iteration);
   ++cull_iteration;
@@ -342,6 +344,7 @@ Result<FrameReport> Renderer::step() {
     if (!m.moving && m.settings.pace_sampling)
       m.iteration_passes = m.sample_pacer.passes(m.iteration_full, m.view_pass_ms);
     m.cull->set_samples_per_iteration(m.iteration_passes);
+    m.iteration_budget = m.cull->pass_budget();
   }
   const bool accumulate = m.samples < m.settings.spp;
   m.write_frame_uniforms(m.view_camera, m.samples);

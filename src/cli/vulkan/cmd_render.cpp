@@ -74,6 +74,7 @@ struct FrameSetup {
   // prior), and where this frame's goes.
   std::shared_ptr<const streaming::PriorView> prior;
   std::shared_ptr<const streaming::PriorView>* prior_out = nullptr;
+  std::optional<int64_t> series_frame;  // the series index of the frame (--pick answers name it)
 };
 
 // What a streaming cache that reads whole nodes would read for this converged view, at two
@@ -128,11 +129,12 @@ Result<std::vector<glm::uvec2>> pick_pixels(const RenderOptions& o) {
   return out;
 }
 
-// One --pick answer: the pixel, and the particle or null.
-nlohmann::json pick_json(const store::StoreReader& reader, glm::uvec2 pixel,
+// One --pick answer: the pixel (and the series frame), and the particle or null.
+nlohmann::json pick_json(const store::StoreReader& reader, glm::uvec2 pixel, std::optional<int64_t> series_frame,
                          const std::optional<render::PickedParticle>& p) {
   nlohmann::json j;
   j["pixel"] = {pixel.x, pixel.y};
+  if (series_frame) j["series_frame"] = *series_frame;
   if (!p) {
     j["particle"] = nullptr;
     return j;
@@ -316,7 +318,7 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
     for (const glm::uvec2 px : picks) {
       MDS_ASSIGN_OR_RETURN(const std::optional<render::PickedParticle> p,
                            render::pick_particle(*reader, cam, o.width, o.height, glm::dvec2(px) + 0.5, so));
-      pick_answers.push_back(pick_json(*reader, px, p));
+      pick_answers.push_back(pick_json(*reader, px, fs.series_frame, p));
       std::printf("%s\n", pick_answers.back().dump().c_str());
     }
     std::fflush(stdout);
@@ -578,6 +580,7 @@ Status run_render_series(const RenderOptions& o) {
       if (o.ortho) fs.camera->ortho = true;
     }
     fs.prior = std::move(prior);
+    fs.series_frame = k;
     nlohmann::json fj;
     Status st = render_store(fo, fs, ctx, o.stats.empty() ? nullptr : &fj);
     if (!st.ok()) {
@@ -647,7 +650,8 @@ void setup_render(CLI::App& sub, int& exit_code) {
   sub.add_option("--pick", opt->picks,
                  "X,Y: name the particle pixel (X, Y) shows (0,0 top left; the ray through its centre; "
                  "repeatable): one JSON object per pixel on stdout and under \"picks\" in --stats, null where "
-                 "no particle is hit. Answered on the CPU from the store, as an unculled render shows it")
+                 "no particle is hit (a series: per frame, with its series_frame). Answered on the CPU from the "
+                 "store, as an unculled render shows it")
       ->type_name("X,Y");
   sub.add_option("--frames", opt->path_frames, "Frames of a built-in --path")
       ->check(CLI::Range(1u, 1000000u))

@@ -96,8 +96,8 @@ class StreamCache {
   // The pool still fills: its free room holds the store's largest node (it has not filled up).
   bool filling() const;
   // The pages of the nodes the last update() counted as wanted (in the frustum, not O;
-  // CacheStats::wanted_bytes) fit the pool. Before a view's first classification it wants every
-  // node in its frustum.
+  // CacheStats::wanted_bytes) fit the pool. Before its first classification a view wants every
+  // node of its frustum that no earlier view found O (a cold cache's view: all of them).
   bool holds_wanted() const;
   std::vector<uint64_t> node_device_bytes() const { return node_bytes_; }
   // node_device_bytes() with every node the slices cut at the pages of what it keeps (0 when
