@@ -16,9 +16,21 @@
 
 #include "render/image_compare.h"
 #include "render/renderer.h"
+#include "store/store_reader.h"
 #include "vk/context.h"
 
 namespace mds::testing {
+
+// The bounds a store's header gives (the particle centres) with its largest type radius: what
+// the default views of a store are made from without decoding it.
+inline render::Bounds header_bounds(const store::StoreReader& reader) {
+  const auto& h = reader.header();
+  render::Bounds b;
+  b.min = {h.bounds_min[0], h.bounds_min[1], h.bounds_min[2]};
+  b.max = {h.bounds_max[0], h.bounds_max[1], h.bounds_max[2]};
+  for (const auto& t : reader.types()) b.radius_max = std::max(b.radius_max, double(t.radius));
+  return b;
+}
 
 // What a test keeps of one render(): the averaged image, the last frame's depth
 // (Renderer::read_last_depth) and the statistics.

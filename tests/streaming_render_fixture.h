@@ -69,14 +69,7 @@ class StreamingRender : public ::testing::Test {
     EXPECT_TRUE(cam.ok());
     return cam.value();
   }
-  static Bounds load_directory_bounds(const store::StoreReader& reader) {
-    const auto& h = reader.header();
-    Bounds b;
-    b.min = {h.bounds_min[0], h.bounds_min[1], h.bounds_min[2]};
-    b.max = {h.bounds_max[0], h.bounds_max[1], h.bounds_max[2]};
-    for (const auto& t : reader.types()) b.radius_max = std::max(b.radius_max, double(t.radius));
-    return b;
-  }
+  static Bounds load_directory_bounds(const store::StoreReader& reader) { return mds::testing::header_bounds(reader); }
   static Image in_memory(const store::StoreReader& reader, bool cull, int view_index) {
     Image out;
     auto scene = load_scene(reader);

@@ -120,20 +120,11 @@ std::vector<Camera> test_cameras(const Bounds& b, uint32_t w, uint32_t h) {
   return out;
 }
 
-Bounds store_bounds(const store::StoreReader& r) {
-  const auto& h = r.header();
-  Bounds b;
-  b.min = {h.bounds_min[0], h.bounds_min[1], h.bounds_min[2]};
-  b.max = {h.bounds_max[0], h.bounds_max[1], h.bounds_max[2]};
-  for (const auto& t : r.types()) b.radius_max = std::max(b.radius_max, double(t.radius));
-  return b;
-}
-
 // pick_particle against try_every_particle at every 3rd pixel of four views, for one set of options.
 void expect_picks_match(const store::StoreReader& reader, const SceneOptions& o, size_t& hits) {
   constexpr uint32_t W = 64, H = 48;
   const std::vector<Particle> all = all_particles(reader);
-  for (const Camera& cam : test_cameras(store_bounds(reader), W, H)) {
+  for (const Camera& cam : test_cameras(mds::testing::header_bounds(reader), W, H)) {
     const PixelRays f(cam, W, H);
     for (uint32_t y = 1; y < H; y += 3)
       for (uint32_t x = 1; x < W; x += 3) {
@@ -252,7 +243,7 @@ TEST(Pick, PropertyAndStoreIndexAreThoseOfTheParticle) {
   const double prop_step = (double((*reader)->header().property_max) - (*reader)->header().property_min) / 65535.0;
   constexpr uint32_t W = 40, H = 30;
   int picked = 0;
-  for (const Camera& cam : test_cameras(store_bounds(**reader), W, H))
+  for (const Camera& cam : test_cameras(mds::testing::header_bounds(**reader), W, H))
     for (uint32_t y = 2; y < H; y += 5)
       for (uint32_t x = 2; x < W; x += 5) {
         auto p = pick_particle(**reader, cam, W, H, glm::dvec2(x + 0.5, y + 0.5));
@@ -282,7 +273,7 @@ TEST(Pick, PropertyAndStoreIndexAreThoseOfTheParticle) {
 TEST_F(PickStore, EmptyPixelsAndErrors) {
   auto reader = store::StoreReader::open(store());
   ASSERT_TRUE(reader.ok()) << reader.error().message;
-  const Bounds b = store_bounds(**reader);
+  const Bounds b = mds::testing::header_bounds(**reader);
   Camera away = test_cameras(b, 32, 24)[0];
   const glm::dvec3 forward = away.target - away.eye;
   away.target = away.eye - forward;  // looking away from the data
