@@ -214,6 +214,27 @@ TEST(ViewerHud, CacheLineCountsSlicedOutNodes) {
   EXPECT_TRUE(has(viewer::hud_lines(s), "sliced out 193  carried 12"));
 }
 
+// The picked particle's line stays on the HUD while the message row fades (and is not shown
+// twice while the message is the pick).
+TEST(ViewerHud, PickLineStaysAfterTheMessage) {
+  viewer::HudState s;
+  const size_t plain = viewer::hud_lines(s).size();
+  s.pick = "pick 10,12: node 3 particle 7 (store index 1507) type 1 at (1, 2, 3) r 0.5, distance 9";
+  s.message = s.pick;
+  auto lines = viewer::hud_lines(s);
+  ASSERT_EQ(lines.size(), plain + 1);
+  EXPECT_EQ(lines.back(), s.pick);
+  s.message.clear();  // faded
+  lines = viewer::hud_lines(s);
+  ASSERT_EQ(lines.size(), plain + 1);
+  EXPECT_EQ(lines.back(), s.pick);
+  s.message = "saved mdstream-view-1.png";
+  lines = viewer::hud_lines(s);
+  ASSERT_EQ(lines.size(), plain + 2);
+  EXPECT_EQ(lines[lines.size() - 2], s.pick);
+  EXPECT_EQ(lines.back(), s.message);
+}
+
 // A series' frame line comes second (under the store's name), only for a series.
 TEST(ViewerHud, SeriesLineUnderTheStoreName) {
   viewer::HudState s;

@@ -54,6 +54,7 @@ std::vector<std::string> hud_lines(const HudState& s) {
   }
   l.push_back(fmt::format("{} fov {:.0f}  view: {}{}", s.ortho ? "ortho" : "persp", s.fov_y_deg, s.view_name,
                           s.ao_radius > 0.0 ? fmt::format("  ao r {:g}", s.ao_radius) : std::string()));
+  if (!s.pick.empty() && s.pick != s.message) l.push_back(s.pick);  // stays while the message fades
   if (!s.message.empty()) l.push_back(s.message);
   return l;
 }

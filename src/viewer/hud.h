@@ -42,6 +42,7 @@ struct HudState {
   double ao_radius = 0.0;     // ambient occlusion radius (key L; 0: off)
   std::string series;         // a series' frame line ("series frame K (i/n)  time T"); empty: not a series
   std::string message;        // transient status line (screenshot saved, errors)
+  std::string pick;           // the picked particle (right click) while it is marked; empty: none
   render::FrameReport report;
   render::CacheStats cache;
   uint64_t meshlets = 0;

@@ -117,6 +117,7 @@ class Viewer {
   std::string message_;
   Clock::time_point message_time_;
   std::optional<render::PickedParticle> picked_, picked_before_;
+  std::string pick_line_;  // what pick_at said of picked_ (the HUD keeps it while it is marked)
 };
 
 Status Viewer::setup() {
@@ -348,6 +349,7 @@ void Viewer::pick_at(glm::dvec2 cursor) {
                               before->node, before->index_in_node);
     }
   }
+  pick_line_ = picked_ ? message_ : std::string();
   // On stderr too: `render --pick X,Y` at this window size and camera answers the same.
   fmt::print(stderr, "mdstream view: {}\n", message_);
 }
@@ -624,6 +626,7 @@ Status Viewer::run() {
     hud_.report = report;
     hud_.cache = cache;
     hud_.message = render_error_ ? "render error: " + render_error_->message : message_;
+    hud_.pick = picked_ ? pick_line_ : std::string();
     hud_.dynamic_resolution = pacer_.has_value();
     hud_.render_scale = render_scale_;
     hud_.render_width = r ? r->width() : 0;
