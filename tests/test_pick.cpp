@@ -419,3 +419,37 @@ TEST_F(PickStore, RenderPickPrintsTheParticleOfEachPixel) {
             0);
   EXPECT_NE(mds::testing::cli_stderr().find("--pick"), std::string::npos) << mds::testing::cli_stderr();
 }
+
+// A node the pick must read but cannot (a corrupted payload, skipped by the streamed render) is
+// an error naming --pick and the store, and no image is left behind.
+TEST_F(PickStore, AnUnreadableNodeOnTheRayIsAnErrorAndNoImage) {
+  auto reader = store::StoreReader::open(store());
+  ASSERT_TRUE(reader.ok()) << reader.error().message;
+  auto cam = default_view(2, mds::testing::header_bounds(**reader), 40.0, 64.0 / 48.0);
+  ASSERT_TRUE(cam.ok());
+  const fs::path out = *dir_ / "bad.png", stats = *dir_ / "bad.json", bad = *dir_ / "bad.mds";
+  // The node the centre pixel's ray ends in, from a render of the intact store (its camera).
+  ASSERT_EQ(mds::testing::run_mdstream(fmt::format("render {} -o {} --no-cull --spp 1 --width 64 --height 48 --view 2 "
+                                                   "--gpu-budget 64MiB --pick 32,24 --stats {} > /dev/null",
+                                                   store(), out.string(), stats.string())),
+            0)
+      << mds::testing::cli_stderr();
+  std::ifstream sf(stats);
+  const nlohmann::json s = nlohmann::json::parse(sf);
+  ASSERT_FALSE(s["picks"][0]["particle"].is_null());
+  const uint32_t node = s["picks"][0]["particle"]["node"].get<uint32_t>();
+  fs::copy_file(store(), bad, fs::copy_options::overwrite_existing);
+  {
+    std::fstream f(bad, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(std::streamoff((*reader)->nodes()[node].payload_offset + 16));
+    f.put(char(0x5a ^ 0xff));
+  }
+  fs::remove(out);
+  EXPECT_NE(mds::testing::run_mdstream(fmt::format("render {} -o {} --no-cull --spp 1 --width 64 --height 48 --view 2 "
+                                                   "--gpu-budget 64MiB --pick 32,24 > /dev/null",
+                                                   bad.string(), out.string())),
+            0);
+  const std::string err = mds::testing::cli_stderr();
+  EXPECT_NE(err.find("--pick 32,24: " + bad.string()), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(out));
+}

@@ -292,6 +292,24 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
   if (ao.on && !stats.ambient_occlusion)
     std::fprintf(stderr, "mdstream render: warning: --ao: drawn without ambient occlusion (it needs the visibility "
                          "route: a device with 64-bit buffer atomics)\n");
+  // --pick: the particle each pixel shows, on stdout (a JSON object per line) and in the stats;
+  // before the image is written, so that a node the pick cannot read leaves no image behind.
+  nlohmann::json pick_answers = nlohmann::json::array();
+  if (!picks.empty()) {
+    render::Camera cam = camera;
+    render::fit_clip_planes(cam, renderer->bounds());
+    for (const glm::uvec2 px : picks) {
+      auto p = render::pick_particle(*reader, cam, o.width, o.height, glm::dvec2(px) + 0.5, so);
+      if (!p.ok()) {
+        Error e = p.error();
+        e.message = fmt::format("--pick {},{}: {}: {}", px.x, px.y, o.store, e.message);
+        return e;
+      }
+      pick_answers.push_back(pick_json(*reader, px, fs.series_frame, *p));
+      std::printf("%s\n", pick_answers.back().dump().c_str());
+    }
+    std::fflush(stdout);
+  }
   MDS_TRY(render::write_image(o.output, image));
   if (fs.prior_out) *fs.prior_out = renderer->prior_view();
 
@@ -310,19 +328,6 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
     }
   }
 
-  // --pick: the particle each pixel shows, on stdout (a JSON object per line) and in the stats.
-  nlohmann::json pick_answers = nlohmann::json::array();
-  if (!picks.empty()) {
-    render::Camera cam = camera;
-    render::fit_clip_planes(cam, renderer->bounds());
-    for (const glm::uvec2 px : picks) {
-      MDS_ASSIGN_OR_RETURN(const std::optional<render::PickedParticle> p,
-                           render::pick_particle(*reader, cam, o.width, o.height, glm::dvec2(px) + 0.5, so));
-      pick_answers.push_back(pick_json(*reader, px, fs.series_frame, p));
-      std::printf("%s\n", pick_answers.back().dump().c_str());
-    }
-    std::fflush(stdout);
-  }
 
   if (!o.stats.empty() || stats_out) {
     nlohmann::json j;
