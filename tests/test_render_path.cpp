@@ -130,11 +130,15 @@ TEST_F(RenderPath, BadPatternsAndConflictsAreUsageErrors) {
   const std::string base = "render " + store() + " --spp 1 --width 16 --height 16 ";
   for (const char* bad : {"x.png", "x%d%d.png", "x%5d.png", "x%0d.png", "x%s.png", "x%"}) {
     EXPECT_EQ(run(base + "--path orbit -o " + (dir_ / bad).string()), 2) << bad;
-    EXPECT_NE(last_stderr().find("an animation (--path, or several frames of a series) writes one image per frame"), std::string::npos) << last_stderr();
+    EXPECT_NE(last_stderr().find("an animation (--path, or several frames of a series) writes one file per frame"), std::string::npos) << last_stderr();
   }
   EXPECT_EQ(run(base + "--path orbit --camera 1,2,3,0,0,0 -o " + (dir_ / "c_%d.png").string()), 2);
   EXPECT_NE(last_stderr().find("--path and --camera"), std::string::npos) << last_stderr();
   EXPECT_EQ(run(base + "--path orbit --visible-reference -o " + (dir_ / "c_%d.png").string()), 2);
+  EXPECT_EQ(run(base + "--path orbit --node-log " + (dir_ / "c.csv").string() + " -o " + (dir_ / "c_%d.png").string()),
+            2);
+  EXPECT_NE(last_stderr().find("--node-log ask about one view"), std::string::npos) << last_stderr();
+  EXPECT_FALSE(fs::exists(dir_ / "c.csv"));
   EXPECT_NE(run(base + "--path " + (dir_ / "missing.path").string() + " -o " + (dir_ / "c_%d.png").string()), 0);
   EXPECT_NE(last_stderr().find("missing.path"), std::string::npos) << last_stderr();
   EXPECT_FALSE(fs::exists(dir_ / "c_0.png"));

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 
@@ -291,6 +292,110 @@ TEST_F(SeriesCli, AStreamedSeriesCarriesEachFramesViewToTheNext) {
   EXPECT_EQ(run_mdstream(fmt::format("{} --series-first-wave warm -o {}", common, tmp("w%d.png").string())), 2);
   EXPECT_THAT(cli_stderr(), HasSubstr("--series-first-wave"));
   EXPECT_FALSE(fs::exists(tmp("w0.png")));
+}
+
+// --node-log (docs/streaming.md, "Node log"): one CSV row per node of each frame's store. Streamed,
+// its columns add up to the frame's cache stats (loaded, resident, wanted, carried, classes), a
+// node was loaded only if requested, and a step's carried nodes went out in its first wave (the
+// pool holds the store). In memory, unculled, with --visible-reference: the visible column holds
+// the frame's visible_nodes, and the cache's columns are empty. Several frames need a %d; a
+// name without one fails before any image is written.
+TEST_F(SeriesCli, NodeLogSaysWhatEachFramesCacheDid) {
+  ASSERT_EQ(run_mdstream(fmt::format("convert {} --frames :3 --node-size 300 -o {} -q", dump().string(),
+                                     tmp("n.mds.series").string())),
+            0)
+      << cli_stderr();
+  const std::string common = fmt::format("render {} --width 64 --height 48 --spp 2", tmp("n.mds.series").string());
+  ASSERT_EQ(run_mdstream(fmt::format("{} --gpu-budget 4MiB -o {} --node-log {} --stats {}", common,
+                                     tmp("s%d.png").string(), tmp("s%d.csv").string(), tmp("s.json").string())),
+            0)
+      << cli_stderr();
+  ASSERT_EQ(run_mdstream(fmt::format("{} --no-cull --visible-reference -o {} --node-log {} --stats {}", common,
+                                     tmp("m%d.png").string(), tmp("m%d.csv").string(), tmp("m.json").string())),
+            0)
+      << cli_stderr();
+  const auto js = nlohmann::json::parse(textest::read_text(tmp("s.json")));
+  const auto jm = nlohmann::json::parse(textest::read_text(tmp("m.json")));
+  ASSERT_EQ(js["frames"].size(), 3u);
+  ASSERT_EQ(jm["frames"].size(), 3u);
+  const auto rows = [&](const std::string& name) {
+    std::istringstream in(textest::read_text(tmp(name)));
+    std::string line;
+    std::getline(in, line);
+    EXPECT_EQ(line, "node,particles,payload_bytes,class,visible,carried,requests,first_request_frame,loaded,"
+                    "resident,in_frustum,wanted");
+    std::vector<std::vector<std::string>> out;
+    while (std::getline(in, line)) {
+      std::vector<std::string> cells;
+      std::istringstream ls(line);
+      for (std::string c; std::getline(ls, c, ',');) cells.push_back(c);
+      if (!line.empty() && line.back() == ',') cells.emplace_back();
+      EXPECT_EQ(cells.size(), 12u) << line;
+      out.push_back(cells);
+    }
+    return out;
+  };
+  for (size_t k = 0; k < 3; ++k) {
+    SCOPED_TRACE(k);
+    const auto& f = js["frames"][k];
+    const auto s = rows(fmt::format("s{}.csv", k));
+    ASSERT_EQ(s.size(), f["nodes"].get<size_t>());
+    uint64_t particles = 0, loaded = 0, resident = 0, wanted = 0, carried = 0;
+    std::map<std::string, uint64_t> classes;
+    int64_t first_wave = INT64_MAX;
+    for (size_t i = 0; i < s.size(); ++i) {
+      const auto& r = s[i];
+      EXPECT_EQ(r[0], std::to_string(i));
+      particles += std::stoull(r[1]);
+      ++classes[r[3]];
+      EXPECT_EQ(r[4], "") << "no --visible-reference";
+      const uint64_t requests = std::stoull(r[6]);
+      const int64_t first = std::stoll(r[7]);
+      EXPECT_EQ(requests == 0, first == -1) << r[0];
+      if (requests > 0) first_wave = std::min(first_wave, first);
+      loaded += r[8] == "1";
+      resident += r[9] == "1";
+      wanted += r[11] == "1";
+      carried += r[5] == "1";
+      if (r[8] == "1") {
+        EXPECT_GT(requests, 0u) << "node " << r[0] << " loaded without a read";
+      }
+      if (r[9] == "1") {
+        EXPECT_EQ(r[8], "1") << r[0];
+      }
+    }
+    EXPECT_EQ(particles, f["particles"].get<uint64_t>());
+    EXPECT_EQ(loaded, f["nodes"].get<uint64_t>() - f["nodes_never_loaded"].get<uint64_t>());
+    EXPECT_EQ(resident, f["nodes_resident"].get<uint64_t>());
+    EXPECT_EQ(wanted, f["wanted_nodes"].get<uint64_t>());
+    EXPECT_EQ(carried, f["carried_nodes"].get<uint64_t>());
+    for (const char* c : {"P", "L", "M", "O"}) EXPECT_EQ(classes[c], f["node_class_counts"][c].get<uint64_t>()) << c;
+    if (k > 0) {
+      ASSERT_GT(carried, 0u);
+      for (const auto& r : s) {
+        if (r[5] == "1" && r[6] != "0") {
+          EXPECT_EQ(std::stoll(r[7]), first_wave) << "carried node " << r[0];
+        }
+      }
+    }
+    const auto m = rows(fmt::format("m{}.csv", k));
+    ASSERT_EQ(m.size(), s.size());
+    uint64_t visible = 0;
+    for (const auto& r : m) {
+      EXPECT_EQ(r[3], "") << "--no-cull: no classes";
+      EXPECT_TRUE(r[4] == "0" || r[4] == "1") << r[4];
+      visible += r[4] == "1";
+      for (size_t c = 5; c < 12; ++c) EXPECT_EQ(r[c], "") << "in memory: no cache column " << c;
+    }
+    EXPECT_EQ(visible, jm["frames"][k]["visible_nodes"].get<uint64_t>());
+    EXPECT_GT(visible, 0u);
+  }
+  EXPECT_EQ(run_mdstream(fmt::format("{} --no-cull -o {} --node-log {}", common, tmp("e%d.png").string(),
+                                     tmp("e.csv").string())),
+            2);
+  EXPECT_THAT(cli_stderr(), HasSubstr("--node-log"));
+  EXPECT_FALSE(fs::exists(tmp("e0.png")));
+  EXPECT_FALSE(fs::exists(tmp("e.csv")));
 }
 
 // --path with a series: the camera orbits while the frames go, one path frame per picked frame,

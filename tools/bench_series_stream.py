@@ -16,7 +16,10 @@ and the stats of the frames after the first give, per step:
   wanted at the end    nodes the converged (or capped) view wants;
   wall                 the frame's render (convergence and --spp samples).
 The images of both are compared (pixels with a channel more than 0.1 apart, the renderer's
-tolerance). With Xvfb, the viewer plays the porous close-up (`view --play-series`) with each, and
+tolerance), with each other and with an unculled in-memory render of the same frames. That render's
+`--visible-reference` gives the nodes holding a visible particle, and the streamed renders'
+`--node-log` the nodes each read: per step the visible nodes read and missed (never read), and
+the bytes read over the visible nodes' bytes (issue 4's measure). With Xvfb, the viewer plays the porous close-up (`view --play-series`) with each, and
 its frame log gives the frames held on screen after each step (`held`).
 
 Writes docs/results/series-stream.md and series-stream.csv.
@@ -30,6 +33,7 @@ import os
 import shutil
 import statistics
 import sys
+from collections import namedtuple
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_common import (Xvfb, add_series_arguments, differing_fraction, fmt_bytes, machine_info,  # noqa: E402
@@ -47,8 +51,26 @@ def run_render(mds, series, out, wave, view, budget, args, log):
     stats = os.path.join(out, "stats.json")
     sh([mds, "render", series, "-o", os.path.join(out, "f_%04d.png"), "--width", str(args.width), "--height",
         str(args.height), "--view", str(view), "--gpu-budget", str(budget), "--series-first-wave", wave,
-        "--stats", stats], log, timeout=3600)
+        "--node-log", os.path.join(out, "n_%04d.csv"), "--stats", stats], log, timeout=3600)
     return json.load(open(stats))["frames"]
+
+
+def run_reference(mds, series, out, view, args, log):
+    """The unculled in-memory render of every frame, with the nodes holding a visible particle."""
+    sh([mds, "render", series, "-o", os.path.join(out, "f_%04d.png"), "--width", str(args.width), "--height",
+        str(args.height), "--view", str(view), "--no-cull", "--visible-reference",
+        "--node-log", os.path.join(out, "n_%04d.csv")], log, timeout=3600)
+
+
+NodeLog = namedtuple("NodeLog", "bytes visible read")  # per node: payload bytes; sets of node indices
+
+
+def node_log(path):
+    with open(path) as f:
+        rows = list(csv.DictReader(f))
+    return NodeLog([int(r["payload_bytes"]) for r in rows],
+                   {int(r["node"]) for r in rows if r["visible"] == "1"},
+                   {int(r["node"]) for r in rows if r["requests"] not in ("", "0")})
 
 
 def run_viewer(mds, series, out, wave, view, budget, args, env, log):
@@ -104,19 +126,37 @@ def main():
     rows = []
     per_step = {}  # (case index, wave) -> list of per-step dicts
     diffs = {}     # case index -> list of differing fractions (frames after the first)
+    refs = {}  # (scene, view) -> folder of the unculled reference frames
+    for scene, view, _, _ in cases:
+        if (scene, view) not in refs:
+            refs[(scene, view)] = os.path.join(work, f"{scene}_v{view}_ref")
+            os.makedirs(refs[(scene, view)], exist_ok=True)
+            run_reference(mds, series[scene], refs[(scene, view)], view, args, log)
     for r in range(args.repeats):
         for ci, (scene, view, budget, _) in enumerate(cases):
+            ref = refs[(scene, view)]
             images = {}
             for wave in (WAVES if (r + ci) % 2 == 0 else WAVES[::-1]):
                 out = os.path.join(work, f"{scene}_v{view}_{wave}_{r}")
                 os.makedirs(out, exist_ok=True)
                 frames = run_render(mds, series[scene], out, wave, view, budget, args, log)
                 for f in frames[1:]:
+                    k = f["series_frame"]
+                    want = node_log(os.path.join(ref, f"n_{k:04d}.csv"))
+                    got = node_log(os.path.join(out, f"n_{k:04d}.csv"))
+                    visible_bytes = sum(want.bytes[i] for i in want.visible)
+                    read_bytes = sum(got.bytes[i] for i in got.read)
                     per_step.setdefault((ci, wave), []).append({
                         "ftc": f["frames_to_complete"], "mtc": f["ms_to_complete"], "read": f["bytes_read"],
                         "loaded": f["nodes_loaded"], "wanted": f["wanted_nodes"], "wall": f["wall_ms"],
                         "frames": f["frames"], "converged": bool(f.get("iterations_to_converge", 0)),
-                        "carried": f["carried_nodes"], "prior": f["prior_wanted_nodes"]})
+                        "carried": f["carried_nodes"], "prior": f["prior_wanted_nodes"],
+                        "visible": len(want.visible), "visible_bytes": visible_bytes,
+                        "visible_read": len(want.visible & got.read), "visible_missed": len(want.visible - got.read),
+                        "read_not_visible": len(got.read - want.visible),
+                        "read_over_visible": read_bytes / visible_bytes if visible_bytes else float("nan"),
+                        "vs_unculled": differing_fraction(os.path.join(out, f"f_{k:04d}.png"),
+                                                          os.path.join(ref, f"f_{k:04d}.png"))})
                 images[wave] = out
             for k in range(1, args.frames):
                 diffs.setdefault(ci, []).append(differing_fraction(os.path.join(images["prior"], f"f_{k:04d}.png"),
@@ -159,6 +199,13 @@ def main():
                 "carried_nodes": med([x["carried"] for x in s]),
                 "prior_wanted_nodes": med([x["prior"] for x in s]),
                 "differing_vs_cold": round(max(diffs.get(ci, [0.0])), 5) if wave == "prior" else "",
+                "visible_nodes": med([x["visible"] for x in s]),
+                "visible_bytes": round(med([x["visible_bytes"] for x in s])),
+                "visible_read": med([x["visible_read"] for x in s]),
+                "visible_missed": med([x["visible_missed"] for x in s]),
+                "read_not_visible": med([x["read_not_visible"] for x in s]),
+                "read_over_visible": round(med([x["read_over_visible"] for x in s]), 3),
+                "differing_vs_unculled": round(max(x["vs_unculled"] for x in s), 5),
             })
 
     m = machine_info(REPO)
@@ -191,6 +238,19 @@ def main():
                   f"{r['first_wave']} | {r['frames_to_complete']:.0f} | {r['ms_to_complete']:.0f} | "
                   f"{fmt_bytes(r['bytes_read'])} | {r['nodes_loaded']:.0f} | {r['wanted_at_end']:.0f} | "
                   f"{r['converged_steps']} / {r['steps']} | {carried} | {r['wall_ms']:.0f} | {diff} |")
+    md += ["", "Against the unculled render of the same frames (`render SERIES --no-cull --visible-reference "
+           "--node-log`), per step, medians: the nodes holding a visible particle and their bytes; of them, those "
+           "the streamed render read and those it never read (the culling found them O first); the nodes it read "
+           "that hold no visible particle; its bytes read over the visible nodes' bytes (issue 4's measure, target "
+           "<= 1.25); the largest share over the steps of its pixels more than 0.1 from the unculled image:", "",
+           "| scene, view | first wave | visible nodes | visible bytes | visible read | visible missed | "
+           "read, not visible | read / visible bytes | differing from unculled |",
+           "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        md.append(f"| {r['scene']}, view {r['view']} | {r['first_wave']} | {r['visible_nodes']:.0f} | "
+                  f"{fmt_bytes(r['visible_bytes'])} | {r['visible_read']:.0f} | {r['visible_missed']:.0f} | "
+                  f"{r['read_not_visible']:.0f} | {r['read_over_visible']:.2f} | "
+                  f"{100 * r['differing_vs_unculled']:.2f} % |")
     md.append("")
     if held:
         scene, view, budget, what = cases[0]
@@ -211,7 +271,8 @@ def main():
     write_report(args.out, "series-stream", md)
     keys = ["scene", "view", "budget_bytes", "budget", "first_wave", "steps", "frames_to_complete", "ms_to_complete",
             "bytes_read", "nodes_loaded", "wanted_at_end", "frames", "converged_steps", "wall_ms", "carried_nodes",
-            "prior_wanted_nodes", "differing_vs_cold"]
+            "prior_wanted_nodes", "differing_vs_cold", "visible_nodes", "visible_bytes", "visible_read", "visible_missed",
+            "read_not_visible", "read_over_visible", "differing_vs_unculled"]
     write_csv(args.out, "series-stream", rows, keys)
     log.close()
 

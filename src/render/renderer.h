@@ -291,6 +291,19 @@ struct CacheStats {
   std::vector<std::string> errors;  // one message per failed node
 };
 
+// One node as the streaming cache saw it in the current view (Renderer::node_log; render
+// --node-log): which nodes it read and when, and how their classes ended.
+struct NodeLogEntry {
+  uint32_t requests = 0;             // read requests submitted (read again after an eviction: 2)
+  int64_t first_request_frame = -1;  // the renderer's frame index of its first request (0: its first frame); -1: never
+  bool carried = false;              // in a series step's carried first wave (StreamSettings::prior)
+  bool loaded = false;               // placed in the pool at least once
+  bool resident = false;             // in the pool now
+  bool in_frustum = false;           // of the current view
+  bool wanted = false;               // demanded by the last frame: in the frustum, not O, readable
+  uint8_t cls = 0;                   // the cache's class of it (MDS_CULL_CLASS_*)
+};
+
 // One frame of the progressive API (Renderer::step).
 // GPU time of one frame: its timestamped passes (a pass run several times, like the occlusion
 // sampling passes of a culling iteration, summed).
@@ -469,6 +482,8 @@ class Renderer {
   // view wants it), for the renderer of the next store of a series (StreamSettings::prior); null
   // when in memory.
   std::shared_ptr<const streaming::PriorView> prior_view() const;
+  // Streaming: every node of the store as the cache saw it (NodeLogEntry); empty when in memory.
+  std::vector<NodeLogEntry> node_log() const;
   bool streaming() const;
   // Depth buffer (z_ndc, 1 = background) of the last drawn frame (render() or step()), row-major
   // from the top-left; waits for the frame in flight.

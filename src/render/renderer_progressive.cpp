@@ -595,6 +595,10 @@ std::shared_ptr<const streaming::PriorView> Renderer::prior_view() const {
   if (!impl_->cache) return nullptr;
   return std::make_shared<const streaming::PriorView>(impl_->cache->prior_view());
 }
+std::vector<NodeLogEntry> Renderer::node_log() const {
+  if (!impl_->cache) return {};
+  return impl_->cache->node_log();
+}
 bool Renderer::streaming() const { return impl_->cache != nullptr; }
 
 // Headless render with a budget: frames until the view has converged with every wanted node

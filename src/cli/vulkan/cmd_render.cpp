@@ -38,6 +38,7 @@
 #include "store/series.h"
 #include "render/visible_nodes.h"
 #include "store/store_reader.h"
+#include "streaming/residency.h"
 #include "vk/context.h"
 
 namespace mds::cli {
@@ -62,6 +63,7 @@ struct RenderOptions {
   uint32_t path_frames = 60;  // --frames of a built-in path
   std::string series_frames = "all";  // --series-frames of a .series STORE
   std::vector<std::string> picks;     // --pick X,Y: the particle a pixel shows (render/pick.h)
+  std::string node_log;               // --node-log CSV (write_node_log)
 };
 
 // What a series render fixes for every frame (run_render_series); empty for one store.
@@ -112,6 +114,35 @@ NodeGranularity node_granularity(const store::StoreReader& reader, std::span<con
     }
   }
   return g;
+}
+
+// --node-log: one CSV row per node of the store. In memory only node, particles, payload_bytes,
+// class (empty without culling) and visible (with --visible-reference) are filled; streaming
+// adds what the cache did (Renderer::node_log). Class letters as docs/culling-math.md's.
+Status write_node_log(const std::string& path, const store::StoreReader& reader, render::Renderer& renderer,
+                      const render::VisibleSet* visible) {
+  const auto& nodes = reader.nodes();
+  const std::vector<render::NodeLogEntry> log = renderer.node_log();
+  std::span<const uint32_t> classes;
+  if (log.empty() && renderer.cull_loop()) classes = renderer.cull_loop()->node_classes();
+  std::string csv =
+      "node,particles,payload_bytes,class,visible,carried,requests,first_request_frame,loaded,resident,in_frustum,"
+      "wanted\n";
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    std::string cls, vis;
+    if (i < log.size()) cls = streaming::class_letter(log[i].cls);
+    else if (i < classes.size()) cls = streaming::class_letter(uint8_t(classes[i]));
+    if (visible && i < visible->nodes.size()) vis = visible->nodes[i] ? "1" : "0";
+    csv += fmt::format("{},{},{},{},{}", i, nodes[i].particle_count, nodes[i].payload_bytes, cls, vis);
+    if (i < log.size()) {
+      const render::NodeLogEntry& e = log[i];
+      csv += fmt::format(",{:d},{},{},{:d},{:d},{:d},{:d}\n", e.carried, e.requests, e.first_request_frame, e.loaded,
+                         e.resident, e.in_frustum, e.wanted);
+    } else {
+      csv += ",,,,,,,\n";
+    }
+  }
+  return write_text_atomically(path, csv);
 }
 
 nlohmann::json vec3_json(const glm::dvec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); }
@@ -178,9 +209,9 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
   render::CameraPath path;
   if (!o.path.empty()) {
     if (!o.camera.empty()) return make_error(Errc::invalid_argument, "--path and --camera: give one of them");
-    if (o.visible_reference || o.paired_frames > 0 || !picks.empty())
+    if (o.visible_reference || o.paired_frames > 0 || !picks.empty() || !o.node_log.empty())
       return make_error(Errc::invalid_argument,
-                        "--visible-reference, --paired-frames and --pick ask about one view: not with --path");
+                        "--visible-reference, --paired-frames, --pick and --node-log ask about one view: not with --path");
     MDS_TRY(frame_file_name(o.output, 0));
     if (auto b = render::parse_builtin_path(o.path); b.ok()) {
       builtin = *b;
@@ -327,6 +358,7 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
       granularity = node_granularity(*reader, renderer->cull_loop()->node_classes(), mc, visible->nodes);
     }
   }
+  if (!o.node_log.empty()) MDS_TRY(write_node_log(o.node_log, *reader, *renderer, visible ? &*visible : nullptr));
 
 
   if (!o.stats.empty() || stats_out) {
@@ -528,9 +560,8 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
 // when there are several (or it has a %d).
 Status run_render_series(const RenderOptions& o) {
   if (!o.path.empty() && !o.camera.empty()) return make_error(Errc::invalid_argument, "--path and --camera: give one of them");
-  if (o.visible_reference || o.paired_frames > 0)
-    return make_error(Errc::invalid_argument, "--visible-reference and --paired-frames measure one store: not with a "
-                      "series ({})", o.store);
+  if (o.paired_frames > 0)
+    return make_error(Errc::invalid_argument, "--paired-frames measures one store: not with a series ({})", o.store);
   MDS_ASSIGN_OR_RETURN(const store::Series series, store::read_series(o.store));
   auto sel = parse_frame_selection(o.series_frames);
   if (!sel.ok()) return make_error(Errc::invalid_argument, "--series-frames {}", sel.error().message);
@@ -538,6 +569,7 @@ Status run_render_series(const RenderOptions& o) {
   if (!picked.ok()) return make_error(Errc::invalid_argument, "{}: --series-frames {}", o.store, picked.error().message);
   const bool numbered = picked->size() > 1 || o.output.find('%') != std::string::npos;
   if (numbered) MDS_TRY(frame_file_name(o.output, 0));
+  if (numbered && !o.node_log.empty()) MDS_TRY(frame_file_name(o.node_log, 0, "--node-log"));
   MDS_ASSIGN_OR_RETURN(const render::SeriesLook look, render::series_look(series, *picked));
   if (o.fov <= 0.0 || o.fov >= 180.0)
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.fov);
@@ -578,6 +610,9 @@ Status run_render_series(const RenderOptions& o) {
     fo.path.clear();  // the camera comes from fs
     if (numbered) {
       MDS_ASSIGN_OR_RETURN(fo.output, frame_file_name(o.output, uint32_t(k)));
+      if (!o.node_log.empty()) {
+        MDS_ASSIGN_OR_RETURN(fo.node_log, frame_file_name(o.node_log, uint32_t(k), "--node-log"));
+      }
     }
     fs.ao_out = i == 0 ? &first_ao : nullptr;
     if (path) {
@@ -647,6 +682,12 @@ void setup_render(CLI::App& sub, int& exit_code) {
   sub.add_flag("--visible-reference", opt->visible_reference,
                "Also compute, on the CPU, which meshlets hold a visible particle of the last frame "
                "(stats: visible_meshlets, visible_meshlet_fraction, kept_over_visible_meshlets)");
+  sub.add_option("--node-log", opt->node_log,
+                 "Write one CSV row per node of the store after the last frame: its particles, payload bytes, "
+                 "class and (with --visible-reference) whether it holds a visible particle; with --gpu-budget "
+                 "also what the cache did: carried (a series step's first wave), read requests, the frame of the "
+                 "first, loaded, resident, in the frustum, wanted. Several frames of a series: a %d in the name "
+                 "(docs/streaming.md, \"Node log\")");
   sub.add_option("--path", opt->path,
                  "Render an animation: one image per frame of a camera path, a built-in one (orbit, flythrough, "
                  "jumps) or a path file (docs/camera-path.md); -o names the frames with %d or %04d "

@@ -14,12 +14,12 @@
 
 namespace mds::cli {
 
-Result<std::string> frame_file_name(const std::string& pattern, uint32_t frame) {
+Result<std::string> frame_file_name(const std::string& pattern, uint32_t frame, const char* option) {
   const auto bad = [&](const char* why) {
     return make_error(Errc::invalid_argument,
-                      "-o '{}': {}; an animation (--path, or several frames of a series) writes one image per "
+                      "{} '{}': {}; an animation (--path, or several frames of a series) writes one file per "
                       "frame, named by a %d or %04d in the name (frame_%04d.png)",
-                      pattern, why);
+                      option, pattern, why);
   };
   std::string out;
   bool found = false;

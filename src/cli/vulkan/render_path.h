@@ -17,8 +17,9 @@ namespace mds::cli {
 
 // The output name of frame `frame`: `pattern` with its one printf conversion %d or %0Nd
 // (N 1..9) replaced by the frame number ("out/frame_%04d.png", 7 -> "out/frame_0007.png").
-// Errc::invalid_argument when the pattern has no such conversion, more than one, or another '%'.
-Result<std::string> frame_file_name(const std::string& pattern, uint32_t frame);
+// Errc::invalid_argument when the pattern has no such conversion, more than one, or another '%';
+// the message names `option`, the command-line option the pattern came from.
+Result<std::string> frame_file_name(const std::string& pattern, uint32_t frame, const char* option = "-o");
 
 struct PathRenderOptions {
   std::string output_pattern;  // -o with %d

@@ -186,6 +186,8 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
     c->carried_wave_ = c->stats_.carried_nodes > 0;
   }
   c->placed_frame_.assign(nodes.size(), 0);
+  c->requests_.assign(nodes.size(), 0);
+  c->first_request_.assign(nodes.size(), -1);
   c->placed_late_.assign(nodes.size(), 0);
   c->o_confirmed_.assign(nodes.size(), 0);
 
@@ -588,6 +590,8 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
       rank += 1.0;
       planned += node_bytes_[i];
       MDS_TRY(table_->mark_requested(i));
+      ++requests_[i];
+      if (first_request_[i] < 0) first_request_[i] = int64_t(frame);
       requested_.push_back(i);
       if (waves) coverage += mds::streaming::screen_share(table_->node(i).projected_size, aspect_);
       if (waves && !carried && settings_.front_node_alone && rank == 1.0 && dense_[i] &&
@@ -635,6 +639,23 @@ void StreamCache::slice_density(culling::DensityVolume& v) const {
   std::fill(v.counts.begin(), v.counts.end(), 0);
   for (const glm::uvec2& r : voxel_refs_)
     if (r.x < v.counts.size()) v.counts[r.x] = int32_t(std::min<uint64_t>(uint64_t(v.counts[r.x]) + r.y, INT32_MAX));
+}
+
+std::vector<NodeLogEntry> StreamCache::node_log() const {
+  std::vector<NodeLogEntry> log(table_->size());
+  for (uint32_t i = 0; i < log.size(); ++i) {
+    const auto& n = table_->node(i);
+    NodeLogEntry& e = log[i];
+    e.requests = requests_[i];
+    e.first_request_frame = first_request_[i];
+    e.carried = !carried_.empty() && carried_[i] != 0;
+    e.loaded = n.ever_loaded;
+    e.resident = n.residency == Residency::resident;
+    e.in_frustum = n.in_frustum;
+    e.wanted = demanded(i);
+    e.cls = n.cls;
+  }
+  return log;
 }
 
 CacheStats StreamCache::stats() const {

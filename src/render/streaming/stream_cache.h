@@ -145,6 +145,8 @@ class StreamCache {
   // One frame (see the file comment); transfers are recorded into cmd.
   Result<CacheFrame> update(VkCommandBuffer cmd, uint64_t frame);
   CacheStats stats() const;
+  // Every node: its reads, its first request's frame, carried, residency and class (NodeLogEntry).
+  std::vector<NodeLogEntry> node_log() const;
 
  private:
   StreamCache() = default;
@@ -189,6 +191,8 @@ class StreamCache {
   Camera last_camera_;  // of the previous set_view (look-ahead extrapolation)
   double aspect_ = 1.0;  // width / height of the view (screen_share of the wave coverage)
   std::vector<uint64_t> placed_frame_;  // frame of each node's last placement (waves at rest)
+  std::vector<uint32_t> requests_;      // per node: read requests submitted (node_log)
+  std::vector<int64_t> first_request_;  // per node: frame of its first request, -1 none (node_log)
   std::vector<uint8_t> placed_late_;    // that placement kept a late arrival (keep_late_arrival)
   std::vector<uint64_t> o_confirmed_;   // frame a culling iteration last classified the node O
   uint64_t frame_ = 0;                  // the frame of the last update()
