@@ -19,7 +19,8 @@ The images of both are compared (pixels with a channel more than 0.1 apart, the 
 tolerance), with each other and with an unculled in-memory render of the same frames. That render's
 `--visible-reference` gives the nodes holding a visible particle, and the streamed renders'
 `--node-log` the nodes each read: per step the visible nodes read and missed (never read), and
-the bytes read over the visible nodes' bytes (issue 4's measure). With Xvfb, the viewer plays the porous close-up (`view --play-series`) with each, and
+the bytes read over the visible nodes' bytes (issue 4's measure). The in-memory culled render of the
+same frames is the baseline: its nodes not in O are what a cache reading by node class would read. With Xvfb, the viewer plays the porous close-up (`view --play-series`) with each, and
 its frame log gives the frames held on screen after each step (`held`).
 
 Writes docs/results/series-stream.md and series-stream.csv.
@@ -55,14 +56,18 @@ def run_render(mds, series, out, wave, view, budget, args, log):
     return json.load(open(stats))["frames"]
 
 
-def run_reference(mds, series, out, view, args, log):
-    """The unculled in-memory render of every frame, with the nodes holding a visible particle."""
+def run_in_memory(mds, series, out, view, args, log, culled):
+    """The in-memory render of every frame: unculled with the nodes holding a visible particle (the
+    reference), or culled (the baseline)."""
+    extra = [] if culled else ["--no-cull", "--visible-reference"]
     sh([mds, "render", series, "-o", os.path.join(out, "f_%04d.png"), "--width", str(args.width), "--height",
-        str(args.height), "--view", str(view), "--no-cull", "--visible-reference",
-        "--node-log", os.path.join(out, "n_%04d.csv")], log, timeout=3600)
+        str(args.height), "--view", str(view), *extra, "--node-log", os.path.join(out, "n_%04d.csv")], log,
+       timeout=3600)
 
 
-NodeLog = namedtuple("NodeLog", "bytes visible read")  # per node: payload bytes; sets of node indices
+# Per node the payload bytes; sets of node indices: visible (--visible-reference), read (streamed:
+# requested at least once), kept (class not O: in memory, what a cache reading by class would read).
+NodeLog = namedtuple("NodeLog", "bytes visible read kept")
 
 
 def node_log(path):
@@ -70,7 +75,31 @@ def node_log(path):
         rows = list(csv.DictReader(f))
     return NodeLog([int(r["payload_bytes"]) for r in rows],
                    {int(r["node"]) for r in rows if r["visible"] == "1"},
-                   {int(r["node"]) for r in rows if r["requests"] not in ("", "0")})
+                   {int(r["node"]) for r in rows if r["requests"] not in ("", "0")},
+                   {int(r["node"]) for r in rows if r["class"] not in ("", "O")})
+
+
+def against_reference(want, got, image, ref_image):
+    """One step's row of the reference table: `got` read (streamed) or kept (in memory) the nodes
+    `read`; `want` is the unculled reference's log."""
+    visible_bytes = sum(want.bytes[i] for i in want.visible)
+    read_bytes = sum(got.bytes[i] for i in got.read)
+    return {"visible": len(want.visible), "visible_bytes": visible_bytes,
+            "visible_read": len(want.visible & got.read), "visible_missed": len(want.visible - got.read),
+            "read_not_visible": len(got.read - want.visible),
+            "read_over_visible": read_bytes / visible_bytes if visible_bytes else float("nan"),
+            "vs_unculled": differing_fraction(image, ref_image)}
+
+
+def reference_columns(s):
+    """Medians over the steps `s` (dicts of against_reference) of the reference table's columns."""
+    return {"visible_nodes": med([x["visible"] for x in s]),
+            "visible_bytes": round(med([x["visible_bytes"] for x in s])),
+            "visible_read": med([x["visible_read"] for x in s]),
+            "visible_missed": med([x["visible_missed"] for x in s]),
+            "read_not_visible": med([x["read_not_visible"] for x in s]),
+            "read_over_visible": round(med([x["read_over_visible"] for x in s]), 3),
+            "differing_vs_unculled": round(max(x["vs_unculled"] for x in s), 5)}
 
 
 def run_viewer(mds, series, out, wave, view, budget, args, env, log):
@@ -127,11 +156,22 @@ def main():
     per_step = {}  # (case index, wave) -> list of per-step dicts
     diffs = {}     # case index -> list of differing fractions (frames after the first)
     refs = {}  # (scene, view) -> folder of the unculled reference frames
+    in_memory = {}  # (scene, view) -> steps of the in-memory culled render against the reference
     for scene, view, _, _ in cases:
-        if (scene, view) not in refs:
-            refs[(scene, view)] = os.path.join(work, f"{scene}_v{view}_ref")
-            os.makedirs(refs[(scene, view)], exist_ok=True)
-            run_reference(mds, series[scene], refs[(scene, view)], view, args, log)
+        if (scene, view) in refs:
+            continue
+        ref = refs[(scene, view)] = os.path.join(work, f"{scene}_v{view}_ref")
+        mem = os.path.join(work, f"{scene}_v{view}_mem")
+        os.makedirs(ref, exist_ok=True)
+        os.makedirs(mem, exist_ok=True)
+        run_in_memory(mds, series[scene], ref, view, args, log, culled=False)
+        run_in_memory(mds, series[scene], mem, view, args, log, culled=True)
+        for k in range(1, args.frames):
+            got = node_log(os.path.join(mem, f"n_{k:04d}.csv"))
+            in_memory.setdefault((scene, view), []).append(against_reference(
+                node_log(os.path.join(ref, f"n_{k:04d}.csv")), got._replace(read=got.kept),
+                os.path.join(mem, f"f_{k:04d}.png"), os.path.join(ref, f"f_{k:04d}.png")))
+        shutil.rmtree(mem)
     for r in range(args.repeats):
         for ci, (scene, view, budget, _) in enumerate(cases):
             ref = refs[(scene, view)]
@@ -142,21 +182,14 @@ def main():
                 frames = run_render(mds, series[scene], out, wave, view, budget, args, log)
                 for f in frames[1:]:
                     k = f["series_frame"]
-                    want = node_log(os.path.join(ref, f"n_{k:04d}.csv"))
-                    got = node_log(os.path.join(out, f"n_{k:04d}.csv"))
-                    visible_bytes = sum(want.bytes[i] for i in want.visible)
-                    read_bytes = sum(got.bytes[i] for i in got.read)
                     per_step.setdefault((ci, wave), []).append({
                         "ftc": f["frames_to_complete"], "mtc": f["ms_to_complete"], "read": f["bytes_read"],
                         "loaded": f["nodes_loaded"], "wanted": f["wanted_nodes"], "wall": f["wall_ms"],
                         "frames": f["frames"], "converged": bool(f.get("iterations_to_converge", 0)),
                         "carried": f["carried_nodes"], "prior": f["prior_wanted_nodes"],
-                        "visible": len(want.visible), "visible_bytes": visible_bytes,
-                        "visible_read": len(want.visible & got.read), "visible_missed": len(want.visible - got.read),
-                        "read_not_visible": len(got.read - want.visible),
-                        "read_over_visible": read_bytes / visible_bytes if visible_bytes else float("nan"),
-                        "vs_unculled": differing_fraction(os.path.join(out, f"f_{k:04d}.png"),
-                                                          os.path.join(ref, f"f_{k:04d}.png"))})
+                        **against_reference(node_log(os.path.join(ref, f"n_{k:04d}.csv")),
+                                            node_log(os.path.join(out, f"n_{k:04d}.csv")),
+                                            os.path.join(out, f"f_{k:04d}.png"), os.path.join(ref, f"f_{k:04d}.png"))})
                 images[wave] = out
             for k in range(1, args.frames):
                 diffs.setdefault(ci, []).append(differing_fraction(os.path.join(images["prior"], f"f_{k:04d}.png"),
@@ -199,14 +232,11 @@ def main():
                 "carried_nodes": med([x["carried"] for x in s]),
                 "prior_wanted_nodes": med([x["prior"] for x in s]),
                 "differing_vs_cold": round(max(diffs.get(ci, [0.0])), 5) if wave == "prior" else "",
-                "visible_nodes": med([x["visible"] for x in s]),
-                "visible_bytes": round(med([x["visible_bytes"] for x in s])),
-                "visible_read": med([x["visible_read"] for x in s]),
-                "visible_missed": med([x["visible_missed"] for x in s]),
-                "read_not_visible": med([x["read_not_visible"] for x in s]),
-                "read_over_visible": round(med([x["read_over_visible"] for x in s]), 3),
-                "differing_vs_unculled": round(max(x["vs_unculled"] for x in s), 5),
+                **reference_columns(s),
             })
+    for (scene, view), s in in_memory.items():
+        rows.append({"scene": scene, "view": view, "budget": "in memory", "first_wave": "in memory, culled",
+                     "steps": len(s), **reference_columns(s)})
 
     m = machine_info(REPO)
     md = ["# Streamed series: the first wave carried from the frame before", "",
@@ -232,6 +262,8 @@ def main():
           "wanted at the end | converged | carried / wanted before | frame wall [ms] | differing |",
           "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
+        if r["budget"] == "in memory":
+            continue
         carried = f"{r['carried_nodes']:.0f} / {r['prior_wanted_nodes']:.0f}" if r["first_wave"] == "prior" else "-"
         diff = f"{100 * r['differing_vs_cold']:.2f} %" if r["differing_vs_cold"] != "" else "-"
         md.append(f"| {r['scene']}, view {r['view']} | {fmt_bytes(r['budget_bytes'])} ({r['budget']}) | "
@@ -242,11 +274,21 @@ def main():
            "--node-log`), per step, medians: the nodes holding a visible particle and their bytes; of them, those "
            "the streamed render read and those it never read (the culling found them O first); the nodes it read "
            "that hold no visible particle; its bytes read over the visible nodes' bytes (issue 4's measure, target "
-           "<= 1.25); the largest share over the steps of its pixels more than 0.1 from the unculled image:", "",
+           "<= 1.25); the largest share over the steps of its pixels more than 0.1 from the unculled image. "
+           "`in memory, culled` (the default render, every node resident): its nodes not in O in place of the "
+           "nodes read:", "",
            "| scene, view | first wave | visible nodes | visible bytes | visible read | visible missed | "
            "read, not visible | read / visible bytes | differing from unculled |",
            "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+    shown = []  # (scene, view) in the order of the cases; each one's in-memory row after its first case
     for r in rows:
+        if r["budget"] != "in memory" and (r["scene"], r["view"]) not in shown:
+            shown.append((r["scene"], r["view"]))
+    ordered = []
+    for sv in shown:
+        ordered += [r for r in rows if (r["scene"], r["view"]) == sv and r["budget"] == "in memory"]
+        ordered += [r for r in rows if (r["scene"], r["view"]) == sv and r["budget"] != "in memory"]
+    for r in ordered:
         md.append(f"| {r['scene']}, view {r['view']} | {r['first_wave']} | {r['visible_nodes']:.0f} | "
                   f"{fmt_bytes(r['visible_bytes'])} | {r['visible_read']:.0f} | {r['visible_missed']:.0f} | "
                   f"{r['read_not_visible']:.0f} | {r['read_over_visible']:.2f} | "
