@@ -5,6 +5,9 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <cstring>
+#include <cmath>
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -16,6 +19,8 @@
 #include <nlohmann/json.hpp>
 
 #include "cli_test_util.h"
+#include "overlay/canvas.h"
+#include "render/colormap.h"
 
 namespace fs = std::filesystem;
 
@@ -208,6 +213,67 @@ TEST_F(RenderCli, VisibleReferenceCountsVisibleMeshlets) {
   EXPECT_GE(g["node_kept_bytes"].get<uint64_t>(), g["meshlet_kept_bytes"].get<uint64_t>());
   EXPECT_GE(g["node_kept_over_visible"].get<double>(), 1.0);
   EXPECT_FALSE(jnc.contains("node_granularity"));  // --no-cull: no classes
+}
+
+// --color-legend: the legend is drawn into the image in its corner (stats: color_legend.box) and
+// nowhere else -- every pixel outside the box is the image without it, to the bit (EXR floats).
+// With types, type 1's --type-color fills its swatch (7 x 7 at this size); with --color-by z the
+// bar holds viridis(0) and viridis(1). A bad corner fails before any image is written.
+TEST_F(RenderCli, ColorLegendIsDrawnIntoItsCornerOnly) {
+  const std::string base = "render " + store() + " --no-cull --spp 1 --width 160 --height 120 ";
+  // A pixel of the legend as the 8-bit sRGB value it was drawn with (overlay::Canvas round trip).
+  const auto srgb8 = [](const float* q) {
+    return mds::overlay::Rgba8(mds::overlay::linear_to_srgb8(q[0]), mds::overlay::linear_to_srgb8(q[1]),
+                               mds::overlay::linear_to_srgb8(q[2]), 255);
+  };
+  const auto viridis8 = [](double t) {
+    const glm::dvec3 v = mds::render::viridis_srgb(t);
+    auto b = [](double x) { return uint8_t(std::lround(std::clamp(x, 0.0, 1.0) * 255.0)); };
+    return mds::overlay::Rgba8(b(v.r), b(v.g), b(v.b), 255);
+  };
+  for (const std::string look : {"--type-color 1=#ff00ff", "--color-by z"}) {
+    SCOPED_TRACE(look);
+    const fs::path plain = dir_ / "leg0.exr", drawn = dir_ / "leg1.exr", stats = dir_ / "leg.json";
+    ASSERT_EQ(run(base + look + " -o " + plain.string()), 0) << last_stderr();
+    ASSERT_EQ(run(base + look + " --color-legend top-right -o " + drawn.string() + " --stats " + stats.string()), 0)
+        << last_stderr();
+    const nlohmann::json j = nlohmann::json::parse(std::ifstream(stats));
+    ASSERT_EQ(j["color_legend"]["corner"], "top-right");
+    const auto b = j["color_legend"]["box"].get<std::vector<int>>();
+    ASSERT_EQ(b.size(), 4u);
+    EXPECT_EQ(b[2], 160 - 8) << "the right margin";
+    EXPECT_EQ(b[1], 8) << "the top margin";
+    const std::vector<float> a = load_exr(plain), c = load_exr(drawn);
+    ASSERT_EQ(a.size(), size_t(4) * 160 * 120);
+    ASSERT_EQ(c.size(), a.size());
+    size_t differ = 0, magenta = 0, viridis0 = 0, viridis1 = 0;
+    for (int y = 0; y < 120; ++y)
+      for (int x = 0; x < 160; ++x) {
+        const float* p = &a[4 * (size_t(y) * 160 + x)];
+        const float* q = &c[4 * (size_t(y) * 160 + x)];
+        const bool inside = x >= b[0] && x < b[2] && y >= b[1] && y < b[3];
+        if (!inside) {
+          ASSERT_EQ(std::memcmp(p, q, 4 * sizeof(float)), 0) << x << "," << y;
+          continue;
+        }
+        EXPECT_EQ(q[3], 1.0f);
+        differ += std::memcmp(p, q, 3 * sizeof(float)) != 0;
+        magenta += srgb8(q) == mds::overlay::Rgba8(255, 0, 255, 255);
+        viridis0 += srgb8(q) == viridis8(0.0);
+        viridis1 += srgb8(q) == viridis8(1.0);
+      }
+    EXPECT_GT(differ, size_t(b[2] - b[0]) * size_t(b[3] - b[1]) / 2);
+    if (look.find("type-color") != std::string::npos) {
+      EXPECT_EQ(magenta, 49u);
+    } else {
+      EXPECT_GE(viridis0, 10u);  // a row of the 10 px bar at least
+      EXPECT_GE(viridis1, 10u);
+    }
+  }
+  const fs::path bad = dir_ / "leg_bad.png";
+  EXPECT_EQ(run(base + "--color-legend middle -o " + bad.string()), 2);
+  EXPECT_NE(last_stderr().find("--color-legend 'middle'"), std::string::npos) << last_stderr();
+  EXPECT_FALSE(fs::exists(bad));
 }
 
 // --type-color, in memory and streamed: the same view with every type black and then red. A

@@ -36,7 +36,8 @@
 #include "render/scene.h"
 #include "store/store_reader.h"
 #include "viewer/camera_controller.h"
-#include "viewer/canvas.h"
+#include "overlay/canvas.h"
+#include "overlay/color_legend.h"
 #include "viewer/debug_views.h"
 #include "viewer/hud.h"
 #include "viewer/path_recorder.h"
@@ -127,15 +128,15 @@ TEST(ViewerRecorder, KeysChangesAndHolds) {
 TEST(ViewerCanvas, SrgbMatchesWritePngAndRoundTrips) {
   for (int i = 0; i <= 4096; ++i) {
     const float v = float(i) / 4096.0f;
-    ASSERT_EQ(viewer::linear_to_srgb8(v), uint8_t(std::lround(render::linear_to_srgb(v) * 255.0f))) << v;
+    ASSERT_EQ(overlay::linear_to_srgb8(v), uint8_t(std::lround(render::linear_to_srgb(v) * 255.0f))) << v;
   }
-  viewer::Canvas c(256, 1);
+  overlay::Canvas c(256, 1);
   for (int i = 0; i < 256; ++i) c.at(i, 0) = {uint8_t(i), uint8_t(255 - i), uint8_t(i / 2), 255};
-  viewer::Canvas back;
+  overlay::Canvas back;
   back.set_from_linear(c.to_linear());
   for (int i = 0; i < 256; ++i) ASSERT_EQ(back.at(i, 0), c.at(i, 0)) << i;
   // Text draws something inside its reported box and nothing outside.
-  viewer::Canvas t(64, 16, {0, 0, 0, 255});
+  overlay::Canvas t(64, 16, {0, 0, 0, 255});
   const glm::ivec2 size = t.text(1, 1, "Hi 42", {255, 255, 255, 255});
   int lit = 0, outside = 0;
   for (uint32_t y = 0; y < 16; ++y)
@@ -156,23 +157,23 @@ TEST(ViewerHud, LegendShowsASwatchPerType) {
   };
   const std::vector<store::TypeEntry> types = {entry(1, ""), entry(2, "Cu")};
   const std::vector<glm::vec3> colors = {{1.0f, 0.0f, 0.0f}};
-  const auto legend = viewer::type_legend(types, colors);
+  const auto legend = overlay::type_legend(types, colors);
   ASSERT_EQ(legend.size(), 2u);
   EXPECT_EQ(legend[0].label, "1");
-  EXPECT_EQ(legend[0].color, viewer::Rgba8(255, 0, 0, 255));
+  EXPECT_EQ(legend[0].color, overlay::Rgba8(255, 0, 0, 255));
   EXPECT_EQ(legend[1].label, "Cu");
   const glm::vec3 p1 = render::type_color_srgb(1);
-  EXPECT_EQ(legend[1].color, viewer::Rgba8(uint8_t(std::lround(p1.r * 255)), uint8_t(std::lround(p1.g * 255)),
+  EXPECT_EQ(legend[1].color, overlay::Rgba8(uint8_t(std::lround(p1.r * 255)), uint8_t(std::lround(p1.g * 255)),
                                            uint8_t(std::lround(p1.b * 255)), 255));
 
   auto swatches = [](size_t count) {
     viewer::HudState s;
     for (size_t i = 0; i < count; ++i) s.legend.push_back({std::to_string(i + 1), {0, 255, 0, 255}});
-    viewer::Canvas c(640, 400, {0, 0, 0, 255});  // below 800 px: scale 1, 7 x 7 swatches
+    overlay::Canvas c(640, 400, {0, 0, 0, 255});  // below 800 px: scale 1, 7 x 7 swatches
     viewer::draw_hud(c, s);
     size_t green = 0;
     for (uint32_t y = 0; y < c.height(); ++y)
-      for (uint32_t x = 0; x < c.width(); ++x) green += c.at(x, y) == viewer::Rgba8(0, 255, 0, 255);
+      for (uint32_t x = 0; x < c.width(); ++x) green += c.at(x, y) == overlay::Rgba8(0, 255, 0, 255);
     return green;
   };
   EXPECT_EQ(swatches(0), 0u);
@@ -183,15 +184,15 @@ TEST(ViewerHud, LegendShowsASwatchPerType) {
 // With --color-by the legend is the colormap: five swatches from viridis(0) to viridis(1), the
 // first labelled with the axis, each with its coordinate.
 TEST(ViewerHud, ColormapLegendLabelsTheRange) {
-  const auto legend = viewer::colormap_legend(render::color_axis_name(2), {-10.0, 30.0});
+  const auto legend = overlay::colormap_legend(render::color_axis_name(2), {-10.0, 30.0});
   ASSERT_EQ(legend.size(), 5u);
   EXPECT_EQ(legend[0].label, "z -10");
   EXPECT_EQ(legend[2].label, "10");
   EXPECT_EQ(legend[4].label, "30");
-  EXPECT_EQ(viewer::colormap_legend("c_pe", {-7.0, -5.0})[0].label, "c_pe -7");
+  EXPECT_EQ(overlay::colormap_legend("c_pe", {-7.0, -5.0})[0].label, "c_pe -7");
   for (int k : {0, 4}) {
     const glm::dvec3 c = render::viridis_srgb(0.25 * k);
-    EXPECT_EQ(legend[k].color, viewer::Rgba8(uint8_t(std::lround(c.r * 255)), uint8_t(std::lround(c.g * 255)),
+    EXPECT_EQ(legend[k].color, overlay::Rgba8(uint8_t(std::lround(c.r * 255)), uint8_t(std::lround(c.g * 255)),
                                              uint8_t(std::lround(c.b * 255)), 255));
   }
 }
@@ -289,7 +290,7 @@ TEST(ViewerDebugViews, ClassBoxesColourTheirProjection) {
   render::Camera cam = home_camera();
   render::fit_clip_planes(cam, unit_bounds());
   const uint32_t W = 80, H = 60;
-  viewer::Canvas c(W, H, {90, 90, 90, 255});
+  overlay::Canvas c(W, H, {90, 90, 90, 255});
   const std::vector<viewer::Box> boxes = {{{0, 4, 4}, {3, 6, 6}},    // left: O
                                           {{7, 4, 4}, {10, 6, 6}},   // right: P
                                           {{7, 4, 0}, {10, 6, 2}},   // behind the right one: O
@@ -302,12 +303,12 @@ TEST(ViewerDebugViews, ClassBoxesColourTheirProjection) {
     EXPECT_TRUE(proj.project(p, q));
     return c.at(uint32_t(q.x), uint32_t(q.y));
   };
-  const viewer::Rgba8 left = pixel({1.5, 5, 5}), right = pixel({8.5, 5, 5}), top = pixel({5, 8.5, 5});
+  const overlay::Rgba8 left = pixel({1.5, 5, 5}), right = pixel({8.5, 5, 5}), top = pixel({5, 8.5, 5});
   EXPECT_GT(left.r, 2 * left.g) << "O is red";
   EXPECT_GT(right.r, 60) << "P and O mixed: red and green";
   EXPECT_GT(right.g, 60);
-  EXPECT_EQ(top, (viewer::Rgba8{30, 30, 30, 255})) << "an out-of-range class is not drawn, only dimmed";
-  EXPECT_EQ(c.at(0, 0), (viewer::Rgba8{30, 30, 30, 255}));
+  EXPECT_EQ(top, (overlay::Rgba8{30, 30, 30, 255})) << "an out-of-range class is not drawn, only dimmed";
+  EXPECT_EQ(c.at(0, 0), (overlay::Rgba8{30, 30, 30, 255}));
 }
 
 // ------------------------------------------------------------------------------ windowed tests

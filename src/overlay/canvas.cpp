@@ -1,4 +1,4 @@
-#include "viewer/canvas.h"
+#include "overlay/canvas.h"
 
 #include <algorithm>
 #include <array>
@@ -21,7 +21,7 @@
 #pragma GCC diagnostic pop
 #endif
 
-namespace mds::viewer {
+namespace mds::overlay {
 
 namespace {
 
@@ -198,4 +198,4 @@ Status write_canvas_png(const std::filesystem::path& path, const Canvas& canvas)
   return render::write_png(path, canvas.to_linear());
 }
 
-}  // namespace mds::viewer
+}  // namespace mds::overlay

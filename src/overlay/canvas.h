@@ -1,6 +1,7 @@
-// The viewer's 8-bit sRGB frame on the CPU: conversion of the renderer's linear float image
-// (the same sRGB encoding and rounding as render::write_png), and the 2D drawing the HUD and the
-// debug views need: blended rectangles, lines, text (stb_easy_font quads rasterized here).
+// An 8-bit sRGB frame on the CPU: conversion of the renderer's linear float image (the same sRGB
+// encoding and rounding as render::write_png), and the 2D drawing that the viewer's HUD and debug
+// views and the colour legend of rendered images need: blended rectangles, lines, text
+// (stb_easy_font quads rasterized here).
 #pragma once
 
 #include <cstdint>
@@ -13,7 +14,7 @@
 #include "core/result.h"
 #include "render/renderer.h"
 
-namespace mds::viewer {
+namespace mds::overlay {
 
 using Rgba8 = glm::u8vec4;
 
@@ -57,4 +58,4 @@ uint8_t linear_to_srgb8(float v);
 // Writes the canvas as an 8-bit PNG (render::write_png, atomically).
 Status write_canvas_png(const std::filesystem::path& path, const Canvas& canvas);
 
-}  // namespace mds::viewer
+}  // namespace mds::overlay

@@ -23,9 +23,12 @@
 #include "render/camera.h"
 #include "render/renderer.h"
 #include "render/scene.h"
-#include "viewer/canvas.h"
+#include "overlay/canvas.h"
 
 namespace mds::viewer {
+
+using overlay::Canvas;
+using overlay::Rgba8;
 
 enum class DebugView { normal = 1, classes = 2, cull_depth = 3, confidence = 4 };
 const char* debug_view_name(DebugView v);

@@ -59,31 +59,6 @@ std::vector<std::string> hud_lines(const HudState& s) {
   return l;
 }
 
-std::vector<LegendEntry> type_legend(std::span<const store::TypeEntry> types, std::span<const glm::vec3> colors_srgb,
-                                     std::span<const uint8_t> shown) {
-  std::vector<LegendEntry> l;
-  for (size_t i = 0; i < types.size(); ++i) {
-    if (i < shown.size() && !shown[i]) continue;
-    const std::string name(types[i].name, strnlen(types[i].name, sizeof(types[i].name)));
-    const glm::vec3 c = i < colors_srgb.size() ? colors_srgb[i] : render::type_color_srgb(uint32_t(i));
-    auto byte = [](float x) { return uint8_t(std::lround(std::clamp(x, 0.0f, 1.0f) * 255.0f)); };
-    l.push_back({name.empty() ? std::to_string(types[i].input_id) : name, Rgba8(byte(c.r), byte(c.g), byte(c.b), 255)});
-  }
-  return l;
-}
-
-std::vector<LegendEntry> colormap_legend(const std::string& name, glm::dvec2 range) {
-  std::vector<LegendEntry> l;
-  for (int k = 0; k <= 4; ++k) {
-    const double t = 0.25 * k;
-    const glm::dvec3 c = render::viridis_srgb(t);
-    auto byte = [](double x) { return uint8_t(std::lround(std::clamp(x, 0.0, 1.0) * 255.0)); };
-    const std::string v = fmt::format("{:.3g}", range.x + t * (range.y - range.x));
-    l.push_back({k == 0 ? name + " " + v : v, Rgba8(byte(c.r), byte(c.g), byte(c.b), 255)});
-  }
-  return l;
-}
-
 void draw_hud(Canvas& canvas, const HudState& s) {
   const auto lines = hud_lines(s);
   const int scale = canvas.width() >= 800 ? 2 : 1;

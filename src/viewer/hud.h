@@ -10,14 +10,14 @@
 
 #include "render/renderer.h"
 #include "store/format.h"
-#include "viewer/canvas.h"
+#include "overlay/canvas.h"
+#include "overlay/color_legend.h"
 
 namespace mds::viewer {
 
-struct LegendEntry {
-  std::string label;  // the type's name, else its input id (as `mdstream info` lists it)
-  Rgba8 color;        // sRGB 8-bit, as drawn (RenderSettings::type_colors_srgb)
-};
+using overlay::Canvas;
+using overlay::LegendEntry;
+using overlay::Rgba8;
 
 // The HUD's legend shows this many types at most, then "+N".
 inline constexpr size_t kHudLegendMax = 12;
@@ -52,18 +52,12 @@ struct HudState {
   uint32_t render_width = 0, render_height = 0;
   double render_scale = 1.0;
   double frame_ms_target = 0.0;
-  std::vector<LegendEntry> legend;  // one per particle type, in type order (empty: no legend row)
+  // overlay::type_legend (one per particle type, in type order) or overlay::colormap_legend;
+  // empty: no legend row.
+  std::vector<LegendEntry> legend;
 };
 
 std::vector<std::string> hud_lines(const HudState& s);
-// The legend entries of the store's types with the colours the renderer uses; a type with
-// shown[t] == 0 (--hide-type) is left out (empty `shown`: every type).
-std::vector<LegendEntry> type_legend(std::span<const store::TypeEntry> types, std::span<const glm::vec3> colors_srgb,
-                                     std::span<const uint8_t> shown = {});
-// The legend of colour by coordinate or property (--color-by x|y|z|property): five swatches of
-// the colormap at t = 0, 1/4, .., 1, labelled with their value (the first with `name` too: the
-// axis, or the property's name).
-std::vector<LegendEntry> colormap_legend(const std::string& name, glm::dvec2 range);
 // Draws the lines, then the legend row (a swatch and a label per type), over a translucent box
 // at the top-left; scale 1 below 800 px width, else 2.
 void draw_hud(Canvas& canvas, const HudState& s);

@@ -15,7 +15,7 @@
 #include "render/camera_path.h"
 #include "render/pick.h"
 #include "viewer/camera_controller.h"
-#include "viewer/canvas.h"
+#include "overlay/canvas.h"
 #include "viewer/debug_views.h"
 #include "viewer/frame_log.h"
 #include "viewer/hud.h"
@@ -181,11 +181,11 @@ Status Viewer::setup() {
   hud_.meshlets = host_->meshlets();
   const render::ColorBy& color_by = host_->settings().color_by;
   if (!color_by.by_type() && host_->renderer())
-    hud_.legend = colormap_legend(color_by.by_property() ? std::string(host_->reader().header().property_name)
+    hud_.legend = overlay::colormap_legend(color_by.by_property() ? std::string(host_->reader().header().property_name)
                                                          : render::color_axis_name(color_by.axis),
                                   host_->renderer()->color_range());
   else
-    hud_.legend = type_legend(host_->reader().types(), host_->settings().type_colors_srgb, host_->shown_types());
+    hud_.legend = overlay::type_legend(host_->reader().types(), host_->settings().type_colors_srgb, host_->shown_types());
   return {};
 }
 
@@ -288,7 +288,7 @@ void Viewer::handle_keys(const InputFrame& in, bool& recreate, bool& quit, doubl
       }
       case GLFW_KEY_P: {
         const std::string name = screenshot_name();
-        Status st = write_canvas_png(name, display_);
+        Status st = overlay::write_canvas_png(name, display_);
         say(st.ok() ? "saved " + name : st.error().message);
         break;
       }
@@ -670,7 +670,7 @@ Status Viewer::run() {
 
   // Outputs (each written atomically).
   if (render_error_) return *render_error_;
-  if (!o_.screenshot.empty()) MDS_TRY(write_canvas_png(o_.screenshot, display_));
+  if (!o_.screenshot.empty()) MDS_TRY(overlay::write_canvas_png(o_.screenshot, display_));
   if (recorder_) {
     if (recorder_->key_count() == 0) return make_error(Errc::internal, "--record {}: no frame was shown", o_.record);
     MDS_TRY(recorder_->path().save(o_.record));

@@ -9,7 +9,7 @@
 #include <GLFW/glfw3.h>
 
 #include "vk/check.h"
-#include "viewer/canvas.h"
+#include "overlay/canvas.h"
 
 namespace mds::viewer {
 

@@ -17,9 +17,13 @@
 
 struct GLFWwindow;
 
+namespace mds::overlay {
+class Canvas;
+}
+
 namespace mds::viewer {
 
-class Canvas;
+using overlay::Canvas;
 
 // GLFW library + one window. glfwInit/glfwTerminate are paired by this object.
 class Window {

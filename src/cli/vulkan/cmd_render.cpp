@@ -37,6 +37,7 @@
 #include "core/frame_selection.h"
 #include "store/series.h"
 #include "render/visible_nodes.h"
+#include "overlay/color_legend.h"
 #include "store/store_reader.h"
 #include "streaming/residency.h"
 #include "vk/context.h"
@@ -64,6 +65,7 @@ struct RenderOptions {
   std::string series_frames = "all";  // --series-frames of a .series STORE
   std::vector<std::string> picks;     // --pick X,Y: the particle a pixel shows (render/pick.h)
   std::string node_log;               // --node-log CSV (write_node_log)
+  std::string color_legend = "off";   // --color-legend CORNER (overlay/color_legend.h)
 };
 
 // What a series render fixes for every frame (run_render_series); empty for one store.
@@ -145,6 +147,23 @@ Status write_node_log(const std::string& path, const store::StoreReader& reader,
   return write_text_atomically(path, csv);
 }
 
+// The legend of what the image's colours mean (--color-legend): the colormap over the renderer's
+// colour range, titled by the axis or the property's name, or the drawn types and their colours.
+overlay::ColorLegend color_legend(const render::RenderSettings& rs, const render::Renderer& renderer,
+                                  const store::StoreReader& reader, std::span<const uint8_t> shown) {
+  overlay::ColorLegend l;
+  if (rs.color_by.by_type()) {
+    l.title = "type";
+    l.entries = overlay::type_legend(reader.types(), rs.type_colors_srgb, shown);
+  } else {
+    l.colormap = true;
+    l.title = rs.color_by.by_property() ? std::string(reader.header().property_name)
+                                        : render::color_axis_name(rs.color_by.axis);
+    l.range = renderer.color_range();
+  }
+  return l;
+}
+
 nlohmann::json vec3_json(const glm::dvec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); }
 
 // The pixels of --pick, each inside the image: checked before anything is rendered.
@@ -204,6 +223,8 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.fov);
   MDS_ASSIGN_OR_RETURN(const Appearance look, parse_appearance_options(o.look));
   MDS_ASSIGN_OR_RETURN(const std::vector<glm::uvec2> picks, pick_pixels(o));
+  auto corner = overlay::parse_legend_corner(o.color_legend);
+  if (!corner.ok()) return make_error(Errc::invalid_argument, "--color-legend {}", corner.error().message);
   // --path: an animation (render_path.h). A path file is read before any other work.
   std::optional<render::BuiltinPath> builtin;
   render::CameraPath path;
@@ -312,8 +333,10 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
         path = render::CameraPath(std::move(keys));
       }
     }
-    return render_path(*renderer, path,
-                       {o.output, o.stats, streaming, uint64_t(ctx->limits().maxStorageBufferRange)});
+    PathRenderOptions po{o.output, o.stats, streaming, uint64_t(ctx->limits().maxStorageBufferRange)};
+    po.legend_corner = *corner;
+    po.legend = color_legend(rs, *renderer, *reader, shown);
+    return render_path(*renderer, path, po);
   }
   render::RenderStats stats;
   MDS_ASSIGN_OR_RETURN(render::FrameImage image, renderer->render(camera, &stats));
@@ -341,6 +364,8 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
     }
     std::fflush(stdout);
   }
+  const overlay::PixelBox legend_box =
+      overlay::overlay_color_legend(image, color_legend(rs, *renderer, *reader, shown), *corner);
   MDS_TRY(render::write_image(o.output, image));
   if (fs.prior_out) *fs.prior_out = renderer->prior_view();
 
@@ -371,6 +396,9 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
     j["sprite_path"] = stats.mesh_sprites ? "mesh" : "compute";
     j["pixel_route"] = stats.visibility_route ? "visibility" : "attachments";
     j["accumulation"] = stats.accumulation_buffer ? "buffer" : "image";
+    if (*corner != overlay::LegendCorner::off)
+      j["color_legend"] = {{"corner", overlay::legend_corner_name(*corner)},
+                           {"box", {legend_box.x0, legend_box.y0, legend_box.x1, legend_box.y1}}};
     j["ambient_occlusion"] = {{"mode", render::ao_mode_name(look.ao.mode)}, {"on", stats.ambient_occlusion},
                               {"radius", ao.radius},  {"strength", ao.strength}};
     if (ao.packing >= 0.0) j["ambient_occlusion"]["packing_fraction"] = ao.packing;
@@ -682,6 +710,11 @@ void setup_render(CLI::App& sub, int& exit_code) {
   sub.add_flag("--visible-reference", opt->visible_reference,
                "Also compute, on the CPU, which meshlets hold a visible particle of the last frame "
                "(stats: visible_meshlets, visible_meshlet_fraction, kept_over_visible_meshlets)");
+  sub.add_option("--color-legend", opt->color_legend,
+                 "Draw what the colours mean into the image, in a corner: off, top-left, top-right, bottom-left or "
+                 "bottom-right; the types and their colours, or with --color-by the colormap as a bar with its "
+                 "values (OVITO's colour legend; docs/rendering.md, \"Colour legend\")")
+      ->capture_default_str();
   sub.add_option("--node-log", opt->node_log,
                  "Write one CSV row per node of the store after the last frame: its particles, payload bytes, "
                  "class and (with --visible-reference) whether it holds a visible particle; with --gpu-budget "

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/result.h"
+#include "overlay/color_legend.h"
 #include "render/camera.h"
 #include "render/camera_path.h"
 #include "render/renderer.h"
@@ -26,6 +27,8 @@ struct PathRenderOptions {
   std::string stats;           // --stats JSON ("" = none)
   bool streaming = false;
   uint64_t max_storage_range = 0;  // the device's, for cache_warnings
+  overlay::LegendCorner legend_corner = overlay::LegendCorner::off;  // --color-legend
+  overlay::ColorLegend legend;                                       //   ... drawn into every frame
 };
 
 // Renders every frame of `path` with `renderer` and writes frame_file_name(pattern, f) for each;
