@@ -1,5 +1,5 @@
 // The colour legend of rendered images (overlay/color_legend.h; `render --color-legend`): where
-// its panel goes, the colormap bar's rows against render::viridis_srgb, a swatch per type in its
+// its panel goes, the colormap bar's rows against render::colormap_srgb, a swatch per type in its
 // colour, the "+N" row past kLegendRowsMax, the text scale with the image height, and the
 // overlay on a linear image that leaves every pixel outside the panel as it was, to the bit.
 #include <gtest/gtest.h>
@@ -20,17 +20,18 @@ using overlay::ColorLegend;
 using overlay::LegendCorner;
 using overlay::Rgba8;
 
-Rgba8 viridis8(double t) {
-  const glm::dvec3 c = render::viridis_srgb(t);
+Rgba8 colormap8(render::Colormap map, double t) {
+  const glm::dvec3 c = render::colormap_srgb(map, t);
   auto b = [](double x) { return uint8_t(std::lround(std::clamp(x, 0.0, 1.0) * 255.0)); };
   return {b(c.r), b(c.g), b(c.b), 255};
 }
 
-ColorLegend colormap(glm::dvec2 range) {
+ColorLegend colormap(glm::dvec2 range, render::Colormap map = render::Colormap::viridis) {
   ColorLegend l;
   l.title = "z";
   l.colormap = true;
   l.range = range;
+  l.map = map;
   return l;
 }
 
@@ -92,31 +93,36 @@ TEST(ColorLegend, CornersParseAndPlaceThePanel) {
   overlay::draw_color_legend(small, colormap({0, 1}), LegendCorner::bottom_right);  // clipped, no write outside
 }
 
-// The bar: one column through it holds viridis(1) in its first row and viridis(0) in its last,
-// and every row between at t = 1 - (row - first) / (last - first); five rows of text at least.
-TEST(ColorLegend, TheBarRunsFromViridisOneAtTheTopToZeroAtTheBottom) {
-  const Rgba8 fill{0, 0, 0, 255};
-  Canvas c(640, 400, fill);
-  const auto box = overlay::draw_color_legend(c, colormap({-10.0, 30.0}), LegendCorner::top_right);
-  ASSERT_FALSE(box.empty());
-  EXPECT_EQ(changed_outside(c, box, fill), 0u);
-  const uint32_t x = uint32_t(box.x0 + 4 + 5);  // the padding, then the middle of the 10 px bar
-  int first = -1, last = -1;
-  for (int y = box.y0; y < box.y1; ++y) {
-    if (first < 0 && c.at(x, uint32_t(y)) == viridis8(1.0)) first = y;
-    if (c.at(x, uint32_t(y)) == viridis8(0.0)) last = y;
+// The bar: one column through it holds the map at 1 in its first row and at 0 in its last, and
+// every row between at t = 1 - (row - first) / (last - first); five rows of text at least.
+// Viridis (the default) and magma (--colormap).
+TEST(ColorLegend, TheBarRunsFromTheMapAtOneAtTheTopToZeroAtTheBottom) {
+  for (const render::Colormap map : {render::Colormap::viridis, render::Colormap::magma}) {
+    SCOPED_TRACE(render::colormap_name(map));
+    const auto map8 = [map](double t) { return colormap8(map, t); };
+    const Rgba8 fill{0, 0, 0, 255};
+    Canvas c(640, 400, fill);
+    const auto box = overlay::draw_color_legend(c, colormap({-10.0, 30.0}, map), LegendCorner::top_right);
+    ASSERT_FALSE(box.empty());
+    EXPECT_EQ(changed_outside(c, box, fill), 0u);
+    const uint32_t x = uint32_t(box.x0 + 4 + 5);  // the padding, then the middle of the 10 px bar
+    int first = -1, last = -1;
+    for (int y = box.y0; y < box.y1; ++y) {
+      if (first < 0 && c.at(x, uint32_t(y)) == map8(1.0)) first = y;
+      if (c.at(x, uint32_t(y)) == map8(0.0)) last = y;
+    }
+    ASSERT_GE(first, 0);
+    ASSERT_GT(last, first);
+    EXPECT_GE(last - first + 1, 5 * 10);
+    EXPECT_EQ(last - first + 1, int(0.3 * 400));  // 30 % of the height
+    for (int y = first; y <= last; ++y)
+      ASSERT_EQ(c.at(x, uint32_t(y)), map8(1.0 - double(y - first) / double(last - first))) << y;
+    // The labels right of the bar: light text.
+    size_t text = 0;
+    for (int y = box.y0; y < box.y1; ++y)
+      for (int xx = int(x) + 10; xx < box.x1; ++xx) text += c.at(uint32_t(xx), uint32_t(y)) == Rgba8(235, 235, 235, 255);
+    EXPECT_GT(text, 50u);
   }
-  ASSERT_GE(first, 0);
-  ASSERT_GT(last, first);
-  EXPECT_GE(last - first + 1, 5 * 10);
-  EXPECT_EQ(last - first + 1, int(0.3 * 400));  // 30 % of the height
-  for (int y = first; y <= last; ++y)
-    ASSERT_EQ(c.at(x, uint32_t(y)), viridis8(1.0 - double(y - first) / double(last - first))) << y;
-  // The labels right of the bar: light text.
-  size_t text = 0;
-  for (int y = box.y0; y < box.y1; ++y)
-    for (int xx = int(x) + 10; xx < box.x1; ++xx) text += c.at(uint32_t(xx), uint32_t(y)) == Rgba8(235, 235, 235, 255);
-  EXPECT_GT(text, 50u);
   EXPECT_EQ(overlay::colormap_tick({-10.0, 30.0}, 0), "-10");
   EXPECT_EQ(overlay::colormap_tick({-10.0, 30.0}, 2), "10");
   EXPECT_EQ(overlay::colormap_tick({-10.0, 30.0}, 4), "30");

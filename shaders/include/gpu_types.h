@@ -54,10 +54,13 @@ MDS_CONST(uint, kFramePerParticleRadius, 2u);
 MDS_CONST(uint, kFrameExactCoverage, 8u);  // occlusion samples: alpha_s by exact clipping (CullSettings::coverage exact or automatic)
 MDS_CONST(uint, kFrameMixedCoverage, 16u);  // with kFrameExactCoverage: exact only below kMixedExactBelowPx (Coverage::automatic)
 MDS_CONST(uint, kFrameTimingOnly, 4u);  // accumulate adds 0 x colour: full cost, the image keeps its spp samples
-MDS_CONST(uint, kFrameColorMap, 32u);  // colour by coordinate: viridis of color_plane (particle_color.h), not the type's
+MDS_CONST(uint, kFrameColorMap, 32u);  // colour by coordinate: the colormap of color_plane (particle_color.h), not the type's
 // With kFrameColorMap: colour by the per-particle property instead, t = color_plane.x * q + color_plane.w for its
 // quantized value q (GpuSprite.flags bits 16..31, read from kBindProperty by sprite_make.h).
 MDS_CONST(uint, kFrameColorProperty, 64u);
+// FrameUniforms::colormap: the samples of the colormap of --colormap (render/colormap_table.h),
+// 65 x 16 B = 1040 B of the uniform block.
+MDS_CONST(uint, kColormapSamples, 65u);
 
 // Per-frame constants (std140 uniform block).
 MDS_STRUCT(FrameUniforms) {
@@ -72,6 +75,8 @@ MDS_STRUCT(FrameUniforms) {
                       // with kFrameColorProperty t = x * property_q + w
   vec4 ao;            // ambient occlusion (shading/ambient_occlusion.h): radius (world = view units),
                       // strength (0: off), 0, 0; the visibility resolve applies it
+  vec4 colormap[kColormapSamples];  // with kFrameColorMap: sRGB at t = k / (kColormapSamples - 1), w 0
+                                    // (render::colormap_srgb interpolates as particle_color.h)
 };
 
 // GpuNode::flags. Left out: the slices (--slice) keep none of the node's particles (its box lies
@@ -222,7 +227,8 @@ static_assert(offsetof(SpriteDrawHeader, raster_x) == 56);
 static_assert(offsetof(SpriteDrawHeader, occluded) == 48);
 static_assert(offsetof(SpriteDrawHeader, quad_vertex_count) == 16);
 static_assert(offsetof(SpriteDrawHeader, dispatch_x) == 32);
-static_assert(sizeof(FrameUniforms) == 288);
+static_assert(sizeof(FrameUniforms) == 288 + 16 * kColormapSamples);
+static_assert(offsetof(FrameUniforms, colormap) == 288);
 static_assert(offsetof(FrameUniforms, ao) == 272);
 static_assert(offsetof(FrameUniforms, color_plane) == 256);
 static_assert(offsetof(FrameUniforms, viewport) == 192);

@@ -15,8 +15,8 @@ namespace {
 
 uint8_t byte_of(double x) { return uint8_t(std::lround(std::clamp(x, 0.0, 1.0) * 255.0)); }
 
-Rgba8 viridis8(double t) {
-  const glm::dvec3 c = render::viridis_srgb(t);
+Rgba8 colormap8(render::Colormap map, double t) {
+  const glm::dvec3 c = render::colormap_srgb(map, t);
   return {byte_of(c.r), byte_of(c.g), byte_of(c.b), 255};
 }
 
@@ -90,11 +90,11 @@ std::string colormap_tick(glm::dvec2 range, int k) {
   return fmt::format("{:.3g}", range.x + 0.25 * k * (range.y - range.x));
 }
 
-std::vector<LegendEntry> colormap_legend(const std::string& name, glm::dvec2 range) {
+std::vector<LegendEntry> colormap_legend(const std::string& name, glm::dvec2 range, render::Colormap map) {
   std::vector<LegendEntry> l;
   for (int k = 0; k <= 4; ++k) {
     const std::string v = colormap_tick(range, k);
-    l.push_back({k == 0 ? name + " " + v : v, viridis8(0.25 * k)});
+    l.push_back({k == 0 ? name + " " + v : v, colormap8(map, 0.25 * k)});
   }
   return l;
 }
@@ -140,7 +140,7 @@ PixelBox draw_color_legend(Canvas& canvas, const ColorLegend& legend, LegendCorn
     const int top = o.y + y.bar_top;
     for (int r = 0; r < y.bar_h; ++r) {
       const double t = y.bar_h > 1 ? 1.0 - double(r) / double(y.bar_h - 1) : 0.5;
-      canvas.fill_rect(x, top + r, x + y.bar_w, top + r + 1, viridis8(t));
+      canvas.fill_rect(x, top + r, x + y.bar_w, top + r + 1, colormap8(legend.map, t));
     }
     for (int k = 4; k >= 0; --k) {
       const int row = top + int(std::lround((1.0 - 0.25 * k) * (y.bar_h - 1)));

@@ -14,6 +14,7 @@
 
 #include "core/result.h"
 #include "overlay/canvas.h"
+#include "render/colormap.h"
 #include "render/renderer.h"
 #include "store/format.h"
 
@@ -29,9 +30,10 @@ struct LegendEntry {
 std::vector<LegendEntry> type_legend(std::span<const store::TypeEntry> types, std::span<const glm::vec3> colors_srgb,
                                      std::span<const uint8_t> shown = {});
 // The legend of colour by coordinate or property (--color-by x|y|z|property): five swatches of
-// the colormap at t = 0, 1/4, .., 1, labelled with their value (the first with `name` too: the
+// the colormap (--colormap) at t = 0, 1/4, .., 1, labelled with their value (the first with `name` too: the
 // axis, or the property's name).
-std::vector<LegendEntry> colormap_legend(const std::string& name, glm::dvec2 range);
+std::vector<LegendEntry> colormap_legend(const std::string& name, glm::dvec2 range,
+                                        render::Colormap map = render::Colormap::viridis);
 // The value of colormap_legend's entry k (0..4) without the name: "{:.3g}" of lo + k/4 (hi - lo).
 std::string colormap_tick(glm::dvec2 range, int k);
 
@@ -46,6 +48,7 @@ struct ColorLegend {
   std::string title;
   bool colormap = false;
   glm::dvec2 range{0.0, 1.0};        // colormap: the values of t = 0 and t = 1
+  render::Colormap map = render::Colormap::viridis;
   std::vector<LegendEntry> entries;  // types: one row each, at most kLegendRowsMax, then "+N"
 };
 inline constexpr size_t kLegendRowsMax = 24;
@@ -61,7 +64,7 @@ struct PixelBox {
 // LegendCorner::off). The colour bar is max(5 rows of text, 30 % of the height) tall.
 PixelBox legend_box(const ColorLegend& legend, uint32_t width, uint32_t height, LegendCorner corner);
 // Draws the legend on the canvas in legend_box: a translucent black panel, the title, then the
-// bar (t = 1 at its top row, t = 0 at its bottom row; each row viridis_srgb(t) in 8 bits, as
+// bar (t = 1 at its top row, t = 0 at its bottom row; each row colormap_srgb(map, t) in 8 bits, as
 // colormap_legend's swatches) with a label at t = 1, 3/4, .., 0, or a swatch and a label per
 // entry. Returns the box.
 PixelBox draw_color_legend(Canvas& canvas, const ColorLegend& legend, LegendCorner corner);

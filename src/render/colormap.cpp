@@ -1,28 +1,47 @@
-// Colour by coordinate: viridis and the view-space plane of the colormap coordinate
+// Colour by coordinate: the colormaps and the view-space plane of the colormap coordinate
 // (render/colormap.h; mirrored by shaders/include/particle_color.h).
 #include "render/colormap.h"
 
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <iterator>
+
+#include "gpu_types.h"
+#include "render/colormap_table.h"
 
 namespace mds::render {
 
-glm::dvec3 viridis_srgb(double t) {
-  // The coefficients of shaders/include/particle_color.h mds_viridis_srgb, in the same order.
-  static const glm::dvec3 c[7] = {
-      {0.2777273272234177, 0.005407344544966578, 0.3340998053353061},
-      {0.1050930431085774, 1.404613529898575, 1.384590162594685},
-      {-0.3308618287255563, 0.214847559468213, 0.09509516302823659},
-      {-4.634230498983486, -5.799100973351585, -19.33244095627987},
-      {6.228269936347081, 14.17993336680509, 56.69055260068105},
-      {4.776384997670288, -13.74514537774601, -65.35303263337234},
-      {-5.435455855934631, 4.645852612178535, 26.3124352495832},
-  };
-  t = std::clamp(t, 0.0, 1.0);
-  glm::dvec3 v = c[6];
-  for (int k = 5; k >= 0; --k) v = c[k] + t * v;  // Horner, as the shader
-  return glm::clamp(v, glm::dvec3(0.0), glm::dvec3(1.0));
+namespace {
+constexpr const char* kColormapNames[] = {"viridis", "plasma", "magma", "inferno", "cividis", "turbo", "coolwarm", "gray"};
+static_assert(std::size(kColormapNames) == kColormapTableCount, "render::Colormap and colormap_table.h disagree");
+static_assert(kColormapTableSamples == gpu::kColormapSamples, "FrameUniforms::colormap holds a map's samples");
+}  // namespace
+
+const char* colormap_name(Colormap m) {
+  const size_t i = size_t(m);
+  return i < std::size(kColormapNames) ? kColormapNames[i] : "viridis";
+}
+
+Result<Colormap> parse_colormap(std::string_view s) {
+  for (size_t i = 0; i < std::size(kColormapNames); ++i)
+    if (s == kColormapNames[i]) return Colormap(i);
+  return make_error(Errc::invalid_argument,
+                    "'{}': expected viridis, plasma, magma, inferno, cividis, turbo, coolwarm or gray", s);
+}
+
+glm::dvec3 colormap_sample(Colormap m, unsigned k) {
+  const size_t i = std::min<size_t>(size_t(m), kColormapTableCount - 1) * kColormapTableSamples +
+                   std::min(k, kColormapTableSamples - 1);
+  return {kColormapTable[i][0], kColormapTable[i][1], kColormapTable[i][2]};
+}
+
+glm::dvec3 colormap_srgb(Colormap m, double t) {
+  // mds_colormap_srgb (shaders/include/particle_color.h) in double: the same index and weight.
+  const double x = std::clamp(t, 0.0, 1.0) * double(kColormapTableSamples - 1);
+  const unsigned i = std::min(unsigned(x), kColormapTableSamples - 2);
+  const double f = x - double(i);
+  return colormap_sample(m, i) * (1.0 - f) + colormap_sample(m, i + 1) * f;  // GLSL mix
 }
 
 Result<int> parse_color_axis(std::string_view s) {

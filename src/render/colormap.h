@@ -1,10 +1,12 @@
 // Colour by coordinate (`--color-by x|y|z`, OVITO's "color coding" of a position component) or
 // by the store's per-particle property (`--color-by property`: a LAMMPS column, an H5MD element,
-// MMPLD intensity; `convert --property`): each particle takes the viridis colour of t = (its
-// value - lo) / (hi - lo), clamped to [0, 1], instead of its type's colour. The double-precision originals of
-// the shaders' shaders/include/particle_color.h (mds_viridis_srgb, mds_particle_color's plane).
+// MMPLD intensity; `convert --property`): each particle takes the colour of t = (its value - lo)
+// / (hi - lo), clamped to [0, 1], in the colormap of `--colormap` (viridis by default), instead
+// of its type's colour. The double-precision originals of the shaders'
+// shaders/include/particle_color.h (mds_colormap_srgb, mds_particle_color's plane).
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <string_view>
 
@@ -14,9 +16,23 @@
 
 namespace mds::render {
 
-// Matplotlib's viridis at t (clamped to [0, 1]) as sRGB in [0, 1]: a degree-6 polynomial
-// (Matt Zucker's least-squares fit, CC0), within 0.018 of matplotlib 3.6's 256-entry table.
-glm::dvec3 viridis_srgb(double t);
+// The colormaps of --colormap, in the order of render/colormap_table.h (its tables are
+// matplotlib's, sampled by tools/gen_colormaps.py). viridis .. cividis: perceptually uniform,
+// sequential; turbo: a rainbow (Google's); coolwarm: diverging, for signed quantities (Moreland);
+// gray: black to white.
+enum class Colormap : uint8_t { viridis, plasma, magma, inferno, cividis, turbo, coolwarm, gray };
+// The name as --colormap takes it; parse_colormap's inverse (Errc::invalid_argument naming the
+// choices otherwise).
+const char* colormap_name(Colormap m);
+Result<Colormap> parse_colormap(std::string_view s);
+
+// Colormap m at t (clamped to [0, 1]) as sRGB in [0, 1]: the linear interpolation of its table
+// 65 samples (colormap_sample), as mds_colormap_srgb does in float. Within 0.015 of
+// matplotlib's 256-entry maps on every channel (ColorMap.EveryMapIsCloseToMatplotlib).
+glm::dvec3 colormap_srgb(Colormap m, double t);
+// Sample k (0..64) of map m's table, sRGB (FrameUniforms::colormap holds the 65 of the chosen map).
+glm::dvec3 colormap_sample(Colormap m, unsigned k);
+inline glm::dvec3 viridis_srgb(double t) { return colormap_srgb(Colormap::viridis, t); }
 
 inline constexpr int kColorByProperty = 3;  // ColorBy::axis of --color-by property
 inline constexpr int kColorByName = 4;      // --color-by NAME, until resolve_color_by finds the store's property
@@ -27,6 +43,7 @@ inline constexpr int kColorByName = 4;      // --color-by NAME, until resolve_co
 struct ColorBy {
   int axis = -1;
   double lo = 0.0, hi = 0.0;
+  Colormap map = Colormap::viridis;  // --colormap
   std::string name;  // with kColorByName: the property's name as given
   bool by_type() const { return axis < 0; }
   bool by_property() const { return axis == kColorByProperty; }

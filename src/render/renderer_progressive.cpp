@@ -145,6 +145,9 @@ void Renderer::Impl::write_frame_uniforms(const Camera& camera, uint32_t sample,
     fu.color_plane = glm::vec4(color_plane(view, origin, settings.color_by.axis, range.x, range.y));
     color_flag = gpu::kFrameColorMap;
   }
+  if (color_flag)
+    for (uint32_t k = 0; k < gpu::kColormapSamples; ++k)
+      fu.colormap[k] = glm::vec4(glm::vec3(colormap_sample(settings.color_by.map, k)), 0.0f);
   fu.counts = glm::uvec4(meshlet_count, max_meshlet,
                          flags | extra_flags | color_flag | (camera.ortho ? gpu::kFrameOrtho : 0u), sample);
   // The particle occlusion test (particle_occlusion.h) once the view's culling has stopped: the

@@ -183,7 +183,7 @@ Status Viewer::setup() {
   if (!color_by.by_type() && host_->renderer())
     hud_.legend = overlay::colormap_legend(color_by.by_property() ? std::string(host_->reader().header().property_name)
                                                          : render::color_axis_name(color_by.axis),
-                                  host_->renderer()->color_range());
+                                  host_->renderer()->color_range(), color_by.map);
   else
     hud_.legend = overlay::type_legend(host_->reader().types(), host_->settings().type_colors_srgb, host_->shown_types());
   return {};

@@ -160,6 +160,7 @@ overlay::ColorLegend color_legend(const render::RenderSettings& rs, const render
     l.title = rs.color_by.by_property() ? std::string(reader.header().property_name)
                                         : render::color_axis_name(rs.color_by.axis);
     l.range = renderer.color_range();
+    l.map = rs.color_by.map;
   }
   return l;
 }
@@ -550,7 +551,7 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
     if (!rs.color_by.by_type()) {  // the range as drawn (the data's bounds unless --color-range)
       const glm::dvec2 range = renderer->color_range();
       j["color_by"] = {{"axis", render::color_axis_name(rs.color_by.axis)}, {"range", {range.x, range.y}},
-                       {"colormap", "viridis"}};
+                       {"colormap", render::colormap_name(rs.color_by.map)}};
       if (rs.color_by.by_property()) j["color_by"]["property"] = std::string(reader->header().property_name);
     } else {
       j["color_by"] = {{"axis", "type"}};

@@ -116,7 +116,12 @@ void add_appearance_options(CLI::App& sub, AppearanceOptions& o) {
       ->allow_extra_args(false);
   sub.add_option("--color-by", o.color_by,
                  "Colour the particles by their type, a coordinate or the store's per-particle property (convert "
-                 "--property): type, x, y, z, property or the property's name (viridis over --color-range)")
+                 "--property): type, x, y, z, property or the property's name (--colormap over --color-range)")
+      ->capture_default_str();
+  sub.add_option("--colormap", o.colormap,
+                 "Colormap of --color-by x|y|z|property: viridis, plasma, magma, inferno, cividis (perceptually "
+                 "uniform), turbo (a rainbow), coolwarm (diverging, for signed quantities) or gray; matplotlib's "
+                 "maps (docs/rendering.md, \"Colours, radii and hidden types\")")
       ->capture_default_str();
   sub.add_option("--color-range", o.color_range,
                  "LO:HI, the values --color-by maps to the two ends of the colormap (world units or the property's; "
@@ -178,6 +183,11 @@ Result<Appearance> parse_appearance_options(const AppearanceOptions& o) {
     a.color_by.lo = range->x;
     a.color_by.hi = range->y;
   }
+  auto map = render::parse_colormap(o.colormap);
+  if (!map) return make_error(Errc::invalid_argument, "--colormap {}", map.error().message);
+  if (*map != render::Colormap::viridis && a.color_by.by_type())
+    return make_error(Errc::invalid_argument, "--colormap needs --color-by x, y, z or property");
+  a.color_by.map = *map;
   MDS_ASSIGN_OR_RETURN(a.ao.mode, render::parse_ao_mode(o.ao));
   a.ao.radius = o.ao_radius;
   a.ao.strength = o.ao_strength;

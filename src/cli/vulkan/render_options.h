@@ -56,6 +56,7 @@ struct AppearanceOptions {
   std::vector<std::string> slices;             // --slice NX,NY,NZ,D[,WIDTH][,invert] (in memory only)
   std::string color_by = "type";               // --color-by type|x|y|z|property|NAME
   std::string color_range;                     // --color-range LO:HI (default: the data's bounds)
+  std::string colormap = "viridis";            // --colormap (render::Colormap)
   std::string ao = "off";                      // --ao off|on|auto (shading/ambient_occlusion.h)
   double ao_radius = 0.0;                      // --ao-radius (0: 3 x the largest particle radius)
   double ao_strength = 1.0;                    // --ao-strength
@@ -67,7 +68,7 @@ struct Appearance {
   std::vector<store::TypeRadiusSpec> type_radii;
   std::vector<std::string> hide_types;  // type keys (store::find_type)
   std::vector<store::Slice> slices;     // --slice
-  render::ColorBy color_by;             // --color-by, --color-range
+  render::ColorBy color_by;             // --color-by, --color-range, --colormap
   shading::AoSettings ao;               // --ao, --ao-radius, --ao-strength
 };
 
