@@ -154,13 +154,41 @@ TEST_F(StressCli, EveryPolicyOnJumpsWritesConsistentJsonAndCsv) {
   const uint64_t budget = store_bytes / 4;
   for (const char* policy : {"occlusion", "lru", "fifo"}) {
     SCOPED_TRACE(policy);
-    const fs::path js = dir_ / (std::string(policy) + ".json"), csv = dir_ / (std::string(policy) + ".csv");
+    const fs::path js = dir_ / (std::string(policy) + ".json"), csv = dir_ / (std::string(policy) + ".csv"),
+                   nlog = dir_ / (std::string(policy) + "_nodes.csv");
     ASSERT_EQ(run("stress " + store() + " --gpu-budget " + std::to_string(budget) + " --path jumps --frames 24 --policy " +
-                  policy + " --settle-frames 40 --json " + js.string() + " --csv " + csv.string() + small()),
+                  policy + " --settle-frames 40 --json " + js.string() + " --csv " + csv.string() + " --node-log " +
+                  nlog.string() + small()),
               0)
         << last_stderr();
     std::ifstream f(js);
     const auto j = nlohmann::json::parse(f);
+    // --node-log: a row per node; what the path loaded, re-read included, adds up to the report.
+    {
+      std::istringstream log(slurp(nlog));
+      std::string line;
+      ASSERT_TRUE(std::getline(log, line));
+      const auto head = split_csv_line(line);
+      ASSERT_EQ(head.size(), 12u);
+      EXPECT_EQ(head[6], "requests");
+      uint64_t rows = 0, loaded = 0, requests = 0, requested_bytes = 0;
+      while (std::getline(log, line)) {
+        const auto c = split_csv_line(line);
+        ASSERT_EQ(c.size(), 12u) << line;
+        ++rows;
+        loaded += c[8] == "1";
+        requests += std::stoull(c[6]);
+        requested_bytes += std::stoull(c[6]) * std::stoull(c[2]);
+        if (c[8] == "1") {
+          EXPECT_NE(c[6], "0") << "node " << c[0] << " loaded without a read";
+        }
+      }
+      EXPECT_EQ(rows, j["nodes"].get<uint64_t>());
+      EXPECT_EQ(loaded, rows - j["nodes_never_loaded"].get<uint64_t>());
+      EXPECT_GE(requests, j["nodes_loaded"].get<uint64_t>()) << "every upload was read";
+      EXPECT_GE(requested_bytes, j["bytes_read"].get<uint64_t>());
+      EXPECT_GT(requests, loaded) << "jumps at a quarter of the store read some nodes again";
+    }
     EXPECT_EQ(j["policy"].get<std::string>(), policy);
     EXPECT_EQ(j["path"].get<std::string>(), "jumps");
     EXPECT_EQ(j["frames"].get<uint32_t>(), 24u);
@@ -527,13 +555,25 @@ TEST_F(StressCli, CameraPathFile) {
 TEST_F(StressCli, HeldDefaultViewFromAColdCache) {
   const fs::path js = dir_ / "view0.json";
   const uint64_t budget = fs::file_size(store()) / 2;
+  const fs::path nlog = dir_ / "view0_nodes.csv";
   ASSERT_EQ(run("stress " + store() + " --gpu-budget " + std::to_string(budget) +
-                " --path view0 --frames 3 --settle-frames 40 --converged-frames 2 --json " + js.string() + small()),
+                " --path view0 --frames 3 --settle-frames 40 --converged-frames 2 --json " + js.string() +
+                " --node-log " + nlog.string() + small()),
             0)
       << last_stderr();
   std::ifstream f(js);
   const auto j = nlohmann::json::parse(f);
   check_report(j, budget);
+  // --node-log's visible column: the converged final view's visible nodes (empty otherwise).
+  if (j["final_view"]["converged"].get<bool>()) {
+    std::istringstream log(slurp(nlog));
+    std::string line;
+    std::getline(log, line);
+    uint64_t visible = 0;
+    while (std::getline(log, line)) visible += split_csv_line(line).at(4) == "1";
+    EXPECT_EQ(visible, j["final_view"]["visible_nodes"].get<uint64_t>());
+    EXPECT_GT(visible, 0u);
+  }
   EXPECT_EQ(j["views_held"].get<uint32_t>(), 1u);
   const auto& v = j["final_view"];
   EXPECT_EQ(v["first_frame"].get<uint32_t>(), 0u);

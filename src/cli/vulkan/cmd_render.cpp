@@ -23,6 +23,7 @@
 #include "core/text_file.h"
 #include "cli/command.h"
 #include "cli/vulkan/render_options.h"
+#include "cli/vulkan/node_log.h"
 #include "cli/vulkan/render_path.h"
 #include "cli/vulkan/stream_options.h"
 #include "core/byte_size.h"
@@ -39,7 +40,6 @@
 #include "render/visible_nodes.h"
 #include "overlay/color_legend.h"
 #include "store/store_reader.h"
-#include "streaming/residency.h"
 #include "vk/context.h"
 
 namespace mds::cli {
@@ -116,35 +116,6 @@ NodeGranularity node_granularity(const store::StoreReader& reader, std::span<con
     }
   }
   return g;
-}
-
-// --node-log: one CSV row per node of the store. In memory only node, particles, payload_bytes,
-// class (empty without culling) and visible (with --visible-reference) are filled; streaming
-// adds what the cache did (Renderer::node_log). Class letters as docs/culling-math.md's.
-Status write_node_log(const std::string& path, const store::StoreReader& reader, render::Renderer& renderer,
-                      const render::VisibleSet* visible) {
-  const auto& nodes = reader.nodes();
-  const std::vector<render::NodeLogEntry> log = renderer.node_log();
-  std::span<const uint32_t> classes;
-  if (log.empty() && renderer.cull_loop()) classes = renderer.cull_loop()->node_classes();
-  std::string csv =
-      "node,particles,payload_bytes,class,visible,carried,requests,first_request_frame,loaded,resident,in_frustum,"
-      "wanted\n";
-  for (size_t i = 0; i < nodes.size(); ++i) {
-    std::string cls, vis;
-    if (i < log.size()) cls = streaming::class_letter(log[i].cls);
-    else if (i < classes.size()) cls = streaming::class_letter(uint8_t(classes[i]));
-    if (visible && i < visible->nodes.size()) vis = visible->nodes[i] ? "1" : "0";
-    csv += fmt::format("{},{},{},{},{}", i, nodes[i].particle_count, nodes[i].payload_bytes, cls, vis);
-    if (i < log.size()) {
-      const render::NodeLogEntry& e = log[i];
-      csv += fmt::format(",{:d},{},{},{:d},{:d},{:d},{:d}\n", e.carried, e.requests, e.first_request_frame, e.loaded,
-                         e.resident, e.in_frustum, e.wanted);
-    } else {
-      csv += ",,,,,,,\n";
-    }
-  }
-  return write_text_atomically(path, csv);
 }
 
 // The legend of what the image's colours mean (--color-legend): the colormap over the renderer's
@@ -384,7 +355,9 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
       granularity = node_granularity(*reader, renderer->cull_loop()->node_classes(), mc, visible->nodes);
     }
   }
-  if (!o.node_log.empty()) MDS_TRY(write_node_log(o.node_log, *reader, *renderer, visible ? &*visible : nullptr));
+  if (!o.node_log.empty())
+    MDS_TRY(write_node_log(o.node_log, *reader, *renderer, visible ? std::span<const uint8_t>(visible->nodes)
+                                                                   : std::span<const uint8_t>()));
 
 
   if (!o.stats.empty() || stats_out) {

@@ -24,6 +24,7 @@
 
 #include "core/text_file.h"
 #include "cli/command.h"
+#include "cli/vulkan/node_log.h"
 #include "cli/vulkan/render_options.h"
 #include "cli/vulkan/stream_options.h"
 #include "cli/vulkan/stress_report.h"
@@ -54,6 +55,7 @@ struct StressOptions {
   uint32_t width = 640, height = 360;
   double fov = 40.0;
   std::string csv, json, trace;
+  std::string node_log;  // --node-log CSV after the run (node_log.h)
   CullingOptions cull;
   std::vector<std::string> slices;  // --slice specs (store/slice.h)
   int device = -1;
@@ -263,12 +265,12 @@ Status run_stress(const StressOptions& o) {
   // The nodes holding a visible particle of the converged final view (render/visible_nodes.h),
   // from its last frame's depth: the reference of "bytes read to converge a dense view".
   std::optional<std::pair<uint64_t, uint64_t>> visible;  // nodes, compressed payload bytes
+  std::vector<uint8_t> vis;                               // per node: visible (when converged)
   if (final_converged) {
     MDS_ASSIGN_OR_RETURN(std::vector<float> depth, renderer->read_last_depth());
     render::Camera cam = final_cam;
     render::fit_clip_planes(cam, renderer->bounds());
-    MDS_ASSIGN_OR_RETURN(std::vector<uint8_t> vis,
-                         render::visible_nodes(*reader, cam, renderer->width(), renderer->height(), depth));
+    MDS_ASSIGN_OR_RETURN(vis, render::visible_nodes(*reader, cam, renderer->width(), renderer->height(), depth));
     visible.emplace(0, 0);
     for (uint32_t i = 0; i < vis.size(); ++i)
       if (vis[i]) {
@@ -440,6 +442,7 @@ Status run_stress(const StressOptions& o) {
 
   if (!o.json.empty()) MDS_TRY(write_text_atomically(o.json, j.dump(2) + "\n"));
   if (!o.csv.empty()) MDS_TRY(write_text_atomically(o.csv, stress::csv_summary(j)));
+  if (!o.node_log.empty()) MDS_TRY(write_node_log(o.node_log, *reader, *renderer, vis));
   if (!o.trace.empty()) {
     // Belady's outcome per request, for comparing it with the online cache's request by request.
     std::vector<uint8_t> belady_hits;
@@ -516,6 +519,11 @@ void setup_stress(CLI::App& sub, int& exit_code) {
   sub.add_option("--height", opt->height, "Image height")->check(CLI::Range(1u, 16384u))->capture_default_str();
   sub.add_option("--fov", opt->fov, "Vertical field of view of the built-in paths (degrees)")->capture_default_str();
   sub.add_option("--csv", opt->csv, "Write the summary as CSV (header + one row)");
+  sub.add_option("--node-log", opt->node_log,
+                 "Write one CSV row per node after the run: its class and what the cache did with it over the "
+                 "whole path (read requests: a node read again after an eviction counts each time; the frame of "
+                 "the first; loaded, resident, in the final view's frustum, wanted), and whether it holds a "
+                 "visible particle of the converged final view (docs/streaming.md, \"Node log\")");
   sub.add_option("--trace", opt->trace,
                  "Write the demand trace the offline bounds replay as CSV (frame,node,bytes,hit,belady_hit: one row "
                  "per frame and wanted node; bytes = the node's pool bytes; hit = resident when the frame drew; "
