@@ -295,11 +295,11 @@ TEST_F(SeriesCli, AStreamedSeriesCarriesEachFramesViewToTheNext) {
 }
 
 // --node-log (docs/streaming.md, "Node log"): one CSV row per node of each frame's store. Streamed,
-// its columns add up to the frame's cache stats (loaded, resident, wanted, carried, classes), a
-// node was loaded only if requested, and a step's carried nodes went out in its first wave (the
+// its columns add up to the frame's cache stats (bytes read, loaded, resident, wanted, carried,
+// classes), a node was loaded only if read, read only if requested, and a step's carried nodes went out in its first wave (the
 // pool holds the store). In memory, unculled, with --visible-reference: the visible column holds
 // the frame's visible_nodes, and the cache's columns are empty. Several frames need a %d; a
-// name without one fails before any image is written.
+// name without one fails before any image is written, and so does a log that cannot be written.
 TEST_F(SeriesCli, NodeLogSaysWhatEachFramesCacheDid) {
   ASSERT_EQ(run_mdstream(fmt::format("convert {} --frames :3 --node-size 300 -o {} -q", dump().string(),
                                      tmp("n.mds.series").string())),
@@ -322,7 +322,7 @@ TEST_F(SeriesCli, NodeLogSaysWhatEachFramesCacheDid) {
     std::istringstream in(textest::read_text(tmp(name)));
     std::string line;
     std::getline(in, line);
-    EXPECT_EQ(line, "node,particles,payload_bytes,class,visible,carried,requests,first_request_frame,loaded,"
+    EXPECT_EQ(line, "node,particles,payload_bytes,class,visible,carried,requests,reads,first_request_frame,loaded,"
                     "resident,in_frustum,wanted");
     std::vector<std::vector<std::string>> out;
     while (std::getline(in, line)) {
@@ -330,17 +330,19 @@ TEST_F(SeriesCli, NodeLogSaysWhatEachFramesCacheDid) {
       std::istringstream ls(line);
       for (std::string c; std::getline(ls, c, ',');) cells.push_back(c);
       if (!line.empty() && line.back() == ',') cells.emplace_back();
-      EXPECT_EQ(cells.size(), 12u) << line;
+      EXPECT_EQ(cells.size(), 13u) << line;
       out.push_back(cells);
     }
     return out;
   };
+  // The columns of a streamed row.
+  enum { kCarried = 5, kRequests, kReads, kFirst, kLoaded, kResident, kInFrustum, kWanted, kColumns };
   for (size_t k = 0; k < 3; ++k) {
     SCOPED_TRACE(k);
     const auto& f = js["frames"][k];
     const auto s = rows(fmt::format("s{}.csv", k));
     ASSERT_EQ(s.size(), f["nodes"].get<size_t>());
-    uint64_t particles = 0, loaded = 0, resident = 0, wanted = 0, carried = 0;
+    uint64_t particles = 0, loaded = 0, resident = 0, wanted = 0, carried = 0, read_bytes = 0;
     std::map<std::string, uint64_t> classes;
     int64_t first_wave = INT64_MAX;
     for (size_t i = 0; i < s.size(); ++i) {
@@ -349,22 +351,25 @@ TEST_F(SeriesCli, NodeLogSaysWhatEachFramesCacheDid) {
       particles += std::stoull(r[1]);
       ++classes[r[3]];
       EXPECT_EQ(r[4], "") << "no --visible-reference";
-      const uint64_t requests = std::stoull(r[6]);
-      const int64_t first = std::stoll(r[7]);
+      const uint64_t requests = std::stoull(r[kRequests]), reads = std::stoull(r[kReads]);
+      const int64_t first = std::stoll(r[kFirst]);
       EXPECT_EQ(requests == 0, first == -1) << r[0];
+      EXPECT_LE(reads, requests) << r[0];
+      read_bytes += reads * std::stoull(r[2]);
       if (requests > 0) first_wave = std::min(first_wave, first);
-      loaded += r[8] == "1";
-      resident += r[9] == "1";
-      wanted += r[11] == "1";
-      carried += r[5] == "1";
-      if (r[8] == "1") {
-        EXPECT_GT(requests, 0u) << "node " << r[0] << " loaded without a read";
+      loaded += r[kLoaded] == "1";
+      resident += r[kResident] == "1";
+      wanted += r[kWanted] == "1";
+      carried += r[kCarried] == "1";
+      if (r[kLoaded] == "1") {
+        EXPECT_GT(reads, 0u) << "node " << r[0] << " loaded without a read";
       }
-      if (r[9] == "1") {
-        EXPECT_EQ(r[8], "1") << r[0];
+      if (r[kResident] == "1") {
+        EXPECT_EQ(r[kLoaded], "1") << r[0];
       }
     }
     EXPECT_EQ(particles, f["particles"].get<uint64_t>());
+    EXPECT_EQ(read_bytes, f["bytes_read"].get<uint64_t>());
     EXPECT_EQ(loaded, f["nodes"].get<uint64_t>() - f["nodes_never_loaded"].get<uint64_t>());
     EXPECT_EQ(resident, f["nodes_resident"].get<uint64_t>());
     EXPECT_EQ(wanted, f["wanted_nodes"].get<uint64_t>());
@@ -373,8 +378,8 @@ TEST_F(SeriesCli, NodeLogSaysWhatEachFramesCacheDid) {
     if (k > 0) {
       ASSERT_GT(carried, 0u);
       for (const auto& r : s) {
-        if (r[5] == "1" && r[6] != "0") {
-          EXPECT_EQ(std::stoll(r[7]), first_wave) << "carried node " << r[0];
+        if (r[kCarried] == "1" && r[kRequests] != "0") {
+          EXPECT_EQ(std::stoll(r[kFirst]), first_wave) << "carried node " << r[0];
         }
       }
     }
@@ -385,7 +390,7 @@ TEST_F(SeriesCli, NodeLogSaysWhatEachFramesCacheDid) {
       EXPECT_EQ(r[3], "") << "--no-cull: no classes";
       EXPECT_TRUE(r[4] == "0" || r[4] == "1") << r[4];
       visible += r[4] == "1";
-      for (size_t c = 5; c < 12; ++c) EXPECT_EQ(r[c], "") << "in memory: no cache column " << c;
+      for (size_t c = kCarried; c < kColumns; ++c) EXPECT_EQ(r[c], "") << "in memory: no cache column " << c;
     }
     EXPECT_EQ(visible, jm["frames"][k]["visible_nodes"].get<uint64_t>());
     EXPECT_GT(visible, 0u);
@@ -396,6 +401,17 @@ TEST_F(SeriesCli, NodeLogSaysWhatEachFramesCacheDid) {
   EXPECT_THAT(cli_stderr(), HasSubstr("--node-log"));
   EXPECT_FALSE(fs::exists(tmp("e0.png")));
   EXPECT_FALSE(fs::exists(tmp("e.csv")));
+  // One frame: a %d in the log's name alone still takes the frame's index.
+  ASSERT_EQ(run_mdstream(fmt::format("{} --no-cull --series-frames 1 -o {} --node-log {}", common,
+                                     tmp("one.png").string(), tmp("one%d.csv").string())),
+            0)
+      << cli_stderr();
+  EXPECT_TRUE(fs::exists(tmp("one1.csv")));
+  // A log that cannot be written leaves no image behind.
+  EXPECT_NE(run_mdstream(fmt::format("{} --no-cull --series-frames 1 -o {} --node-log {}", common,
+                                     tmp("two.png").string(), tmp("no/such/dir.csv").string())),
+            0);
+  EXPECT_FALSE(fs::exists(tmp("two.png")));
 }
 
 // --path with a series: the camera orbits while the frames go, one path frame per picked frame,

@@ -66,7 +66,7 @@ def run_in_memory(mds, series, out, view, args, log, culled):
 
 
 # Per node the payload bytes; sets of node indices: visible (--visible-reference), read (streamed:
-# requested at least once), kept (class not O: in memory, what a cache reading by class would read).
+# a read finished at least once), kept (class not O: in memory, what a cache reading by class would read).
 NodeLog = namedtuple("NodeLog", "bytes visible read kept")
 
 
@@ -75,7 +75,7 @@ def node_log(path):
         rows = list(csv.DictReader(f))
     return NodeLog([int(r["payload_bytes"]) for r in rows],
                    {int(r["node"]) for r in rows if r["visible"] == "1"},
-                   {int(r["node"]) for r in rows if r["requests"] not in ("", "0")},
+                   {int(r["node"]) for r in rows if r["reads"] not in ("", "0")},
                    {int(r["node"]) for r in rows if r["class"] not in ("", "O")})
 
 

@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """Writes src/render/colormap_table.h: the colormaps of `--colormap` as tables of
-gpu::kColormapSamples sRGB colours each, sampled from matplotlib at t = k / (samples - 1), in the
+gpu::kColormapSamples sRGB colours each, matplotlib's colour at t = k / (samples - 1) (its entry
+nearest below: 4k of 256 at 65 samples), in the
 order of render::Colormap (render/colormap.h). The renderer copies the chosen map's samples into
 the frame's uniforms (FrameUniforms::colormap); the shaders (particle_color.h) and the CPU
 (render::colormap_srgb) interpolate linearly between them alike.

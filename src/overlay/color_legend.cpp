@@ -126,11 +126,10 @@ PixelBox legend_box(const ColorLegend& legend, uint32_t width, uint32_t height, 
   return b;
 }
 
-PixelBox draw_color_legend(Canvas& canvas, const ColorLegend& legend, LegendCorner corner) {
-  const PixelBox box = legend_box(legend, canvas.width(), canvas.height(), corner);
-  if (box.empty()) return box;
-  const Layout y = layout(legend, canvas.height());
-  const glm::ivec2 o = origin(y, canvas.width(), canvas.height(), corner);
+namespace {
+
+// Draws the panel with its top-left corner at `o` in the canvas's coordinates (clipped to it).
+void draw_panel(Canvas& canvas, const ColorLegend& legend, const Layout& y, glm::ivec2 o) {
   const int s = y.s;
   const Rgba8 text_color{235, 235, 235, 255};
   canvas.fill_rect(o.x, o.y, o.x + y.w, o.y + y.h, {0, 0, 0, 150});
@@ -156,21 +155,36 @@ PixelBox draw_color_legend(Canvas& canvas, const ColorLegend& legend, LegendCorn
     }
     if (!y.more.empty()) canvas.text(x, row, y.more, text_color, s);
   }
+}
+
+}  // namespace
+
+PixelBox draw_color_legend(Canvas& canvas, const ColorLegend& legend, LegendCorner corner) {
+  const PixelBox box = legend_box(legend, canvas.width(), canvas.height(), corner);
+  if (box.empty()) return box;
+  const Layout y = layout(legend, canvas.height());
+  draw_panel(canvas, legend, y, origin(y, canvas.width(), canvas.height(), corner));
   return box;
 }
 
 PixelBox overlay_color_legend(render::FrameImage& image, const ColorLegend& legend, LegendCorner corner) {
   const PixelBox box = legend_box(legend, image.width, image.height, corner);
   if (box.empty()) return box;
-  Canvas canvas;
-  canvas.set_from_linear(image);
-  draw_color_legend(canvas, legend, corner);
-  const render::FrameImage drawn = canvas.to_linear();
-  for (int py = box.y0; py < box.y1; ++py)
-    for (int px = box.x0; px < box.x1; ++px) {
-      const size_t i = 4 * (size_t(py) * image.width + size_t(px));
-      std::copy_n(&drawn.rgba[i], 4, &image.rgba[i]);  // alpha 1 (to_linear)
+  // A canvas of the box alone: the box's pixels in 8-bit sRGB, the panel drawn at its place
+  // relative to the box, and back in linear (the rest of the image is not converted).
+  const uint32_t bw = uint32_t(box.x1 - box.x0), bh = uint32_t(box.y1 - box.y0);
+  Canvas canvas(bw, bh);
+  for (uint32_t py = 0; py < bh; ++py)
+    for (uint32_t px = 0; px < bw; ++px) {
+      const float* p = &image.rgba[4 * (size_t(box.y0 + int(py)) * image.width + size_t(box.x0 + int(px)))];
+      canvas.at(px, py) = Rgba8(linear_to_srgb8(p[0]), linear_to_srgb8(p[1]), linear_to_srgb8(p[2]), 255);
     }
+  const Layout y = layout(legend, image.height);
+  draw_panel(canvas, legend, y, origin(y, image.width, image.height, corner) - glm::ivec2(box.x0, box.y0));
+  const render::FrameImage drawn = canvas.to_linear();
+  for (uint32_t py = 0; py < bh; ++py)
+    std::copy_n(&drawn.rgba[4 * size_t(py) * bw], 4 * size_t(bw),
+                &image.rgba[4 * (size_t(box.y0 + int(py)) * image.width + size_t(box.x0))]);  // alpha 1 (to_linear)
   return box;
 }
 

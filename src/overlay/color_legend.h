@@ -22,7 +22,7 @@ namespace mds::overlay {
 
 struct LegendEntry {
   std::string label;  // the type's name, else its input id (as `mdstream info` lists it); or a value
-  Rgba8 color;        // sRGB 8-bit, as drawn (RenderSettings::type_colors_srgb, viridis)
+  Rgba8 color;        // sRGB 8-bit, as drawn (RenderSettings::type_colors_srgb, the colormap)
 };
 
 // The legend entries of the store's types with the colours the renderer uses; a type with
@@ -69,8 +69,9 @@ PixelBox legend_box(const ColorLegend& legend, uint32_t width, uint32_t height, 
 // entry. Returns the box.
 PixelBox draw_color_legend(Canvas& canvas, const ColorLegend& legend, LegendCorner corner);
 // The same over a linear image (render::FrameImage, as Renderer::render returns it): the box's
-// pixels become the legend drawn over their 8-bit sRGB values (Canvas::set_from_linear), back
-// in linear, with coverage (alpha) 1; every other pixel stays as it was, to the bit.
+// pixels become the legend drawn over their 8-bit sRGB values (linear_to_srgb8, as
+// Canvas::set_from_linear), back in linear, with coverage (alpha) 1; every other pixel stays as
+// it was, to the bit, and only the box is converted.
 PixelBox overlay_color_legend(render::FrameImage& image, const ColorLegend& legend, LegendCorner corner);
 
 }  // namespace mds::overlay

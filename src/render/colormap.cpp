@@ -38,6 +38,7 @@ glm::dvec3 colormap_sample(Colormap m, unsigned k) {
 
 glm::dvec3 colormap_srgb(Colormap m, double t) {
   // mds_colormap_srgb (shaders/include/particle_color.h) in double: the same index and weight.
+  if (!(t >= 0.0)) t = 0.0;  // NaN: the first sample (and no NaN converted to unsigned below)
   const double x = std::clamp(t, 0.0, 1.0) * double(kColormapTableSamples - 1);
   const unsigned i = std::min(unsigned(x), kColormapTableSamples - 2);
   const double f = x - double(i);

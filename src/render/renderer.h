@@ -128,7 +128,7 @@ struct RenderSettings {
   // Colour per type index (sRGB), replacing the palette's (store::type_colors resolves a
   // user's --type-color against the store's types); shorter or empty: the rest keep the palette.
   std::vector<glm::vec3> type_colors_srgb;
-  // Colour by coordinate instead (--color-by, render/colormap.h): viridis along a world axis
+  // Colour by coordinate or property instead (--color-by, --colormap, render/colormap.h) along a world axis
   // over [lo, hi]; lo == hi: the scene's bounds along the axis (Renderer::color_range).
   ColorBy color_by;
   bool cull = false;                                 // probabilistic occlusion culling (false: --no-cull)
@@ -294,7 +294,8 @@ struct CacheStats {
 // One node as the streaming cache saw it in the current view (Renderer::node_log; render
 // --node-log): which nodes it read and when, and how their classes ended.
 struct NodeLogEntry {
-  uint32_t requests = 0;             // read requests submitted (read again after an eviction: 2)
+  uint32_t requests = 0;             // read requests submitted, cancelled ones too (read again after an eviction: 2)
+  uint32_t reads = 0;                // reads finished (their bytes are in bytes_read), failed ones too
   int64_t first_request_frame = -1;  // the renderer's frame index of its first request (0: its first frame); -1: never
   bool carried = false;              // in a series step's carried first wave (StreamSettings::prior)
   bool loaded = false;               // placed in the pool at least once

@@ -336,11 +336,6 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
     }
     std::fflush(stdout);
   }
-  const overlay::PixelBox legend_box =
-      overlay::overlay_color_legend(image, color_legend(rs, *renderer, *reader, shown), *corner);
-  MDS_TRY(render::write_image(o.output, image));
-  if (fs.prior_out) *fs.prior_out = renderer->prior_view();
-
   // The meshlets holding a visible particle of the last frame (render/visible_nodes.h): the
   // smallest set the culling could keep, the reference for the culled fraction.
   std::optional<render::VisibleSet> visible;
@@ -358,6 +353,11 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
   if (!o.node_log.empty())
     MDS_TRY(write_node_log(o.node_log, *reader, *renderer, visible ? std::span<const uint8_t>(visible->nodes)
                                                                    : std::span<const uint8_t>()));
+  // The image last: a node log that cannot be written leaves no image behind (as a failed --pick).
+  const overlay::PixelBox legend_box =
+      overlay::overlay_color_legend(image, color_legend(rs, *renderer, *reader, shown), *corner);
+  MDS_TRY(render::write_image(o.output, image));
+  if (fs.prior_out) *fs.prior_out = renderer->prior_view();
 
 
   if (!o.stats.empty() || stats_out) {
@@ -571,7 +571,9 @@ Status run_render_series(const RenderOptions& o) {
   if (!picked.ok()) return make_error(Errc::invalid_argument, "{}: --series-frames {}", o.store, picked.error().message);
   const bool numbered = picked->size() > 1 || o.output.find('%') != std::string::npos;
   if (numbered) MDS_TRY(frame_file_name(o.output, 0));
-  if (numbered && !o.node_log.empty()) MDS_TRY(frame_file_name(o.node_log, 0, "--node-log"));
+  // --node-log is named per frame like -o: with several frames, or a %d in its own name.
+  const bool numbered_log = !o.node_log.empty() && (picked->size() > 1 || o.node_log.find('%') != std::string::npos);
+  if (numbered_log) MDS_TRY(frame_file_name(o.node_log, 0, "--node-log"));
   MDS_ASSIGN_OR_RETURN(const render::SeriesLook look, render::series_look(series, *picked));
   if (o.fov <= 0.0 || o.fov >= 180.0)
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.fov);
@@ -612,9 +614,9 @@ Status run_render_series(const RenderOptions& o) {
     fo.path.clear();  // the camera comes from fs
     if (numbered) {
       MDS_ASSIGN_OR_RETURN(fo.output, frame_file_name(o.output, uint32_t(k)));
-      if (!o.node_log.empty()) {
-        MDS_ASSIGN_OR_RETURN(fo.node_log, frame_file_name(o.node_log, uint32_t(k), "--node-log"));
-      }
+    }
+    if (numbered_log) {
+      MDS_ASSIGN_OR_RETURN(fo.node_log, frame_file_name(o.node_log, uint32_t(k), "--node-log"));
     }
     fs.ao_out = i == 0 ? &first_ao : nullptr;
     if (path) {
@@ -687,7 +689,7 @@ void setup_render(CLI::App& sub, int& exit_code) {
   sub.add_option("--color-legend", opt->color_legend,
                  "Draw what the colours mean into the image, in a corner: off, top-left, top-right, bottom-left or "
                  "bottom-right; the types and their colours, or with --color-by the colormap as a bar with its "
-                 "values (OVITO's colour legend; docs/rendering.md, \"Colour legend\")")
+                 "values (OVITO's colour legend; docs/rendering.md, \"Colours, radii and hidden types\")")
       ->capture_default_str();
   sub.add_option("--node-log", opt->node_log,
                  "Write one CSV row per node of the store after the last frame: its particles, payload bytes, "

@@ -17,8 +17,8 @@ Status write_node_log(const std::string& path, const store::StoreReader& reader,
   std::span<const uint32_t> classes;
   if (log.empty() && renderer.cull_loop()) classes = renderer.cull_loop()->node_classes();
   std::string csv =
-      "node,particles,payload_bytes,class,visible,carried,requests,first_request_frame,loaded,resident,in_frustum,"
-      "wanted\n";
+      "node,particles,payload_bytes,class,visible,carried,requests,reads,first_request_frame,loaded,resident,"
+      "in_frustum,wanted\n";
   for (size_t i = 0; i < nodes.size(); ++i) {
     std::string cls, vis;
     if (i < log.size()) cls = streaming::class_letter(log[i].cls);
@@ -27,10 +27,10 @@ Status write_node_log(const std::string& path, const store::StoreReader& reader,
     csv += fmt::format("{},{},{},{},{}", i, nodes[i].particle_count, nodes[i].payload_bytes, cls, vis);
     if (i < log.size()) {
       const render::NodeLogEntry& e = log[i];
-      csv += fmt::format(",{:d},{},{},{:d},{:d},{:d},{:d}\n", e.carried, e.requests, e.first_request_frame, e.loaded,
-                         e.resident, e.in_frustum, e.wanted);
+      csv += fmt::format(",{:d},{},{},{},{:d},{:d},{:d},{:d}\n", e.carried, e.requests, e.reads, e.first_request_frame,
+                         e.loaded, e.resident, e.in_frustum, e.wanted);
     } else {
-      csv += ",,,,,,,\n";
+      csv += ",,,,,,,,\n";
     }
   }
   return write_text_atomically(path, csv);

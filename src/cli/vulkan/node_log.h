@@ -13,10 +13,11 @@
 
 namespace mds::cli {
 
-// Columns: node, particles, payload_bytes, class (P/L/M/O: the cache's streaming, the culling
-// loop's in memory, empty without culling), visible (visible_nodes[node], empty when
-// visible_nodes is empty), then carried, requests, first_request_frame, loaded, resident,
-// in_frustum, wanted (streaming; empty in memory). Written atomically (temporary file + rename).
+// Columns: node, particles, payload_bytes, class (P/L/M/O: the cache's when streaming, by the
+// frustum alone with --no-cull; the culling loop's in memory, empty there without culling),
+// visible (visible_nodes[node], empty when visible_nodes is empty), then carried, requests,
+// reads, first_request_frame, loaded, resident, in_frustum, wanted (streaming; empty in memory).
+// Written atomically (temporary file + rename).
 Status write_node_log(const std::string& path, const store::StoreReader& reader, render::Renderer& renderer,
                       std::span<const uint8_t> visible_nodes);
 

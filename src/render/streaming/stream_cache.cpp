@@ -187,6 +187,7 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
   }
   c->placed_frame_.assign(nodes.size(), 0);
   c->requests_.assign(nodes.size(), 0);
+  c->reads_.assign(nodes.size(), 0);
   c->first_request_.assign(nodes.size(), -1);
   c->placed_late_.assign(nodes.size(), 0);
   c->o_confirmed_.assign(nodes.size(), 0);
@@ -377,6 +378,7 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
     plan_stale_ = true;
     const uint32_t i = done->node;
     stats_.bytes_read += done->compressed_bytes;
+    ++reads_[i];
     if (!done->status.ok()) {
       stats_.errors.push_back(done->status.error().message);
       ++stats_.nodes_failed;
@@ -647,6 +649,7 @@ std::vector<NodeLogEntry> StreamCache::node_log() const {
     const auto& n = table_->node(i);
     NodeLogEntry& e = log[i];
     e.requests = requests_[i];
+    e.reads = reads_[i];
     e.first_request_frame = first_request_[i];
     e.carried = !carried_.empty() && carried_[i] != 0;
     e.loaded = n.ever_loaded;

@@ -145,7 +145,7 @@ class StreamCache {
   // One frame (see the file comment); transfers are recorded into cmd.
   Result<CacheFrame> update(VkCommandBuffer cmd, uint64_t frame);
   CacheStats stats() const;
-  // Every node: its reads, its first request's frame, carried, residency and class (NodeLogEntry).
+  // Every node: its requests and reads, its first request's frame, carried, residency and class (NodeLogEntry).
   std::vector<NodeLogEntry> node_log() const;
 
  private:
@@ -192,6 +192,7 @@ class StreamCache {
   double aspect_ = 1.0;  // width / height of the view (screen_share of the wave coverage)
   std::vector<uint64_t> placed_frame_;  // frame of each node's last placement (waves at rest)
   std::vector<uint32_t> requests_;      // per node: read requests submitted (node_log)
+  std::vector<uint32_t> reads_;         // per node: reads finished, bytes_read counted (node_log)
   std::vector<int64_t> first_request_;  // per node: frame of its first request, -1 none (node_log)
   std::vector<uint8_t> placed_late_;    // that placement kept a late arrival (keep_late_arrival)
   std::vector<uint64_t> o_confirmed_;   // frame a culling iteration last classified the node O
