@@ -32,6 +32,6 @@ void main() {
   vec2 xy = vec2((corner & 1u) != 0u ? s.rect.z : s.rect.x, (corner & 2u) != 0u ? s.rect.w : s.rect.y);
   gl_Position = vec4(xy, s.zndc, 1.0);
   v_center_radius = s.center_radius;
-  v_color = mds_particle_color(s.flags, s.center_radius.xyz);
+  v_color = mds_particle_color(s.flags, s.color, s.center_radius.xyz);
   v_sprite = s.vis_id;
 }

@@ -28,6 +28,6 @@ void main() {
   gl_Position = vec4(0.5 * (s.rect.xy + s.rect.zw), s.zndc, 1.0);
   gl_PointSize = max(side_px.x, side_px.y) + 1.0;
   v_center_radius = s.center_radius;
-  v_color = mds_particle_color(s.flags, s.center_radius.xyz);
+  v_color = mds_particle_color(s.flags, s.color, s.center_radius.xyz);
   v_sprite = s.vis_id;
 }

@@ -77,20 +77,21 @@ void main() {
   }
   uint id = uint(visibility[uint(p.y) * uint(frame.viewport.x) + uint(p.x)] & 0xffffffffu);
   if (id == kVisEmpty) return;  // background: nothing to add
-  uint type;
+  uint type, rgba;
   vec4 center_radius;
   if (kChunkedIds) {
-    center_radius = mds_vis_id_sphere(id, type);
+    center_radius = mds_vis_id_sphere(id, type, rgba);
   } else {
     GpuSprite s = sprites[id];
     center_radius = s.center_radius;
     type = s.flags;  // colour key: type and property (sprite_make.h)
+    rgba = s.color;
   }
   vec3 hit, n, d;
   float depth;
   if (!ray_sphere(vec2(p) + 0.5, center_radius, hit, n, d, depth)) return;
   float weight = (frame.counts.z & kFrameTimingOnly) != 0u ? 0.0 : 1.0;
-  vec4 c = shade_sphere(n, d, mds_particle_color(type, center_radius.xyz));
+  vec4 c = shade_sphere(n, d, mds_particle_color(type, rgba, center_radius.xyz));
   if (frame.ao.y > 0.0) c.rgb *= ambient_obscurance(p, hit, n);
   accumulate_pixel(p, weight * c);
 }

@@ -80,6 +80,7 @@ struct AllParticles {
   std::vector<int32_t> type;
   std::vector<float> radius;
   std::vector<float> property;
+  std::vector<uint32_t> color;
   size_t calls = 0;
 };
 
@@ -100,6 +101,7 @@ inline Result<AllParticles> read_all(ParticleReader& reader, size_t batch) {
     all.type.insert(all.type.end(), b.type.begin(), b.type.end());
     all.radius.insert(all.radius.end(), b.radius.begin(), b.radius.end());
     all.property.insert(all.property.end(), b.property.begin(), b.property.end());
+    all.color.insert(all.color.end(), b.color.begin(), b.color.end());
   }
   return all;
 }

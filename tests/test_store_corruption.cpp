@@ -245,7 +245,8 @@ TEST_F(Corruption, HeaderLies) {
     im.h.particle_count += 1;  // not resealed
     expect_open_error(im, Errc::checksum, {"header_hash", "byte 504"});
   }
-  expect_open_error(with([](Image& im) { im.h.flags |= 4; }), Errc::unsupported, {"flags"});
+  // The lowest bit no flag uses (the known flags are bits 0 .. k).
+  expect_open_error(with([](Image& im) { im.h.flags |= store::kKnownFlags + 1; }), Errc::unsupported, {"flags"});
   expect_open_error(with([](Image& im) { im.h.reserved[10] = 1; }), Errc::format, {"reserved", "byte 426"});
   // The property's fields are reserved bytes without kFlagProperty.
   expect_open_error(with([](Image& im) { im.h.property_name[3] = 'a'; }), Errc::format, {"property_name", "byte 363"});

@@ -22,6 +22,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <map>
 #include <string>
 #include <thread>
@@ -561,6 +562,45 @@ TEST_F(ViewerWindow, ColourByCoordinateScreenshotMatchesHeadlessRender) {
   size_t differing = 0;
   for (size_t i = 0; i < a.rgb.size(); ++i) differing += std::abs(int(a.rgb[i]) - int(t.rgb[i])) > 24;
   EXPECT_GT(differing, a.rgb.size() / 20) << "the colormap's image looks like the type colours'";
+}
+
+// The particles' own colours in the window (convert --color; --color-by auto, the default, draws
+// them): the fixture's store is replaced by one whose colours follow the position, and the
+// screenshot matches `render` of it, not its type colours.
+TEST_F(ViewerWindow, OwnColoursScreenshotMatchesHeadlessRender) {
+  const uint32_t W = 160, H = 120;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(0.0, 30.0);
+  std::string text = "20000\nProperties=species:S:1:pos:R:3:color:R:3\n";
+  for (int i = 0; i < 20000; ++i) {
+    const double x = u(rng), y = u(rng), z = u(rng);
+    text += fmt::format("A {:.5f} {:.5f} {:.5f} {:.4f} {:.4f} {:.4f}\n", x, y, z, x / 30, y / 30, 1 - z / 30);
+  }
+  {
+    std::ofstream f(dir_ / "c.xyz");
+    f << text;
+  }
+  fs::remove(store());
+  ASSERT_EQ(mdstream(fmt::format("convert {} --color -q -o {}", (dir_ / "c.xyz").string(), store())), 0) << err();
+  const render::CameraPath path = orbit(W, H);
+  const fs::path shot = dir_ / "view.png", ref = dir_ / "render.png", typed = dir_ / "typed.png";
+  ASSERT_EQ(sh(fmt::format("{}timeout 50 {} view {} --width {} --height {} --spp 4 --play {} --no-hud --screenshot {} "
+                           "2>{}",
+                           env(), MDSTREAM_BIN, store(), W, H, (dir_ / "path.txt").string(), shot.string(),
+                           (dir_ / "err.txt").string())),
+            0)
+      << err();
+  for (const auto& [out, args] : {std::pair{ref, std::string()}, std::pair{typed, std::string("--color-by type")}})
+    ASSERT_EQ(mdstream(fmt::format("render {} -o {} --width {} --height {} --spp 4 {} {}", store(), out.string(), W, H,
+                                   last_camera(path), args)),
+              0)
+        << err();
+  expect_screenshot_matches(shot, ref, W, H);
+  const Png a = read_png(shot), t = read_png(typed);
+  ASSERT_EQ(a.rgb.size(), t.rgb.size());
+  size_t differing = 0;
+  for (size_t i = 0; i < a.rgb.size(); ++i) differing += std::abs(int(a.rgb[i]) - int(t.rgb[i])) > 24;
+  EXPECT_GT(differing, a.rgb.size() / 20) << "the window shows the type colours";
 }
 
 // A viewer started in the background under the fixture's Xvfb (ViewerWindow::start), killed if

@@ -31,23 +31,25 @@ Status scatter(TempDir& tmp, const Bin& source, const MortonGrid& grid, const Pa
   MDS_ASSIGN_OR_RETURN(SpillReader reader, SpillReader::open(source.path));
   std::vector<std::optional<SpillWriter>> writers(nbins);
   std::vector<SpillRecord> chunk(std::min<uint64_t>(chunk_records, std::max<uint64_t>(1, source.count)));
-  // The property column, read in step with the records and scattered alike (a quarter-size buffer).
-  const bool property = !source.property_path.empty();
-  std::optional<PropertySpillReader> preader;
-  std::vector<std::optional<PropertySpillWriter>> pwriters(property ? nbins : 0);
-  std::vector<float> pchunk(property ? chunk.size() : 0);
-  if (property) {
-    MDS_ASSIGN_OR_RETURN(PropertySpillReader pr, PropertySpillReader::open(source.property_path));
+  // The side column, read in step with the records and scattered alike (W words a record: an
+  // eighth (W = 1) or a quarter (W = 2) of the records' buffers).
+  const uint32_t W = source.side_path.empty() ? 0 : source.side_words;
+  const bool side = W > 0;
+  std::optional<SideSpillReader> preader;
+  std::vector<std::optional<SideSpillWriter>> pwriters(side ? nbins : 0);
+  std::vector<uint32_t> pchunk(side ? W * chunk.size() : 0);
+  if (side) {
+    MDS_ASSIGN_OR_RETURN(SideSpillReader pr, SideSpillReader::open(source.side_path));
     preader.emplace(std::move(pr));
   }
   const uint64_t mask = nbins - 1;
   ++stats.passes;
   for (;;) {
     MDS_ASSIGN_OR_RETURN(size_t n, reader.read(chunk));
-    if (property) {
-      MDS_ASSIGN_OR_RETURN(size_t pn, preader->read(pchunk));
-      if (pn != n)
-        return make_error(Errc::internal, "{}: {} property values for {} records", source.property_path.string(), pn, n);
+    if (side) {
+      MDS_ASSIGN_OR_RETURN(size_t pn, preader->read(std::span(pchunk).first(W * n)));
+      if (pn != W * n)
+        return make_error(Errc::internal, "{}: {} side words for {} records", source.side_path.string(), pn, n);
     }
     if (n == 0) break;
     for (size_t i = 0; i < n; ++i) {
@@ -59,14 +61,14 @@ Status scatter(TempDir& tmp, const Bin& source, const MortonGrid& grid, const Pa
                                                              (source.prefix << bits) | b, stats.passes)));
         MDS_ASSIGN_OR_RETURN(SpillWriter created, SpillWriter::create(path, bin_buffer));
         w.emplace(std::move(created));
-        if (property) {
-          MDS_ASSIGN_OR_RETURN(PropertySpillWriter pcreated,
-                               PropertySpillWriter::create(path.string() + ".prop", bin_buffer / 8));
+        if (side) {
+          MDS_ASSIGN_OR_RETURN(SideSpillWriter pcreated,
+                               SideSpillWriter::create(path.string() + ".side", W * bin_buffer / 8));
           pwriters[b].emplace(std::move(pcreated));
         }
       }
       MDS_TRY(w->append(r));
-      if (property) MDS_TRY(pwriters[b]->append(pchunk[i]));
+      if (side) MDS_TRY(pwriters[b]->append(std::span<const uint32_t>(pchunk).subspan(W * i, W)));
     }
     stats.records_read += n;
     if (on_records) on_records(n);
@@ -78,17 +80,18 @@ Status scatter(TempDir& tmp, const Bin& source, const MortonGrid& grid, const Pa
   preader.reset();
   std::error_code ec;
   std::filesystem::remove(source.path, ec);
-  if (property) std::filesystem::remove(source.property_path, ec);
+  if (side) std::filesystem::remove(source.side_path, ec);
 
   // Close every bin first (frees the write buffers), then recurse into oversized ones.
   std::vector<Bin> bins;
   for (uint32_t b = 0; b < nbins; ++b) {
     if (!writers[b]) continue;
     MDS_TRY(writers[b]->close());
-    bins.push_back({writers[b]->path(), writers[b]->count(), (source.prefix << bits) | b, source.prefix_bits + bits, {}});
-    if (property) {
+    bins.push_back({writers[b]->path(), writers[b]->count(), (source.prefix << bits) | b, source.prefix_bits + bits, {},
+                    source.side_words});
+    if (side) {
       MDS_TRY(pwriters[b]->close());
-      bins.back().property_path = pwriters[b]->path();
+      bins.back().side_path = pwriters[b]->path();
       pwriters[b].reset();
     }
     writers[b].reset();

@@ -23,7 +23,8 @@ struct Bin {
   uint64_t count = 0;
   uint64_t prefix = 0;         // Morton key prefix shared by all records of the bin
   int prefix_bits = 0;         // multiple of 3: the bin is the octree cell at depth prefix_bits/3
-  std::filesystem::path property_path;  // temporary file of one float per record; empty without a property
+  std::filesystem::path side_path;  // temporary side column (SideLayout words per record); empty without one
+  uint32_t side_words = 0;          // SideLayout::words()
 };
 
 struct PartitionOptions {

@@ -43,7 +43,8 @@ double process_cpu_seconds() {
 
 // Memory model of the budget (bytes per particle of each working set). The readers' and the
 // store writer's own fixed I/O buffers (about 8 MiB each) are outside this model.
-// `extra`: bytes a particle carries beside its record (4 with the property column).
+// `extra`: bytes a particle carries beside its record (its side column: 4 with the property, 4
+// with the colour).
 constexpr uint64_t bin_bytes_per_particle(uint64_t extra) {  // records + keys/perm + sort scratch
   return sizeof(SpillRecord) + extra + 2 * (8 + 4);
 }
@@ -52,7 +53,7 @@ constexpr uint64_t bin_bytes_per_particle(uint64_t extra) {  // records + keys/p
 constexpr uint64_t overlapped_bin_bytes_per_particle(uint64_t extra) {
   return 2 * (sizeof(SpillRecord) + extra + 8 + 4) + (8 + 4);
 }
-constexpr uint64_t kBatchBytesPerParticle = 52;           // ParticleBatch (x,y,z,type,radius,id,property)
+constexpr uint64_t kBatchBytesPerParticle = 56;           // ParticleBatch (x,y,z,type,radius,id,property,color)
 constexpr uint64_t kWorkerBytesPerParticle = 192;         // per-node scratch: xyz, qpos, types, voxels, payload, ...
 constexpr uint64_t kInFlightBytesPerParticle = 24;        // an encoded node waiting to be appended
 constexpr uint64_t kMaxBinRecords = std::numeric_limits<uint32_t>::max();  // permutation indices are uint32
@@ -65,6 +66,8 @@ struct BudgetPlan {
   uint64_t max_memory_records = 0;  // everything in one in-memory bin up to this count
   uint64_t max_bin_records = 0;     // out of core: bins (two alive at once) up to this count
 };
+
+SideLayout side_layout(const ConvertOptions& o) { return SideLayout{!o.reader.property.empty(), o.reader.color}; }
 
 Status check_options(const ConvertOptions& o) {
   if (o.inputs.empty()) return make_error(Errc::invalid_argument, "no input files given");
@@ -109,7 +112,7 @@ Result<BudgetPlan> plan_budget(const ConvertOptions& o, uint64_t density_voxels)
   const uint64_t in_flight = uint64_t(o.threads) * kWindowPerThread * o.node_size * kInFlightBytesPerParticle;
   const uint64_t fixed = density_bytes + workers + in_flight +
                          kReadAheadBatches * p.batch_particles * kBatchBytesPerParticle + p.spill_buffer_bytes;
-  const uint64_t extra = o.reader.property.empty() ? 0 : sizeof(float);  // the property column
+  const uint64_t extra = 4 * side_layout(o).words();  // the side column
   const uint64_t need = fixed + 2 * overlapped_bin_bytes_per_particle(extra) * o.node_size;
   if (b < need)
     return make_error(Errc::budget,
@@ -180,14 +183,14 @@ Status load_file(const std::filesystem::path& path, uint64_t count, BigVector<T>
   return {};
 }
 
-// The bin's records, and its property column where it has one.
-Status load_bin(const Bin& bin, BigVector<SpillRecord>& recs, BigVector<float>& property) {
+// The bin's records, and its side column where it has one.
+Status load_bin(const Bin& bin, BigVector<SpillRecord>& recs, BigVector<uint32_t>& side) {
   MDS_TRY(load_file(bin.path, bin.count, recs));
-  if (bin.property_path.empty()) {
-    property = {};
+  if (bin.side_path.empty()) {
+    side = {};
     return {};
   }
-  return load_file(bin.property_path, bin.count, property);
+  return load_file(bin.side_path, uint64_t(bin.side_words) * bin.count, side);
 }
 
 // Contiguous stages of the calling thread: lap() closes the running stage (wall and process
@@ -219,7 +222,7 @@ class StageMeter {
 // A bin loaded, keyed and sorted (possibly on a helper thread while the previous bin is built).
 struct PreparedBin {
   BigVector<SpillRecord> recs;
-  BigVector<float> property;  // with a property: parallel to recs
+  BigVector<uint32_t> side;  // with a side column: SideLayout words per record of recs
   SortBuffers sb;
   SortTimes times;
   double load_seconds = 0;
@@ -228,10 +231,10 @@ struct PreparedBin {
 
 void prepare_bin(const Bin& bin, const MortonGrid& grid, unsigned threads, PreparedBin& pb, SortBuffers& scratch) {
   const auto t = Clock::now();
-  pb.status = load_bin(bin, pb.recs, pb.property);
+  pb.status = load_bin(bin, pb.recs, pb.side);
   std::error_code ec;
   std::filesystem::remove(bin.path, ec);
-  if (!bin.property_path.empty()) std::filesystem::remove(bin.property_path, ec);
+  if (!bin.side_path.empty()) std::filesystem::remove(bin.side_path, ec);
   pb.load_seconds = seconds_since(t);
   if (!pb.status.ok()) return;
   // The sort scratch is shared by both slots (only one bin is sorted at a time).
@@ -321,7 +324,7 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   so.inputs = o.inputs;
   so.radius = o.radius;
   so.radius_by_type = o.radius_by_type;
-  so.property = !o.reader.property.empty();
+  so.side = side_layout(o);
   so.batch_particles = plan.batch_particles;
   so.spill_buffer_bytes = plan.spill_buffer_bytes;
   so.max_memory_records = plan.max_memory_records;
@@ -364,8 +367,8 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   ctx.per_particle_radius = scan.per_particle_radius;
   ctx.radius_min = scan.prad_min;
   ctx.radius_max = scan.prad_max;
-  ctx.property = so.property;
-  if (ctx.property && scan.count > 0) {
+  ctx.side = so.side;
+  if (ctx.side.property && scan.count > 0) {
     ctx.property_min = scan.property_min;
     ctx.property_max = scan.property_max;
   }
@@ -404,7 +407,7 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
       rep.seconds_keys = st.keys;
       rep.seconds_radix = st.radix;
       rep.seconds_sort = meter.lap("sort");
-      MDS_TRY(build_bin(ctx, workers, sb.keys, sb.perm, SpillRecords{scan.memory, scan.memory_property}, 0, *writer,
+      MDS_TRY(build_bin(ctx, workers, sb.keys, sb.perm, SpillRecords{scan.memory, scan.memory_side}, 0, *writer,
                         tot, progress));
     }
     scan.memory = {};
@@ -422,7 +425,7 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
     uint64_t scattered = 0;
     MDS_ASSIGN_OR_RETURN(
         std::vector<Bin> bins,
-        partition(tmp, Bin{scan.spill_path, scan.count, 0, 0, scan.spill_property_path}, grid, popt, pstats, [&](uint64_t n) {
+        partition(tmp, Bin{scan.spill_path, scan.count, 0, 0, scan.spill_side_path, so.side.words()}, grid, popt, pstats, [&](uint64_t n) {
           scattered += n;
           progress.update(std::min(scattered, scan.count));
         }));
@@ -453,7 +456,7 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
       MDS_TRY(cur.status);
       if (k + 1 < bins.size())
         prep = std::thread([&, k] { prepare_bin(bins[k + 1], grid, o.threads, slots[(k + 1) % 2], scratch); });
-      MDS_TRY(build_bin(ctx, workers, cur.sb.keys, cur.sb.perm, SpillRecords{cur.recs, cur.property},
+      MDS_TRY(build_bin(ctx, workers, cur.sb.keys, cur.sb.perm, SpillRecords{cur.recs, cur.side},
                         bins[k].prefix_bits / 3, *writer, tot, progress));
       rep.seconds_nodes += meter.lap("nodes");
     }
@@ -471,8 +474,9 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
   // ---- summary and finish
   store::StoreSummary sum;
   sum.flags = (scan.per_particle_radius ? uint32_t(store::kFlagPerParticleRadius) : 0u) |
-              (ctx.property ? uint32_t(store::kFlagProperty) : 0u);
-  if (ctx.property) {
+              (ctx.side.property ? uint32_t(store::kFlagProperty) : 0u) |
+              (ctx.side.color ? uint32_t(store::kFlagColor) : 0u);
+  if (ctx.side.property) {
     sum.property_name = o.reader.property;
     sum.property_min = ctx.property_min;
     sum.property_max = ctx.property_max;
@@ -528,7 +532,8 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
     rep.density_dims[a] = ctx.density.dims()[a];
   }
   rep.per_particle_radius = scan.per_particle_radius;
-  if (ctx.property) {
+  rep.color = ctx.side.color;
+  if (ctx.side.property) {
     rep.property = o.reader.property;
     rep.property_min = ctx.property_min;
     rep.property_max = ctx.property_max;

@@ -70,6 +70,7 @@ struct ConvertReport {
   bool per_particle_radius = false;
   std::string property;                      // the per-particle scalar kept (--property), or empty
   float property_min = 0, property_max = 0;  // its range in the store
+  bool color = false;                        // per-particle RGBA8 colours kept (--color)
   bool spilled = false;                      // records went through temporary files
   uint64_t bins = 0;                         // bins built (1 when everything fitted in memory)
   uint64_t partition_passes = 0;

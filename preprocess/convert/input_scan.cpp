@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <bit>
 
 #include <cmath>
 #include <cstring>
@@ -181,15 +182,16 @@ Status spill_memory(InputScan& s, TempDir& tmp, const ScanOptions& o) {
   MDS_ASSIGN_OR_RETURN(s.spill_path, tmp.file("spill.rec"));
   MDS_ASSIGN_OR_RETURN(SpillWriter w, SpillWriter::create(s.spill_path, o.spill_buffer_bytes));
   MDS_TRY(w.append(s.memory));
-  if (o.property) {
-    MDS_ASSIGN_OR_RETURN(s.spill_property_path, tmp.file("spill.prop"));
-    MDS_ASSIGN_OR_RETURN(PropertySpillWriter pw, PropertySpillWriter::create(s.spill_property_path, o.spill_buffer_bytes / 8));
-    MDS_TRY(pw.append(s.memory_property));
-    s.spill_property.emplace(std::move(pw));
+  if (o.side.words() > 0) {
+    MDS_ASSIGN_OR_RETURN(s.spill_side_path, tmp.file("spill.side"));
+    MDS_ASSIGN_OR_RETURN(SideSpillWriter pw,
+                         SideSpillWriter::create(s.spill_side_path, o.side.words() * o.spill_buffer_bytes / 8));
+    MDS_TRY(pw.append(s.memory_side));
+    s.spill_side.emplace(std::move(pw));
   }
   s.prefault.reset();  // before the memory goes
   s.memory = {};
-  s.memory_property = {};
+  s.memory_side = {};
   s.spill.emplace(std::move(w));
   s.in_memory = false;
   return {};
@@ -199,20 +201,23 @@ Status spill_memory(InputScan& s, TempDir& tmp, const ScanOptions& o) {
 Status consume(const ScanOptions& o, const FrameInfo& info, const std::filesystem::path& path, const ParticleBatch& batch,
                size_t n, uint64_t& index, TempDir& tmp, InputScan& s) {
   if (batch.x.size() != n || batch.y.size() != n || batch.z.size() != n || batch.type.size() != n ||
-      (!batch.radius.empty() && batch.radius.size() != n) || (o.property && batch.property.size() != n))
+      (!batch.radius.empty() && batch.radius.size() != n) || (o.side.property && batch.property.size() != n) ||
+      (o.side.color && batch.color.size() != n))
     return make_error(Errc::internal, "{}: reader returned inconsistent batch sizes", path.string());
   const bool has_radius = !batch.radius.empty();
   s.per_particle_radius = s.per_particle_radius || has_radius;
   if (s.in_memory && s.memory.size() + n > o.max_memory_records) MDS_TRY(spill_memory(s, tmp, o));
   SpillRecord* out = nullptr;
-  float* out_property = nullptr;
+  const uint32_t W = o.side.words();
+  uint32_t* out_side = nullptr;
+  uint32_t side[2];  // one record's side words (W <= 2)
   if (s.in_memory) {
     const size_t at = s.memory.size();
     s.memory.resize(at + n);  // capacity reserved: no reallocation; default-init: no zero fill
     out = s.memory.data() + at;
-    if (o.property) {
-      s.memory_property.resize(at + n);
-      out_property = s.memory_property.data() + at;
+    if (W > 0) {
+      s.memory_side.resize(W * (at + n));
+      out_side = s.memory_side.data() + W * at;
     }
   }
   double lo[3] = {s.lo[0], s.lo[1], s.lo[2]}, hi[3] = {s.hi[0], s.hi[1], s.hi[2]};
@@ -249,15 +254,17 @@ Status consume(const ScanOptions& o, const FrameInfo& info, const std::filesyste
     }
     rmin = std::min(rmin, r.radius);
     rmax = std::max(rmax, r.radius);
-    if (o.property) {
+    if (o.side.property) {
       const float v = batch.property[i];
       if (!std::isfinite(v))  // the readers check; a broken reader must not reach the store
         return make_error(Errc::range, "{}: particle {}: non-finite property {}", path.string(), index + i, v);
       vmin = std::min(vmin, v);
       vmax = std::max(vmax, v);
-      if (out_property) out_property[i] = v;
-      else MDS_TRY(s.spill_property->append(v));
+      side[o.side.property_word()] = std::bit_cast<uint32_t>(v);
     }
+    if (o.side.color) side[o.side.color_word()] = batch.color[i];
+    if (out_side) std::copy(side, side + W, out_side + W * i);
+    else if (W > 0) MDS_TRY(s.spill_side->append(std::span<const uint32_t>(side, W)));
     lo[0] = std::min(lo[0], r.x), hi[0] = std::max(hi[0], r.x);
     lo[1] = std::min(lo[1], r.y), hi[1] = std::max(hi[1], r.y);
     lo[2] = std::min(lo[2], r.z), hi[2] = std::max(hi[2], r.z);
@@ -288,17 +295,17 @@ Status scan_inputs(const ScanOptions& o, std::vector<std::unique_ptr<ParticleRea
   s.in_memory = declared <= o.max_memory_records;
   if (s.in_memory) {
     s.memory.reserve(size_t(declared));
-    if (o.property) s.memory_property.reserve(size_t(declared));
+    if (o.side.words() > 0) s.memory_side.reserve(size_t(o.side.words() * declared));
     s.prefault = std::make_unique<BackgroundPrefault>(s.memory.data(), s.memory.capacity() * sizeof(SpillRecord));
   } else {
     MDS_ASSIGN_OR_RETURN(s.spill_path, tmp.file("spill.rec"));
     MDS_ASSIGN_OR_RETURN(SpillWriter w, SpillWriter::create(s.spill_path, o.spill_buffer_bytes));
     s.spill.emplace(std::move(w));
-    if (o.property) {
-      MDS_ASSIGN_OR_RETURN(s.spill_property_path, tmp.file("spill.prop"));
-      MDS_ASSIGN_OR_RETURN(PropertySpillWriter pw,
-                           PropertySpillWriter::create(s.spill_property_path, o.spill_buffer_bytes / 8));
-      s.spill_property.emplace(std::move(pw));
+    if (o.side.words() > 0) {
+      MDS_ASSIGN_OR_RETURN(s.spill_side_path, tmp.file("spill.side"));
+      MDS_ASSIGN_OR_RETURN(SideSpillWriter pw,
+                           SideSpillWriter::create(s.spill_side_path, o.side.words() * o.spill_buffer_bytes / 8));
+      s.spill_side.emplace(std::move(pw));
     }
   }
   progress.stage("read", declared);
@@ -331,7 +338,7 @@ Status scan_inputs(const ScanOptions& o, std::vector<std::unique_ptr<ParticleRea
   }
   s.prefault.reset();
   if (s.spill) MDS_TRY(s.spill->close());
-  if (s.spill_property) MDS_TRY(s.spill_property->close());
+  if (s.spill_side) MDS_TRY(s.spill_side->close());
   progress.finish();
   if (s.count == 0) {
     std::string names;

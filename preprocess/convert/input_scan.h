@@ -37,7 +37,7 @@ struct ScanOptions {
   std::vector<std::filesystem::path> inputs;   // names for messages, one per reader
   float radius = 0.5f;                         // default radius of every type
   std::map<int32_t, float> radius_by_type;
-  bool property = false;                       // the readers fill ParticleBatch::property
+  SideLayout side;                             // the readers fill ParticleBatch::property / color
   size_t batch_particles = 65536;
   size_t spill_buffer_bytes = 4 << 20;
   uint64_t max_memory_records = 0;             // more than this: spill
@@ -53,17 +53,17 @@ struct InputScan {
   bool per_particle_radius = false;
   float prad_min = std::numeric_limits<float>::infinity();
   float prad_max = 0;
-  float property_min = std::numeric_limits<float>::infinity();   // over all particles, with ScanOptions::property
+  float property_min = std::numeric_limits<float>::infinity();   // over all particles, with side.property
   float property_max = -std::numeric_limits<float>::infinity();
   std::map<int32_t, TypeStat> types;
   bool in_memory = true;
   BigVector<SpillRecord> memory;          // in-memory path
-  BigVector<float> memory_property;       // in-memory path with ScanOptions::property: parallel to memory
+  BigVector<uint32_t> memory_side;        // in-memory path with a side column: side.words() per record of memory
   std::unique_ptr<BackgroundPrefault> prefault;  // maps `memory`'s pages ahead of the reading
   std::optional<SpillWriter> spill;       // spill path (closed at the end of pass A)
   std::filesystem::path spill_path;
-  std::optional<PropertySpillWriter> spill_property;  // with ScanOptions::property: parallel to spill
-  std::filesystem::path spill_property_path;
+  std::optional<SideSpillWriter> spill_side;  // with a side column: parallel to spill
+  std::filesystem::path spill_side_path;
 };
 
 // Reads every reader to its end (readers are released as they finish).

@@ -5,6 +5,7 @@
 #include <time.h>
 
 #include <algorithm>
+#include <bit>
 #include <climits>
 #include <cstdint>
 #include <atomic>
@@ -114,7 +115,13 @@ void gather(const BuildContext& ctx, NodeWorker& w, const PermSource<Recs>& src,
     } else {
       max_radius = std::max(max_radius, ctx.type_radius[t]);
     }
-    if (ctx.property) w.property_q[i] = quantize_property(recs.property[perm[i]], ctx.property_min, ctx.property_max);
+    if (ctx.side.words() > 0) {
+      const uint32_t* side = recs.side.data() + size_t(ctx.side.words()) * perm[i];
+      if (ctx.side.property)
+        w.property_q[i] = quantize_property(std::bit_cast<float>(side[ctx.side.property_word()]), ctx.property_min,
+                                            ctx.property_max);
+      if (ctx.side.color) w.color[i] = side[ctx.side.color_word()];
+    }
     const double p[3] = {r.x, r.y, r.z};
     for (int a = 0; a < 3; ++a) {
       const uint32_t c = ctx.density.cell(a, p[a]);
@@ -214,7 +221,8 @@ Result<NodeResult> build_node(const BuildContext& ctx, NodeWorker& w, const Sour
   w.xyz.resize(3 * n);
   w.type_index.resize(n);
   w.radius_q.resize(ctx.per_particle_radius ? n : 0);
-  w.property_q.resize(ctx.property ? n : 0);
+  w.property_q.resize(ctx.side.property ? n : 0);
+  w.color.resize(ctx.side.color ? n : 0);
   w.vcoords.resize(3 * n);
   uint32_t vlo[3] = {UINT32_MAX, UINT32_MAX, UINT32_MAX}, vhi[3] = {0, 0, 0};
   double lo[3], hi[3];
@@ -245,9 +253,15 @@ Result<NodeResult> build_node(const BuildContext& ctx, NodeWorker& w, const Sour
       for (size_t k = 0; k < n; ++k) s[k] = w.radius_q[w.order[k]];
       for (size_t k = 0; k < n; ++k) w.radius_q[k] = uint16_t(s[k]);
     }
-    if (ctx.property) {
+    if (ctx.side.property) {
       for (size_t k = 0; k < n; ++k) s[k] = w.property_q[w.order[k]];
       for (size_t k = 0; k < n; ++k) w.property_q[k] = s[k];
+    }
+    if (ctx.side.color) {
+      auto& c = w.color_scratch;
+      c.resize(n);
+      for (size_t k = 0; k < n; ++k) c[k] = w.color[w.order[k]];
+      w.color.swap(c);
     }
   }
   voxel_refs_in_box(w.vcoords, ctx.density.dims(), vlo, vhi, w.voxel_scratch, w.refs);
@@ -257,6 +271,7 @@ Result<NodeResult> build_node(const BuildContext& ctx, NodeWorker& w, const Sour
   in.type_index = w.type_index;
   in.radius_q = w.radius_q;
   in.property_q = w.property_q;
+  in.color = w.color;
   in.meshlet_size = w.sizes;
   for (int a = 0; a < 3; ++a) {
     in.center_min[a] = lo[a];
@@ -359,8 +374,9 @@ Status build_bin_impl(const BuildContext& ctx, std::vector<std::unique_ptr<NodeW
 Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
                  std::span<const uint64_t> keys, std::span<const uint32_t> perm, const SpillRecords& recs,
                  int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress) {
-  if (ctx.property && recs.property.size() != recs.size())
-    return make_error(Errc::internal, "build_bin: {} property values for {} records", recs.property.size(), recs.size());
+  if (recs.side.size() != size_t(ctx.side.words()) * recs.size())
+    return make_error(Errc::internal, "build_bin: {} side words for {} records of {} words", recs.side.size(),
+                      recs.size(), ctx.side.words());
   return build_bin_impl(ctx, workers, build_nodes(keys, start_level, ctx.node_size),
                         PermSource<SpillRecords>{keys, perm, &recs}, writer, tot, progress);
 }
@@ -368,8 +384,8 @@ Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker
 Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
                  const SortedXyzRecords& recs, const MortonGrid& grid, int start_level, store::StoreWriter& writer,
                  BuildTotals& tot, Progress& progress) {
-  if (ctx.per_particle_radius || ctx.property)
-    return make_error(Errc::internal, "build_bin: sorted raw positions carry no radii or properties");
+  if (ctx.per_particle_radius || ctx.side.words() > 0)
+    return make_error(Errc::internal, "build_bin: sorted raw positions carry no radii, properties or colours");
   return build_bin_impl(ctx, workers, build_nodes(XyzMortonKeys{recs.xyz, recs.n, &grid}, start_level, ctx.node_size),
                         SortedSource{recs.xyz, recs.n, recs.type, recs.radius, &grid}, writer, tot, progress);
 }

@@ -47,7 +47,9 @@ struct BuildContext {
   std::vector<float> type_radius;  // by type index
   bool per_particle_radius = false;
   float radius_min = 0, radius_max = 0;
-  bool property = false;  // records carry SpillRecord::property, quantized into [property_min, property_max]
+  // The records' side column (SpillRecords::side): the property, quantized into [property_min,
+  // property_max], and the colour.
+  SideLayout side;
   float property_min = 0, property_max = 0;
 };
 
@@ -71,6 +73,8 @@ struct NodeWorker {
   std::vector<uint8_t> type_index;
   std::vector<uint16_t> radius_q;
   std::vector<uint16_t> property_q;
+  std::vector<uint32_t> color;          // RGBA8 per particle (BuildContext::side.color)
+  std::vector<uint32_t> color_scratch;  // the colours' permutation
   std::vector<uint32_t> vcoords;  // density voxel coordinates, 3 per particle
   std::vector<store::VoxelRef> refs;
   std::vector<uint32_t> voxel_scratch;
@@ -79,8 +83,8 @@ struct NodeWorker {
 };
 
 // Builds and appends the nodes of one bin: `keys` sorted, `perm[i]` the record of keys[i],
-// all keys inside the octree cell of depth `start_level`. With ctx.property, recs.property
-// holds one value per record.
+// all keys inside the octree cell of depth `start_level`. With ctx.side's columns, recs.side
+// holds ctx.side.words() per record.
 Status build_bin(const BuildContext& ctx, std::vector<std::unique_ptr<NodeWorker>>& workers,
                  std::span<const uint64_t> keys, std::span<const uint32_t> perm, const SpillRecords& recs,
                  int start_level, store::StoreWriter& writer, BuildTotals& tot, Progress& progress);

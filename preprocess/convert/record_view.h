@@ -15,7 +15,7 @@ namespace mds::convert {
 
 struct SpillRecords {
   std::span<const SpillRecord> recs;
-  std::span<const float> property = {};  // the property column, parallel to recs; empty without one
+  std::span<const uint32_t> side = {};  // the side column (SideLayout words per record), or empty
   size_t size() const { return recs.size(); }
   const SpillRecord& operator[](size_t i) const { return recs[i]; }
   const void* address(size_t i) const { return &recs[i]; }

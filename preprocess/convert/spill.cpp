@@ -178,7 +178,7 @@ Result<size_t> SpillReaderOf<T>::read(std::span<T> out) {
 
 template class SpillWriterOf<SpillRecord>;
 template class SpillReaderOf<SpillRecord>;
-template class SpillWriterOf<float>;
-template class SpillReaderOf<float>;
+template class SpillWriterOf<uint32_t>;
+template class SpillReaderOf<uint32_t>;
 
 }  // namespace mds::convert

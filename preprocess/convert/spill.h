@@ -1,6 +1,6 @@
 // Temporary particle spill files of the out-of-core converter: fixed 32-byte records, and with
-// a per-particle property (`convert --property`) a parallel file of one float per record, both
-// written and read through large buffers. Every temporary file lives inside a TempDir,
+// a per-particle property (`convert --property`) or colour (`convert --color`) a parallel side
+// column of 4-byte words (SideLayout), both written and read through large buffers. Every temporary file lives inside a TempDir,
 // which removes itself (and everything in it) when destroyed, on success and on error.
 #pragma once
 
@@ -14,15 +14,26 @@
 
 namespace mds::convert {
 
-// The property is not in the record: it is a column of its own (4 bytes a particle where asked
-// for), so that a conversion without one moves 32 bytes a particle, not 40 (a 10M-particle LAMMPS
-// text conversion took 1.15x the time with 40-byte records on the 2-core VM).
+// The property and the colour are not in the record: they are a side column of their own (4
+// bytes a particle for each that is asked for), so that a conversion without them moves 32 bytes
+// a particle, not 40 (a 10M-particle LAMMPS text conversion took 1.15x the time with 40-byte
+// records on the 2-core VM).
 struct SpillRecord {
   double x, y, z;
   int32_t type;   // input type id
   float radius;   // per-particle radius, or the type's radius
 };
 static_assert(sizeof(SpillRecord) == 32);
+
+// The side column's words per record, in this order: the property's float bits (`--property`),
+// then the RGBA8 colour (`--color`, readers/reader.h pack_rgba8). 0, 4 or 8 bytes a particle.
+struct SideLayout {
+  bool property = false;
+  bool color = false;
+  uint32_t words() const { return uint32_t(property) + uint32_t(color); }
+  uint32_t property_word() const { return 0; }
+  uint32_t color_word() const { return property ? 1 : 0; }
+};
 
 // A uniquely named directory, created lazily on first use; removed recursively on destruction.
 class TempDir {
@@ -42,7 +53,7 @@ class TempDir {
   std::filesystem::path dir_;
 };
 
-// Append-only file of records (T = SpillRecord, or float for the property column) with a
+// Append-only file of records (T = SpillRecord, or uint32_t for the side column) with a
 // write buffer. Owns its descriptor.
 template <class T>
 class SpillWriterOf {
@@ -102,7 +113,7 @@ class SpillReaderOf {
 // Instantiated in spill.cpp for these two.
 using SpillWriter = SpillWriterOf<SpillRecord>;
 using SpillReader = SpillReaderOf<SpillRecord>;
-using PropertySpillWriter = SpillWriterOf<float>;
-using PropertySpillReader = SpillReaderOf<float>;
+using SideSpillWriter = SpillWriterOf<uint32_t>;
+using SideSpillReader = SpillReaderOf<uint32_t>;
 
 }  // namespace mds::convert

@@ -129,7 +129,8 @@ Status MmpldReader::parse_frame(uint64_t begin, uint64_t end, bool with_timestam
       l.has_global_radius = true;
     }
     if (l.colour_type == 0) {
-      MDS_TRY(c.skip(4, "global colour"));
+      MDS_ASSIGN_OR_RETURN(const uint32_t rgba, c.take<uint32_t>("global colour"));  // bytes R, G, B, A
+      l.global_colour = rgba;
     } else if (l.colour_type == 3 || l.colour_type == 7) {
       MDS_TRY(c.skip(8, "intensity range"));  // two floats also for DOUBLE_I (MMPLD 1.3 quirk)
     }
@@ -242,7 +243,42 @@ Result<std::unique_ptr<ParticleReader>> MmpldReader::open(const std::filesystem:
     r->intensity_ = true;
     r->info_.has_property = true;
   }
+  if (options.color) {
+    for (size_t i = 0; i < r->lists_.size(); ++i) {
+      const MmpldList& l = r->lists_[i];
+      if (l.vertex_type != 0 && (l.colour_type == 3 || l.colour_type == 7))
+        return make_error(Errc::format,
+                          "{}: byte offset {}: frame {} list {}: colour type {} is an intensity, not a colour (--color "
+                          "needs NONE, UINT8_RGB(A), FLOAT_RGB(A) or USHORT_RGBA; keep it with --property intensity)",
+                          f.name(), l.data_offset, frame, i, l.colour_type == 3 ? "FLOAT_I" : "DOUBLE_I");
+    }
+    r->colour_ = true;
+    r->info_.has_color = true;
+  }
   return std::unique_ptr<ParticleReader>(std::move(r));
+}
+
+Result<uint32_t> MmpldReader::colour(const MmpldList& l, const unsigned char* p, uint64_t at, uint64_t index) const {
+  switch (l.colour_type) {
+    case 0: return l.global_colour;
+    case 1: return pack_rgba8(p[0], p[1], p[2]);
+    case 2: return pack_rgba8(p[0], p[1], p[2], p[3]);
+    case 6: {
+      uint16_t v[4];
+      std::memcpy(v, p, 8);
+      return pack_rgba8((v[0] * 255u + 32767u) / 65535u, (v[1] * 255u + 32767u) / 65535u,
+                        (v[2] * 255u + 32767u) / 65535u, (v[3] * 255u + 32767u) / 65535u);
+    }
+    default: {  // 4 FLOAT_RGB, 5 FLOAT_RGBA
+      float v[4] = {0, 0, 0, 1};
+      std::memcpy(v, p, l.colour_type == 4 ? 12 : 16);
+      for (int k = 0; k < 4; ++k)
+        if (!std::isfinite(v[k]))
+          return make_error(Errc::range, "{}: byte offset {}: list {} particle {}: non-finite colour channel {}",
+                            file_.name(), at + 4 * k, cur_list_, index, v[k]);
+      return pack_rgba8(unit_to_u8(v[0]), unit_to_u8(v[1]), unit_to_u8(v[2]), unit_to_u8(v[3]));
+    }
+  }
 }
 
 Result<size_t> MmpldReader::read(ParticleBatch& out, size_t max_particles) {
@@ -311,6 +347,11 @@ Result<size_t> MmpldReader::read(ParticleBatch& out, size_t max_particles) {
           return make_error(Errc::range, "{}: byte offset {}: list {} particle {}: non-finite intensity {}", file_.name(),
                             at + i * l.stride + l.vertex_size, cur_list_, cur_index_ + i, v);
         out.property.push_back(static_cast<float>(v));
+      }
+      if (colour_) {
+        MDS_ASSIGN_OR_RETURN(const uint32_t rgba, colour(l, p + l.vertex_size, at + i * l.stride + l.vertex_size,
+                                                           cur_index_ + i));
+        out.color.push_back(rgba);
       }
     }
     appended += n;

@@ -21,7 +21,9 @@
 // Mapping to mdstream: type id = list index + 1; a list's global radius goes to
 // FrameInfo::type_radius; FLOAT_XYZR radii go to ParticleBatch::radius (lists without
 // per-particle radius then get their global radius there). Colours are skipped, except the
-// FLOAT_I / DOUBLE_I intensities with ReaderOptions::property "intensity". SHORT_XYZ
+// FLOAT_I / DOUBLE_I intensities with ReaderOptions::property "intensity", and the RGB(A)
+// colours with ReaderOptions::color (a NONE list's global colour for each of its particles;
+// float channels clamped to [0, 1], USHORT ones scaled to 8 bits; RGB gets alpha 255). SHORT_XYZ
 // coordinates are returned as their raw int16 values. The file is treated as hostile:
 // every offset and count is checked against the frame and file size before use.
 #pragma once
@@ -38,6 +40,7 @@ struct MmpldList {
   uint8_t colour_type = 0;
   float global_radius = 0;
   bool has_global_radius = false;
+  uint32_t global_colour = 0;  // colour type NONE: the list's RGBA8 (pack_rgba8)
   uint64_t count = 0;
   uint64_t data_offset = 0;   // absolute byte offset of the first particle
   uint32_t stride = 0;        // bytes per particle (vertex + colour)
@@ -58,6 +61,8 @@ class MmpldReader final : public ParticleReader {
  private:
   explicit MmpldReader(BinaryFile file) : file_(std::move(file)) {}
   Status parse_frame(uint64_t begin, uint64_t end, bool with_timestamp);
+  // The RGBA8 of the particle whose colour bytes are p (file offset `at`) in list l.
+  Result<uint32_t> colour(const MmpldList& l, const unsigned char* p, uint64_t at, uint64_t index) const;
 
   BinaryFile file_;
   FrameInfo info_;
@@ -68,6 +73,7 @@ class MmpldReader final : public ParticleReader {
   uint64_t cur_index_ = 0;     // next particle within it
   std::vector<unsigned char> buffer_;
   bool intensity_ = false;  // ReaderOptions::property "intensity": FLOAT_I / DOUBLE_I colours kept as the property
+  bool colour_ = false;     // ReaderOptions::color: RGB(A) colours kept as ParticleBatch::color
 };
 
 }  // namespace mds

@@ -169,6 +169,11 @@ Result<std::unique_ptr<ParticleReader>> open_reader(const std::filesystem::path&
   if (f == InputFormat::automatic) {
     MDS_ASSIGN_OR_RETURN(f, detect_format(path));
   }
+  if (options.color && f != InputFormat::xyz && f != InputFormat::mmpld)
+    return make_error(Errc::invalid_argument,
+                      "{}: {} input has no per-particle colours (--color keeps MMPLD colours and extended XYZ's "
+                      "color:R:3)",
+                      path.string(), input_format_name(f));
   switch (f) {
     case InputFormat::lammps: return open_lammps_reader(path, options);
     case InputFormat::xyz: return open_xyz_reader(path, options);

@@ -6,6 +6,7 @@
 // (line number for text, dataset path for HDF5, byte offset for binary formats).
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <map>
@@ -51,11 +52,23 @@ struct ParticleBatch {
   BatchVector<float> radius;       // per-particle radius; empty when the input has none
   BatchVector<int64_t> id;         // particle id when the input has one (LAMMPS `id`), else empty
   BatchVector<float> property;     // the scalar ReaderOptions::property names (finite); empty without one
+  BatchVector<uint32_t> color;     // with ReaderOptions::color: RGBA8 (pack_rgba8), else empty
 
   size_t size() const { return x.size(); }
-  void clear() { x.clear(); y.clear(); z.clear(); type.clear(); radius.clear(); id.clear(); property.clear(); }
+  void clear() {
+    x.clear(); y.clear(); z.clear(); type.clear(); radius.clear(); id.clear(); property.clear(); color.clear();
+  }
   void reserve(size_t n) { x.reserve(n); y.reserve(n); z.reserve(n); type.reserve(n); }
 };
+
+// A per-particle colour as the store keeps it (store kFlagColor): R in bits 0-7, then G, B, A.
+inline uint32_t pack_rgba8(uint32_t r, uint32_t g, uint32_t b, uint32_t a = 255) {
+  return (r & 0xffu) | (g & 0xffu) << 8 | (b & 0xffu) << 16 | (a & 0xffu) << 24;
+}
+// A colour channel in [0, 1] (clamped; finite) to 8 bits, rounded to nearest.
+inline uint32_t unit_to_u8(double v) {
+  return uint32_t(std::lround((v < 0 ? 0 : v > 1 ? 1 : v) * 255.0));
+}
 
 enum class InputFormat { automatic, lammps, xyz, h5md, mmpld, raw };
 
@@ -99,6 +112,10 @@ struct ReaderOptions {
   // `intensity` (FLOAT_I colours). Empty = none. A reader that cannot find it fails at open,
   // naming the file and what it has.
   std::string property;
+  // Keep per-particle colours (`convert --color`): MMPLD's colours (per particle, or a list's
+  // global colour; not the FLOAT_I / DOUBLE_I intensities) and extended XYZ's `color:R:3`
+  // (OVITO's "Color", channels in [0, 1]). A reader whose input has none fails at open.
+  bool color = false;
 };
 
 // What is known about the frame after open (before reading particles).
@@ -112,6 +129,7 @@ struct FrameInfo {
   double box_hi[3] = {0, 0, 0};
   bool has_radius = false;         // read() fills ParticleBatch::radius
   bool has_property = false;       // read() fills ParticleBatch::property (ReaderOptions::property)
+  bool has_color = false;          // read() fills ParticleBatch::color (ReaderOptions::color)
   // Names of type ids, when the input has names (XYZ/H5MD species strings). Readers may
   // add names while streaming (XYZ); the final map is type_names() after the last read().
   std::map<int32_t, std::string> type_names;

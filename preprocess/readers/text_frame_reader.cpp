@@ -14,7 +14,7 @@ Error truncated_frame_error(const TextSource& src, uint64_t frame_line, uint64_t
 }
 
 FrameInfo text_frame_info(uint64_t natoms, int64_t timestep, const double* box_lo, const double* box_hi,
-                          bool has_radius, bool has_property) {
+                          bool has_radius, bool has_property, bool has_color) {
   FrameInfo info;
   info.particle_count = natoms;
   info.timestep = timestep;
@@ -25,6 +25,7 @@ FrameInfo text_frame_info(uint64_t natoms, int64_t timestep, const double* box_l
   }
   info.has_radius = has_radius;
   info.has_property = has_property;
+  info.has_color = has_color;
   return info;
 }
 
@@ -165,7 +166,8 @@ Result<size_t> TextFrameReader::read(ParticleBatch& out, size_t max_particles) {
   return got;
 }
 
-void TextFrameReader::resize_batch(ParticleBatch& out, size_t n, bool with_id, bool with_radius, bool with_property) {
+void TextFrameReader::resize_batch(ParticleBatch& out, size_t n, bool with_id, bool with_radius, bool with_property,
+                                   bool with_color) {
   out.x.resize(n);
   out.y.resize(n);
   out.z.resize(n);
@@ -173,6 +175,7 @@ void TextFrameReader::resize_batch(ParticleBatch& out, size_t n, bool with_id, b
   if (with_id) out.id.resize(n);
   if (with_radius) out.radius.resize(n);
   if (with_property) out.property.resize(n);
+  if (with_color) out.color.resize(n);
 }
 
 void TextFrameReader::set_error(LineParseError& err, Errc code, uint64_t line, const std::string& what) const {

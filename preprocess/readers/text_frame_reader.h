@@ -66,7 +66,7 @@ Error truncated_frame_error(const TextSource& src, uint64_t frame_line, uint64_t
 
 // FrameInfo of a text frame; box_lo/box_hi == nullptr: the frame has no box.
 FrameInfo text_frame_info(uint64_t natoms, int64_t timestep, const double* box_lo, const double* box_hi,
-                          bool has_radius, bool has_property = false);
+                          bool has_radius, bool has_property = false, bool has_color = false);
 
 // First error found by a parsing thread.
 struct LineParseError {
@@ -112,7 +112,8 @@ class TextFrameReader : public ParticleReader {
   }
 
   // Sizes the arrays of out for n particles (id and radius only when the frame has them).
-  static void resize_batch(ParticleBatch& out, size_t n, bool with_id, bool with_radius, bool with_property = false);
+  static void resize_batch(ParticleBatch& out, size_t n, bool with_id, bool with_radius, bool with_property = false,
+                           bool with_color = false);
   // Records "file:line: what" (first error of a range).
   void set_error(LineParseError& err, Errc code, uint64_t line, const std::string& what) const;
   // The token starting at t (at most 40 characters), for messages.

@@ -123,10 +123,12 @@ struct XyzHeader {
   int radius_col = -1;
   int property_col = -1;     // ReaderOptions::property's column, or -1
   std::string property;      // ReaderOptions::property
+  int color_col = -1;        // with ReaderOptions::color: the first of the color:R:3 columns, or -1
 };
 
 // Reads the count and comment lines of the next frame; false at the end of the file.
-Result<bool> read_header(TextSource& src, XyzHeader& h, const std::string& after, const std::string& property) {
+Result<bool> read_header(TextSource& src, XyzHeader& h, const std::string& after, const std::string& property,
+                         bool color) {
   h = XyzHeader{};
   h.property = property;
   const std::string& file = src.name();
@@ -269,7 +271,24 @@ Result<bool> read_header(TextSource& src, XyzHeader& h, const std::string& after
         return make_error(Errc::format, "{}:{}: Properties has no '{}' (--property); it has: {}", file, cline, property,
                           list);
     }
+    if (color) {
+      // OVITO writes per-particle colours as Color:R:3, channels in [0, 1].
+      for (auto& p : props) {
+        const std::string n = lower(p.name);
+        if ((n != "color" && n != "colour" && n != "colors") || h.color_col >= 0) continue;
+        if (p.type != 'R' || p.count != 3)
+          return make_error(Errc::format, "{}:{}: Properties: '{}' is {}:{}; --color needs R:3 (red, green, blue in [0, 1])",
+                            file, cline, p.name, p.type, p.count);
+        h.color_col = p.first_column;
+      }
+      if (h.color_col < 0)
+        return make_error(Errc::format, "{}:{}: Properties has no color:R:3 (--color)", file, cline);
+    }
   }
+  if (color && !h.extended)
+    return make_error(Errc::format,
+                      "{}:{}: a plain XYZ frame has no named columns; --color needs extended XYZ with color:R:3", file,
+                      h.first_line + 1);
   if (!property.empty() && !h.extended)
     return make_error(Errc::format,
                       "{}:{}: a plain XYZ frame has no named columns; --property '{}' needs extended XYZ (Properties=...)",
@@ -282,7 +301,8 @@ class XyzReader final : public TextFrameReader {
   XyzReader(std::unique_ptr<TextSource> src, const XyzHeader& h)
       : TextFrameReader(std::move(src),
                         text_frame_info(h.natoms, h.timestep, h.has_box ? h.box_lo : nullptr,
-                                        h.has_box ? h.box_hi : nullptr, h.radius_col >= 0, h.property_col >= 0),
+                                        h.has_box ? h.box_hi : nullptr, h.radius_col >= 0, h.property_col >= 0,
+                                        h.color_col >= 0),
                         h.first_line, /*reject_unterminated=*/false), h_(h) {}
 
  private:
@@ -301,7 +321,7 @@ class XyzReader final : public TextFrameReader {
   }
 
   Status parse_block(const LineBlock& blk, ParticleBatch& out, size_t base, uint64_t done_before) override {
-    resize_batch(out, base + blk.lines, /*with_id=*/false, h_.radius_col >= 0, h_.property_col >= 0);
+    resize_batch(out, base + blk.lines, /*with_id=*/false, h_.radius_col >= 0, h_.property_col >= 0, h_.color_col >= 0);
     species_.resize(blk.lines);
     MDS_TRY(parse_parallel(blk, [&](const char* b, const char* e, size_t first, size_t lines, LineParseError& err) {
       parse_range(b, e, first, base, lines, blk.first_line, done_before, out, err);
@@ -350,11 +370,13 @@ class XyzReader final : public TextFrameReader {
                    uint64_t done_before, ParticleBatch& out, LineParseError& err) {
     const int ncols = h_.ncols;
     const int scol = h_.species_col, pcol = h_.pos_col, rcol = h_.radius_col, vcol = h_.property_col;
+    const int ccol = h_.color_col;
     const int need = h_.extended ? ncols : 4;
     for (size_t li = 0; li < lines; ++li) {
       const size_t bi = first + li;  // index within the block
       const uint64_t line_no = first_line + bi;
       double pos[3] = {0, 0, 0};
+      double rgb[3] = {0, 0, 0};
       int c = 0;
       for (;; ++c) {
         while (is_blank(*p)) ++p;
@@ -416,6 +438,17 @@ class XyzReader final : public TextFrameReader {
           }
           out.property[base + bi] = static_cast<float>(v);
           p = r.ptr;
+        } else if (ccol >= 0 && c >= ccol && c < ccol + 3) {
+          if (*p == '+') ++p;
+          double v;
+          auto r = parse_double(p, end, v);
+          if (r.ec != std::errc() || !is_token_end(*r.ptr) || !std::isfinite(v)) {
+            set_error(err, r.ec == std::errc::result_out_of_range ? Errc::range : Errc::format, line_no,
+                      fmt::format("bad colour channel '{}'", token_at(tok)));
+            return;
+          }
+          rgb[c - ccol] = v;
+          p = r.ptr;
         } else {
           while (!is_token_end(*p)) ++p;
         }
@@ -435,6 +468,7 @@ class XyzReader final : public TextFrameReader {
       out.x[base + bi] = pos[0];
       out.y[base + bi] = pos[1];
       out.z[base + bi] = pos[2];
+      if (ccol >= 0) out.color[base + bi] = pack_rgba8(unit_to_u8(rgb[0]), unit_to_u8(rgb[1]), unit_to_u8(rgb[2]));
     }
   }
 
@@ -452,7 +486,7 @@ Result<std::unique_ptr<ParticleReader>> open_xyz_reader(const std::filesystem::p
   XyzHeader h;
   MDS_ASSIGN_OR_RETURN(std::unique_ptr<TextSource> src,
                        open_text_frame(path, options, h, [&](TextSource& s, XyzHeader& xh, const std::string& after) {
-                         return read_header(s, xh, after, options.property);
+                         return read_header(s, xh, after, options.property, options.color);
                        }));
   auto r = std::make_unique<XyzReader>(std::move(src), h);
   r->set_relay(options.relay);
@@ -462,7 +496,7 @@ Result<std::unique_ptr<ParticleReader>> open_xyz_reader(const std::filesystem::p
 Result<std::vector<FrameEntry>> list_xyz_frames(const std::filesystem::path& path, const ReaderOptions& options) {
   XyzHeader h;
   return list_text_frames(path, text_header_fn(h, [&](TextSource& s, XyzHeader& xh, const std::string& after) {
-                            return read_header(s, xh, after, options.property);
+                            return read_header(s, xh, after, options.property, options.color);
                           }));
 }
 

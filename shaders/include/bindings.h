@@ -27,6 +27,8 @@ layout(std430, set = 0, binding = kBindDrawList) MDS_DRAW_LIST_ACCESS buffer Dra
 layout(std430, set = 0, binding = kBindRadii) readonly buffer RadiusBlock { uint radii_q[]; };
 // Per-particle property_q, two uint16 per uint (only with kFrameColorProperty).
 layout(std430, set = 0, binding = kBindProperty) readonly buffer PropertyBlock { uint property_q[]; };
+// Per-particle RGBA8 colours, R in bits 0..7 (only with kFrameColorParticle).
+layout(std430, set = 0, binding = kBindColor) readonly buffer ColorBlock { uint particle_rgba[]; };
 // Buffer index of a meshlet's local particle l (GpuMeshlet: at most two runs, see gpu_types.h).
 uint mds_meshlet_particle(GpuMeshlet m, uint l) {
   return l < m.split ? m.first_particle + l : m.second_particle + (l - m.split);

@@ -29,6 +29,7 @@ MDS_CONST(uint, kBindAccumBuffer, 12);  // vec4[W * H]: the accumulation, 16 B/p
 MDS_CONST(uint, kBindOcclusionPyramid, 13);  // vec2[]: the culling loop's confidence pyramid (particle_occlusion.h)
 MDS_CONST(uint, kBindCoveredPixels, 14);  // CoveredPixelsHeader + uint pixel[W * H]: the visibility buffer's covered pixels
 MDS_CONST(uint, kBindProperty, 15);   // uint[] = two uint16 property_q per uint (optional; store kFlagProperty)
+MDS_CONST(uint, kBindColor, 16);      // uint[] = RGBA8 per particle, R in bits 0..7 (optional; store kFlagColor)
 
 // GpuSprite.flags
 MDS_CONST(uint, kSpriteHidden, 0x100u);  // nothing to draw (behind the near plane, radius 0)
@@ -58,6 +59,9 @@ MDS_CONST(uint, kFrameColorMap, 32u);  // colour by coordinate: the colormap of 
 // With kFrameColorMap: colour by the per-particle property instead, t = color_plane.x * q + color_plane.w for its
 // quantized value q (GpuSprite.flags bits 16..31, read from kBindProperty by sprite_make.h).
 MDS_CONST(uint, kFrameColorProperty, 64u);
+// The particles' own colours (--color-by color; store kFlagColor): GpuSprite.color, read from
+// kBindColor by sprite_make.h, sRGB, instead of the type's colour.
+MDS_CONST(uint, kFrameColorParticle, 128u);
 // FrameUniforms::colormap: the samples of the colormap of --colormap (render/colormap_table.h),
 // 65 x 16 B = 1040 B of the uniform block.
 MDS_CONST(uint, kColormapSamples, 65u);
@@ -158,7 +162,7 @@ MDS_STRUCT(GpuSprite) {
   uint flags;          // bits 0..7: type; kSpriteHidden, kSpriteQuad, kSpriteSmall; bits 16..31: property_q
                        // with kFrameColorProperty (else 0)
   uint vis_id;
-  uint pad1;
+  uint color;          // with kFrameColorParticle: the particle's RGBA8 (sRGB, R in bits 0..7), else 0
 };
 MDS_CONST(uint, kVisEmpty, 0xffffffffu);  // the visibility buffer's id of a pixel no sphere covers
 

@@ -1,4 +1,5 @@
-// GLSL-only: a particle's colour (linear RGB) -- its type's (GpuType.color), or with
+// GLSL-only: a particle's colour (linear RGB) -- its type's (GpuType.color), with
+// kFrameColorParticle its own (the sRGB RGBA8 of GpuSprite.color), or with
 // kFrameColorMap the frame's colormap (FrameUniforms::colormap) of its coordinate along one world axis, t =
 // dot(frame.color_plane.xyz, view-space centre) + frame.color_plane.w clamped to [0, 1], or with
 // kFrameColorMap | kFrameColorProperty of its property, t = color_plane.x * q + color_plane.w
@@ -23,8 +24,9 @@ vec3 mds_srgb_to_linear(vec3 c) {
   return mix(c / 12.92, pow((c + 0.055) / 1.055, vec3(2.4)), greaterThan(c, vec3(0.04045)));
 }
 
-// key: GpuSprite.flags (type in bits 0..7, property_q in bits 16..31).
-vec3 mds_particle_color(uint key, vec3 center_view) {
+// key: GpuSprite.flags (type in bits 0..7, property_q in bits 16..31); rgba: GpuSprite.color.
+vec3 mds_particle_color(uint key, uint rgba, vec3 center_view) {
+  if ((frame.counts.z & kFrameColorParticle) != 0u) return mds_srgb_to_linear(unpackUnorm4x8(rgba).rgb);
   if ((frame.counts.z & kFrameColorMap) == 0u) return types[key & 0xffu].color.rgb;
   float t = (frame.counts.z & kFrameColorProperty) != 0u
                 ? frame.color_plane.x * float(key >> 16) + frame.color_plane.w

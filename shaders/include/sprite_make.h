@@ -10,8 +10,9 @@
 // rectangle of at least one pixel, so every jittered sample that hits the sphere is rasterized
 // and the exact ray test in the fragment shader keeps only those -- over spp jittered passes a
 // sub-pixel sphere contributes exactly its expected covered area (its "effective sub-pixel area").
-// Needs bindings.h (frame, nodes, particles, types, radii_q; property_q where the shader defines
-// MDS_COLOR_KEY before including this: the colour key's property bits, else they stay 0).
+// Needs bindings.h (frame, nodes, particles, types, radii_q; property_q and particle_rgba where
+// the shader defines MDS_COLOR_KEY before including this: the colour key's property bits and the
+// sprite's colour, else they stay 0).
 #ifndef MDS_SPRITE_MAKE_H
 #define MDS_SPRITE_MAKE_H
 
@@ -46,17 +47,26 @@ vec4 mds_particle_sphere(uint pi, vec3 origin, vec3 step, out uint type) {
   return vec4(c, r);
 }
 
+// The particle's own RGBA8 colour with kFrameColorParticle (GpuSprite.color), else 0.
+uint mds_particle_rgba(uint pi) {
+#ifdef MDS_COLOR_KEY  // only the shaders that colour glyphs bind kBindColor
+  if ((frame.counts.z & kFrameColorParticle) != 0u) return particle_rgba[pi];
+#endif
+  return 0u;
+}
+
 // The sphere and type of the particle a visibility-buffer id names (GpuSprite.vis_id: draw-list
 // entry x max meshlet particles + local index), the same bits as its sprite's center_radius.
 // Only the fields it needs are loaded (a GpuNode is 144 bytes): on lavapipe the full-screen
 // resolve of a 1080p close-up paid ~27 ms for whole-struct loads.
-vec4 mds_vis_id_sphere(uint vis_id, out uint type) {
+vec4 mds_vis_id_sphere(uint vis_id, out uint type, out uint rgba) {
   uint e = vis_id / frame.counts.y;
   uint local = vis_id - e * frame.counts.y;
   uint id = draw_ids[e];
   uint split = meshlets[id].split;
   uint pi = local < split ? meshlets[id].first_particle + local : meshlets[id].second_particle + (local - split);
   uint node = meshlets[id].node;
+  rgba = mds_particle_rgba(pi);
   return mds_particle_sphere(pi, nodes[node].origin, nodes[node].step, type);
 }
 
@@ -66,7 +76,8 @@ vec4 mds_vis_id_sphere(uint vis_id, out uint type) {
 // rectangle.
 GpuSprite mds_make_sprite(GpuMeshlet m, GpuNode node, uint local, uint e) {
   uint type;
-  vec4 cr = mds_particle_sphere(mds_meshlet_particle(m, local), node.origin, node.step, type);
+  const uint pi = mds_meshlet_particle(m, local);
+  vec4 cr = mds_particle_sphere(pi, node.origin, node.step, type);
   vec3 c = cr.xyz;
   float r = cr.w;
   float near = frame.radius_range.z;
@@ -76,7 +87,7 @@ GpuSprite mds_make_sprite(GpuMeshlet m, GpuNode node, uint local, uint e) {
   s.center_radius = cr;
   s.flags = type;
   s.vis_id = e * frame.counts.y + local;
-  s.pad1 = 0u;
+  s.color = mds_particle_rgba(pi);
   s.rect = vec4(0.0);
   s.zndc = 0.0;
   if (zc + r <= near || r <= 0.0) {

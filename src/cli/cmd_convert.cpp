@@ -32,6 +32,7 @@ struct ConvertArgs {
   std::string frames;  // --frames: a series of the one input's frames
   std::string h5md_group;
   std::string property;
+  bool color = false;
   uint32_t node_size = 10000;
   uint32_t meshlet_size = 16;
   std::string meshlet_builder = "pcl";
@@ -69,6 +70,7 @@ nlohmann::json report_json(const convert::ConvertReport& r, const convert::Conve
   j["bounds_max"] = {r.bounds_max[0], r.bounds_max[1], r.bounds_max[2]};
   j["density_dims"] = {r.density_dims[0], r.density_dims[1], r.density_dims[2]};
   j["per_particle_radius"] = r.per_particle_radius;
+  j["color"] = r.color;
   if (!r.property.empty()) j["property"] = {{"name", r.property}, {"min", r.property_min}, {"max", r.property_max}};
   j["spilled"] = r.spilled;
   j["bins"] = r.bins;
@@ -121,6 +123,7 @@ void print_summary(const convert::ConvertReport& r, const convert::ConvertOption
                r.seconds_total, r.seconds_read, r.seconds_partition, r.seconds_build, r.seconds_sort,
                r.particles_per_second / 1e6, r.cpu_seconds, r.seconds_gather, r.seconds_meshlets, r.seconds_encode,
                r.seconds_append);
+  if (r.color) std::fprintf(stderr, "  colours          RGBA8 per particle\n");
   if (!r.property.empty())
     std::fprintf(stderr, "  property         %s in [%.6g, %.6g], 16 bits (step %.3g)\n", r.property.c_str(),
                  double(r.property_min), double(r.property_max),
@@ -148,6 +151,7 @@ Result<convert::ConvertOptions> to_options(const ConvertArgs& a) {
   }
   o.reader.h5md_group = a.h5md_group;
   o.reader.property = a.property;
+  o.reader.color = a.color;
   o.node_size = a.node_size;
   o.meshlet_size = a.meshlet_size;
   auto mb = convert::parse_meshlet_builder(a.meshlet_builder);
@@ -256,6 +260,9 @@ void setup_convert(CLI::App& sub, int& exit_code) {
                  "Keep one per-particle scalar for colour coding (render --color-by property): a LAMMPS column such as "
                  "c_pe or vx, an extended-XYZ R:1 property, the H5MD dataset /particles/<group>/NAME/value, or MMPLD's "
                  "'intensity'; stored as 16 bits over its range");
+  sub.add_flag("--color", args->color,
+               "Keep per-particle colours (RGBA, 8 bits a channel; render draws them): MMPLD's colours (UINT8/FLOAT/USHORT "
+               "RGB(A), or a list's global colour) or extended XYZ's color:R:3 (OVITO's Color, channels in [0, 1])");
   sub.add_option("--node-size", args->node_size, "Maximum particles per node (1..65535)")->capture_default_str();
   sub.add_option("--meshlet-size", args->meshlet_size, "Particles per meshlet (1..255)")->capture_default_str();
   sub.add_option("--meshlet-builder", args->meshlet_builder,

@@ -1,6 +1,7 @@
 // `mdstream export STORE -o OUT.xyz [--slice SPEC ...]`: decodes every node and writes extended
-// XYZ (species, dequantized positions x = center_min + q * step, and the per-particle radius
-// and property when the store has them). Numbers are printed in shortest round-trip form, so
+// XYZ (species, dequantized positions x = center_min + q * step, and the per-particle radius,
+// property and colour (color:R:3, alpha dropped) when the store has them). Numbers are printed
+// in shortest round-trip form (colours with 5 digits, which give the 8 bits back exactly), so
 // the export adds no error to the store's quantization error. With slices (store/slice.h) only
 // the particles they keep, the same ones `render --slice` draws; nodes they leave out are not
 // read. The output appears only when complete.
@@ -48,6 +49,7 @@ Status export_xyz(const ExportOptions& o) {
   const store::FileHeader& h = reader->header();
   const bool radius = (h.flags & store::kFlagPerParticleRadius) != 0;
   const bool property = (h.flags & store::kFlagProperty) != 0;
+  const bool color = (h.flags & store::kFlagColor) != 0;
   std::string property_name = property ? std::string(h.property_name) : "";
   for (char& c : property_name)  // a token of the Properties triples (an H5MD element may hold these)
     if (c == ':' || c == '=' || c == '"' || c == ' ' || c == '\t') c = '_';
@@ -81,8 +83,8 @@ Status export_xyz(const ExportOptions& o) {
   MDS_ASSIGN_OR_RETURN(auto out, store::AtomicOutput::create(o.output));
   store::BufferedWriter w(out.file(), size_t(8) << 20);
   fmt::memory_buffer buf;
-  fmt::format_to(std::back_inserter(buf), "{}\nProperties=species:S:1:pos:R:3{}{} mdstream_format={}\n", count,
-                 radius ? ":radius:R:1" : "", property_column, h.version);
+  fmt::format_to(std::back_inserter(buf), "{}\nProperties=species:S:1:pos:R:3{}{}{} mdstream_format={}\n", count,
+                 radius ? ":radius:R:1" : "", property_column, color ? ":color:R:3" : "", h.version);
   const double rstep = (double(h.radius_max) - double(h.radius_min)) / double(store::kQuantMax);
   for (uint32_t i = 0; i < nodes.size(); ++i) {
     const store::NodeEntry& e = nodes[i];
@@ -96,6 +98,11 @@ Status export_xyz(const ExportOptions& o) {
       fmt::format_to(it, "{} {} {} {}", species[node.type_index[k]], x[0], x[1], x[2]);
       if (radius) fmt::format_to(it, " {}", double(h.radius_min) + double(node.radius_q[k]) * rstep);
       if (property) fmt::format_to(it, " {}", store::property_value(h.property_min, h.property_max, node.property_q[k]));
+      if (color) {  // channels in [0, 1] (OVITO's Color); 5 digits give the 8-bit value back exactly
+        const uint32_t c = node.color[k];
+        fmt::format_to(it, " {:.5g} {:.5g} {:.5g}", double(c & 0xffu) / 255.0, double((c >> 8) & 0xffu) / 255.0,
+                       double((c >> 16) & 0xffu) / 255.0);
+      }
       buf.push_back('\n');
     }
     if (buf.size() > (size_t(1) << 20)) {

@@ -46,6 +46,7 @@ Result<nlohmann::json> store_info(const store::StoreReader& r) {
     j["property"] = {{"name", std::string(h.property_name)}, {"min", h.property_min}, {"max", h.property_max}};
   else
     j["property"] = nullptr;
+  j["color"] = (h.flags & store::kFlagColor) != 0;
   j["bounds_min"] = vec3(h.bounds_min);
   j["bounds_max"] = vec3(h.bounds_max);
   j["max_quantization_error"] = h.max_quantization_error;
@@ -124,6 +125,7 @@ std::string human(const nlohmann::json& j, bool verified) {
   s += fmt::format("radius           {}, range [{:.6g}, {:.6g}]\n",
                    j["per_particle_radius"].get<bool>() ? "per particle" : "per type", j["radius_min"].get<double>(),
                    j["radius_max"].get<double>());
+  if (j["color"].get<bool>()) s += "colours          RGBA8 per particle\n";
   if (!j["property"].is_null())
     s += fmt::format("property         {} in [{:.6g}, {:.6g}], 16 bits\n", j["property"]["name"].get<std::string>(),
                      j["property"]["min"].get<double>(), j["property"]["max"].get<double>());

@@ -51,7 +51,9 @@ Result<int> parse_color_axis(std::string_view s) {
   if (s == "y") return 1;
   if (s == "z") return 2;
   if (s == "property") return kColorByProperty;
-  return make_error(Errc::invalid_argument, "'{}': expected type, x, y, z or property", s);
+  if (s == "color") return kColorByColor;
+  if (s == "auto") return kColorByAuto;
+  return make_error(Errc::invalid_argument, "'{}': expected type, color, auto, x, y, z or property", s);
 }
 
 Result<glm::dvec2> parse_color_range(std::string_view s) {
@@ -68,8 +70,8 @@ Result<glm::dvec2> parse_color_range(std::string_view s) {
 }
 
 std::string color_axis_name(int axis) {
-  static const char* names[5] = {"type", "x", "y", "z", "property"};
-  return names[std::clamp(axis + 1, 0, 4)];
+  static const char* names[8] = {"type", "x", "y", "z", "property", "property", "color", "auto"};
+  return names[std::clamp(axis + 1, 0, 7)];
 }
 
 glm::dvec4 color_plane(const glm::dmat4& view, const glm::dvec3& origin, int axis, double lo, double hi) {
@@ -80,7 +82,18 @@ glm::dvec4 color_plane(const glm::dmat4& view, const glm::dvec3& origin, int axi
   return {inv[0][axis] * s, inv[1][axis] * s, inv[2][axis] * s, (inv[3][axis] + origin[axis] - lo) * s};
 }
 
-Status resolve_color_by(ColorBy& c, const char* property_name, bool has_property, const std::string& store_name) {
+Status resolve_color_by(ColorBy& c, const char* property_name, bool has_property, bool has_color,
+                        const std::string& store_name) {
+  if (c.axis == kColorByColor || c.axis == kColorByAuto) {
+    if (c.axis == kColorByColor && !has_color)
+      return make_error(Errc::invalid_argument,
+                        "--color-by color: {} has no per-particle colours (convert MMPLD or extended XYZ input with "
+                        "--color)",
+                        store_name);
+    c.axis = -1;
+    c.particle_colors = has_color;
+    return {};
+  }
   if (c.axis != kColorByName) return {};
   if (has_property && c.name == property_name) {
     c.axis = kColorByProperty;

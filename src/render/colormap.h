@@ -36,6 +36,8 @@ inline glm::dvec3 viridis_srgb(double t) { return colormap_srgb(Colormap::viridi
 
 inline constexpr int kColorByProperty = 3;  // ColorBy::axis of --color-by property
 inline constexpr int kColorByName = 4;      // --color-by NAME, until resolve_color_by finds the store's property
+inline constexpr int kColorByColor = 5;     // --color-by color, until resolve_color_by checks the store's colours
+inline constexpr int kColorByAuto = 6;      // --color-by auto (the default): color on a store with colours, else type
 
 // What colours the particles: their type (axis -1), a world axis 0/1/2 or the property
 // (kColorByProperty) over [lo, hi]; lo == hi (the default) takes the scene's bounds of the
@@ -45,20 +47,28 @@ struct ColorBy {
   double lo = 0.0, hi = 0.0;
   Colormap map = Colormap::viridis;  // --colormap
   std::string name;  // with kColorByName: the property's name as given
-  bool by_type() const { return axis < 0; }
+  // With axis -1: the particles' own colours (store kFlagColor) instead of their types'.
+  bool particle_colors = false;
+  // No colormap: the types' colours or the particles' own (and, unresolved, color and auto).
+  bool by_type() const { return axis < 0 || axis >= kColorByColor; }
   bool by_property() const { return axis == kColorByProperty; }
+  bool by_color() const { return axis < 0 && particle_colors; }
 };
 
 // --color-by NAME (kColorByName) is the store's property when the store's property has that
 // name (the name OVITO and ParaView users would type, e.g. c_pe): axis becomes kColorByProperty.
-// Errc::invalid_argument naming the choices otherwise. Other axes are left as they are.
-Status resolve_color_by(ColorBy& c, const char* property_name, bool has_property, const std::string& store_name);
+// Errc::invalid_argument naming the choices otherwise. --color-by color (kColorByColor) needs
+// the store's colours, --color-by auto (kColorByAuto) takes them where the store has them; both
+// become axis -1, with particle_colors set where the colours are drawn. Other axes are left as
+// they are.
+Status resolve_color_by(ColorBy& c, const char* property_name, bool has_property, bool has_color,
+                        const std::string& store_name);
 
-// "type", "x", "y", "z" or "property"; Errc::invalid_argument otherwise.
+// "type", "x", "y", "z", "property", "color" or "auto"; Errc::invalid_argument otherwise.
 Result<int> parse_color_axis(std::string_view s);
 // "LO:HI" with LO < HI (finite numbers); Errc::invalid_argument otherwise.
 Result<glm::dvec2> parse_color_range(std::string_view s);
-std::string color_axis_name(int axis);  // "type", "x", "y", "z", "property"
+std::string color_axis_name(int axis);  // "type", "x", "y", "z", "property", "color", "auto"
 
 // The plane of FrameUniforms.color_plane: t = dot(plane.xyz, p_view) + plane.w for a view-space
 // point p_view, where view maps (world - origin) to view space (camera.h view_matrix).

@@ -118,6 +118,7 @@ Result<std::optional<PickedParticle>> pick_particle(const store::StoreReader& re
       q.radius = r;
       if (has_property && k < data.property_q.size())
         q.property = store::property_value(h.property_min, h.property_max, data.property_q[k]);
+      if (k < data.color.size()) q.color = data.color[k];
       const glm::dvec3 hv = o + t * d;
       q.hit = glm::dvec3(glm::inverse(f.view) * glm::dvec4(hv, 1.0));
       q.distance = -hv.z;
@@ -149,6 +150,10 @@ Result<glm::uvec2> parse_pick_pixel(const std::string& text) {
   return glm::uvec2(*x, *y);
 }
 
+std::string color_hex(uint32_t rgba) {
+  return fmt::format("#{:02x}{:02x}{:02x}", rgba & 0xffu, (rgba >> 8) & 0xffu, (rgba >> 16) & 0xffu);
+}
+
 std::string describe_pick(const store::StoreReader& reader, const PickedParticle& p) {
   const auto types = reader.types();
   std::string type = "?";
@@ -164,6 +169,7 @@ std::string describe_pick(const store::StoreReader& reader, const PickedParticle
     const char* name = reader.header().property_name;
     s += fmt::format(", {} {:.6g}", std::string(name, strnlen(name, store::kPropertyNameBytes)), *p.property);
   }
+  if (p.color) s += fmt::format(", colour {}", color_hex(*p.color));
   s += fmt::format(", distance {:.6g}", p.distance);
   return s;
 }

@@ -36,9 +36,13 @@ struct PickedParticle {
   glm::dvec3 position{0.0};    // decoded centre, world coordinates
   double radius = 0.0;         // as drawn
   std::optional<double> property;  // the store's per-particle property (kFlagProperty), dequantized
+  std::optional<uint32_t> color;   // the store's per-particle colour (kFlagColor), RGBA8, R in bits 0-7
   glm::dvec3 hit{0.0};         // where the ray meets the sphere, world coordinates
   double distance = 0.0;       // view distance of the hit (-z in view space)
 };
+
+// "#rrggbb" of a PickedParticle::color (alpha left out).
+std::string color_hex(uint32_t rgba);
 
 // pixel: a point of the width x height image in pixel coordinates (x right, y down; pixel (i, j)
 // spans [i, i + 1) x [j, j + 1), its centre at +0.5). camera: near/far set (fit_clip_planes, as

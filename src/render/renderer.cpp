@@ -54,11 +54,15 @@ Status Renderer::Impl::upload(const SceneData& scene) {
   if (property_padded.empty()) property_padded.assign(2, 0);
   MDS_ASSIGN_OR_RETURN(property, vk::Buffer::create(alloc, property_padded.size() * sizeof(uint16_t), ssbo,
                                                     vk::MemoryIntent::device_local, "particle property"));
+  // RGBA8 per particle; 16 bytes where the store has no colours (a binding needs a buffer).
+  MDS_ASSIGN_OR_RETURN(particle_color, vk::Buffer::create(alloc, std::max<size_t>(scene.color.size() * 4, 16), ssbo,
+                                                          vk::MemoryIntent::device_local, "particle colours"));
   MDS_TRY(create_draw_buffers(scene.meshlets.size()));
   meshlets_h = meshlets.get();
   particles_h = particles.get();
   radii_h = radii.get();
   property_h = property.get();
+  color_h = particle_color.get();
 
   MDS_ASSIGN_OR_RETURN(vk::StagingRing ring, vk::StagingRing::create(*ctx));
   MDS_TRY(ring.upload_span(nodes, 0, std::span<const gpu::GpuNode>(scene.nodes)));
@@ -69,6 +73,7 @@ Status Renderer::Impl::upload(const SceneData& scene) {
   MDS_TRY(ring.upload_span(types, 0, std::span<const gpu::GpuType>(type_table)));
   MDS_TRY(ring.upload_span(radii, 0, std::span<const uint16_t>(radii_padded)));
   MDS_TRY(ring.upload_span(property, 0, std::span<const uint16_t>(property_padded)));
+  if (!scene.color.empty()) MDS_TRY(ring.upload_span(particle_color, 0, std::span<const uint32_t>(scene.color)));
   MDS_TRY(ring.flush());
   upload_bytes = ring.bytes_uploaded();
   return {};
@@ -290,7 +295,7 @@ Status Renderer::Impl::create_pipelines() {
                                       b(gpu::kBindSprites, SSBO), b(gpu::kBindSpriteDraw, SSBO),
                                       b(gpu::kBindVisibility, SSBO), b(gpu::kBindAccumBuffer, SSBO),
                                       b(gpu::kBindOcclusionPyramid, SSBO), b(gpu::kBindCoveredPixels, SSBO),
-                                      b(gpu::kBindProperty, SSBO)}));
+                                      b(gpu::kBindProperty, SSBO), b(gpu::kBindColor, SSBO)}));
   set.write_buffer(gpu::kBindFrame, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, frame_ubo.get());
   set.write_buffer(gpu::kBindNodes, SSBO, nodes.get());
   set.write_buffer(gpu::kBindMeshlets, SSBO, meshlets_h);
@@ -299,6 +304,7 @@ Status Renderer::Impl::create_pipelines() {
   set.write_buffer(gpu::kBindDrawList, SSBO, draw_list.get());
   set.write_buffer(gpu::kBindRadii, SSBO, radii_h);
   set.write_buffer(gpu::kBindProperty, SSBO, property_h);
+  set.write_buffer(gpu::kBindColor, SSBO, color_h);
   if (!vis_route) set.write_storage_image(gpu::kBindColorImage, color.view());
   write_accumulation_descriptors();
   set.write_buffer(gpu::kBindSprites, SSBO, sprites.get());
@@ -391,14 +397,18 @@ Status Renderer::Impl::create_pipelines() {
   return {};
 }
 
-// --color-by property needs the store's property (store kFlagProperty).
-Status check_color_by(const ColorBy& c, bool has_property) {
+// --color-by property needs the store's property (store kFlagProperty), --color-by color its
+// colours (kFlagColor).
+Status check_color_by(const ColorBy& c, bool has_property, bool has_color) {
   if (c.axis < -1 || c.axis > kColorByProperty)
     return make_error(Errc::internal, "--color-by '{}' was not resolved against the store (render::resolve_color_by)",
                       c.name);
   if (c.by_property() && !has_property)
     return make_error(Errc::invalid_argument,
                       "--color-by property: the store has no per-particle property (convert it with --property NAME)");
+  if (c.by_color() && !has_color)
+    return make_error(Errc::invalid_argument,
+                      "--color-by color: the store has no per-particle colours (convert MMPLD or extended XYZ with --color)");
   return {};
 }
 
@@ -425,7 +435,8 @@ Result<std::unique_ptr<Renderer>> Renderer::create(vk::Context& ctx, const Scene
   m.has_property = scene.has_property;
   m.property_min = scene.property_min;
   m.property_max = scene.property_max;
-  MDS_TRY(check_color_by(settings.color_by, m.has_property));
+  m.has_color = scene.has_color;
+  MDS_TRY(check_color_by(settings.color_by, m.has_property, m.has_color));
   MDS_TRY(m.upload(scene));
   MDS_TRY(m.create_frame_resources());
   if (settings.cull) {

@@ -33,13 +33,14 @@ struct Renderer::Impl {
   float radius_min = 0, radius_max = 0;
   bool has_property = false;                 // the store's per-particle property (--color-by property)
   float property_min = 0, property_max = 0;  // its range (property_q 0 and 65535)
+  bool has_color = false;                    // the store's per-particle colours (--color-by color)
   uint64_t upload_bytes = 0;
   uint64_t scratch_bytes = 0;  // draw list + sprite buffers (sized by the slots)
 
-  vk::Buffer nodes, meshlets, particles, types, radii, property, draw_list, frame_ubo;
+  vk::Buffer nodes, meshlets, particles, types, radii, property, particle_color, draw_list, frame_ubo;
   // The buffers the passes bind: the owned ones above in memory, the pool's when streaming.
   VkBuffer meshlets_h = VK_NULL_HANDLE, particles_h = VK_NULL_HANDLE, radii_h = VK_NULL_HANDLE;
-  VkBuffer property_h = VK_NULL_HANDLE;
+  VkBuffer property_h = VK_NULL_HANDLE, color_h = VK_NULL_HANDLE;
   VkBuffer meshlet_class_h = VK_NULL_HANDLE;  // streaming: the pool's class buffer for the cull loop
   vk::Buffer sprites, sprite_draw;  // pre-pass output: GpuSprite per listed particle, draw commands
   // The draw list is made into sprites and drawn sprite_chunks times per frame, chunk_meshlets
@@ -212,8 +213,9 @@ struct Renderer::Impl {
   void record_draw_scope(VkCommandBuffer cmd, bool clear);
 };
 
-// Errc::invalid_argument for --color-by property on a store without a property.
-Status check_color_by(const ColorBy& c, bool has_property);
+// Errc::invalid_argument for --color-by property on a store without a property, or --color-by
+// color on one without colours.
+Status check_color_by(const ColorBy& c, bool has_property, bool has_color);
 
 
 }  // namespace mds::render

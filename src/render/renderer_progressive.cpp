@@ -44,6 +44,7 @@ Status Renderer::Impl::upload_streaming(const SceneData& dir) {
   particles_h = pool.particles();
   radii_h = pool.radii();
   property_h = pool.property();
+  color_h = pool.color();
   meshlet_class_h = pool.meshlet_class();
   MDS_TRY(create_draw_buffers(pool.meshlet_slots()));
   MDS_ASSIGN_OR_RETURN(vk::StagingRing ring, vk::StagingRing::create(*ctx));
@@ -92,7 +93,8 @@ Result<std::unique_ptr<Renderer>> Renderer::create_streaming(vk::Context& ctx, c
   m.has_property = (h.flags & store::kFlagProperty) != 0;
   m.property_min = h.property_min;
   m.property_max = h.property_max;
-  MDS_TRY(check_color_by(settings.color_by, m.has_property));
+  m.has_color = (h.flags & store::kFlagColor) != 0;
+  MDS_TRY(check_color_by(settings.color_by, m.has_property, m.has_color));
   MDS_TRY(m.upload_streaming(dir));
   MDS_TRY(m.create_frame_resources());
   if (settings.cull) {
@@ -135,7 +137,9 @@ void Renderer::Impl::write_frame_uniforms(const Camera& camera, uint32_t sample,
   fu.viewport = glm::vec4(float(w), float(h), 1.0f / float(w), 1.0f / float(h));
   fu.radius_range = glm::vec4(radius_min, radius_max - radius_min, float(camera.near), float(camera.far));
   uint32_t color_flag = 0;
-  if (settings.color_by.by_property()) {  // colour by the per-particle property (render/colormap.h)
+  if (settings.color_by.by_color()) {  // the particles' own colours (store kFlagColor)
+    color_flag = gpu::kFrameColorParticle;
+  } else if (settings.color_by.by_property()) {  // colour by the per-particle property (render/colormap.h)
     const glm::dvec2 range = color_range();
     const glm::dvec2 map = property_color_map(property_min, property_max, range.x, range.y);
     fu.color_plane = glm::vec4(float(map.x), 0.0f, 0.0f, float(map.y));

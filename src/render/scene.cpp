@@ -112,6 +112,10 @@ Status append_node(SceneData& s, const double center_min[3], const double center
     if (node.property_q.size() != n) return make_error(Errc::format, "node {}: per-particle property missing", node_index);
     s.property_q.insert(s.property_q.end(), node.property_q.begin(), node.property_q.end());
   }
+  if (s.has_color) {
+    if (node.color.size() != n) return make_error(Errc::format, "node {}: per-particle colours missing", node_index);
+    s.color.insert(s.color.end(), node.color.begin(), node.color.end());
+  }
 
   size_t p = 0;
   for (size_t k = 0; k < node.meshlet_size.size(); ++k) {
@@ -172,12 +176,14 @@ void filter_particles(const store::NodeData& in, const ParticleFilter& f, store:
   out.type_index.clear();
   out.radius_q.clear();
   out.property_q.clear();
+  out.color.clear();
   out.meshlet_size.clear();
-  const bool radius = !in.radius_q.empty(), property = !in.property_q.empty();
+  const bool radius = !in.radius_q.empty(), property = !in.property_q.empty(), color = !in.color.empty();
   size_t total = 0;
   for (const uint8_t size : in.meshlet_size) total += size;
   if (total != in.particle_count() || in.qpos.size() != 3 * total || in.type_index.size() != total ||
       (radius && in.radius_q.size() != total) || (property && in.property_q.size() != total) ||
+      (color && in.color.size() != total) ||
       (!f.slices.empty() && (!f.center_min || !f.center_max))) {
     out = in;  // malformed: left whole for append_node to report
     return;
@@ -200,6 +206,7 @@ void filter_particles(const store::NodeData& in, const ParticleFilter& f, store:
       out.type_index.push_back(t);
       if (radius) out.radius_q.push_back(in.radius_q[i]);
       if (property) out.property_q.push_back(in.property_q[i]);
+      if (color) out.color.push_back(in.color[i]);
       ++kept;
     }
     if (kept > 0) out.meshlet_size.push_back(kept);
@@ -233,6 +240,10 @@ Result<SceneData> load_scene(const store::StoreReader& reader, const SceneOption
     s.property_min = h.property_min;
     s.property_max = h.property_max;
     s.property_q.reserve(h.particle_count);
+  }
+  if (h.flags & store::kFlagColor) {
+    s.has_color = true;
+    s.color.reserve(h.particle_count);
   }
   s.particles.reserve(4 * h.particle_count);
   s.meshlets.reserve(h.meshlet_count);

@@ -38,6 +38,9 @@ struct SceneData {
   bool has_property = false;
   float property_min = 0.0f, property_max = 0.0f;
   std::vector<uint16_t> property_q;  // 1 per particle, or empty
+  // The store's per-particle colours (store kFlagColor; --color-by color): RGBA8, R in bits 0..7.
+  bool has_color = false;
+  std::vector<uint32_t> color;  // 1 per particle, or empty
   std::vector<gpu::GpuType> types;
   std::vector<uint8_t> shown_types;  // per type, 0 = left out by load_scene; empty: every type
   std::vector<store::Slice> slices;  // what load_scene kept by position (--slice); empty: every position

@@ -31,8 +31,9 @@ inline constexpr uint32_t kQuantMax = 65535;           // 16-bit quantization: q
 enum HeaderFlags : uint32_t {
   kFlagPerParticleRadius = 1u << 0,  // node payloads carry uint16 radius_q[n]
   kFlagProperty = 1u << 1,           // node payloads carry uint16 property_q[n] (one scalar per particle)
+  kFlagColor = 1u << 2,              // node payloads carry uint32 color[n] (RGBA8 per particle, R in bits 0-7)
 };
-inline constexpr uint32_t kKnownFlags = kFlagPerParticleRadius | kFlagProperty;
+inline constexpr uint32_t kKnownFlags = kFlagPerParticleRadius | kFlagProperty | kFlagColor;
 inline constexpr uint32_t kPropertyNameBytes = 48;  // FileHeader::property_name, NUL-terminated
 
 enum SectionId : uint32_t {
@@ -151,6 +152,8 @@ static_assert(sizeof(VoxelRef) == 8);
 //                                           r = radius_min + q * (radius_max - radius_min) / 65535
 //   uint16 property_q[n]          2n bytes  only with kFlagProperty:
 //                                           v = property_min + q * (property_max - property_min) / 65535
+//   uint32 color[n]               4n bytes  only with kFlagColor: RGBA8, R in bits 0-7 (little-endian
+//                                           bytes R, G, B, A); sRGB as the input gave it
 //   uint8  bits[]                 the rest  bit stream, LSB first: for each meshlet j in order, the x
 //                                           offsets of its particles (wx bits each), then y, then z,
 //                                           then the type offsets (wt bits each); zero-padded to a byte
@@ -159,7 +162,8 @@ inline constexpr uint32_t kMaxAxisBits = 16;
 inline constexpr uint32_t kMaxTypeBits = 8;
 // Size of everything before the bit stream; flags = the header's (the per-particle arrays).
 inline constexpr uint64_t node_payload_fixed_bytes(uint64_t n, uint64_t m, uint32_t flags) {
-  return 11 * m + ((flags & kFlagPerParticleRadius) ? 2 * n : 0) + ((flags & kFlagProperty) ? 2 * n : 0);
+  return 11 * m + ((flags & kFlagPerParticleRadius) ? 2 * n : 0) + ((flags & kFlagProperty) ? 2 * n : 0) +
+         ((flags & kFlagColor) ? 4 * n : 0);
 }
 // Largest decoded payload: full-width offsets (3 * 16 + 8 bits per particle).
 inline constexpr uint64_t node_payload_max_bytes(uint64_t n, uint64_t m, uint32_t flags) {

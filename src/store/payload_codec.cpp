@@ -97,8 +97,9 @@ class BitReader {
 
 void encode_payload(const NodeInput& node, std::vector<uint8_t>& raw) {
   const size_t n = node.type_index.size(), m = node.meshlet_size.size();
-  const bool radius = !node.radius_q.empty(), property = !node.property_q.empty();
-  const uint32_t flags = (radius ? kFlagPerParticleRadius : 0u) | (property ? kFlagProperty : 0u);
+  const bool radius = !node.radius_q.empty(), property = !node.property_q.empty(), color = !node.color.empty();
+  const uint32_t flags =
+      (radius ? kFlagPerParticleRadius : 0u) | (property ? kFlagProperty : 0u) | (color ? kFlagColor : 0u);
   const size_t fixed = node_payload_fixed_bytes(n, m, flags);
   // Large enough for the widest stream and the bit writer's slack; trimmed to the exact size at the end.
   raw.resize(node_payload_max_bytes(n, m, flags) + 8);
@@ -110,6 +111,8 @@ void encode_payload(const NodeInput& node, std::vector<uint8_t>& raw) {
   std::memcpy(sizes, node.meshlet_size.data(), m);
   if (radius) std::memcpy(type_bits + m, node.radius_q.data(), 2 * n);
   if (property) std::memcpy(type_bits + m + (radius ? 2 * n : 0), node.property_q.data(), 2 * n);
+  // Little-endian RGBA bytes (the format's byte order; the hosts mdstream builds for are little-endian).
+  if (color) std::memcpy(type_bits + m + (radius ? 2 * n : 0) + (property ? 2 * n : 0), node.color.data(), 4 * n);
   const uint16_t* q = node.qpos.data();
   const uint8_t* t = node.type_index.data();
   BitWriter bw(raw.data() + fixed);
@@ -164,6 +167,7 @@ void encode_payload(const NodeInput& node, std::vector<uint8_t>& raw) {
 Status decode_payload_raw(std::span<const uint8_t> raw, const PayloadLimits& lim, NodeData& out) {
   const size_t n = lim.particle_count, m = lim.meshlet_count;
   const bool has_radius = (lim.flags & kFlagPerParticleRadius) != 0, has_property = (lim.flags & kFlagProperty) != 0;
+  const bool has_color = (lim.flags & kFlagColor) != 0;
   const size_t fixed = node_payload_fixed_bytes(n, m, lim.flags);
   if (raw.size() < fixed)
     return make_error(Errc::format, "decoded payload has {} bytes, fewer than the {} of its fixed arrays", raw.size(), fixed);
@@ -174,6 +178,7 @@ Status decode_payload_raw(std::span<const uint8_t> raw, const PayloadLimits& lim
   const uint8_t* type_bits = type_base + m;
   const uint8_t* radius = type_bits + m;
   const uint8_t* property = radius + (has_radius ? 2 * n : 0);
+  const uint8_t* color = property + (has_property ? 2 * n : 0);
   const uint8_t* stream = raw.data() + fixed;
   const size_t stream_bytes = raw.size() - fixed;
 
@@ -212,6 +217,12 @@ Status decode_payload_raw(std::span<const uint8_t> raw, const PayloadLimits& lim
     std::memcpy(out.property_q.data(), property, 2 * n);
   } else {
     out.property_q.clear();
+  }
+  if (has_color) {
+    out.color.resize(n);
+    std::memcpy(out.color.data(), color, 4 * n);
+  } else {
+    out.color.clear();
   }
   BitReader br(stream, stream_bytes);
   uint16_t* q = out.qpos.data();

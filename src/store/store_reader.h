@@ -22,6 +22,7 @@ struct NodeData {
   std::vector<uint8_t> type_index;     // n
   std::vector<uint16_t> radius_q;      // n, or empty without kFlagPerParticleRadius
   std::vector<uint16_t> property_q;    // n, or empty without kFlagProperty
+  std::vector<uint32_t> color;         // n RGBA8 (R in bits 0-7), or empty without kFlagColor
   std::vector<uint8_t> meshlet_size;   // m
   size_t particle_count() const { return type_index.size(); }
 };

@@ -54,6 +54,8 @@ Result<EncodedNode> encode_node(const NodeInput& node) {
     return make_error(Errc::internal, "encode_node: radius_q has {} values, expected 0 or {}", node.radius_q.size(), n);
   if (!node.property_q.empty() && node.property_q.size() != n)
     return make_error(Errc::internal, "encode_node: property_q has {} values, expected 0 or {}", node.property_q.size(), n);
+  if (!node.color.empty() && node.color.size() != n)
+    return make_error(Errc::internal, "encode_node: color has {} values, expected 0 or {}", node.color.size(), n);
   if (m < 1 || m > n) return make_error(Errc::internal, "encode_node: meshlet count {} outside [1, {}]", m, n);
   uint64_t sum = 0;
   uint32_t max_meshlet = 0;
@@ -118,6 +120,7 @@ Result<EncodedNode> encode_node(const NodeInput& node) {
   out.max_meshlet_size = max_meshlet;
   out.per_particle_radius = radius;
   out.property = !node.property_q.empty();
+  out.color = !node.color.empty();
   uint32_t counts[256] = {};  // n <= 65535
   uint32_t top = 0;
   for (uint64_t i = 0; i < n; ++i) {
@@ -322,6 +325,7 @@ struct StoreWriter::Impl {
   uint32_t max_meshlet_size = 0;
   uint64_t radius_nodes = 0;    // nodes encoded with per-particle radii
   uint64_t property_nodes = 0;  // nodes encoded with property_q
+  uint64_t color_nodes = 0;     // nodes encoded with color
   bool finished = false;
   bool failed = false;  // an I/O error left the temporary file in an unknown state
 
@@ -391,6 +395,7 @@ Status StoreWriter::append(EncodedNode&& node) {
   s.max_meshlet_size = std::max(s.max_meshlet_size, node.max_meshlet_size);
   s.radius_nodes += node.per_particle_radius ? 1 : 0;
   s.property_nodes += node.property ? 1 : 0;
+  s.color_nodes += node.color ? 1 : 0;
   if (node.type_counts.size() > s.type_counts.size()) s.type_counts.resize(node.type_counts.size(), 0);
   for (size_t t = 0; t < node.type_counts.size(); ++t) s.type_counts[t] += node.type_counts[t];
   s.voxels.insert(s.voxels.end(), node.voxels.begin(), node.voxels.end());
@@ -458,6 +463,7 @@ Status StoreWriter::finish(const StoreSummary& sum) {
   MDS_TRY(check_summary(name, sum));
   const bool radius = (sum.flags & kFlagPerParticleRadius) != 0;
   const bool property = (sum.flags & kFlagProperty) != 0;
+  const bool color = (sum.flags & kFlagColor) != 0;
   if (s.max_node_particles > sum.node_size_max)
     return make_error(Errc::internal, "{}: a node has {} particles, node_size_max is {}", name, s.max_node_particles,
                       sum.node_size_max);
@@ -473,6 +479,9 @@ Status StoreWriter::finish(const StoreSummary& sum) {
   if (s.property_nodes != (property ? s.entries.size() : 0))
     return make_error(Errc::internal, "{}: {} of {} nodes carry a property, but the property flag is {}", name,
                       s.property_nodes, s.entries.size(), property ? "set" : "clear");
+  if (s.color_nodes != (color ? s.entries.size() : 0))
+    return make_error(Errc::internal, "{}: {} of {} nodes carry colours, but the colour flag is {}", name, s.color_nodes,
+                      s.entries.size(), color ? "set" : "clear");
   for (size_t i = 0; i < s.entries.size(); ++i) {
     const NodeEntry& e = s.entries[i];
     if (e.payload_raw_bytes < node_payload_fixed_bytes(e.particle_count, e.meshlet_count, sum.flags) ||

@@ -18,13 +18,14 @@
 namespace mds::store {
 
 // One node's decoded content, in meshlet order. Preconditions: qpos.size() == 3n,
-// type_index.size() == n, radius_q.size() and property_q.size() are n or 0, sum(meshlet_size)
+// type_index.size() == n, radius_q.size(), property_q.size() and color.size() are n or 0, sum(meshlet_size)
 // == n, 1 <= n <= 65535.
 struct NodeInput {
   std::span<const uint16_t> qpos;
   std::span<const uint8_t> type_index;
   std::span<const uint16_t> radius_q;
   std::span<const uint16_t> property_q;  // the per-particle scalar, quantized (format.h kFlagProperty)
+  std::span<const uint32_t> color;       // per-particle RGBA8, R in bits 0-7 (format.h kFlagColor)
   std::span<const uint8_t> meshlet_size;
   double center_min[3];
   double center_max[3];
@@ -44,6 +45,7 @@ struct EncodedNode {
   uint32_t max_meshlet_size = 0;
   bool per_particle_radius = false;  // the payload carries radius_q
   bool property = false;             // the payload carries property_q
+  bool color = false;                // the payload carries color
 };
 
 // Pure and thread-safe: serializes and compresses one node.

@@ -57,7 +57,7 @@ Status RenderHost::resolve_colors(const store::StoreReader& reader, render::Rend
   const store::FileHeader& header = reader.header();
   render::ColorBy c = color_by_;
   MDS_TRY(render::resolve_color_by(c, header.property_name, (header.flags & store::kFlagProperty) != 0,
-                                   reader.path().string()));
+                                   (header.flags & store::kFlagColor) != 0, reader.path().string()));
   if (series_ && !c.by_type()) {
     const glm::dvec2 range = render::series_color_range(c, look_);
     c.lo = range.x;

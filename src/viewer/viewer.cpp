@@ -184,6 +184,8 @@ Status Viewer::setup() {
     hud_.legend = overlay::colormap_legend(color_by.by_property() ? std::string(host_->reader().header().property_name)
                                                          : render::color_axis_name(color_by.axis),
                                   host_->renderer()->color_range(), color_by.map);
+  else if (color_by.by_color())
+    hud_.legend = {};  // the particles' own colours: no legend explains them
   else
     hud_.legend = overlay::type_legend(host_->reader().types(), host_->settings().type_colors_srgb, host_->shown_types());
   return {};

@@ -56,6 +56,9 @@ struct DrainOptions {
   // Each frame is also opened asking for this per-particle property (ReaderOptions::property;
   // empty: not); a reader that has it must give one value per particle.
   std::string property;
+  // Each frame is also opened asking for per-particle colours (ReaderOptions::color); a reader
+  // that has them must give one per particle.
+  bool color = false;
 };
 
 // Writes the input to the scratch file `tag` and drains open(path, options) at every frame.
@@ -63,22 +66,25 @@ template <class Open>
 void run_reader(const uint8_t* data, size_t size, const char* tag, Open open, const DrainOptions& d = {}) {
   const auto& path = input_path(tag);
   write_input(path, data, size);
-  for (int64_t frame : d.frames) for (const bool with_property : {false, true}) {
-    if (with_property && d.property.empty()) continue;
+  for (int64_t frame : d.frames) for (const int extra : {0, 1, 2}) {  // nothing, the property, colours
+    const bool with_property = extra == 1, with_color = extra == 2;
+    if ((with_property && d.property.empty()) || (with_color && !d.color)) continue;
     ReaderOptions o;
     o.format = d.format;
     o.frame = frame;
     if (with_property) o.property = d.property;
+    o.color = with_color;
     auto r = open(path, o);
     if (!r.ok()) continue;
-    const bool has_property = (*r)->info().has_property;
-    if (has_property != with_property) std::abort();  // asked for and found, or an error at open
+    const bool has_property = (*r)->info().has_property, has_color = (*r)->info().has_color;
+    if (has_property != with_property || has_color != with_color) std::abort();  // asked for and found, or an error at open
     ParticleBatch b;
     uint64_t total = 0;
     while (true) {
       auto n = (*r)->read(b, d.batch);
       if (!n.ok() || *n == 0) break;
-      if (b.property.size() != (has_property ? b.size() : 0)) std::abort();
+      if (b.property.size() != (has_property ? b.size() : 0) || b.color.size() != (has_color ? b.size() : 0))
+        std::abort();
       if (d.check_counts) {
         if (*n != b.size() || b.type.size() != b.size()) std::abort();
         total += *n;

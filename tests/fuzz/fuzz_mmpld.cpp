@@ -8,6 +8,6 @@
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   mds::fuzz::run_reader(data, size, "mdstream_fuzz_mmpld", mds::open_mmpld_reader,
                         {.format = mds::InputFormat::mmpld, .frames = {0, -1}, .batch = 97, .check_counts = false,
-                         .detect_format = true, .property = "intensity"});
+                         .detect_format = true, .property = "intensity", .color = true});
   return 0;
 }

@@ -6,16 +6,21 @@ Usage: write_mmpld.py SPEC.json OUT.mmpld EXPECTED.json [SPEC2 OUT2 EXPECTED2 ..
 SPEC: {"version": 100..103, "seed": int, "bbox": [6 floats] (optional),
        "omit_timestamp": bool (optional, emulates old MegaMol 1.3 writers),
        "frames": [{"lists": [{"vertex": 0..4, "colour": 0..7, "count": n,
-                              "radius": r (global radius, vertex 1/3/4)}]}]}
+                              "radius": r (global radius, vertex 1/3/4),
+                              "colour_range": [lo, hi] (FLOAT_RGB(A) channels, default [0, 1))}]}]}
 
 Layout as in MegaMol's MMPLDDataSource (header, uint64 frame table, frames of lists;
 1.1 cluster info after each list, 1.2+ frame timestamp, 1.3 per-list bbox). Particle
 values are random (seeded); EXPECTED gets what a reader must return per frame: x, y, z,
 type (list index + 1, lists without positions skipped), radius (per particle or null),
-type_radius, intensity (FLOAT_I / DOUBLE_I lists; null where a list has other colours), plus
-byte offsets of each list's particle count field (for corruption tests).
+type_radius, intensity (FLOAT_I / DOUBLE_I lists; null where a list has other colours), color
+(RGBA8 as R | G << 8 | B << 16 | A << 24: float channels clamped to [0, 1] and rounded, USHORT
+ones scaled by 255/65535 and rounded, RGB with alpha 255, NONE the list's global colour; null
+where a list has intensities), plus byte offsets of each list's particle count field (for
+corruption tests).
 """
 import json
+import math
 import struct
 import sys
 
@@ -25,23 +30,46 @@ VERTEX_SIZE = {0: 0, 1: 12, 2: 16, 3: 6, 4: 24}
 COLOUR_SIZE = {0: 0, 1: 3, 2: 4, 3: 4, 4: 12, 5: 16, 6: 8, 7: 8}
 
 
-def colour_bytes(rng, ctype, n):
+GLOBAL_COLOUR = bytes([200, 100, 50, 255])
+
+
+def colour_bytes(rng, ctype, n, lo=0.0, hi=1.0):
     if ctype == 0:
         return [b""] * n
     if ctype in (1, 2):
         return [rng.integers(0, 256, size=COLOUR_SIZE[ctype], dtype=np.uint8).tobytes() for _ in range(n)]
-    if ctype in (3, 4, 5):
+    if ctype == 3:
+        return [rng.random(1).astype("<f4").tobytes() for _ in range(n)]
+    if ctype in (4, 5):
         k = COLOUR_SIZE[ctype] // 4
-        return [rng.random(k).astype("<f4").tobytes() for _ in range(n)]
+        return [(lo + (hi - lo) * rng.random(k)).astype("<f4").tobytes() for _ in range(n)]
     if ctype == 6:
         return [rng.integers(0, 65536, size=4, dtype=np.uint16).astype("<u2").tobytes() for _ in range(n)]
     return [rng.random(1).astype("<f8").tobytes() for _ in range(n)]  # 7 DOUBLE_I
 
 
+def rgba8(ctype, c):
+    """The RGBA8 a reader keeps for colour bytes c of colour type ctype (None: an intensity)."""
+    if ctype == 0:
+        ch = list(GLOBAL_COLOUR)
+    elif ctype == 1:
+        ch = list(c) + [255]
+    elif ctype == 2:
+        ch = list(c)
+    elif ctype in (4, 5):
+        v = [float(x) for x in struct.unpack("<%df" % (len(c) // 4), c)] + [1.0]
+        ch = [math.floor(min(max(x, 0.0), 1.0) * 255.0 + 0.5) for x in v[:4]]
+    elif ctype == 6:
+        ch = [(x * 255 + 32767) // 65535 for x in struct.unpack("<4H", c)]
+    else:
+        return None
+    return ch[0] | ch[1] << 8 | ch[2] << 16 | ch[3] << 24
+
+
 def write_frame(rng, version, frame, omit_timestamp, index, base):
     out = bytearray()
     exp = {"x": [], "y": [], "z": [], "type": [], "radius": [], "type_radius": {}, "count_offsets": [],
-           "intensity": []}
+           "intensity": [], "color": []}
     any_xyzr = any(l["vertex"] == 2 for l in frame["lists"])
     if version >= 102 and not omit_timestamp:
         out += struct.pack("<f", float(index) * 0.5)
@@ -54,7 +82,7 @@ def write_frame(rng, version, frame, omit_timestamp, index, base):
             out += struct.pack("<f", radius)
             exp["type_radius"][str(li + 1)] = radius
         if ct == 0:
-            out += bytes([200, 100, 50, 255])
+            out += GLOBAL_COLOUR
         elif ct in (3, 7):
             out += struct.pack("<ff", 0.0, 1.0)
         exp["count_offsets"].append(base + len(out))
@@ -73,7 +101,7 @@ def write_frame(rng, version, frame, omit_timestamp, index, base):
             out += struct.pack("<6f", *[float(v) for v in lo], *[float(v) for v in hi])
         if vt != 0:
             radii = rng.random(n).astype("<f4") + np.float32(0.1) if vt == 2 else None
-            cols = colour_bytes(rng, ct, n)
+            cols = colour_bytes(rng, ct, n, *lst.get("colour_range", [0.0, 1.0]))
             for i in range(n):
                 out += pos[i].tobytes()
                 if vt == 2:
@@ -88,6 +116,10 @@ def write_frame(rng, version, frame, omit_timestamp, index, base):
                 exp["intensity"] += [float(struct.unpack(fmt, c)[0]) for c in cols]
             else:
                 exp["intensity"] = None
+            if exp["color"] is not None and ct not in (3, 7):
+                exp["color"] += [rgba8(ct, c) for c in cols]
+            else:
+                exp["color"] = None
             if any_xyzr:
                 exp["radius"] += [float(v) for v in radii] if vt == 2 else [radius] * n
         if version == 101:

@@ -177,6 +177,7 @@ nlohmann::json pick_json(const store::StoreReader& reader, glm::uvec2 pixel, std
     const char* name = reader.header().property_name;
     q["property"] = {{"name", std::string(name, strnlen(name, store::kPropertyNameBytes))}, {"value", *p->property}};
   }
+  if (p->color) q["color"] = render::color_hex(*p->color);
   j["particle"] = std::move(q);
   return j;
 }
@@ -217,6 +218,11 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
   render::AoChoice ao;
   MDS_TRY(apply_appearance(look, *reader, rs, &ao));
+  if (*corner != overlay::LegendCorner::off && rs.color_by.by_color())
+    return make_error(Errc::invalid_argument,
+                      "--color-legend: {} is drawn in its particles' own colours, which no legend explains (--color-by "
+                      "type draws the types' colours)",
+                      reader->path().string());
   if (fs.ao) {
     ao = *fs.ao;
     rs.ao_radius = ao.on ? ao.radius : 0.0;
@@ -527,7 +533,7 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
                        {"colormap", render::colormap_name(rs.color_by.map)}};
       if (rs.color_by.by_property()) j["color_by"]["property"] = std::string(reader->header().property_name);
     } else {
-      j["color_by"] = {{"axis", "type"}};
+      j["color_by"] = {{"axis", rs.color_by.by_color() ? "color" : "type"}};
     }
     nlohmann::json hidden = nlohmann::json::array();
     for (size_t t = 0; t < shown.size(); ++t)

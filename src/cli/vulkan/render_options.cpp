@@ -115,8 +115,9 @@ void add_appearance_options(CLI::App& sub, AppearanceOptions& o) {
                  "(the whole store in memory: not with --gpu-budget, nor on a store with per-particle radii)")
       ->allow_extra_args(false);
   sub.add_option("--color-by", o.color_by,
-                 "Colour the particles by their type, a coordinate or the store's per-particle property (convert "
-                 "--property): type, x, y, z, property or the property's name (--colormap over --color-range)")
+                 "Colour the particles by their type, their own colours (convert --color), a coordinate or the store's "
+                 "per-particle property (convert --property): type, color, auto (color where the store has colours, "
+                 "else type), x, y, z, property or the property's name (--colormap over --color-range)")
       ->capture_default_str();
   sub.add_option("--colormap", o.colormap,
                  "Colormap of --color-by x|y|z|property: viridis, plasma, magma, inferno, cividis (perceptually "
@@ -200,7 +201,7 @@ Status apply_appearance(const Appearance& a, const store::StoreReader& reader, r
   rs.color_by = a.color_by;
   const store::FileHeader& h = reader.header();
   MDS_TRY(render::resolve_color_by(rs.color_by, h.property_name, (h.flags & store::kFlagProperty) != 0,
-                                   reader.path().string()));
+                                   (h.flags & store::kFlagColor) != 0, reader.path().string()));
   auto colors = render::resolve_type_colors(reader.types(), a.type_colors);
   if (!colors) return make_error(Errc::invalid_argument, "--type-color: {}", colors.error().message);
   rs.type_colors_srgb = std::move(*colors);

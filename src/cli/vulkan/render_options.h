@@ -54,7 +54,7 @@ struct AppearanceOptions {
   std::vector<std::string> type_radii;         // --type-radius TYPE=R (in memory only)
   std::vector<std::string> hide_types;         // --hide-type TYPE (in memory only)
   std::vector<std::string> slices;             // --slice NX,NY,NZ,D[,WIDTH][,invert] (in memory only)
-  std::string color_by = "type";               // --color-by type|x|y|z|property|NAME
+  std::string color_by = "auto";               // --color-by auto|type|color|x|y|z|property|NAME
   std::string color_range;                     // --color-range LO:HI (default: the data's bounds)
   std::string colormap = "viridis";            // --colormap (render::Colormap)
   std::string ao = "off";                      // --ao off|on|auto (shading/ambient_occlusion.h)

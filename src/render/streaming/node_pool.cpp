@@ -22,6 +22,7 @@ PoolLayout pool_layout_for(const store::FileHeader& h) {
   PoolLayout l;
   l.radii = (h.flags & store::kFlagPerParticleRadius) != 0;
   l.property = (h.flags & store::kFlagProperty) != 0;
+  l.color = (h.flags & store::kFlagColor) != 0;
   const double mean = h.meshlet_count > 0 ? double(h.particle_count) / double(h.meshlet_count) : 16.0;
   const double slots = std::ceil(1.25 * double(l.page_particles) / std::max(mean, 1.0));
   l.page_meshlets = uint32_t(std::clamp(slots, 8.0, double(l.page_particles)));
@@ -81,6 +82,8 @@ Result<std::unique_ptr<NodePool>> NodePool::create(vk::Context& ctx, const PoolL
                                                      vk::MemoryIntent::device_local, "pool: radii"));
   MDS_ASSIGN_OR_RETURN(p->property_, vk::Buffer::create(alloc, layout.property ? slots * 2 : 16, ssbo,
                                                         vk::MemoryIntent::device_local, "pool: property"));
+  MDS_ASSIGN_OR_RETURN(p->color_, vk::Buffer::create(alloc, layout.color ? slots * 4 : 16, ssbo,
+                                                     vk::MemoryIntent::device_local, "pool: colours"));
   MDS_ASSIGN_OR_RETURN(p->meshlets_, vk::Buffer::create(alloc, mslots * sizeof(gpu::GpuMeshlet), ssbo,
                                                         vk::MemoryIntent::device_local, "pool: meshlet records"));
   MDS_ASSIGN_OR_RETURN(p->classes_, vk::Buffer::create(alloc, mslots * 4, ssbo, vk::MemoryIntent::device_local,
@@ -176,6 +179,7 @@ void NodePool::flush(VkCommandBuffer cmd) {
   record(staging_buf_.get(), particles_.get(), copy_particles_);
   record(staging_buf_.get(), radii_.get(), copy_radii_);
   record(staging_buf_.get(), property_.get(), copy_property_);
+  record(staging_buf_.get(), color_.get(), copy_color_);
   record(staging_buf_.get(), meshlets_.get(), copy_meshlets_);
   record(zeros_.get(), classes_.get(), zero_classes_);
   for (uint32_t page : pending_pages_) page_pending_[page] = 0;
@@ -184,8 +188,8 @@ void NodePool::flush(VkCommandBuffer cmd) {
 }
 
 uint64_t NodePool::upload_bytes(const store::NodeData& d) const {
-  return d.particle_count() * (8 + (layout_.radii ? 2 : 0) + (layout_.property ? 2 : 0)) +
-         d.meshlet_size.size() * sizeof(gpu::GpuMeshlet) + 64;  // + the 16-byte alignment of up to 4 arrays (< 64)
+  return d.particle_count() * (8 + (layout_.radii ? 2 : 0) + (layout_.property ? 2 : 0) + (layout_.color ? 4 : 0)) +
+         d.meshlet_size.size() * sizeof(gpu::GpuMeshlet) + 80;  // + the 16-byte alignment of up to 5 arrays (< 80)
 }
 
 Status meshlet_bounds(const PoolScene& scene, uint32_t node, const NodeFrame& frame, const store::NodeData& d,
@@ -245,7 +249,7 @@ Status NodePool::upload(uint32_t node, const NodeFrame& frame, const store::Node
   if (node >= node_pages_.size() || !node_pages_[node].empty())
     return make_error(Errc::internal, "pool: upload of node {} which is resident or out of range", node);
   if (n == 0 || m == 0 || d.qpos.size() != 3 * n || d.type_index.size() != n || (layout_.radii && d.radius_q.size() != n) ||
-      (layout_.property && d.property_q.size() != n))
+      (layout_.property && d.property_q.size() != n) || (layout_.color && d.color.size() != n))
     return make_error(Errc::format, "node {}: {} particles, {} meshlets, {} coordinates: inconsistent", node, n, m,
                       d.qpos.size());
   const uint32_t need = layout_.pages_for(n, m);
@@ -281,6 +285,7 @@ Status NodePool::upload(uint32_t node, const NodeFrame& frame, const store::Node
   const uint64_t part_off = reserve(n * 8);
   const uint64_t rad_off = layout_.radii ? reserve(n * 2) : 0;
   const uint64_t prop_off = layout_.property ? reserve(n * 2) : 0;
+  const uint64_t color_off = layout_.color ? reserve(n * 4) : 0;
   const uint64_t rec_off = reserve(m * sizeof(gpu::GpuMeshlet));
   std::vector<uint32_t>& pages = node_pages_[node];  // the last `need` free pages, last first
   pages.assign(free_.rbegin(), free_.rbegin() + need);
@@ -322,12 +327,14 @@ Status NodePool::upload(uint32_t node, const NodeFrame& frame, const store::Node
   std::memcpy(base + part_off, particles.data(), n * 8);
   if (layout_.radii) std::memcpy(base + rad_off, d.radius_q.data(), n * 2);
   if (layout_.property) std::memcpy(base + prop_off, d.property_q.data(), n * 2);
+  if (layout_.color) std::memcpy(base + color_off, d.color.data(), n * 4);
   for (uint32_t i = 0; i < need; ++i) {
     const uint64_t first = uint64_t(i) * P, count = first < n ? std::min<uint64_t>(P, n - first) : 0;
     if (count > 0) {
       copy_particles_.push_back({part_off + first * 8, uint64_t(pages[i]) * P * 8, count * 8});
       if (layout_.radii) copy_radii_.push_back({rad_off + first * 2, uint64_t(pages[i]) * P * 2, count * 2});
       if (layout_.property) copy_property_.push_back({prop_off + first * 2, uint64_t(pages[i]) * P * 2, count * 2});
+      if (layout_.color) copy_color_.push_back({color_off + first * 4, uint64_t(pages[i]) * P * 4, count * 4});
     }
     const uint64_t mfirst = uint64_t(i) * M, mcount = mfirst < m ? std::min<uint64_t>(M, m - mfirst) : 0;
     if (mcount > 0) {

@@ -46,8 +46,11 @@ struct PoolLayout {
   uint32_t page_meshlets = 32;  // meshlet slots per page (from the store's mean meshlet size)
   bool radii = false;           // per-particle radii stored
   bool property = false;        // the per-particle property stored (store kFlagProperty: + 1 KiB a page)
+  bool color = false;           // the per-particle colours stored (store kFlagColor: + 2 KiB a page)
 
-  uint64_t particle_bytes() const { return uint64_t(page_particles) * (8 + (radii ? 2 : 0) + (property ? 2 : 0)); }
+  uint64_t particle_bytes() const {
+    return uint64_t(page_particles) * (8 + (radii ? 2 : 0) + (property ? 2 : 0) + (color ? 4 : 0));
+  }
   uint64_t meshlet_bytes() const { return uint64_t(page_meshlets) * (sizeof(gpu::GpuMeshlet) + 4); }
   uint64_t page_bytes() const { return particle_bytes() + meshlet_bytes(); }
   uint32_t pages_for(uint64_t particles, uint64_t meshlets) const;
@@ -121,6 +124,7 @@ class NodePool {
   VkBuffer particles() const { return particles_.get(); }
   VkBuffer radii() const { return radii_.get(); }
   VkBuffer property() const { return property_.get(); }
+  VkBuffer color() const { return color_.get(); }
   VkBuffer meshlets() const { return meshlets_.get(); }
   VkBuffer meshlet_class() const { return classes_.get(); }
 
@@ -158,7 +162,7 @@ class NodePool {
   std::vector<uint32_t> free_;                      // free page indices (stack)
   std::vector<std::vector<uint32_t>> node_pages_;   // pages of each resident node
   mds::streaming::DeviceBudget budget_{0};
-  vk::Buffer particles_, radii_, property_, meshlets_, classes_, staging_buf_;
+  vk::Buffer particles_, radii_, property_, color_, meshlets_, classes_, staging_buf_;
   std::span<std::byte> staging_;
   uint64_t staging_head_ = 0;
   // Records the gathered regions: zeros (evictions) first, then, after a barrier, the uploads'
@@ -170,7 +174,7 @@ class NodePool {
   vk::Buffer zeros_;        // kZeroPages x page_meshlets GpuMeshlet records of zero bytes (also P = 0 classes)
   uint32_t copy_regions_ = 0;  // take_copy_regions()
   std::vector<VkBufferCopy> zero_meshlets_, zero_classes_;  // from zeros_
-  std::vector<VkBufferCopy> copy_particles_, copy_radii_, copy_property_, copy_meshlets_;  // from the staging area
+  std::vector<VkBufferCopy> copy_particles_, copy_radii_, copy_property_, copy_color_, copy_meshlets_;  // from the staging area
   std::vector<uint8_t> page_pending_;  // page has an upload region not yet flushed
   std::vector<uint32_t> pending_pages_;  // those pages (cleared by flush)
   bool device_capped_ = false;
