@@ -177,7 +177,7 @@ TEST(ColorReaders, ExtendedXyzColorColumnsAndErrors) {
               HasSubstr("shape.xyz:2: Properties: 'color' is R:1; --color needs R:3"));
   EXPECT_THAT(error_of("plain.xyz", "1\ncomment\nA 0 0 0\n"), HasSubstr("plain.xyz:2: a plain XYZ frame has no named"));
   EXPECT_THAT(error_of("nan.xyz", "2\nProperties=species:S:1:pos:R:3:color:R:3\nA 0 0 0 1 1 1\nA 1 0 0 1 nan 1\n"),
-              HasSubstr("nan.xyz:4: bad colour channel 'nan'"));
+              HasSubstr("nan.xyz:4: bad colour channel (green) 'nan'"));
   // Other formats have no colours: named at open.
   testing::write_text(dir / "d.lammpstrj",
                       "ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n1\nITEM: BOX BOUNDS pp pp pp\n0 1\n0 1\n0 1\n"

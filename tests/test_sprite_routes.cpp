@@ -48,7 +48,8 @@ class SpriteRoutesTest : public mds::testing::VulkanSuite {
   // small_px: MDSTREAM_SMALL_PX for this renderer (nullptr: the default threshold).
   static Result<Out> render(const SceneData& scene, bool visibility_route, const char* small_px, bool cull,
                             bool accumulation_buffer = true, bool covered_pixel_list = true,
-                            double covered_list_max_coverage = 1.0, uint64_t sprite_capacity = 0) {
+                            double covered_list_max_coverage = 1.0, uint64_t sprite_capacity = 0,
+                            bool own_colors = false) {
     if (small_px) {
       setenv("MDSTREAM_SMALL_PX", small_px, 1);
     } else {
@@ -65,6 +66,7 @@ class SpriteRoutesTest : public mds::testing::VulkanSuite {
     rs.covered_pixel_list = covered_pixel_list;
     rs.covered_list_max_coverage = covered_list_max_coverage;  // default 1.0: every frame through the list
     rs.sprite_capacity = sprite_capacity;
+    rs.color_by.particle_colors = own_colors;  // the scene's SceneData::color (--color-by color)
     auto r = Renderer::create(*ctx_, scene, rs);
     unsetenv("MDSTREAM_SMALL_PX");  // read once, by create()
     if (!r.ok()) return r.error();
@@ -190,6 +192,29 @@ TEST_F(SpriteRoutesTest, AccumulationBufferAndImageGiveTheSameImage) {
 // nearest particle by depth and frame-wide id whatever the chunk, and the resolve rebuilds that
 // particle's sphere: identical floats. The attachment route draws the chunks in list order over
 // the same depth buffer: only equal-depth ties may differ.
+// The particles' own colours (SceneData::color) through chunked draws: the visibility route's
+// resolve then rebuilds each winner from its frame-wide id (sprite_make.h mds_vis_id_sphere,
+// which also reads its colour) instead of its sprite record, and must give the image of one
+// chunk, whose resolve reads GpuSprite.color. Fails when either path loses the colour.
+TEST_F(SpriteRoutesTest, OwnColoursDrawnInChunksGiveTheSameImage) {
+  if (!ctx_->int64_atomics()) GTEST_SKIP() << ctx_->info().name << " has no 64-bit buffer atomics";
+  SceneData scene = block();
+  scene.has_color = true;
+  scene.color.resize(scene.particle_count());
+  for (size_t i = 0; i < scene.color.size(); ++i)
+    scene.color[i] = uint32_t((i * 37) % 256 | ((i * 91) % 256) << 8 | ((i * 13) % 256) << 16 | 0xffu << 24);
+  auto whole = render(scene, true, nullptr, false, true, true, 1.0, 0, true);
+  auto chunks = render(scene, true, nullptr, false, true, true, 1.0, 2000, true);
+  auto typed = render(scene, true, nullptr, false);
+  ASSERT_TRUE(whole.ok()) << whole.error().message;
+  ASSERT_TRUE(chunks.ok()) << chunks.error().message;
+  ASSERT_TRUE(typed.ok()) << typed.error().message;
+  EXPECT_EQ(whole->stats.sprite_chunks, 1u);
+  EXPECT_GE(chunks->stats.sprite_chunks, 30u);
+  EXPECT_EQ(chunks->image.rgba, whole->image.rgba);
+  EXPECT_GT(mds::testing::differing_pixels(whole->image, typed->image, 0.05f), whole->image.rgba.size() / 32);
+}
+
 TEST_F(SpriteRoutesTest, SpritesDrawnInChunksGiveTheSameImage) {
   const SceneData scene = block();
   for (bool vis_route : {true, false}) {

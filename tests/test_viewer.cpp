@@ -37,6 +37,7 @@
 #include "render/scene.h"
 #include "store/store_reader.h"
 #include "viewer/camera_controller.h"
+#include "viewer/color_keys.h"
 #include "overlay/canvas.h"
 #include "overlay/color_legend.h"
 #include "viewer/debug_views.h"
@@ -454,6 +455,23 @@ class ViewerWindow : public ::testing::Test {
   std::string err() const { return slurp(dir_ / "err.txt"); }
   std::string store() const { return (dir_ / "p.mds").string(); }
   std::string env() const { return "DISPLAY=" + xvfb_->display() + " "; }
+  // Replaces store() by 20000 particles of one type in a 30^3 box whose own colours
+  // (convert --color) follow the position: (x, y, 1 - z) / 30.
+  void use_colored_store() {
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> u(0.0, 30.0);
+    std::string text = "20000\nProperties=species:S:1:pos:R:3:color:R:3\n";
+    for (int i = 0; i < 20000; ++i) {
+      const double x = u(rng), y = u(rng), z = u(rng);
+      text += fmt::format("A {:.5f} {:.5f} {:.5f} {:.4f} {:.4f} {:.4f}\n", x, y, z, x / 30, y / 30, 1 - z / 30);
+    }
+    {
+      std::ofstream f(dir_ / "c.xyz");
+      f << text;
+    }
+    fs::remove(store());
+    ASSERT_EQ(mdstream(fmt::format("convert {} --color -q -o {}", (dir_ / "c.xyz").string(), store())), 0) << err();
+  }
   // A 6-frame orbit of the store for a W x H window, saved to path.txt.
   render::CameraPath orbit(uint32_t W, uint32_t H) {
     auto reader = store::StoreReader::open(store());
@@ -569,19 +587,7 @@ TEST_F(ViewerWindow, ColourByCoordinateScreenshotMatchesHeadlessRender) {
 // screenshot matches `render` of it, not its type colours.
 TEST_F(ViewerWindow, OwnColoursScreenshotMatchesHeadlessRender) {
   const uint32_t W = 160, H = 120;
-  std::mt19937 rng(3);
-  std::uniform_real_distribution<double> u(0.0, 30.0);
-  std::string text = "20000\nProperties=species:S:1:pos:R:3:color:R:3\n";
-  for (int i = 0; i < 20000; ++i) {
-    const double x = u(rng), y = u(rng), z = u(rng);
-    text += fmt::format("A {:.5f} {:.5f} {:.5f} {:.4f} {:.4f} {:.4f}\n", x, y, z, x / 30, y / 30, 1 - z / 30);
-  }
-  {
-    std::ofstream f(dir_ / "c.xyz");
-    f << text;
-  }
-  fs::remove(store());
-  ASSERT_EQ(mdstream(fmt::format("convert {} --color -q -o {}", (dir_ / "c.xyz").string(), store())), 0) << err();
+  ASSERT_NO_FATAL_FAILURE(use_colored_store());
   const render::CameraPath path = orbit(W, H);
   const fs::path shot = dir_ / "view.png", ref = dir_ / "render.png", typed = dir_ / "typed.png";
   ASSERT_EQ(sh(fmt::format("{}timeout 50 {} view {} --width {} --height {} --spp 4 --play {} --no-hud --screenshot {} "
@@ -693,6 +699,33 @@ TEST_F(ViewerWindow, XdotoolInputMovesTheCamera) {
 // The slice keys' arithmetic: a step is 1/50 of the box's extent along the normal, the distance
 // is rounded to 1/1000 of a step in decimal (so the printed spec is short), `invert` toggles, and
 // the options read back as the same slices.
+// V cycles through what the store has; M through the colormaps; the options say it for render.
+TEST(ViewerColorKeys, CycleVisitsWhatTheStoreHas) {
+  auto cycle = [](bool has_color, bool has_property) {
+    std::vector<std::string> seen;
+    render::ColorBy c;  // type
+    for (int i = 0; i < 7; ++i) {
+      c = viewer::next_color_by(c, has_color, has_property);
+      seen.push_back(viewer::color_options(c, "c_pe"));
+    }
+    return seen;
+  };
+  EXPECT_EQ(cycle(false, false),
+            (std::vector<std::string>{"--color-by x", "--color-by y", "--color-by z", "--color-by type", "--color-by x",
+                                      "--color-by y", "--color-by z"}));
+  EXPECT_EQ(cycle(true, true),
+            (std::vector<std::string>{"--color-by color", "--color-by x", "--color-by y", "--color-by z",
+                                      "--color-by c_pe", "--color-by type", "--color-by color"}));
+  render::ColorBy c;
+  c.axis = 2;
+  c.lo = 1;
+  c.hi = 5;
+  c.map = viewer::next_colormap(render::Colormap::viridis);
+  EXPECT_EQ(viewer::color_options(c, ""), "--color-by z --color-range 1:5 --colormap plasma");
+  EXPECT_EQ(viewer::next_colormap(render::Colormap::gray), render::Colormap::viridis);
+  EXPECT_EQ(viewer::next_color_by(c, false, false).lo, 0.0);  // the next axis takes its own range
+}
+
 TEST(ViewerSliceKeys, StepAlongTheNormalRoundedAndPrintedAsOptions) {
   const double lo[3] = {0.3664, 0.0, -10.0}, hi[3] = {57.9114, 20.0, 30.0};
   const store::Slice z{{0.0, 0.0, 1.0}, 1.5, 0.0, false};
@@ -862,6 +895,65 @@ TEST_F(ViewerWindow, AoKeyShowsWhatRenderDrawsWithAo) {
   size_t darker = 0;
   for (size_t i = 0; i < a.rgb.size(); ++i) darker += int(a.rgb[i]) + 24 < int(p.rgb[i]);
   EXPECT_GT(darker, a.rgb.size() / 50) << "the window shows no ambient occlusion";
+}
+
+// V and M in the window: two V presses (type -> x -> y on a store without colours or property)
+// and an M (viridis -> plasma) show what `render --color-by y --colormap plasma` draws, and the
+// viewer prints those options on stderr.
+TEST_F(ViewerWindow, ColourKeysShowWhatRenderDrawsWithThoseOptions) {
+  if (!have_program("xdotool")) GTEST_SKIP() << "xdotool is not installed (apt-get install xdotool)";
+  const uint32_t W = 160, H = 120;
+  const fs::path shot = dir_ / "view.png", ref = dir_ / "render.png";
+  const fs::path log = dir_ / "viewer_err.txt";
+  const std::string look = fmt::format("--width {} --height {} --spp 1 --no-cull --camera 40,-25,45,25,25,15", W, H);
+  RunningViewer v;
+  ASSERT_NO_FATAL_FAILURE(start_viewer(env(), store() + " " + look + " --no-hud --screenshot " + shot.string(), dir_, v));
+  const std::string x = env() + "timeout 20 xdotool windowfocus --sync " + v.window + " key ";
+  pause_for_viewer();
+  for (const char* key : {"v", "v", "m"}) {
+    ASSERT_EQ(sh(x + key), 0);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  }
+  pause_for_viewer();
+  ASSERT_EQ(sh(x + "Escape"), 0);
+  ASSERT_TRUE(v.wait_exit()) << "the viewer did not exit on Esc\n" << slurp(log);
+  ASSERT_TRUE(WIFEXITED(v.status) && WEXITSTATUS(v.status) == 0) << slurp(log);
+  const std::string said = slurp(log);
+  EXPECT_NE(said.find("mdstream view: --color-by x\n"), std::string::npos) << said;
+  EXPECT_NE(said.find("mdstream view: --color-by y\n"), std::string::npos) << said;
+  EXPECT_NE(said.find("mdstream view: --color-by y --colormap plasma\n"), std::string::npos) << said;
+  ASSERT_EQ(mdstream(fmt::format("render {} -o {} {} --color-by y --colormap plasma", store(), ref.string(), look)), 0)
+      << err();
+  expect_screenshot_matches(shot, ref, W, H);
+}
+
+// Streaming, the pool holds the particles' own colours only while they are drawn: V out of them
+// (to x) and, four presses later, back into them makes the cache again each time, and the window
+// then shows what `render` draws with its default (the colours) through the same budget.
+TEST_F(ViewerWindow, ColourKeyIntoAndOutOfOwnColoursWhileStreaming) {
+  if (!have_program("xdotool")) GTEST_SKIP() << "xdotool is not installed (apt-get install xdotool)";
+  ASSERT_NO_FATAL_FAILURE(use_colored_store());
+  const uint32_t W = 160, H = 120;
+  const fs::path shot = dir_ / "view.png", ref = dir_ / "render.png", log = dir_ / "viewer_err.txt";
+  const std::string look =
+      fmt::format("--width {} --height {} --spp 1 --no-cull --gpu-budget 256KiB --camera 45,-20,50,15,15,15", W, H);
+  RunningViewer v;
+  ASSERT_NO_FATAL_FAILURE(start_viewer(env(), store() + " " + look + " --no-hud --screenshot " + shot.string(), dir_, v));
+  const std::string x = env() + "timeout 20 xdotool windowfocus --sync " + v.window + " key ";
+  pause_for_viewer();
+  for (int i = 0; i < 5; ++i) {
+    ASSERT_EQ(sh(x + "v"), 0);
+    std::this_thread::sleep_for(std::chrono::milliseconds(400));
+  }
+  pause_for_viewer();
+  ASSERT_EQ(sh(x + "Escape"), 0);
+  ASSERT_TRUE(v.wait_exit()) << "the viewer did not exit on Esc\n" << slurp(log);
+  ASSERT_TRUE(WIFEXITED(v.status) && WEXITSTATUS(v.status) == 0) << slurp(log);
+  const std::string said = slurp(log);
+  for (const char* o : {"--color-by x\n", "--color-by y\n", "--color-by z\n", "--color-by type\n", "--color-by color\n"})
+    EXPECT_NE(said.find(std::string("mdstream view: ") + o), std::string::npos) << o << said;
+  ASSERT_EQ(mdstream(fmt::format("render {} -o {} {}", store(), ref.string(), look)), 0) << err();
+  expect_screenshot_matches(shot, ref, W, H);
 }
 
 }  // namespace

@@ -108,8 +108,12 @@ Result<BudgetPlan> plan_budget(const ConvertOptions& o, uint64_t density_voxels)
   p.spill_buffer_bytes = size_t(std::clamp<uint64_t>(b / 16, 64 << 10, 4 << 20));
   p.partition_buffer_bytes = size_t(std::clamp<uint64_t>(b / 4, 256 << 10, 256ull << 20));
   const uint64_t density_bytes = 2 * 4 * density_voxels;  // global counts + store summary copy
-  const uint64_t workers = uint64_t(o.threads) * o.node_size * kWorkerBytesPerParticle;
-  const uint64_t in_flight = uint64_t(o.threads) * kWindowPerThread * o.node_size * kInFlightBytesPerParticle;
+  // With colours a worker also holds them and their permutation (8 bytes a particle), and an
+  // encoded node their 4 bytes.
+  const uint64_t color = o.reader.color ? 1 : 0;
+  const uint64_t workers = uint64_t(o.threads) * o.node_size * (kWorkerBytesPerParticle + 8 * color);
+  const uint64_t in_flight =
+      uint64_t(o.threads) * kWindowPerThread * o.node_size * (kInFlightBytesPerParticle + 4 * color);
   const uint64_t fixed = density_bytes + workers + in_flight +
                          kReadAheadBatches * p.batch_particles * kBatchBytesPerParticle + p.spill_buffer_bytes;
   const uint64_t extra = 4 * side_layout(o).words();  // the side column

@@ -99,6 +99,7 @@ bool parse_extxyz_properties(std::string_view value, std::vector<XyzProperty>& o
 namespace {
 
 constexpr uint64_t kMaxAtoms = kMaxTextAtoms;
+constexpr const char* kChannelNames[3] = {"red", "green", "blue"};  // of color:R:3, for messages
 // A well-formed atom line has at least 8 bytes ("H 0 0 0\n"); counts beyond what the rest of
 // the file could hold at half that are rejected as absurd before anything is read (a slightly
 // malformed short file is left to the line checks, which give the better message).
@@ -444,7 +445,7 @@ class XyzReader final : public TextFrameReader {
           auto r = parse_double(p, end, v);
           if (r.ec != std::errc() || !is_token_end(*r.ptr) || !std::isfinite(v)) {
             set_error(err, r.ec == std::errc::result_out_of_range ? Errc::range : Errc::format, line_no,
-                      fmt::format("bad colour channel '{}'", token_at(tok)));
+                      fmt::format("bad colour channel ({}) '{}'", kChannelNames[c - ccol], token_at(tok)));
             return;
           }
           rgb[c - ccol] = v;

@@ -99,7 +99,7 @@ Status resolve_color_by(ColorBy& c, const char* property_name, bool has_property
     c.axis = kColorByProperty;
     return {};
   }
-  return make_error(Errc::invalid_argument, "--color-by '{}': expected type, x, y, z, property or {}", c.name,
+  return make_error(Errc::invalid_argument, "--color-by '{}': expected auto, type, color, x, y, z, property or {}", c.name,
                     has_property ? fmt::format("the name of {}'s property, {}", store_name, property_name)
                                  : fmt::format("a property's name, but {} has no property (convert --property NAME)",
                                                store_name));

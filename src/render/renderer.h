@@ -58,6 +58,9 @@ struct StreamSettings {
   // the others lose the cut particles on the reader thread that decodes them; the density volume
   // and the nodes' voxel lists count what is kept (docs/streaming.md, "Slices").
   std::vector<store::Slice> slices;
+  // The pool holds the store's per-particle colours (store kFlagColor), 2 KiB a page more:
+  // Renderer::create_streaming sets it where they are drawn (--color-by color).
+  bool colors = false;
   streaming::Policy policy = streaming::Policy::occlusion;  // --policy occlusion|lru|fifo
   streaming::IoOptions io;                                   // reader threads, simulated latency/bandwidth
   uint64_t upload_bytes_per_frame = 32ull << 20;  // transfer budget per frame (Grottel et al. 3.3)
@@ -448,6 +451,12 @@ class Renderer {
   // accumulation restarts at the next step(); culling and the cache are untouched (the classes
   // do not depend on shading). Errc::invalid_argument for a negative or non-finite value.
   Status set_ambient_occlusion(double radius, double strength);
+  // What colours the particles (RenderSettings::color_by, resolved against the store:
+  // render::resolve_color_by), in place like set_ambient_occlusion: the accumulation restarts,
+  // culling and the cache are untouched. Errc::invalid_argument as Renderer::create gives it
+  // (the property or the colours asked of a store without them); Errc::unsupported for the
+  // colours on a streaming renderer whose pool holds none (StreamSettings::colors: re-create it).
+  Status set_color_by(const ColorBy& color_by);
   // The sample-area model (culling::CullSettings::coverage), in place like set_c_occ: with
   // culling, the current view restarts at the next step() with the new model.
   Status set_coverage(culling::Coverage coverage);

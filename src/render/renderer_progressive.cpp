@@ -82,7 +82,9 @@ Result<std::unique_ptr<Renderer>> Renderer::create_streaming(vk::Context& ctx, c
   m.bounds = dir.bounds;
   // The sprite records do not bound the pool: a draw list with more particles than they hold is
   // drawn in chunks (create_draw_buffers); the pool's own buffers do (NodePool::create).
-  MDS_ASSIGN_OR_RETURN(m.cache, streaming_gpu::StreamCache::create(ctx, reader, stream, dir.origin));
+  StreamSettings pool_stream = stream;
+  pool_stream.colors = settings.color_by.by_color();  // the pool carries colours only where they are drawn
+  MDS_ASSIGN_OR_RETURN(m.cache, streaming_gpu::StreamCache::create(ctx, reader, pool_stream, dir.origin));
   dir.nodes = m.cache->directory();
   m.meshlet_count = m.cache->pool().meshlet_slots();
   m.particle_count = h.particle_count;
@@ -490,6 +492,16 @@ Status Renderer::set_ambient_occlusion(double radius, double strength) {
   if (radius == m.settings.ao_radius && strength == m.settings.ao_strength) return {};
   m.settings.ao_radius = radius;
   m.settings.ao_strength = strength;
+  m.samples = 0;  // the next frame clears the accumulation
+  return {};
+}
+
+Status Renderer::set_color_by(const ColorBy& c) {
+  Impl& m = *impl_;
+  MDS_TRY(check_color_by(c, m.has_property, m.has_color));
+  if (m.cache && c.by_color() && !m.cache->pool().layout().color)
+    return make_error(Errc::unsupported, "the streaming pool holds no colours: re-create the renderer to draw them");
+  m.settings.color_by = c;
   m.samples = 0;  // the next frame clears the accumulation
   return {};
 }

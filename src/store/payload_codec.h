@@ -22,7 +22,7 @@ void encode_payload(const NodeInput& node, std::vector<uint8_t>& raw);
 struct PayloadLimits {
   uint32_t particle_count;     // n of the node
   uint32_t meshlet_count;      // m of the node
-  uint32_t flags;              // the header's: kFlagPerParticleRadius, kFlagProperty
+  uint32_t flags;              // the header's: kFlagPerParticleRadius, kFlagProperty, kFlagColor
   uint32_t type_count;         // type indices must be < this
   uint32_t meshlet_size_max;   // meshlet sizes must be in 1..this
 };

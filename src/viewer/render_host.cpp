@@ -195,6 +195,34 @@ void RenderHost::take(Loaded&& l) {
   node_boxes_ = std::move(l.node_boxes);
 }
 
+Status RenderHost::set_color_by(const render::ColorBy& color_by, bool* remade) {
+  if (remade) *remade = false;
+  const render::ColorBy before = color_by_;
+  color_by_ = color_by;
+  render::RenderSettings rs = settings_;
+  Status st = resolve_colors(*reader_, rs);
+  // Streaming, the pool holds the colours only where they are drawn (StreamSettings::colors):
+  // into or out of them the renderer is made again, with a new cache (the slices' way).
+  const bool new_pool = st.ok() && streaming() && rs.color_by.by_color() != settings_.color_by.by_color();
+  if (st.ok() && renderer_ && !new_pool) st = renderer_->set_color_by(rs.color_by);
+  if (!st.ok()) {
+    color_by_ = before;
+    return st;
+  }
+  const render::ColorBy shown = settings_.color_by;
+  settings_.color_by = rs.color_by;
+  if (new_pool) {
+    if (remade) *remade = true;
+    if (Status made = recreate(settings_.width, settings_.height); !made.ok()) {
+      color_by_ = before;
+      settings_.color_by = shown;
+      MDS_TRY(recreate(settings_.width, settings_.height));
+      return made;
+    }
+  }
+  return {};
+}
+
 Status RenderHost::set_slices(const std::vector<store::Slice>& slices) {
   MDS_ASSIGN_OR_RETURN(Loaded loaded, load(*reader_, slices));  // the current scene stays until this worked
   std::vector<store::Slice> before = stream_.slices;

@@ -38,6 +38,12 @@ class RenderHost {
   // re-created at the current size. On an error (e.g. slices that leave no particle) the
   // slices before stay, with a renderer.
   Status set_slices(const std::vector<store::Slice>& slices);
+  // Another colour choice (the viewer's colour keys; as --color-by, --color-range, --colormap
+  // give it, resolved against each store shown): applied to the renderer in place
+  // (Renderer::set_color_by), except that streaming, into or out of the particles' own colours,
+  // the renderer is made again with a new cache (the pool holds colours only where they are
+  // drawn; *remade says so: the new renderer needs a view). On an error the choice before stays.
+  Status set_color_by(const render::ColorBy& color_by, bool* remade = nullptr);
   const std::vector<store::Slice>& slices() const { return stream_.slices; }  // in memory too
   // A series: which of its picked frames (--series-frames) is shown. set_series_position loads
   // that frame's store like set_slices (the slices and the camera stay); on an error the frame

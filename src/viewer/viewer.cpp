@@ -15,6 +15,7 @@
 #include "render/camera_path.h"
 #include "render/pick.h"
 #include "viewer/camera_controller.h"
+#include "viewer/color_keys.h"
 #include "overlay/canvas.h"
 #include "viewer/debug_views.h"
 #include "viewer/frame_log.h"
@@ -37,6 +38,7 @@ const char* key_help() {
          "C  culling on/off      [ ]  C_occ -/+ 0.01      - =  spp /2 *2      K  coverage auto/expected/exact\n"
          ", .  move the last --slice back/forward along its normal by 1/50 of the data (Shift: 1/500)   /  invert it\n"
          "L  ambient occlusion on/off (--ao; radius --ao-radius)\n"
+         "V  colour by: type / own colours / x / y / z / property      M  next colormap\n"
          "Left/Right  previous/next frame of a series (.series)   Home/End  first/last frame   "
          "Space  play the series (each frame once it has refined; loops)\n"
          "P  save a screenshot (mdstream-view-<time>.png)  Esc  quit";
@@ -83,6 +85,16 @@ class Viewer {
   // stderr with its distance from the particle picked before (OVITO's distance measurement),
   // and both marked on the image until a pick misses, a new slice or series frame.
   void pick_at(glm::dvec2 cursor);
+  // The colour keys: V the next colour choice (color_keys.h next_color_by), M the next colormap;
+  // printed as `render` options on stderr.
+  void apply_color_key(bool colormap);
+  // The HUD's legend row for the renderer's colour choice: the types, the colormap or none.
+  void update_legend();
+  // The HUD's message row (kept 4 s).
+  void say(std::string m) {
+    message_ = std::move(m);
+    message_time_ = Clock::now();
+  }
   Status compose(const InputFrame& in);
 
   const ViewerOptions& o_;
@@ -179,16 +191,49 @@ Status Viewer::setup() {
                                        : std::filesystem::path(o_.store).filename().string();
   hud_.streaming = host_->streaming();
   hud_.meshlets = host_->meshlets();
+  update_legend();
+  return {};
+}
+
+void Viewer::update_legend() {
   const render::ColorBy& color_by = host_->settings().color_by;
   if (!color_by.by_type() && host_->renderer())
     hud_.legend = overlay::colormap_legend(color_by.by_property() ? std::string(host_->reader().header().property_name)
-                                                         : render::color_axis_name(color_by.axis),
-                                  host_->renderer()->color_range(), color_by.map);
+                                                                  : render::color_axis_name(color_by.axis),
+                                           host_->renderer()->color_range(), color_by.map);
   else if (color_by.by_color())
     hud_.legend = {};  // the particles' own colours: no legend explains them
   else
     hud_.legend = overlay::type_legend(host_->reader().types(), host_->settings().type_colors_srgb, host_->shown_types());
-  return {};
+}
+
+void Viewer::apply_color_key(bool colormap) {
+  render::ColorBy c = host_->settings().color_by;
+  const store::FileHeader& h = host_->reader().header();
+  if (colormap) {
+    if (c.by_type()) {
+      say("no colormap: colour by x, y, z or the property first (V)");
+      return;
+    }
+    c.map = next_colormap(c.map);
+  } else {
+    c = next_color_by(c, (h.flags & store::kFlagColor) != 0, (h.flags & store::kFlagProperty) != 0);
+  }
+  bool remade = false;
+  const Status st = host_->set_color_by(c, &remade);
+  if (remade) {  // a new renderer (and cache): it needs the view
+    have_view_ = false;
+    render_error_.reset();
+  }
+  if (!st.ok()) {
+    say(st.error().message);
+    return;
+  }
+  idle_ = false;
+  update_legend();
+  const std::string options = color_options(host_->settings().color_by, h.property_name);
+  std::fprintf(stderr, "mdstream view: %s\n", options.c_str());
+  say(options);
 }
 
 Status Viewer::recreate_renderer() {
@@ -200,10 +245,6 @@ Status Viewer::recreate_renderer() {
 }
 
 void Viewer::handle_keys(const InputFrame& in, bool& recreate, bool& quit, double& slice_steps, bool& slice_invert) {
-  auto say = [&](std::string m) {
-    message_ = std::move(m);
-    message_time_ = Clock::now();
-  };
   auto& rs = host_->settings();
   for (size_t i = 0; i < in.keys_pressed.size(); ++i) {
     const int key = in.keys_pressed[i];
@@ -259,6 +300,8 @@ void Viewer::handle_keys(const InputFrame& in, bool& recreate, bool& quit, doubl
         slice_steps += (shift ? 0.1 : 1.0) * (key == GLFW_KEY_PERIOD ? 1.0 : -1.0);
         break;
       case GLFW_KEY_SLASH: slice_invert = !slice_invert; break;
+      case GLFW_KEY_V: apply_color_key(false); break;
+      case GLFW_KEY_M: apply_color_key(true); break;
       case GLFW_KEY_LEFT:
       case GLFW_KEY_RIGHT:
       case GLFW_KEY_HOME:
@@ -373,6 +416,7 @@ void Viewer::show_series_position(size_t position) {
   picked_.reset();  // it named a particle of the frame before's store
   picked_before_.reset();
   hud_.meshlets = host_->meshlets();
+  update_legend();  // the frame's store may have other types (or colours)
   hold_image_ = host_->streaming() && image_.width() > 0;
   // On stderr too, for `render --series-frames` of the same frame.
   message_ = fmt::format("--series-frames {}", host_->series_frame());

@@ -18,11 +18,11 @@ uint32_t PoolLayout::pages_for(uint64_t particles, uint64_t meshlets) const {
   return uint32_t(std::max<uint64_t>({1, by_particles, by_meshlets}));
 }
 
-PoolLayout pool_layout_for(const store::FileHeader& h) {
+PoolLayout pool_layout_for(const store::FileHeader& h, bool colors) {
   PoolLayout l;
   l.radii = (h.flags & store::kFlagPerParticleRadius) != 0;
   l.property = (h.flags & store::kFlagProperty) != 0;
-  l.color = (h.flags & store::kFlagColor) != 0;
+  l.color = colors && (h.flags & store::kFlagColor) != 0;
   const double mean = h.meshlet_count > 0 ? double(h.particle_count) / double(h.meshlet_count) : 16.0;
   const double slots = std::ceil(1.25 * double(l.page_particles) / std::max(mean, 1.0));
   l.page_meshlets = uint32_t(std::clamp(slots, 8.0, double(l.page_particles)));
@@ -105,6 +105,7 @@ Result<std::unique_ptr<NodePool>> NodePool::create(vk::Context& ctx, const PoolL
     vkCmdFillBuffer(cmd, p->particles_.get(), 0, VK_WHOLE_SIZE, 0);
     vkCmdFillBuffer(cmd, p->radii_.get(), 0, VK_WHOLE_SIZE, 0);
     vkCmdFillBuffer(cmd, p->property_.get(), 0, VK_WHOLE_SIZE, 0);
+    vkCmdFillBuffer(cmd, p->color_.get(), 0, VK_WHOLE_SIZE, 0);
     vkCmdFillBuffer(cmd, p->zeros_.get(), 0, VK_WHOLE_SIZE, 0);
     vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                        VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);

@@ -46,7 +46,7 @@ struct PoolLayout {
   uint32_t page_meshlets = 32;  // meshlet slots per page (from the store's mean meshlet size)
   bool radii = false;           // per-particle radii stored
   bool property = false;        // the per-particle property stored (store kFlagProperty: + 1 KiB a page)
-  bool color = false;           // the per-particle colours stored (store kFlagColor: + 2 KiB a page)
+  bool color = false;           // the per-particle colours stored (store kFlagColor, where drawn: + 2 KiB a page)
 
   uint64_t particle_bytes() const {
     return uint64_t(page_particles) * (8 + (radii ? 2 : 0) + (property ? 2 : 0) + (color ? 4 : 0));
@@ -58,7 +58,8 @@ struct PoolLayout {
 };
 // page_meshlets = kPageParticles / mean meshlet size of the store, rounded up, +25 % (so that the
 // particle slots, not the meshlet slots, bound a typical node), at least 8.
-PoolLayout pool_layout_for(const store::FileHeader& header);
+// colors: hold the store's per-particle colours (kFlagColor; StreamSettings::colors).
+PoolLayout pool_layout_for(const store::FileHeader& header, bool colors = false);
 
 // Scene-wide decoding parameters of meshlet bounds (as render::append_node computes them).
 struct PoolScene {

@@ -69,7 +69,7 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
   const store::FileHeader& h = reader.header();
   const auto nodes = reader.nodes();
   if (nodes.empty()) return make_error(Errc::invalid_argument, "{}: the store has no nodes", reader.path().string());
-  const PoolLayout layout = pool_layout_for(h);
+  const PoolLayout layout = pool_layout_for(h, settings.colors);
 
   // Directory, sizes, voxel lists.
   c->directory_.resize(nodes.size());
