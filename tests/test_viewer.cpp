@@ -483,6 +483,33 @@ class ViewerWindow : public ::testing::Test {
     EXPECT_TRUE(path.save(dir_ / "path.txt").ok());
     return path;
   }
+  // Plays a 6-frame orbit of the store (orbit) in a 160x120 window with `view_args`, then
+  // compares its screenshot with `render` of the path's last camera: it matches the one with
+  // `same_args`, and more than 5 % of its channels are beyond 24/255 from the one with
+  // `other_args` (`why` says what it means when not).
+  void expect_window_like_render(const std::string& view_args, const std::string& same_args,
+                                 const std::string& other_args, const char* why) {
+    const uint32_t W = 160, H = 120;
+    const render::CameraPath path = orbit(W, H);
+    const fs::path shot = dir_ / "view.png", ref = dir_ / "render.png", other = dir_ / "other.png";
+    ASSERT_EQ(sh(fmt::format("{}timeout 50 {} view {} --width {} --height {} --spp 4 --play {} --no-hud --screenshot {} "
+                             "{} 2>{}",
+                             env(), MDSTREAM_BIN, store(), W, H, (dir_ / "path.txt").string(), shot.string(),
+                             view_args, (dir_ / "err.txt").string())),
+              0)
+        << err();
+    for (const auto& [out, args] : {std::pair{ref, same_args}, std::pair{other, other_args}})
+      ASSERT_EQ(mdstream(fmt::format("render {} -o {} --width {} --height {} --spp 4 {} {}", store(), out.string(), W,
+                                     H, last_camera(path), args)),
+                0)
+          << err();
+    expect_screenshot_matches(shot, ref, W, H);
+    const Png a = read_png(shot), t = read_png(other);
+    ASSERT_EQ(a.rgb.size(), t.rgb.size());
+    size_t differing = 0;
+    for (size_t i = 0; i < a.rgb.size(); ++i) differing += std::abs(int(a.rgb[i]) - int(t.rgb[i])) > 24;
+    EXPECT_GT(differing, a.rgb.size() / 20) << why;
+  }
   // `render` options for the path's last camera (--fov, --camera).
   static std::string last_camera(const render::CameraPath& path) {
     const render::Camera last = path.at(path.frame_count() - 1);
@@ -559,54 +586,16 @@ TEST_F(ViewerWindow, PlayedPathScreenshotMatchesHeadlessRender) {
 // Colour by coordinate in the window: the viewer hands --color-by and --color-range to its
 // renderer as `render` does, and the image is not the type colours' one.
 TEST_F(ViewerWindow, ColourByCoordinateScreenshotMatchesHeadlessRender) {
-  const uint32_t W = 160, H = 120;
-  const render::CameraPath path = orbit(W, H);
-  const fs::path shot = dir_ / "view.png", ref = dir_ / "render.png", typed = dir_ / "typed.png";
   const std::string look = "--color-by z --color-range 5:35";
-  ASSERT_EQ(sh(fmt::format("{}timeout 50 {} view {} --width {} --height {} --spp 4 --play {} --no-hud --screenshot {} {} "
-                           "2>{}",
-                           env(), MDSTREAM_BIN, store(), W, H, (dir_ / "path.txt").string(), shot.string(), look,
-                           (dir_ / "err.txt").string())),
-            0)
-      << err();
-  for (const auto& [out, args] : {std::pair{ref, look}, std::pair{typed, std::string()}})
-    ASSERT_EQ(mdstream(fmt::format("render {} -o {} --width {} --height {} --spp 4 {} {}", store(), out.string(), W, H,
-                                   last_camera(path), args)),
-              0)
-        << err();
-  expect_screenshot_matches(shot, ref, W, H);
-  const Png a = read_png(shot), t = read_png(typed);
-  ASSERT_EQ(a.rgb.size(), t.rgb.size());
-  size_t differing = 0;
-  for (size_t i = 0; i < a.rgb.size(); ++i) differing += std::abs(int(a.rgb[i]) - int(t.rgb[i])) > 24;
-  EXPECT_GT(differing, a.rgb.size() / 20) << "the colormap's image looks like the type colours'";
+  expect_window_like_render(look, look, "", "the colormap's image looks like the type colours'");
 }
 
 // The particles' own colours in the window (convert --color; --color-by auto, the default, draws
 // them): the fixture's store is replaced by one whose colours follow the position, and the
 // screenshot matches `render` of it, not its type colours.
 TEST_F(ViewerWindow, OwnColoursScreenshotMatchesHeadlessRender) {
-  const uint32_t W = 160, H = 120;
   ASSERT_NO_FATAL_FAILURE(use_colored_store());
-  const render::CameraPath path = orbit(W, H);
-  const fs::path shot = dir_ / "view.png", ref = dir_ / "render.png", typed = dir_ / "typed.png";
-  ASSERT_EQ(sh(fmt::format("{}timeout 50 {} view {} --width {} --height {} --spp 4 --play {} --no-hud --screenshot {} "
-                           "2>{}",
-                           env(), MDSTREAM_BIN, store(), W, H, (dir_ / "path.txt").string(), shot.string(),
-                           (dir_ / "err.txt").string())),
-            0)
-      << err();
-  for (const auto& [out, args] : {std::pair{ref, std::string()}, std::pair{typed, std::string("--color-by type")}})
-    ASSERT_EQ(mdstream(fmt::format("render {} -o {} --width {} --height {} --spp 4 {} {}", store(), out.string(), W, H,
-                                   last_camera(path), args)),
-              0)
-        << err();
-  expect_screenshot_matches(shot, ref, W, H);
-  const Png a = read_png(shot), t = read_png(typed);
-  ASSERT_EQ(a.rgb.size(), t.rgb.size());
-  size_t differing = 0;
-  for (size_t i = 0; i < a.rgb.size(); ++i) differing += std::abs(int(a.rgb[i]) - int(t.rgb[i])) > 24;
-  EXPECT_GT(differing, a.rgb.size() / 20) << "the window shows the type colours";
+  expect_window_like_render("", "", "--color-by type", "the window shows the type colours");
 }
 
 // A viewer started in the background under the fixture's Xvfb (ViewerWindow::start), killed if
