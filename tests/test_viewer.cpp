@@ -643,6 +643,27 @@ void start_viewer(const std::string& display_env, const std::string& args, const
 
 void pause_for_viewer() { std::this_thread::sleep_for(std::chrono::milliseconds(1500)); }
 
+// `mdstream view STORE ARGS` under `display_env`: the keys pressed one by one (xdotool, 400 ms
+// apart) once its window shows, then Esc; the viewer must exit with 0. Returns its stderr.
+std::string view_keys_then_quit(const std::string& display_env, const std::string& args,
+                                const std::vector<std::string>& keys, const fs::path& dir) {
+  RunningViewer v;
+  start_viewer(display_env, args, dir, v);
+  if (::testing::Test::HasFatalFailure()) return {};
+  const std::string x = display_env + "timeout 20 xdotool windowfocus --sync " + v.window + " key ";
+  pause_for_viewer();
+  for (const std::string& key : keys) {
+    EXPECT_EQ(sh(x + key), 0) << key;
+    std::this_thread::sleep_for(std::chrono::milliseconds(400));
+  }
+  pause_for_viewer();
+  EXPECT_EQ(sh(x + "Escape"), 0);
+  const fs::path log = dir / "viewer_err.txt";
+  EXPECT_TRUE(v.wait_exit()) << "the viewer did not exit on Esc\n" << slurp(log);
+  EXPECT_TRUE(WIFEXITED(v.status) && WEXITSTATUS(v.status) == 0) << slurp(log);
+  return slurp(log);
+}
+
 // Input events (X11, through xdotool) move the camera: a left drag orbits, the wheel zooms,
 // 'r' resets; the recorded path shows all three.
 TEST_F(ViewerWindow, XdotoolInputMovesTheCamera) {
@@ -893,21 +914,10 @@ TEST_F(ViewerWindow, ColourKeysShowWhatRenderDrawsWithThoseOptions) {
   if (!have_program("xdotool")) GTEST_SKIP() << "xdotool is not installed (apt-get install xdotool)";
   const uint32_t W = 160, H = 120;
   const fs::path shot = dir_ / "view.png", ref = dir_ / "render.png";
-  const fs::path log = dir_ / "viewer_err.txt";
   const std::string look = fmt::format("--width {} --height {} --spp 1 --no-cull --camera 40,-25,45,25,25,15", W, H);
-  RunningViewer v;
-  ASSERT_NO_FATAL_FAILURE(start_viewer(env(), store() + " " + look + " --no-hud --screenshot " + shot.string(), dir_, v));
-  const std::string x = env() + "timeout 20 xdotool windowfocus --sync " + v.window + " key ";
-  pause_for_viewer();
-  for (const char* key : {"v", "v", "m"}) {
-    ASSERT_EQ(sh(x + key), 0);
-    std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  }
-  pause_for_viewer();
-  ASSERT_EQ(sh(x + "Escape"), 0);
-  ASSERT_TRUE(v.wait_exit()) << "the viewer did not exit on Esc\n" << slurp(log);
-  ASSERT_TRUE(WIFEXITED(v.status) && WEXITSTATUS(v.status) == 0) << slurp(log);
-  const std::string said = slurp(log);
+  std::string said;
+  ASSERT_NO_FATAL_FAILURE(
+      said = view_keys_then_quit(env(), store() + " " + look + " --no-hud --screenshot " + shot.string(), {"v", "v", "m"}, dir_));
   EXPECT_NE(said.find("mdstream view: --color-by x\n"), std::string::npos) << said;
   EXPECT_NE(said.find("mdstream view: --color-by y\n"), std::string::npos) << said;
   EXPECT_NE(said.find("mdstream view: --color-by y --colormap plasma\n"), std::string::npos) << said;
@@ -923,22 +933,12 @@ TEST_F(ViewerWindow, ColourKeyIntoAndOutOfOwnColoursWhileStreaming) {
   if (!have_program("xdotool")) GTEST_SKIP() << "xdotool is not installed (apt-get install xdotool)";
   ASSERT_NO_FATAL_FAILURE(use_colored_store());
   const uint32_t W = 160, H = 120;
-  const fs::path shot = dir_ / "view.png", ref = dir_ / "render.png", log = dir_ / "viewer_err.txt";
+  const fs::path shot = dir_ / "view.png", ref = dir_ / "render.png";
   const std::string look =
       fmt::format("--width {} --height {} --spp 1 --no-cull --gpu-budget 256KiB --camera 45,-20,50,15,15,15", W, H);
-  RunningViewer v;
-  ASSERT_NO_FATAL_FAILURE(start_viewer(env(), store() + " " + look + " --no-hud --screenshot " + shot.string(), dir_, v));
-  const std::string x = env() + "timeout 20 xdotool windowfocus --sync " + v.window + " key ";
-  pause_for_viewer();
-  for (int i = 0; i < 5; ++i) {
-    ASSERT_EQ(sh(x + "v"), 0);
-    std::this_thread::sleep_for(std::chrono::milliseconds(400));
-  }
-  pause_for_viewer();
-  ASSERT_EQ(sh(x + "Escape"), 0);
-  ASSERT_TRUE(v.wait_exit()) << "the viewer did not exit on Esc\n" << slurp(log);
-  ASSERT_TRUE(WIFEXITED(v.status) && WEXITSTATUS(v.status) == 0) << slurp(log);
-  const std::string said = slurp(log);
+  std::string said;
+  ASSERT_NO_FATAL_FAILURE(said = view_keys_then_quit(env(), store() + " " + look + " --no-hud --screenshot " + shot.string(),
+                                                     {"v", "v", "v", "v", "v"}, dir_));
   for (const char* o : {"--color-by x\n", "--color-by y\n", "--color-by z\n", "--color-by type\n", "--color-by color\n"})
     EXPECT_NE(said.find(std::string("mdstream view: ") + o), std::string::npos) << o << said;
   ASSERT_EQ(mdstream(fmt::format("render {} -o {} {}", store(), ref.string(), look)), 0) << err();
