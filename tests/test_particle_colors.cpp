@@ -383,5 +383,35 @@ TEST(ColorRender, OwnColoursEqualTheSameTypeColours) {
       << cli_stderr();
 }
 
+// A series whose frames differ in colours: --color-by auto draws the particles' own colours
+// only when every frame has them, so that an animation does not switch between colours and
+// types; --color-by color is refused at the frame without them.
+TEST(ColorRender, SeriesAutoTakesColoursOnlyWhenEveryFrameHasThem) {
+  TempDir dir;
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> u(0.0, 12.0);
+  std::string text = "800\nProperties=species:S:1:pos:R:3:color:R:3\n";
+  for (int i = 0; i < 800; ++i) text += fmt::format("A {:.5f} {:.5f} {:.5f} 0.9 0.1 0.2\n", u(rng), u(rng), u(rng));
+  testing::write_text(dir / "c.xyz", text);
+  const std::string colored = (dir / "a.mds").string(), plain = (dir / "b.mds").string();
+  ASSERT_EQ(run_mdstream("convert " + (dir / "c.xyz").string() + " --color -q -o " + colored), 0) << cli_stderr();
+  ASSERT_EQ(run_mdstream("convert " + (dir / "c.xyz").string() + " -q -o " + plain), 0) << cli_stderr();
+  testing::write_text(dir / "run.series", R"({ "file-series-version": "1.0", "files": [
+    { "name": "a.mds", "time": 0 }, { "name": "b.mds", "time": 1 } ] })");
+  const std::string common = " --width 64 --height 48 --spp 1 --no-cull --view 0 -o ";
+  ASSERT_EQ(run_mdstream("render " + (dir / "run.series").string() + common + (dir / "f_%d.exr").string()), 0)
+      << cli_stderr();
+  ASSERT_EQ(run_mdstream("render " + colored + " --color-by type" + common + (dir / "typed.exr").string()), 0)
+      << cli_stderr();
+  ASSERT_EQ(run_mdstream("render " + colored + common + (dir / "own.exr").string()), 0) << cli_stderr();
+  const std::vector<float> frame0 = testing::load_exr(dir / "f_0.exr"), typed = testing::load_exr(dir / "typed.exr");
+  EXPECT_EQ(frame0, typed);  // the coloured frame drawn in its type's colour, as the plain one
+  EXPECT_NE(frame0, testing::load_exr(dir / "own.exr"));
+  EXPECT_NE(run_mdstream("render " + (dir / "run.series").string() + " --color-by color" + common +
+                         (dir / "g_%d.exr").string()),
+            0);
+  EXPECT_THAT(cli_stderr(), HasSubstr(plain + " has no per-particle colours"));
+}
+
 }  // namespace
 }  // namespace mds

@@ -34,9 +34,17 @@ Result<SeriesLook> series_look(const store::Series& series, std::span<const int6
     look.property_min = first ? h.property_min : std::min(look.property_min, double(h.property_min));
     look.property_max = first ? h.property_max : std::max(look.property_max, double(h.property_max));
     look.has_property = first ? prop : look.has_property && prop;
+    const bool color = (h.flags & store::kFlagColor) != 0;
+    look.has_color = first ? color : look.has_color && color;
     first = false;
   }
   return look;
+}
+
+ColorBy series_color_by(const ColorBy& c, const SeriesLook& look) {
+  ColorBy r = c;
+  if (c.axis == kColorByAuto) r.axis = look.has_color ? kColorByColor : -1;
+  return r;
 }
 
 glm::dvec2 series_color_range(const ColorBy& c, const SeriesLook& look) {

@@ -18,12 +18,18 @@ namespace mds::render {
 struct SeriesLook {
   Bounds bounds;                 // union of the frames' centre bounds; radius_max the largest radius
   bool has_property = false;     // every frame has the property
+  bool has_color = false;        // every frame has per-particle colours (--color-by auto draws them then)
   double property_min = 0.0, property_max = 0.0;  // union of the frames' property ranges
 };
 
 // Reads the headers of the stores at `frames` (indices into series.frames, non-empty; each
 // < series.frames.size()); errors name the series frame and its store.
 Result<SeriesLook> series_look(const store::Series& series, std::span<const int64_t> frames);
+
+// --color-by auto over a series: the particles' own colours only when every frame has them
+// (look.has_color), so that the frames do not switch between colours and types; `c` unchanged
+// for any other choice.
+ColorBy series_color_by(const ColorBy& c, const SeriesLook& look);
 
 // The range `c` colours over in every frame: c's own range when it has one (lo < hi), else the
 // look's bounds along c's axis or its property range (property_default_range). By type: (0, 0).

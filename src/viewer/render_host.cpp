@@ -55,7 +55,7 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
 
 Status RenderHost::resolve_colors(const store::StoreReader& reader, render::RenderSettings& rs) const {
   const store::FileHeader& header = reader.header();
-  render::ColorBy c = color_by_;
+  render::ColorBy c = series_ ? render::series_color_by(color_by_, look_) : color_by_;  // one choice for every frame
   MDS_TRY(render::resolve_color_by(c, header.property_name, (header.flags & store::kFlagProperty) != 0,
                                    (header.flags & store::kFlagColor) != 0, reader.path().string()));
   if (series_ && !c.by_type()) {

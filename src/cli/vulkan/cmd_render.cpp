@@ -217,7 +217,9 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
   const auto setup_start = std::chrono::steady_clock::now();  // stats "setup_ms"
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
   render::AoChoice ao;
-  MDS_TRY(apply_appearance(look, *reader, rs, &ao));
+  Appearance frame_look = look;
+  if (fs.look) frame_look.color_by = render::series_color_by(look.color_by, *fs.look);  // one choice for every frame
+  MDS_TRY(apply_appearance(frame_look, *reader, rs, &ao));
   if (*corner != overlay::LegendCorner::off && rs.color_by.by_color())
     return make_error(Errc::invalid_argument,
                       "--color-legend: {} is drawn in its particles' own colours, which no legend explains (--color-by "
