@@ -4,8 +4,10 @@
 // in shortest round-trip form (colours with 5 digits, which give the 8 bits back exactly), so
 // the export adds no error to the store's quantization error. With slices (store/slice.h) only
 // the particles they keep, the same ones `render --slice` draws; nodes they leave out are not
-// read. The output appears only when complete.
+// read. The output appears only when complete. `-o OUT.mmpld` writes MMPLD instead
+// (export_mmpld.cpp).
 #include <cstdio>
+#include <filesystem>
 #include <array>
 #include <memory>
 #include <span>
@@ -15,6 +17,7 @@
 #include <fmt/format.h>
 
 #include "cli/command.h"
+#include "cli/export_nodes.h"
 #include "store/file_io.h"
 #include "store/slice.h"
 #include "store/store_reader.h"
@@ -27,21 +30,6 @@ struct ExportOptions {
   std::string output;
   std::vector<std::string> slices;  // --slice specs
 };
-
-// What the slices do to node e (slices_cover over its decoded box).
-store::SliceCover node_cover(std::span<const store::Slice> slices, const store::NodeEntry& e) {
-  if (slices.empty()) return store::SliceCover::all;
-  std::array<double, 3> lo, hi;
-  store::decoded_box(e.center_min, e.center_max, lo, hi);
-  return store::slices_cover(slices, lo, hi);
-}
-
-// The centre of particle k of a decoded node.
-std::array<double, 3> centre(const store::NodeEntry& e, const store::NodeData& node, size_t k) {
-  std::array<double, 3> x;
-  for (int a = 0; a < 3; ++a) x[size_t(a)] = e.center_min[a] + double(node.qpos[3 * k + size_t(a)]) * store::quant_step(e, a);
-  return x;
-}
 
 Status export_xyz(const ExportOptions& o) {
   MDS_ASSIGN_OR_RETURN(const std::vector<store::Slice> slices, store::parse_slices(o.slices));
@@ -115,21 +103,30 @@ Status export_xyz(const ExportOptions& o) {
   return out.commit();
 }
 
+Status export_mmpld_file(const ExportOptions& o) {
+  MDS_ASSIGN_OR_RETURN(const std::vector<store::Slice> slices, store::parse_slices(o.slices));
+  MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
+  return export_mmpld(*reader, slices, o.output);
+}
+
 void setup_export(CLI::App& sub, int& exit_code) {
   auto opt = std::make_shared<ExportOptions>();
   sub.add_option("store", opt->store, "Store file (.mds)")->required();
-  sub.add_option("-o,--output", opt->output, "Output extended XYZ file")->required();
+  sub.add_option("-o,--output", opt->output,
+                 "Output file: extended XYZ, or MMPLD 1.0 for MegaMol when it ends in .mmpld (one list per type, "
+                 "the store's colours, property or type colours)")
+      ->required();
   sub.add_option("--slice", opt->slices,
                  "NX,NY,NZ,D[,WIDTH][,invert]: only the particles the slice keeps, as render --slice (docs/rendering.md, "
                  "\"Slices\"); once per slice, all applied")
       ->allow_extra_args(false);
   sub.callback([opt, &exit_code] {
-    Status st = export_xyz(*opt);
+    Status st = std::filesystem::path(opt->output).extension() == ".mmpld" ? export_mmpld_file(*opt) : export_xyz(*opt);
     exit_code = st.ok() ? 0 : report("export", st.error());
   });
 }
 
-Registrar reg("export", "Decode a store (.mds) to extended XYZ", setup_export);
+Registrar reg("export", "Decode a store (.mds) to extended XYZ or MMPLD", setup_export);
 
 }  // namespace
 }  // namespace mds::cli
