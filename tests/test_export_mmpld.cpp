@@ -89,9 +89,12 @@ TEST(ExportMmpld, ColoursAndTypesAsMegaMolListsAndThroughSlices) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(0.0, 20.0);
   std::string text = "3000\nProperties=species:S:1:pos:R:3:color:R:3\n";
-  for (int i = 0; i < 3000; ++i)
-    text += fmt::format("{} {:.5f} {:.5f} {:.5f} {:.4f} {:.4f} {:.4f}\n", i % 3 ? "A" : "B", u(rng), u(rng), u(rng),
+  for (int i = 0; i < 3000; ++i) {  // B only at x < 5
+    const bool b = i % 3 == 0;
+    const double x = b ? u(rng) / 4 : u(rng);
+    text += fmt::format("{} {:.5f} {:.5f} {:.5f} {:.4f} {:.4f} {:.4f}\n", b ? "B" : "A", x, u(rng), u(rng),
                         (rng() % 256) / 255.0, (rng() % 256) / 255.0, (rng() % 256) / 255.0);
+  }
   testing::write_text(dir / "c.xyz", text);
   const fs::path store = dir / "c.mds", mmpld = dir / "c.mmpld";
   ASSERT_EQ(run_mdstream("convert " + (dir / "c.xyz").string() + " --color --radius 0.4 --node-size 300 -q -o " +
@@ -130,11 +133,28 @@ TEST(ExportMmpld, ColoursAndTypesAsMegaMolListsAndThroughSlices) {
   EXPECT_LT(kept.size(), 2500u);
   EXPECT_EQ(mmpld_rows(dir / "s.mmpld", true, false, 0.4f), kept);
 
+  // A slice that keeps no B (x >= 6): B's list is there, empty, and the file reads back.
+  ASSERT_EQ(run_mdstream("export " + store.string() + " -o " + (dir / "a.mmpld").string() + " --slice -1,0,0,-6"), 0)
+      << cli_stderr();
+  auto only_a = MmpldReader::open(dir / "a.mmpld", {});
+  ASSERT_TRUE(only_a.ok()) << only_a.error().message;
+  const auto& am = dynamic_cast<const MmpldReader&>(**only_a);
+  ASSERT_EQ(am.lists().size(), 2u);
+  const size_t b_list = size_t(std::find(species.begin(), species.end(), "B") - species.begin());
+  EXPECT_EQ(am.lists()[b_list].count, 0u);
+  EXPECT_GT(am.lists()[1 - b_list].count, 1000u);
+  EXPECT_EQ(mmpld_rows(dir / "a.mmpld", true, false, 0.4f),
+            xyz_rows(store, dir / "a.xyz", species, false, false, true, 0.4f, " --slice -1,0,0,-6"));
+
   // Errors leave no file: a slice that keeps nothing, an unwritable place.
   EXPECT_NE(run_mdstream("export " + store.string() + " -o " + (dir / "none.mmpld").string() + " --slice 1,0,0,-1000"), 0);
   EXPECT_THAT(cli_stderr(), HasSubstr("--slice leaves no particle"));
   EXPECT_FALSE(fs::exists(dir / "none.mmpld"));
   EXPECT_NE(run_mdstream("export " + store.string() + " -o " + (dir / "no/such/dir.mmpld").string()), 0);
+  EXPECT_FALSE(fs::exists(dir / "no"));
+  // The extension in any case.
+  ASSERT_EQ(run_mdstream("export " + store.string() + " -o " + (dir / "upper.MMPLD").string()), 0) << cli_stderr();
+  EXPECT_TRUE(MmpldReader::open(dir / "upper.MMPLD", {}).ok());
 }
 
 // A LAMMPS dump with per-particle radii and a property column: FLOAT_XYZR lists whose FLOAT_I
@@ -161,9 +181,15 @@ TEST(ExportMmpld, RadiiAndPropertyOrTheTypesColours) {
   ASSERT_TRUE(opened.ok()) << opened.error().message;
   const auto& m = dynamic_cast<const MmpldReader&>(**opened);
   ASSERT_EQ(m.lists().size(), 3u);
+  ASSERT_EQ(run_mdstream("info " + store.string() + " --json > " + (dir / "info.json").string()), 0) << cli_stderr();
+  std::ifstream fi(dir / "info.json");
+  const nlohmann::json info = nlohmann::json::parse(fi);
   for (const MmpldList& l : m.lists()) {
     EXPECT_EQ(l.vertex_type, 2);  // FLOAT_XYZR
     EXPECT_EQ(l.colour_type, 3);  // FLOAT_I
+    EXPECT_EQ(l.intensity_range[0], info["property"]["min"].get<float>());
+    EXPECT_EQ(l.intensity_range[1], info["property"]["max"].get<float>());
+    EXPECT_LT(l.intensity_range[0], l.intensity_range[1]);
   }
   EXPECT_EQ(mmpld_rows(dir / "d.mmpld", false, true, 0.0f),
             xyz_rows(store, dir / "d.xyz", {"1", "2", "3"}, true, true, false, 0.0f));

@@ -410,7 +410,8 @@ TEST(ColorRender, SeriesAutoTakesColoursOnlyWhenEveryFrameHasThem) {
   EXPECT_NE(run_mdstream("render " + (dir / "run.series").string() + " --color-by color" + common +
                          (dir / "g_%d.exr").string()),
             0);
-  EXPECT_THAT(cli_stderr(), HasSubstr(plain + " has no per-particle colours"));
+  EXPECT_THAT(cli_stderr(), HasSubstr("--color-by color: not every picked frame of " + (dir / "run.series").string()));
+  EXPECT_FALSE(fs::exists(dir / "g_0.exr"));  // refused before any frame is written
 }
 
 }  // namespace

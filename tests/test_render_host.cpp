@@ -14,6 +14,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <thread>
 
@@ -71,6 +72,47 @@ class RenderHostSeries : public mds::testing::VulkanSuite {
   }
   static inline mds::test::ScopedTempDir* dir_ = nullptr;
 };
+
+// A series whose first frame has per-particle colours and whose second has none: the colour
+// keys offer them only when every frame has them (has_colors), --color-by auto draws the types
+// in every frame, and --color-by color is refused at open (as `render` refuses it).
+TEST_F(RenderHostSeries, ColoursOnlyWhenEveryFrameHasThem) {
+  const fs::path xyz = dir_->p / "c.xyz";
+  {
+    std::ofstream f(xyz);
+    f << "3\nProperties=species:S:1:pos:R:3:color:R:3\nA 0 0 0 1 0 0\nA 2 0 0 0 1 0\nA 0 2 1 0 0 1\n";
+  }
+  ASSERT_EQ(mds::testing::run_mdstream_quietly("convert " + xyz.string() + " --color -q -o " + (dir_->p / "m0.mds").string()), 0);
+  ASSERT_EQ(mds::testing::run_mdstream_quietly("convert " + xyz.string() + " -q -o " + (dir_->p / "m1.mds").string()), 0);
+  const std::string mixed = (dir_->p / "mixed.series").string();
+  {
+    std::ofstream f(mixed);
+    f << R"({ "file-series-version": "1.0", "files": [ { "name": "m0.mds", "time": 0 }, { "name": "m1.mds", "time": 1 } ] })";
+  }
+  auto open_with = [&](const std::string& path, int axis) {
+    viewer::ViewerOptions o;
+    o.store = path;
+    o.render.width = 64;
+    o.render.height = 48;
+    o.render.color_by.axis = axis;  // as the CLI gives --color-by
+    return viewer::RenderHost::open(*ctx_, o);
+  };
+  auto host = open_with(mixed, render::kColorByAuto);
+  ASSERT_TRUE(host.ok()) << host.error().message;
+  EXPECT_FALSE((*host)->has_colors());  // frame 0 has them, frame 1 not
+  EXPECT_FALSE((*host)->settings().color_by.by_color());
+  ASSERT_TRUE((*host)->recreate(64, 48).ok());
+  ASSERT_TRUE((*host)->set_series_position(1).ok());
+  EXPECT_FALSE((*host)->settings().color_by.by_color());
+  auto one = open_with((dir_->p / "m0.mds").string(), render::kColorByAuto);  // the coloured store alone
+  ASSERT_TRUE(one.ok()) << one.error().message;
+  EXPECT_TRUE((*one)->has_colors());
+  EXPECT_TRUE((*one)->settings().color_by.by_color());
+
+  auto refused = open_with(mixed, render::kColorByColor);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().message.find("not every picked frame"), std::string::npos) << refused.error().message;
+}
 
 TEST_F(RenderHostSeries, APreloadedFrameIsTakenEvenWithItsFileGone) {
   auto h = open_host(series());

@@ -132,7 +132,9 @@ Status MmpldReader::parse_frame(uint64_t begin, uint64_t end, bool with_timestam
       MDS_ASSIGN_OR_RETURN(const uint32_t rgba, c.take<uint32_t>("global colour"));  // bytes R, G, B, A
       l.global_colour = rgba;
     } else if (l.colour_type == 3 || l.colour_type == 7) {
-      MDS_TRY(c.skip(8, "intensity range"));  // two floats also for DOUBLE_I (MMPLD 1.3 quirk)
+      // Two floats also for DOUBLE_I (MMPLD 1.3 quirk); kept as written (not validated: unused).
+      MDS_ASSIGN_OR_RETURN(l.intensity_range[0], c.take<float>("intensity range"));
+      MDS_ASSIGN_OR_RETURN(l.intensity_range[1], c.take<float>("intensity range"));
     }
     const uint64_t count_at = c.pos;
     MDS_ASSIGN_OR_RETURN(l.count, c.take<uint64_t>("particle count"));

@@ -41,6 +41,7 @@ struct MmpldList {
   float global_radius = 0;
   bool has_global_radius = false;
   uint32_t global_colour = 0;  // colour type NONE: the list's RGBA8 (pack_rgba8)
+  float intensity_range[2] = {0, 0};  // colour types FLOAT_I, DOUBLE_I: the list's (min, max), as written
   uint64_t count = 0;
   uint64_t data_offset = 0;   // absolute byte offset of the first particle
   uint32_t stride = 0;        // bytes per particle (vertex + colour)

@@ -6,6 +6,7 @@
 // the particles they keep, the same ones `render --slice` draws; nodes they leave out are not
 // read. The output appears only when complete. `-o OUT.mmpld` writes MMPLD instead
 // (export_mmpld.cpp).
+#include <cctype>
 #include <cstdio>
 #include <filesystem>
 #include <array>
@@ -121,7 +122,9 @@ void setup_export(CLI::App& sub, int& exit_code) {
                  "\"Slices\"); once per slice, all applied")
       ->allow_extra_args(false);
   sub.callback([opt, &exit_code] {
-    Status st = std::filesystem::path(opt->output).extension() == ".mmpld" ? export_mmpld_file(*opt) : export_xyz(*opt);
+    std::string ext = std::filesystem::path(opt->output).extension().string();
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    Status st = ext == ".mmpld" ? export_mmpld_file(*opt) : export_xyz(*opt);
     exit_code = st.ok() ? 0 : report("export", st.error());
   });
 }

@@ -21,7 +21,7 @@ namespace mds::cli {
 namespace {
 
 constexpr uint64_t kHeaderBytes = 6 + 2 + 4 + 24 + 24 + 16;  // magic, version, frames, bbox, clipbox, offsets[2]
-constexpr size_t kListBufferBytes = 64 << 10;                // per type: at most 256 x 64 KiB = 16 MiB
+constexpr size_t kListBufferBytes = 64 << 10;  // per type: at most 256 x (64 KiB + a particle) = 16 MiB
 
 enum : uint8_t { kFloatXyz = 1, kFloatXyzr = 2 };
 enum : uint8_t { kColourNone = 0, kUint8Rgba = 2, kFloatI = 3 };
@@ -53,8 +53,8 @@ Status export_mmpld(const store::StoreReader& reader, std::span<const store::Sli
   const uint8_t colour = color ? kUint8Rgba : property ? kFloatI : kColourNone;
   const uint64_t stride = (radius ? 16 : 12) + (color || property ? 4 : 0);
 
-  // Particles per type: the directory's counts, or with slices the kept ones (the nodes the
-  // slices cut are decoded once for this).
+  // Particles per type: the directory's counts, or with slices the kept ones (a first pass
+  // decodes every node the slices keep any of: the directory has no per-type counts per node).
   std::vector<uint64_t> counts(types.size(), 0);
   store::NodeData node;
   std::vector<uint8_t> scratch;
@@ -93,6 +93,7 @@ Status export_mmpld(const store::StoreReader& reader, std::span<const store::Sli
   std::vector<ListOut> lists(types.size());
   uint64_t end = head.size();
   for (size_t t = 0; t < types.size(); ++t) {
+    lists[t].pending.reserve(kListBufferBytes + stride);  // flushed when full: never grows beyond
     std::vector<uint8_t>& lh = headers[t];
     put<uint8_t>(lh, vertex);
     put<uint8_t>(lh, colour);

@@ -33,8 +33,8 @@ inline std::array<double, 3> centre(const store::NodeEntry& e, const store::Node
 // type's radius as the list's global radius, or FLOAT_XYZR with per-particle radii; colour type
 // UINT8_RGBA with the store's colours (kFlagColor), else FLOAT_I with its property (kFlagProperty,
 // intensity range = the property's range), else NONE with the type's default colour. One pass
-// over the nodes (a first over those the slices cut, for the counts); memory bounded by one
-// write buffer per type. The file appears only when complete.
+// over the nodes (with slices, a first one decodes the nodes they keep any of, for the counts);
+// memory bounded by one write buffer per type. The file appears only when complete.
 Status export_mmpld(const store::StoreReader& reader, std::span<const store::Slice> slices,
                     const std::filesystem::path& output);
 

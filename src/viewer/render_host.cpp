@@ -36,6 +36,11 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
     if (!picked.ok())
       return make_error(Errc::invalid_argument, "{}: --series-frames {}", options.store, picked.error().message);
     MDS_ASSIGN_OR_RETURN(h->look_, render::series_look(series, *picked));
+    if (h->color_by_.axis == render::kColorByColor && !h->look_.has_color)  // as render refuses it
+      return make_error(Errc::invalid_argument,
+                        "--color-by color: not every picked frame of {} has per-particle colours (convert them with "
+                        "--color)",
+                        options.store);
     h->series_frames_ = std::move(*picked);
     store = series.frames[size_t(h->series_frames_.front())].path.string();
     h->series_ = std::move(series);
@@ -193,6 +198,13 @@ void RenderHost::take(Loaded&& l) {
   cull_scene_ = std::move(l.cull_scene);
   bounds_ = l.bounds;
   node_boxes_ = std::move(l.node_boxes);
+}
+
+bool RenderHost::has_colors() const {
+  return series_ ? look_.has_color : (reader_->header().flags & store::kFlagColor) != 0;
+}
+bool RenderHost::has_property() const {
+  return series_ ? look_.has_property : (reader_->header().flags & store::kFlagProperty) != 0;
 }
 
 Status RenderHost::set_color_by(const render::ColorBy& color_by, bool* remade) {

@@ -71,6 +71,10 @@ class RenderHost {
   render::RenderSettings& settings() { return settings_; }
   render::Renderer* renderer() { return renderer_.get(); }
   bool streaming() const { return stream_.gpu_budget > 0; }
+  // What the colour keys can choose: per-particle colours and the property, of every picked frame
+  // of a series (SeriesLook), else of the store.
+  bool has_colors() const;
+  bool has_property() const;
   const render::StreamSettings& stream_settings() const { return stream_; }
   const render::Bounds& bounds() const { return bounds_; }
   const render::SceneData* scene() const { return scene_ ? scene_.get() : nullptr; }

@@ -217,7 +217,7 @@ void Viewer::apply_color_key(bool colormap) {
     }
     c.map = next_colormap(c.map);
   } else {
-    c = next_color_by(c, (h.flags & store::kFlagColor) != 0, (h.flags & store::kFlagProperty) != 0);
+    c = next_color_by(c, host_->has_colors(), host_->has_property());  // a series: what every frame has
   }
   bool remade = false;
   const Status st = host_->set_color_by(c, &remade);

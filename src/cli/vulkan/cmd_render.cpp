@@ -583,6 +583,11 @@ Status run_render_series(const RenderOptions& o) {
   const bool numbered_log = !o.node_log.empty() && (picked->size() > 1 || o.node_log.find('%') != std::string::npos);
   if (numbered_log) MDS_TRY(frame_file_name(o.node_log, 0, "--node-log"));
   MDS_ASSIGN_OR_RETURN(const render::SeriesLook look, render::series_look(series, *picked));
+  if (o.look.color_by == "color" && !look.has_color)  // before any frame is written
+    return make_error(Errc::invalid_argument,
+                      "--color-by color: not every picked frame of {} has per-particle colours (convert them with "
+                      "--color)",
+                      o.store);
   if (o.fov <= 0.0 || o.fov >= 180.0)
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.fov);
   render::Camera camera;
