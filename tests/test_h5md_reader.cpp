@@ -52,6 +52,7 @@ with h5py.File("f32.h5md", "w") as f:
     pg = g.create_group("position"); pg["value"] = p; pg["step"] = steps; pg["time"] = steps * 0.5
     sg = g.create_group("species"); sg["value"] = sp; sg["step"] = steps
     b = g.create_group("box"); b.attrs["dimension"] = 3; b["edges"] = np.array([10.0, 11.0, 12.0])
+    b.attrs["boundary"] = np.array([b"periodic", b"none", b"periodic"], dtype="S8")  # fixed-length strings
 p.astype("<f8").tofile("f32.pos.f64"); sp.astype("<i4").tofile("f32.species.i32"); steps.astype("<i8").tofile("f32.steps.i64")
 
 # 3. h5py float64 time-independent position [N][3], species [N], triclinic box + offset.
@@ -66,6 +67,7 @@ with h5py.File("f64.h5md", "w") as f:
     g["position"] = p
     g["species"] = sp
     b = g.create_group("box"); b.attrs["dimension"] = 3; b["edges"] = M; b["offset"] = off
+    b.attrs["boundary"] = ["none", "periodic", "none"]  # variable-length UTF-8, as MDAnalysis writes
 p.astype("<f8").tofile("f64.pos.f64"); sp.astype("<i4").tofile("f64.species.i32")
 lo = off + np.minimum(M, 0).sum(axis=0); hi = off + np.maximum(M, 0).sum(axis=0)
 np.concatenate([lo, hi]).astype("<f8").tofile("f64.box.f64")
@@ -107,6 +109,12 @@ infp = np.zeros((2, 6, 3), dtype=np.float32); infp[0, 2, 2] = np.inf
 simple("inf.h5md", infp)
 simple("badbox.h5md", np.zeros((2, 5, 3), dtype=np.float32),
        extra=lambda g: g.create_group("box").create_dataset("edges", data=np.zeros((4,))))
+def box_with_boundary(values):
+    def make(g):
+        b = g.create_group("box"); b["edges"] = np.array([1.0, 2.0, 3.0]); b.attrs["boundary"] = values
+    return make
+simple("badboundary.h5md", np.zeros((2, 5, 3), dtype=np.float32), extra=box_with_boundary(["periodic", "open", "none"]))
+simple("boundary2.h5md", np.zeros((2, 5, 3), dtype=np.float32), extra=box_with_boundary(["periodic", "none"]))
 with h5py.File("plain.h5", "w") as f:
     f["particles/all/position/value"] = np.zeros((1, 2, 3))
 # A compact position [1][2][3] whose stored dims (and max dims) say 2^40 frames: the shape needs
@@ -188,7 +196,12 @@ TEST_F(H5mdReaderTest, MDAnalysisWriterAllFrames) {
     for (int d = 0; d < 3; ++d) {
       EXPECT_EQ(info.box_lo[d], 0.0);
       EXPECT_NEAR(info.box_hi[d], box[k * 3 + d], 1e-4);
+      // The cell: MDAnalysis writes the boundary as variable-length UTF-8 strings "periodic".
+      EXPECT_EQ(info.cell.origin[d], 0.0);
+      EXPECT_NEAR(info.cell.vectors[d][d], box[k * 3 + d], 1e-4);
+      EXPECT_TRUE(info.cell.periodic[d]);
     }
+    EXPECT_TRUE(info.cell.orthogonal());
     auto all = testing::read_all(**r, 7);
     ASSERT_TRUE(all.ok()) << all.error().message;
     expect_positions(*all, pos, k, n);
@@ -209,6 +222,12 @@ TEST_F(H5mdReaderTest, Float32SpeciesStepsAndBoxVector) {
     EXPECT_EQ((*r)->info().timestep, steps[k]);
     EXPECT_TRUE((*r)->info().has_box);
     EXPECT_EQ((*r)->info().box_hi[2], 12.0);
+    // Boundary as fixed-length strings.
+    const SimulationCell& c = (*r)->info().cell;
+    EXPECT_EQ(c.vectors[1][1], 11.0);
+    EXPECT_TRUE(c.periodic[0]);
+    EXPECT_FALSE(c.periodic[1]);
+    EXPECT_TRUE(c.periodic[2]);
     auto all = testing::read_all(**r, 10);
     ASSERT_TRUE(all.ok()) << all.error().message;
     expect_positions(*all, pos, k, n);
@@ -248,6 +267,17 @@ TEST_F(H5mdReaderTest, Float64TimeIndependentTriclinicBoxWithOffset) {
       EXPECT_DOUBLE_EQ(info.box_lo[d], box[d]);
       EXPECT_DOUBLE_EQ(info.box_hi[d], box[3 + d]);
     }
+    // The cell itself: rows of the edges matrix, the offset as origin, boundary none/periodic/none.
+    const double M[3][3] = {{10.0, 0.0, 0.0}, {-3.0, 9.0, 0.0}, {2.0, 1.5, 8.0}};
+    const double off[3] = {-5.0, -4.0, 1.0};
+    for (int v = 0; v < 3; ++v) {
+      EXPECT_EQ(info.cell.origin[v], off[v]);
+      for (int k = 0; k < 3; ++k) EXPECT_EQ(info.cell.vectors[v][k], M[v][k]) << v << "," << k;
+    }
+    EXPECT_FALSE(info.cell.orthogonal());
+    EXPECT_FALSE(info.cell.periodic[0]);
+    EXPECT_TRUE(info.cell.periodic[1]);
+    EXPECT_FALSE(info.cell.periodic[2]);
     auto all = testing::read_all(**r, 1000);
     ASSERT_TRUE(all.ok()) << all.error().message;
     expect_positions(*all, pos, 0, 29);
@@ -291,6 +321,10 @@ TEST_F(H5mdReaderTest, BadShapesNameTheDataset) {
   EXPECT_NE(error_of("intpos.h5md").find("not floating point"), std::string::npos);
   EXPECT_NE(error_of("badbox.h5md").find("/particles/all/box/edges has shape [4]"), std::string::npos)
       << error_of("badbox.h5md");
+  EXPECT_NE(error_of("badboundary.h5md").find("/particles/all/box/boundary: value 1 is 'open'"), std::string::npos)
+      << error_of("badboundary.h5md");
+  EXPECT_NE(error_of("boundary2.h5md").find("/particles/all/box/boundary has 2 values, expected 3"), std::string::npos)
+      << error_of("boundary2.h5md");
 }
 
 // Found by fuzz_h5md (2026-11-27): before the check, --frame last crashed inside H5Dread.

@@ -263,6 +263,26 @@ TEST_F(LammpsReaderTest, TriclinicBoxAndScaledCoordinates) {
     auto scaled = read_all(open_lammps_reader(file("tri.scaled.lammpstrj"), frame_opt(f)));
     expect_positions_near(scaled, cart, 1e-9);
     EXPECT_EQ(scaled.info.box_lo[0], cart.info.box_lo[0]);
+    // The cell: origin (xlo, ylo, zlo), a = (lx, 0, 0), b = (xy, ly, 0), c = (xz, yz, lz), periodic
+    // (the deck's default boundary p p p); its corners' bounding box is the dump's.
+    const SimulationCell& c = cart.info.cell;
+    for (int d = 0; d < 3; ++d) {
+      EXPECT_NEAR(c.origin[d], std::stod(m[1 + d]), 1e-5);
+      EXPECT_NEAR(c.vectors[d][d], std::stod(m[4 + d]) - std::stod(m[1 + d]), 1e-5);
+      EXPECT_TRUE(c.periodic[d]);
+    }
+    EXPECT_NEAR(c.vectors[1][0], std::stod(m[7]), 1e-5);
+    EXPECT_NEAR(c.vectors[2][0], std::stod(m[8]), 1e-5);
+    EXPECT_NEAR(c.vectors[2][1], std::stod(m[9]), 1e-5);
+    EXPECT_EQ(c.vectors[0][1], 0.0);
+    EXPECT_EQ(c.vectors[0][2], 0.0);
+    EXPECT_EQ(c.vectors[1][2], 0.0);
+    double lo[3], hi[3];
+    c.bounds(lo, hi);
+    for (int d = 0; d < 3; ++d) {
+      EXPECT_NEAR(lo[d], cart.info.box_lo[d], 1e-9);
+      EXPECT_NEAR(hi[d], cart.info.box_hi[d], 1e-9);
+    }
     auto unwrapped = read_all(open_lammps_reader(file("tri.unwrapped.lammpstrj"), frame_opt(f)));
     auto xsu = read_all(open_lammps_reader(file("tri.xsu.lammpstrj"), frame_opt(f)));
     expect_positions_near(xsu, unwrapped, 1e-9);
@@ -469,6 +489,20 @@ TEST_F(LammpsReaderTest, NotADumpOrEmpty) {
   auto missing = read_all(open_lammps_reader(tmp("does_not_exist.lammpstrj"), frame_opt(0)));
   ASSERT_TRUE(missing.error.has_value());
   EXPECT_EQ(missing.error->code, Errc::io);
+}
+
+TEST(LammpsBox, PeriodicityFromTheBoundaryFlags) {
+  bool p[3] = {false, false, false};
+  lammps_periodic_from_flags({"pp", "fs", "pp"}, p);
+  EXPECT_TRUE(p[0]);
+  EXPECT_FALSE(p[1]);
+  EXPECT_TRUE(p[2]);
+  lammps_periodic_from_flags({"xy", "xz", "yz", "fm", "pp", "ff"}, p);  // triclinic: tilt names first
+  EXPECT_FALSE(p[0]);
+  EXPECT_TRUE(p[1]);
+  EXPECT_FALSE(p[2]);
+  lammps_periodic_from_flags({}, p);  // an old dump without flags
+  EXPECT_FALSE(p[0] || p[1] || p[2]);
 }
 
 TEST(LammpsBox, BoundsToBoxFollowsTheManual) {

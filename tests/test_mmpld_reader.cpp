@@ -98,6 +98,12 @@ TEST(MmpldReader, EveryVertexAndColourTypeAllVersions) {
     EXPECT_TRUE((*r)->info().has_box);
     EXPECT_EQ((*r)->info().box_lo[0], files[i].expected["bbox"][0].get<double>());
     EXPECT_EQ((*r)->info().box_hi[2], files[i].expected["bbox"][5].get<double>());
+    // The data set's bounding box is the (non-periodic) cell.
+    const SimulationCell& c = (*r)->info().cell;
+    EXPECT_EQ(c.origin[1], files[i].expected["bbox"][1].get<double>());
+    EXPECT_EQ(c.origin[1] + c.vectors[1][1], files[i].expected["bbox"][4].get<double>());
+    EXPECT_TRUE(c.orthogonal());
+    EXPECT_FALSE(c.periodic[0] || c.periodic[1] || c.periodic[2]);
     expect_frame(files[i].file, 0, files[i].expected["frames"][0], 1000);
     expect_frame(files[i].file, 0, files[i].expected["frames"][0], 7);  // batches cross list boundaries
   }

@@ -144,6 +144,38 @@ TEST_F(XyzReaderTest, TriclinicLatticeGivesTheBoundingBox) {
   EXPECT_EQ(r.info.box_hi[2], 6);
   EXPECT_EQ(r.all.x[1], 4);
   EXPECT_EQ(r.type_names.at(r.all.type[1]), "O");
+  // The cell itself: the vectors as rows, periodic along all three without pbc=.
+  const double want[3][3] = {{10, 0, 0}, {2, 8, 0}, {-3, 1, 6}};
+  for (int v = 0; v < 3; ++v) {
+    EXPECT_EQ(r.info.cell.origin[v], 0.0);
+    EXPECT_TRUE(r.info.cell.periodic[v]);
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(r.info.cell.vectors[v][k], want[v][k]);
+  }
+}
+
+TEST_F(XyzReaderTest, OriginAndPbcOfTheCell) {
+  const fs::path p = scratch("origin.xyz",
+                             "1\nLattice=\"4 0 0 0 5 0 0 0 6\" Origin=\"-1 2.5 -3\" pbc=\"T F t\" "
+                             "Properties=species:S:1:pos:R:3\nC 0 0 0\n");
+  auto r = read_all(open_xyz_reader(p, frame_opt(0)));
+  ASSERT_FALSE(r.error.has_value()) << r.error->message;
+  const SimulationCell& c = r.info.cell;
+  EXPECT_EQ(c.origin[0], -1);
+  EXPECT_EQ(c.origin[1], 2.5);
+  EXPECT_EQ(c.origin[2], -3);
+  EXPECT_TRUE(c.periodic[0]);
+  EXPECT_FALSE(c.periodic[1]);
+  EXPECT_TRUE(c.periodic[2]);
+  EXPECT_TRUE(c.orthogonal());
+  EXPECT_EQ(r.info.box_lo[1], 2.5);
+  EXPECT_EQ(r.info.box_hi[1], 7.5);
+
+  const fs::path bad = scratch("badpbc.xyz",
+                               "1\nLattice=\"4 0 0 0 5 0 0 0 6\" pbc=\"T maybe F\" Properties=species:S:1:pos:R:3\n"
+                               "C 0 0 0\n");
+  auto e = read_all(open_xyz_reader(bad, frame_opt(0)));
+  ASSERT_TRUE(e.error.has_value());
+  EXPECT_NE(e.error->message.find("badpbc.xyz:2: bad pbc value 'T maybe F'"), std::string::npos) << e.error->message;
 }
 
 TEST_F(XyzReaderTest, MultiFrameAndGzip) {

@@ -281,6 +281,20 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
     declared += r->info().particle_count;
     readers.push_back(std::move(r));
   }
+  // The simulation cell the store keeps: the inputs' cell where every input has the same one.
+  for (size_t i = 0; i < readers.size(); ++i) {
+    const FrameInfo& fi = readers[i]->info();
+    if (!fi.has_box || !fi.cell.finite()) {
+      rep.cell.reset();
+      break;
+    }
+    if (i > 0 && !(*rep.cell == fi.cell)) {
+      rep.cell.reset();
+      rep.cells_differ = true;
+      break;
+    }
+    rep.cell = fi.cell;
+  }
   // The density grid size enters the budget; with a target count it is known only
   // approximately before pass A (its count is an upper bound), which suffices here.
   const uint64_t density_budget_voxels =
@@ -512,6 +526,7 @@ Result<ConvertReport> convert(const ConvertOptions& o) {
     sum.types.push_back(e);
   }
   sum.density_counts = std::move(tot.density);
+  sum.cell = rep.cell;
   MDS_TRY(writer->finish(sum));
   if (release_thread.joinable()) release_thread.join();
   rep.seconds_finish = meter.lap("finish");

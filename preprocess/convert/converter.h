@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -71,6 +72,8 @@ struct ConvertReport {
   std::string property;                      // the per-particle scalar kept (--property), or empty
   float property_min = 0, property_max = 0;  // its range in the store
   bool color = false;                        // per-particle RGBA8 colours kept (--color)
+  std::optional<SimulationCell> cell;        // the simulation cell kept (every input has the same one)
+  bool cells_differ = false;                 // the inputs' cells differ: none kept
   bool spilled = false;                      // records went through temporary files
   uint64_t bins = 0;                         // bins built (1 when everything fitted in memory)
   uint64_t partition_passes = 0;

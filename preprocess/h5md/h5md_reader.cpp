@@ -195,6 +195,56 @@ Result<std::vector<double>> read_box_element(hid_t file, const std::string& file
   return v;
 }
 
+// The box group's `boundary` attribute (H5MD 1.1: "periodic" or "none" per dimension), as
+// fixed- or variable-length strings. Absent: not periodic.
+Status read_boundary(hid_t file, const std::string& file_name, const std::string& box, bool periodic[3]) {
+  for (int d = 0; d < 3; ++d) periodic[d] = false;
+  if (H5Aexists_by_name(file, box.c_str(), "boundary", H5P_DEFAULT) <= 0) return Status::success();
+  const std::string where = box + "/boundary";
+  Hid a(H5Aopen_by_name(file, box.c_str(), "boundary", H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  if (!a.valid()) return make_error(Errc::io, "{}: HDF5 cannot open attribute {}", file_name, where);
+  Hid space(H5Aget_space(a.get()), H5Sclose);
+  Hid type(H5Aget_type(a.get()), H5Tclose);
+  if (!space.valid() || !type.valid() || H5Tget_class(type.get()) != H5T_STRING)
+    return make_error(Errc::format, "{}: attribute {} is not an array of strings", file_name, where);
+  if (H5Sget_simple_extent_npoints(space.get()) != 3)
+    return make_error(Errc::format, "{}: attribute {} has {} values, expected 3", file_name, where,
+                      static_cast<long long>(H5Sget_simple_extent_npoints(space.get())));
+  std::string vals[3];
+  Hid mem(H5Tcopy(H5T_C_S1), H5Tclose);
+  H5Tset_cset(mem.get(), H5Tget_cset(type.get()));
+  if (H5Tis_variable_str(type.get()) > 0) {
+    H5Tset_size(mem.get(), H5T_VARIABLE);
+    char* ptrs[3] = {nullptr, nullptr, nullptr};
+    if (H5Aread(a.get(), mem.get(), ptrs) < 0)
+      return make_error(Errc::io, "{}: HDF5 cannot read attribute {}", file_name, where);
+    for (int d = 0; d < 3; ++d) vals[d] = ptrs[d] ? ptrs[d] : "";
+    H5Dvlen_reclaim(mem.get(), space.get(), H5P_DEFAULT, ptrs);
+  } else {
+    const size_t size = H5Tget_size(type.get());
+    if (size == 0 || size > 256)
+      return make_error(Errc::format, "{}: attribute {} has strings of {} bytes", file_name, where, size);
+    H5Tset_size(mem.get(), size);
+    H5Tset_strpad(mem.get(), H5T_STR_NULLPAD);  // all `size` bytes, a full-length string without a NUL
+    std::vector<char> buf(3 * size);
+    if (H5Aread(a.get(), mem.get(), buf.data()) < 0)
+      return make_error(Errc::io, "{}: HDF5 cannot read attribute {}", file_name, where);
+    for (int d = 0; d < 3; ++d) {
+      const char* p = buf.data() + size_t(d) * size;
+      vals[d] = std::string(p, std::find(p, p + size, '\0'));
+    }
+  }
+  for (int d = 0; d < 3; ++d) {
+    std::string v = vals[d];
+    while (!v.empty() && v.back() == ' ') v.pop_back();
+    if (v == "periodic") periodic[d] = true;
+    else if (v != "none")
+      return make_error(Errc::format, "{}: attribute {}: value {} is '{}', expected periodic or none", file_name, where,
+                        d, v.substr(0, 40));
+  }
+  return Status::success();
+}
+
 }  // namespace
 
 struct H5mdReader::Handles {
@@ -376,20 +426,21 @@ Result<std::unique_ptr<ParticleReader>> H5mdReader::open(const std::filesystem::
     MDS_ASSIGN_OR_RETURN(std::vector<double> edges, read_box_element(file, fn, g + "/box/edges", bframe, true));
     MDS_ASSIGN_OR_RETURN(std::vector<double> offset, read_box_element(file, fn, g + "/box/offset", bframe, false));
     if (!edges.empty()) {
-      double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
-      if (edges.size() == 3) {
-        for (int k = 0; k < 3; ++k) hi[k] = edges[k];
-      } else {
-        for (int v = 0; v < 3; ++v)
-          for (int k = 0; k < 3; ++k) {
-            lo[k] += std::min(0.0, edges[v * 3 + k]);
-            hi[k] += std::max(0.0, edges[v * 3 + k]);
-          }
-      }
+      SimulationCell& cell = r->info_.cell;
       for (int k = 0; k < 3; ++k) {
-        const double o = offset.empty() ? 0.0 : offset[k];
-        r->info_.box_lo[k] = std::min(lo[k], hi[k]) + o;
-        r->info_.box_hi[k] = std::max(lo[k], hi[k]) + o;
+        cell.origin[k] = offset.empty() ? 0.0 : offset[k];
+        for (int v = 0; v < 3; ++v) cell.vectors[v][k] = edges.size() == 3 ? (v == k ? edges[k] : 0.0) : edges[v * 3 + k];
+      }
+      MDS_TRY(read_boundary(file, fn, g + "/box", cell.periodic));
+      double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+      for (int v = 0; v < 3; ++v)
+        for (int k = 0; k < 3; ++k) {
+          lo[k] += std::min(0.0, cell.vectors[v][k]);
+          hi[k] += std::max(0.0, cell.vectors[v][k]);
+        }
+      for (int k = 0; k < 3; ++k) {
+        r->info_.box_lo[k] = lo[k] + cell.origin[k];
+        r->info_.box_hi[k] = hi[k] + cell.origin[k];
       }
       r->info_.has_box = true;
     }

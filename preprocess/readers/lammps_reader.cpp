@@ -16,6 +16,28 @@
 
 namespace mds {
 
+SimulationCell LammpsBox::cell(const bool periodic[3]) const {
+  SimulationCell c;
+  for (int d = 0; d < 3; ++d) {
+    c.origin[d] = lo[d];
+    c.vectors[d][d] = hi[d] - lo[d];
+    c.periodic[d] = periodic[d];
+  }
+  c.vectors[1][0] = xy;
+  c.vectors[2][0] = xz;
+  c.vectors[2][1] = yz;
+  return c;
+}
+
+void lammps_periodic_from_flags(const std::vector<std::string_view>& flags, bool periodic[3]) {
+  int axis = 0;
+  for (std::string_view f : flags) {
+    if (f == "xy" || f == "xz" || f == "yz") continue;
+    if (axis < 3) periodic[axis++] = f == "pp";
+  }
+  for (; axis < 3; ++axis) periodic[axis] = false;
+}
+
 LammpsBox lammps_box_from_bounds(const double bounds[3][3], bool triclinic) {
   LammpsBox b;
   b.triclinic = triclinic;
@@ -65,6 +87,8 @@ struct FrameHeader {
   bool has_natoms = false;
   LammpsBox box;
   bool has_box = false;
+  bool periodic[3] = {false, false, false};  // BOX BOUNDS flags
+  SimulationCell cell;                       // box.cell(periodic)
   uint64_t atoms_line = 0;   // line of ITEM: ATOMS
   std::vector<Col> cols;
   bool scaled = false;
@@ -134,9 +158,14 @@ class LammpsReader final : public TextFrameReader {
  public:
   LammpsReader(std::unique_ptr<TextSource> src, FrameHeader h)
       : TextFrameReader(std::move(src),
-                        text_frame_info(h.natoms, h.timestep, h.has_box ? h.box.bound_lo : nullptr,
-                                        h.has_box ? h.box.bound_hi : nullptr, h.has_radius, h.has_property),
-                        h.first_line, /*reject_unterminated=*/true), h_(std::move(h)) {}
+                        text_frame_info(h.natoms, h.timestep, h.has_box ? &h.cell : nullptr, h.has_radius,
+                                        h.has_property),
+                        h.first_line, /*reject_unterminated=*/true), h_(std::move(h)) {
+    if (h_.has_box) {  // the bounding box as the dump wrote it (cell.bounds() may round differently)
+      std::copy(h_.box.bound_lo, h_.box.bound_lo + 3, info_.box_lo);
+      std::copy(h_.box.bound_hi, h_.box.bound_hi + 3, info_.box_hi);
+    }
+  }
 
  private:
   // After the declared atoms: end of file or the next frame's ITEM:.
@@ -360,6 +389,8 @@ Result<bool> read_header(TextSource& src, FrameHeader& h, const std::string& aft
         }
       }
       h.box = lammps_box_from_bounds(b, tri);
+      lammps_periodic_from_flags(flags, h.periodic);
+      h.cell = h.box.cell(h.periodic);
       h.has_box = true;
     } else if (item.substr(0, 5) == "ATOMS") {
       h.atoms_line = item_line;

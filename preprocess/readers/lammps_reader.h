@@ -14,6 +14,9 @@
 //   x = xlo + xs*lx + ys*xy + zs*xz,  y = ylo + ys*ly + zs*yz,  z = zlo + zs*lz.
 #pragma once
 
+#include <string_view>
+#include <vector>
+
 #include "readers/reader_factories.h"
 
 namespace mds {
@@ -33,7 +36,13 @@ struct LammpsBox {
     out[1] = lo[1] + s[1] * ly + s[2] * yz;
     out[2] = lo[2] + s[2] * lz;
   }
+  // The cell: origin lo, edge vectors a, b, c above; `periodic` from the boundary flags.
+  SimulationCell cell(const bool periodic[3]) const;
 };
+
+// Periodicity from the flags after `ITEM: BOX BOUNDS` (`pp ff fs`, after `xy xz yz` when
+// triclinic): "pp" is periodic, anything else (f, s, m) is not; missing flags: not periodic.
+void lammps_periodic_from_flags(const std::vector<std::string_view>& flags, bool periodic[3]);
 
 // Box from the three BOX BOUNDS lines: bounds[i] = {lo_bound, hi_bound, tilt} (tilt only
 // read when triclinic; the tilts are xy, xz, yz in line order).

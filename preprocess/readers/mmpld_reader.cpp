@@ -192,6 +192,8 @@ Result<std::unique_ptr<ParticleReader>> MmpldReader::open(const std::filesystem:
       r->info_.box_lo[k] = bbox.v[k];
       r->info_.box_hi[k] = bbox.v[k + 3];
     }
+    // MegaMol draws the data set's bounding box as the box around the data: the cell (not periodic).
+    r->info_.cell = SimulationCell::box(r->info_.box_lo, r->info_.box_hi);
   }
 
   int64_t frame = options.frame;

@@ -16,6 +16,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/cell.h"
 #include "core/result.h"
 
 namespace mds {
@@ -125,8 +126,9 @@ struct FrameInfo {
                                    // raw: 1); 0 for text formats, whose frames list_frames() counts
   int64_t timestep = 0;            // simulation step when the file has one
   bool has_box = false;            // simulation box (orthogonal bounds or triclinic bounding box)
-  double box_lo[3] = {0, 0, 0};
+  double box_lo[3] = {0, 0, 0};    //   = cell.bounds() where has_box
   double box_hi[3] = {0, 0, 0};
+  SimulationCell cell;             // with has_box: the cell itself (origin, edge vectors, periodicity)
   bool has_radius = false;         // read() fills ParticleBatch::radius
   bool has_property = false;       // read() fills ParticleBatch::property (ReaderOptions::property)
   bool has_color = false;          // read() fills ParticleBatch::color (ReaderOptions::color)

@@ -13,15 +13,15 @@ Error truncated_frame_error(const TextSource& src, uint64_t frame_line, uint64_t
                     found);
 }
 
-FrameInfo text_frame_info(uint64_t natoms, int64_t timestep, const double* box_lo, const double* box_hi,
-                          bool has_radius, bool has_property, bool has_color) {
+FrameInfo text_frame_info(uint64_t natoms, int64_t timestep, const SimulationCell* cell, bool has_radius,
+                          bool has_property, bool has_color) {
   FrameInfo info;
   info.particle_count = natoms;
   info.timestep = timestep;
-  info.has_box = box_lo != nullptr && box_hi != nullptr;
-  if (info.has_box) {
-    std::copy(box_lo, box_lo + 3, info.box_lo);
-    std::copy(box_hi, box_hi + 3, info.box_hi);
+  info.has_box = cell != nullptr;
+  if (cell) {
+    info.cell = *cell;
+    cell->bounds(info.box_lo, info.box_hi);
   }
   info.has_radius = has_radius;
   info.has_property = has_property;

@@ -65,8 +65,8 @@ Result<std::unique_ptr<TextSource>> open_text_frame(const std::filesystem::path&
 Error truncated_frame_error(const TextSource& src, uint64_t frame_line, uint64_t natoms, uint64_t found);
 
 // FrameInfo of a text frame; box_lo/box_hi == nullptr: the frame has no box.
-FrameInfo text_frame_info(uint64_t natoms, int64_t timestep, const double* box_lo, const double* box_hi,
-                          bool has_radius, bool has_property = false, bool has_color = false);
+FrameInfo text_frame_info(uint64_t natoms, int64_t timestep, const SimulationCell* cell, bool has_radius,
+                          bool has_property = false, bool has_color = false);
 
 // First error found by a parsing thread.
 struct LineParseError {

@@ -116,7 +116,7 @@ struct XyzHeader {
   uint64_t natoms = 0;
   int64_t timestep = 0;
   bool has_box = false;
-  double box_lo[3] = {0, 0, 0}, box_hi[3] = {0, 0, 0};
+  SimulationCell cell;       // Lattice=, Origin=, pbc=
   bool extended = false;     // exact column count
   int ncols = 4;             // exact (extended) or minimum (plain)
   int species_col = 0;       // -1: none (type 1)
@@ -196,15 +196,25 @@ Result<bool> read_header(TextSource& src, XyzHeader& h, const std::string& after
       }
     }
     for (int d = 0; d < 3; ++d) {
-      h.box_lo[d] = h.box_hi[d] = origin[d];
-      for (int corner = 1; corner < 8; ++corner) {
-        double c = origin[d];
-        for (int e = 0; e < 3; ++e)
-          if (corner & (1 << e)) c += v[static_cast<size_t>(3 * e + d)];
-        h.box_lo[d] = std::min(h.box_lo[d], c);
-        h.box_hi[d] = std::max(h.box_hi[d], c);
+      h.cell.origin[d] = origin[d];
+      for (int e = 0; e < 3; ++e) h.cell.vectors[e][d] = v[static_cast<size_t>(3 * e + d)];
+    }
+    // pbc="T T F" (ASE, OVITO); without it a cell given by Lattice is periodic along all three.
+    bool pbc[3] = {true, true, true};
+    if (auto p = lkv.find("pbc"); p != lkv.end()) {
+      std::string_view ps = p->second;
+      for (int d = 0; d < 3; ++d) {
+        while (!ps.empty() && (is_blank(ps.front()) || ps.front() == ',')) ps.remove_prefix(1);
+        size_t k = 0;
+        while (k < ps.size() && !is_blank(ps[k]) && ps[k] != ',') ++k;
+        const std::string t = lower(ps.substr(0, k));
+        if (t == "t" || t == "true" || t == "1") pbc[d] = true;
+        else if (t == "f" || t == "false" || t == "0") pbc[d] = false;
+        else return make_error(Errc::format, "{}:{}: bad pbc value '{}' (three of T/F)", file, cline, excerpt(p->second));
+        ps.remove_prefix(k);
       }
     }
+    for (int d = 0; d < 3; ++d) h.cell.periodic[d] = pbc[d];
     h.has_box = true;
   }
   bool has_ts = false;
@@ -301,9 +311,8 @@ class XyzReader final : public TextFrameReader {
  public:
   XyzReader(std::unique_ptr<TextSource> src, const XyzHeader& h)
       : TextFrameReader(std::move(src),
-                        text_frame_info(h.natoms, h.timestep, h.has_box ? h.box_lo : nullptr,
-                                        h.has_box ? h.box_hi : nullptr, h.radius_col >= 0, h.property_col >= 0,
-                                        h.color_col >= 0),
+                        text_frame_info(h.natoms, h.timestep, h.has_box ? &h.cell : nullptr, h.radius_col >= 0,
+                                        h.property_col >= 0, h.color_col >= 0),
                         h.first_line, /*reject_unterminated=*/false), h_(h) {}
 
  private:

@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cli/cell_text.h"
 #include "cli/command.h"
 #include "core/byte_size.h"
 #include "convert/converter.h"
@@ -71,6 +72,7 @@ nlohmann::json report_json(const convert::ConvertReport& r, const convert::Conve
   j["density_dims"] = {r.density_dims[0], r.density_dims[1], r.density_dims[2]};
   j["per_particle_radius"] = r.per_particle_radius;
   j["color"] = r.color;
+  j["cell"] = r.cell ? cell_json(*r.cell) : nlohmann::json(nullptr);
   if (!r.property.empty()) j["property"] = {{"name", r.property}, {"min", r.property_min}, {"max", r.property_max}};
   j["spilled"] = r.spilled;
   j["bins"] = r.bins;
@@ -124,6 +126,8 @@ void print_summary(const convert::ConvertReport& r, const convert::ConvertOption
                r.particles_per_second / 1e6, r.cpu_seconds, r.seconds_gather, r.seconds_meshlets, r.seconds_encode,
                r.seconds_append);
   if (r.color) std::fprintf(stderr, "  colours          RGBA8 per particle\n");
+  if (r.cell) std::fprintf(stderr, "  cell             %s\n", cell_line(*r.cell).c_str());
+  else if (r.cells_differ) std::fprintf(stderr, "  cell             none kept: the inputs' cells differ\n");
   if (!r.property.empty())
     std::fprintf(stderr, "  property         %s in [%.6g, %.6g], 16 bits (step %.3g)\n", r.property.c_str(),
                  double(r.property_min), double(r.property_max),

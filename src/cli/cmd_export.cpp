@@ -72,8 +72,18 @@ Status export_xyz(const ExportOptions& o) {
   MDS_ASSIGN_OR_RETURN(auto out, store::AtomicOutput::create(o.output));
   store::BufferedWriter w(out.file(), size_t(8) << 20);
   fmt::memory_buffer buf;
-  fmt::format_to(std::back_inserter(buf), "{}\nProperties=species:S:1:pos:R:3{}{}{} mdstream_format={}\n", count,
-                 radius ? ":radius:R:1" : "", property_column, color ? ":color:R:3" : "", h.version);
+  // The cell as OVITO and ASE write it (Lattice: a, b, c; Origin; pbc), %.17g: read back exactly.
+  std::string cell_keys;
+  if (const auto& c = reader->cell()) {
+    const auto& v = c->vectors;
+    cell_keys = fmt::format(
+        "Lattice=\"{:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g}\" Origin=\"{:.17g} {:.17g} "
+        "{:.17g}\" pbc=\"{} {} {}\" ",
+        v[0][0], v[0][1], v[0][2], v[1][0], v[1][1], v[1][2], v[2][0], v[2][1], v[2][2], c->origin[0], c->origin[1],
+        c->origin[2], c->periodic[0] ? 'T' : 'F', c->periodic[1] ? 'T' : 'F', c->periodic[2] ? 'T' : 'F');
+  }
+  fmt::format_to(std::back_inserter(buf), "{}\n{}Properties=species:S:1:pos:R:3{}{}{} mdstream_format={}\n", count,
+                 cell_keys, radius ? ":radius:R:1" : "", property_column, color ? ":color:R:3" : "", h.version);
   const double rstep = (double(h.radius_max) - double(h.radius_min)) / double(store::kQuantMax);
   for (uint32_t i = 0; i < nodes.size(); ++i) {
     const store::NodeEntry& e = nodes[i];

@@ -6,12 +6,14 @@
 #include <bit>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "cli/cell_text.h"
 #include "cli/command.h"
 #include "store/series.h"
 #include "store/store_reader.h"
@@ -47,6 +49,7 @@ Result<nlohmann::json> store_info(const store::StoreReader& r) {
   else
     j["property"] = nullptr;
   j["color"] = (h.flags & store::kFlagColor) != 0;
+  j["cell"] = r.cell() ? cell_json(*r.cell()) : nlohmann::json(nullptr);
   j["bounds_min"] = vec3(h.bounds_min);
   j["bounds_max"] = vec3(h.bounds_max);
   j["max_quantization_error"] = h.max_quantization_error;
@@ -110,7 +113,7 @@ std::string v3(const nlohmann::json& a) {
   return fmt::format("({:.6g}, {:.6g}, {:.6g})", a[0].get<double>(), a[1].get<double>(), a[2].get<double>());
 }
 
-std::string human(const nlohmann::json& j, bool verified) {
+std::string human(const nlohmann::json& j, const std::optional<SimulationCell>& cell, bool verified) {
   std::string s;
   s += fmt::format("store            {}\n", j["file"].get<std::string>());
   s += fmt::format("format version   {}\n", j["format_version"].get<uint32_t>());
@@ -122,6 +125,7 @@ std::string human(const nlohmann::json& j, bool verified) {
   s += fmt::format("meshlets         {} (at most {} particles)\n", j["meshlets"].get<uint64_t>(),
                    j["meshlet_size_max"].get<uint32_t>());
   s += fmt::format("bounds           {} .. {}\n", v3(j["bounds_min"]), v3(j["bounds_max"]));
+  if (cell) s += fmt::format("cell             {}\n", cell_line(*cell));
   s += fmt::format("radius           {}, range [{:.6g}, {:.6g}]\n",
                    j["per_particle_radius"].get<bool>() ? "per particle" : "per type", j["radius_min"].get<double>(),
                    j["radius_max"].get<double>());
@@ -176,7 +180,8 @@ Result<nlohmann::json> series_info(const std::string& file, bool verify) {
                       {"nodes", h.node_count},
                       {"file_bytes", (*r)->file_bytes()},
                       {"bounds_min", vec3(h.bounds_min)},
-                      {"bounds_max", vec3(h.bounds_max)}});
+                      {"bounds_max", vec3(h.bounds_max)},
+                      {"cell", (*r)->cell() ? cell_json(*(*r)->cell()) : nlohmann::json(nullptr)}});
   }
   nlohmann::json j;
   j["series"] = file;
@@ -246,7 +251,7 @@ void setup_info(CLI::App& sub, int& exit_code) {
       if (opt->verify) (*j)["verified"] = true;
       std::fputs((j->dump(2) + "\n").c_str(), stdout);
     } else {
-      std::fputs(human(*j, opt->verify).c_str(), stdout);
+      std::fputs(human(*j, (*reader)->cell(), opt->verify).c_str(), stdout);
     }
     exit_code = 0;
   });

@@ -32,8 +32,9 @@ enum HeaderFlags : uint32_t {
   kFlagPerParticleRadius = 1u << 0,  // node payloads carry uint16 radius_q[n]
   kFlagProperty = 1u << 1,           // node payloads carry uint16 property_q[n] (one scalar per particle)
   kFlagColor = 1u << 2,              // node payloads carry uint32 color[n] (RGBA8 per particle, R in bits 0-7)
+  kFlagCell = 1u << 3,               // the file ends with the cell section (FileHeader::cell, CellRecord)
 };
-inline constexpr uint32_t kKnownFlags = kFlagPerParticleRadius | kFlagProperty | kFlagColor;
+inline constexpr uint32_t kKnownFlags = kFlagPerParticleRadius | kFlagProperty | kFlagColor | kFlagCell;
 inline constexpr uint32_t kPropertyNameBytes = 48;  // FileHeader::property_name, NUL-terminated
 
 enum SectionId : uint32_t {
@@ -81,14 +82,30 @@ struct FileHeader {
   char property_name[kPropertyNameBytes];  // NUL-terminated, non-empty with the flag
   float property_min;             // smallest value of the property in the store (finite)
   float property_max;             // largest (finite, >= property_min)
-  uint8_t reserved[88];           // zero
+  // With kFlagCell: the cell section (one CellRecord, uncompressed) right after the occupancy
+  // section, at the end of the file. All zero without the flag.
+  Section cell;
+  uint8_t reserved[56];           // zero
   uint64_t header_hash;           // XXH3-64 of these 512 bytes with header_hash = 0
 };
 static_assert(sizeof(FileHeader) == kHeaderBytes);
 static_assert(offsetof(FileHeader, sections) == 200);
 static_assert(offsetof(FileHeader, property_name) == 360);
 static_assert(offsetof(FileHeader, property_min) == 408);
+static_assert(offsetof(FileHeader, cell) == 416);
+static_assert(offsetof(FileHeader, reserved) == 448);
 static_assert(offsetof(FileHeader, header_hash) == 504);
+
+// The simulation cell (core/cell.h) as stored: x = origin + f0 a + f1 b + f2 c, f in [0, 1].
+struct CellRecord {
+  double origin[3];      // finite
+  double vectors[3][3];  // rows a, b, c (finite; a zero vector is a flat cell)
+  uint32_t periodic;     // bit d: periodic along vector d; bits 3..31 zero
+  uint32_t reserved[7];  // zero
+};
+static_assert(sizeof(CellRecord) == 128);
+static_assert(offsetof(CellRecord, vectors) == 24);
+static_assert(offsetof(CellRecord, periodic) == 96);
 
 
 

@@ -6,6 +6,8 @@
 #include <lz4.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstddef>
 #include <cstdlib>
 #include <cstring>
 #include <memory>
@@ -125,6 +127,40 @@ Status decode_density_section(std::span<const uint8_t> block, std::span<uint32_t
   MDS_TRY(decompress(block, raw.get(), 4 * n));
   for (size_t i = 0; i < n; ++i) counts[i] = from_planes(raw.get(), n, i);
   return {};
+}
+
+CellRecord encode_cell(const SimulationCell& cell) {
+  CellRecord r{};
+  for (int d = 0; d < 3; ++d) {
+    r.origin[d] = cell.origin[d];
+    for (int k = 0; k < 3; ++k) r.vectors[d][k] = cell.vectors[d][k];
+    if (cell.periodic[d]) r.periodic |= 1u << d;
+  }
+  return r;
+}
+
+Result<SimulationCell> decode_cell(const CellRecord& r) {
+  SimulationCell c;
+  for (int d = 0; d < 3; ++d) {
+    if (!std::isfinite(r.origin[d]))
+      return make_error(Errc::format, "origin[{}] at byte {} of the record is not finite", d,
+                        offsetof(CellRecord, origin) + 8 * d);
+    c.origin[d] = r.origin[d];
+    for (int k = 0; k < 3; ++k) {
+      if (!std::isfinite(r.vectors[d][k]))
+        return make_error(Errc::format, "vectors[{}][{}] at byte {} of the record is not finite", d, k,
+                          offsetof(CellRecord, vectors) + 8 * (3 * d + k));
+      c.vectors[d][k] = r.vectors[d][k];
+    }
+    c.periodic[d] = (r.periodic >> d) & 1u;
+  }
+  if (r.periodic & ~7u)
+    return make_error(Errc::format, "periodic at byte {} of the record has unknown bits {:#x}", offsetof(CellRecord, periodic),
+                      r.periodic & ~7u);
+  for (int i = 0; i < 7; ++i)
+    if (r.reserved[i] != 0)
+      return make_error(Errc::format, "reserved at byte {} of the record is not zero", offsetof(CellRecord, reserved) + 4 * i);
+  return c;
 }
 
 }  // namespace mds::store

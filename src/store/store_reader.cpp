@@ -53,6 +53,7 @@ struct StoreReader::Impl {
   std::vector<VoxelRef> voxels;
   std::vector<uint32_t> density;
   std::vector<uint8_t> occupancy;  // kOccupancyBytes per node
+  std::optional<SimulationCell> cell;  // with kFlagCell
 
   Status check_header();
   Status check_sections();
@@ -96,7 +97,7 @@ Status StoreReader::Impl::check_header() {
                         HFIELD(property_min), h.property_min, h.property_max);
   } else {
     const auto* p = reinterpret_cast<const uint8_t*>(h.property_name);
-    for (size_t i = 0; i < offsetof(FileHeader, reserved) - offsetof(FileHeader, property_name); ++i)
+    for (size_t i = 0; i < offsetof(FileHeader, cell) - offsetof(FileHeader, property_name); ++i)
       if (p[i] != 0) {
         const size_t at = HFIELD(property_name) + i;
         const char* field = at < HFIELD(property_min)   ? "property_name"
@@ -104,6 +105,12 @@ Status StoreReader::Impl::check_header() {
                                                         : "property_max";
         return make_error(Errc::format, "{}: field {} at byte {}: not zero without the property flag", name, field, at);
       }
+  }
+  if (!(h.flags & kFlagCell)) {
+    const auto* p = reinterpret_cast<const uint8_t*>(&h.cell);
+    for (size_t i = 0; i < sizeof(h.cell); ++i)
+      if (p[i] != 0)
+        return make_error(Errc::format, "{}: field cell at byte {}: not zero without the cell flag", name, HFIELD(cell) + i);
   }
   for (size_t i = 0; i < sizeof(h.reserved); ++i)
     if (h.reserved[i] != 0)
@@ -178,6 +185,20 @@ Status StoreReader::Impl::check_sections() {
       return make_error(Errc::range, "{}: field sections[{}].bytes at byte {}: {} section of {} bytes at byte {} runs past the end of the {}-byte file",
                         name, id, section_field_offset(id, offsetof(Section, bytes)), what, s.bytes, s.offset, file_bytes);
     expected = s.offset + s.bytes;
+  }
+  if (h.flags & kFlagCell) {  // the cell section, after the occupancy section
+    const Section& c = h.cell;
+    if (c.offset != expected)
+      return make_error(Errc::range, "{}: field cell.offset at byte {}: cell section at byte {}, expected {}", name,
+                        offsetof(FileHeader, cell) + offsetof(Section, offset), c.offset, expected);
+    if (c.bytes != sizeof(CellRecord) || c.raw_bytes != c.bytes)
+      return make_error(Errc::format, "{}: field cell.bytes at byte {}: cell section has {} bytes ({} decoded), expected {}",
+                        name, offsetof(FileHeader, cell) + offsetof(Section, bytes), c.bytes, c.raw_bytes,
+                        sizeof(CellRecord));
+    if (c.bytes > file_bytes - c.offset)
+      return make_error(Errc::range, "{}: field cell.bytes at byte {}: cell section of {} bytes at byte {} runs past the end of the {}-byte file",
+                        name, offsetof(FileHeader, cell) + offsetof(Section, bytes), c.bytes, c.offset, file_bytes);
+    expected = c.offset + c.bytes;
   }
   if (expected != file_bytes)
     return make_error(Errc::format, "{}: {} bytes after the last section at byte {} (file has {} bytes)", name,
@@ -424,6 +445,16 @@ Result<std::unique_ptr<StoreReader>> StoreReader::open(const std::filesystem::pa
       return make_error(Errc::format, "{}: node {} occupancy at byte {}: no cell occupied", s.name, i,
                         h.sections[kSectionOccupancy].offset + uint64_t(i) * kOccupancyBytes);
   }
+  if (h.flags & kFlagCell) {
+    CellRecord rec{};
+    MDS_TRY(s.file.pread_all(&rec, sizeof(rec), h.cell.offset));
+    if (hash_bytes({reinterpret_cast<const uint8_t*>(&rec), sizeof(rec)}) != h.cell.hash)
+      return make_error(Errc::checksum, "{}: cell section at byte {}: checksum mismatch", s.name, h.cell.offset);
+    auto cell = decode_cell(rec);
+    if (!cell.ok())
+      return make_error(cell.error().code, "{}: cell section at byte {}: {}", s.name, h.cell.offset, cell.error().message);
+    s.cell = *cell;
+  }
   MDS_TRY(s.check_types());
   MDS_TRY(s.check_directory());
   MDS_TRY(s.check_voxels_and_density(density_block));
@@ -437,6 +468,7 @@ uint64_t StoreReader::file_bytes() const { return impl_->file_bytes; }
 std::span<const TypeEntry> StoreReader::types() const { return impl_->types; }
 std::span<const NodeEntry> StoreReader::nodes() const { return impl_->nodes; }
 std::span<const uint32_t> StoreReader::density_counts() const { return impl_->density; }
+const std::optional<SimulationCell>& StoreReader::cell() const { return impl_->cell; }
 
 std::span<const uint8_t> StoreReader::occupancy(uint32_t node) const {
   if (node >= impl_->nodes.size()) return {};

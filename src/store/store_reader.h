@@ -7,10 +7,12 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
+#include "core/cell.h"
 #include "core/result.h"
 #include "store/format.h"
 
@@ -43,6 +45,8 @@ class StoreReader {
   std::span<const NodeEntry> nodes() const;
   std::span<const VoxelRef> voxels(uint32_t node) const;  // this node's voxel list
   std::span<const uint32_t> density_counts() const;      // dims.x*dims.y*dims.z particle counts
+  // The simulation cell (kFlagCell; docs/store-format.md, "Cell section"), or none.
+  const std::optional<SimulationCell>& cell() const;
   // This node's occupancy record (kOccupancyBytes, format.h); empty for a node that does not exist.
   std::span<const uint8_t> occupancy(uint32_t node) const;
 

@@ -2,7 +2,7 @@
 // docs/store-format.md), appends them to "<path>.tmp.<pid>" through aligned 4 MiB blocks that a
 // background thread writes (O_DIRECT where possible, see BlockStream), then writes the type table,
 // the node directory, the LZ4-compressed voxel lists and density volume (section_codec.h) and the
-// occupancy records, each with its XXH3-64 hash, and finally the header (hashed with header_hash = 0), fsync and
+// occupancy records and, with a cell, the cell record, each with its XXH3-64 hash, and finally the header (hashed with header_hash = 0), fsync and
 // rename.
 #include "store/store_writer.h"
 
@@ -408,6 +408,9 @@ namespace {
 
 Status check_summary(const std::string& name, const StoreSummary& sum) {
   if (sum.flags & ~kKnownFlags) return make_error(Errc::internal, "{}: unknown header flags {:#x}", name, sum.flags);
+  if ((sum.flags & kFlagCell) && !sum.cell) return make_error(Errc::internal, "{}: flag kFlagCell without a cell", name);
+  if (sum.cell && !sum.cell->finite())
+    return make_error(Errc::internal, "{}: cell with a non-finite value: {}", name, describe(*sum.cell));
   if (sum.flags & kFlagProperty) {
     if (sum.property_name.empty() || sum.property_name.size() >= kPropertyNameBytes ||
         sum.property_name.find('\0') != std::string::npos)
@@ -532,7 +535,7 @@ Status StoreWriter::finish(const StoreSummary& sum) {
   std::memcpy(h.magic, kMagic, sizeof(kMagic));
   h.version = kFormatVersion;
   h.header_bytes = kHeaderBytes;
-  h.flags = sum.flags;
+  h.flags = sum.flags | (sum.cell ? uint32_t(kFlagCell) : 0u);
   h.node_size_max = sum.node_size_max;
   h.meshlet_size_max = sum.meshlet_size_max;
   h.node_count = static_cast<uint32_t>(s.entries.size());
@@ -595,6 +598,13 @@ Status StoreWriter::finish(const StoreSummary& sum) {
   MDS_TRY(write_section(kSectionVoxels, voxel_block->data(), voxel_block->size(), s.voxels.size() * sizeof(VoxelRef)));
   MDS_TRY(write_section(kSectionDensity, density.data(), density.size(), density_raw));
   MDS_TRY(write_section(kSectionOccupancy, s.occupancy.data(), s.occupancy.size(), s.occupancy.size()));
+  if (sum.cell) {  // the cell section, last
+    const CellRecord rec = encode_cell(*sum.cell);
+    h.cell.offset = s.writer->offset();
+    h.cell.bytes = h.cell.raw_bytes = sizeof(rec);
+    h.cell.hash = hash_bytes({reinterpret_cast<const uint8_t*>(&rec), sizeof(rec)});
+    MDS_TRY(s.writer->write(&rec, sizeof(rec)));
+  }
   MDS_TRY(s.writer->flush());
   sync_thread.join();
   if (!early_sync->ok()) return *early_sync;

@@ -8,10 +8,12 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
+#include "core/cell.h"
 #include "core/result.h"
 #include "store/format.h"
 
@@ -71,6 +73,9 @@ struct StoreSummary {
   double density_min[3] = {0, 0, 0};
   double density_max[3] = {0, 0, 0};
   std::vector<uint32_t> density_counts;
+  // The simulation cell, written as the cell section (kFlagCell, set by finish(): `flags` need
+  // not carry it); finite.
+  std::optional<SimulationCell> cell;
 };
 
 class StoreWriter {
