@@ -34,7 +34,8 @@ layout(local_size_x_id = 2, local_size_y_id = 3) in;  // (64, 1) with the list, 
 bool visible_point(ivec2 q, out vec3 pos) {
   uint64_t v = visibility[uint(q.y) * uint(frame.viewport.x) + uint(q.x)];
   pos = vec3(0.0);
-  if (uint(v & 0xffffffffu) == kVisEmpty) return false;
+  uint id = uint(v & 0xffffffffu);
+  if (id == kVisEmpty || id == kVisCell) return false;  // the cell's lines occlude nothing
   vec2 ndc = (vec2(q) + 0.5) * frame.viewport.zw * 2.0 - 1.0;
   vec4 h = frame.inv_proj * vec4(ndc, uintBitsToFloat(uint(v >> 32)), 1.0);
   pos = h.xyz / h.w;
@@ -77,6 +78,11 @@ void main() {
   }
   uint id = uint(visibility[uint(p.y) * uint(frame.viewport.x) + uint(p.x)] & 0xffffffffu);
   if (id == kVisEmpty) return;  // background: nothing to add
+  float weight = (frame.counts.z & kFrameTimingOnly) != 0u ? 0.0 : 1.0;
+  if (id == kVisCell) {  // the simulation cell's edges (cell_lines.frag): flat colour
+    accumulate_pixel(p, weight * vec4(frame.cell[4].rgb, 1.0));
+    return;
+  }
   uint type, rgba;
   vec4 center_radius;
   if (kChunkedIds) {
@@ -90,7 +96,6 @@ void main() {
   vec3 hit, n, d;
   float depth;
   if (!ray_sphere(vec2(p) + 0.5, center_radius, hit, n, d, depth)) return;
-  float weight = (frame.counts.z & kFrameTimingOnly) != 0u ? 0.0 : 1.0;
   vec4 c = shade_sphere(n, d, mds_particle_color(type, rgba, center_radius.xyz));
   if (frame.ao.y > 0.0) c.rgb *= ambient_obscurance(p, hit, n);
   accumulate_pixel(p, weight * c);

@@ -288,7 +288,7 @@ TEST_F(RenderCli, TypeColorsRecolourEveryPath) {
       const fs::path exr = dir_ / ("tc" + std::to_string(k) + ".exr");
       std::string colors;
       for (int t = 1; t <= 4; ++t) colors += " --type-color " + std::to_string(t) + "=" + all_types[k];
-      ASSERT_EQ(run("render " + store() + " -o " + exr.string() + " --no-cull --spp 2 --width 80 --height 60 " + mode +
+      ASSERT_EQ(run("render " + store() + " -o " + exr.string() + " --no-cull --cell off --spp 2 --width 80 --height 60 " + mode +
                     colors),
                 0)
           << last_stderr();

@@ -294,7 +294,7 @@ TEST_F(SliceCli, DrawsWhatAStoreOfTheKeptParticlesDraws) {
   }
   ASSERT_EQ(run("convert " + (dir_ / "kept.xyz").string() + " -q -o " + (dir_ / "kept.mds").string()), 0)
       << last_stderr();
-  const std::string look = " --no-cull --spp 4 --width 96 --height 72 --camera 40,-30,35,14,14,12 --background 0,0,0 "
+  const std::string look = " --no-cull --spp 4 --width 96 --height 72 --camera 40,-30,35,14,14,12 --background 0,0,0 --cell off "
                            "--type-color 1=#e15759 --type-color 2=#4e79a7";
   ASSERT_EQ(run("render " + store() + " -o " + (dir_ / "sliced.exr").string() + look + args + " --stats " +
                 (dir_ / "sliced.json").string()),

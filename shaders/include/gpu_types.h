@@ -79,6 +79,8 @@ MDS_STRUCT(FrameUniforms) {
                       // with kFrameColorProperty t = x * property_q + w
   vec4 ao;            // ambient occlusion (shading/ambient_occlusion.h): radius (world = view units),
                       // strength (0: off), 0, 0; the visibility resolve applies it
+  vec4 cell[5];       // the simulation cell's edges (render/cell_lines.h; cell_lines.vert): origin relative to
+                      // the scene origin (w 1: drawn), vectors a, b, c, then linear rgb and the width in pixels
   vec4 colormap[kColormapSamples];  // with kFrameColorMap: sRGB at t = k / (kColormapSamples - 1), w 0
                                     // (render::colormap_srgb interpolates as particle_color.h)
 };
@@ -165,6 +167,7 @@ MDS_STRUCT(GpuSprite) {
   uint color;          // with kFrameColorParticle: the particle's RGBA8 (sRGB, R in bits 0..7), else 0
 };
 MDS_CONST(uint, kVisEmpty, 0xffffffffu);  // the visibility buffer's id of a pixel no sphere covers
+MDS_CONST(uint, kVisCell, 0xfffffffeu);   // ... of a pixel the simulation cell's edges cover (cell_lines.frag); particle ids stay below
 
 // Indirect commands of the sprite draws, derived from a draw list (sprite_args.comp) and
 // filled by the pre-pass: two VkDrawIndirectCommand (points: one vertex per sprite; quads: six
@@ -231,8 +234,9 @@ static_assert(offsetof(SpriteDrawHeader, raster_x) == 56);
 static_assert(offsetof(SpriteDrawHeader, occluded) == 48);
 static_assert(offsetof(SpriteDrawHeader, quad_vertex_count) == 16);
 static_assert(offsetof(SpriteDrawHeader, dispatch_x) == 32);
-static_assert(sizeof(FrameUniforms) == 288 + 16 * kColormapSamples);
-static_assert(offsetof(FrameUniforms, colormap) == 288);
+static_assert(sizeof(FrameUniforms) == 368 + 16 * kColormapSamples);
+static_assert(offsetof(FrameUniforms, colormap) == 368);
+static_assert(offsetof(FrameUniforms, cell) == 288);
 static_assert(offsetof(FrameUniforms, ao) == 272);
 static_assert(offsetof(FrameUniforms, color_plane) == 256);
 static_assert(offsetof(FrameUniforms, viewport) == 192);

@@ -13,6 +13,7 @@
 #include <optional>
 
 #include "gpu_types.h"
+#include "render/cell_lines.h"
 #include "render/renderer_impl.h"
 #include "vk/commands.h"
 #include "vk/pipeline.h"
@@ -96,7 +97,7 @@ Status Renderer::Impl::create_draw_buffers(uint64_t meshlet_slots) {
   const uint64_t max_range = ctx->limits().maxStorageBufferRange;
   const uint64_t max_meshlet_slots = std::max<uint64_t>(max_meshlet, 1);
   // A particle's visibility id is its draw-list entry x max_meshlet + local (GpuSprite.vis_id).
-  if ((uint64_t(meshlet_slots) + 1) * max_meshlet_slots >= gpu::kVisEmpty)
+  if ((uint64_t(meshlet_slots) + 1) * max_meshlet_slots >= gpu::kVisCell)  // kVisCell, kVisEmpty: reserved
     return make_error(Errc::budget, "{} meshlet slots of up to {} particles exceed the 32-bit particle ids of a frame",
                       meshlet_slots, max_meshlet_slots);
   // Sprite records: 48 B each, bound whole; the id lists (quads, small sprites) take 8 B each.
@@ -387,6 +388,15 @@ Status Renderer::Impl::create_pipelines() {
     g.depth_format = kDepthFormat;
   }
   MDS_ASSIGN_OR_RETURN(sphere_pipe, ctx->pipelines().graphics(layout, g));
+  if (settings.cell) {  // the simulation cell's edges: quads, into the same targets as the spheres
+    vk::GraphicsPipelineDesc gc = g;
+    gc.vertex_shader = "cell_lines.vert";
+    gc.vertex_spec = nullptr;
+    gc.fragment_shader = vis_route ? "cell_lines_vis.frag" : "cell_lines.frag";
+    MDS_ASSIGN_OR_RETURN(cell_pipe, ctx->pipelines().graphics(layout, gc));
+  } else {
+    cell_pipe = VK_NULL_HANDLE;
+  }
   if (point_sprites) {
     vk::GraphicsPipelineDesc gp = g;
     gp.vertex_shader = "sphere_point.vert";
@@ -426,6 +436,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(vk::Context& ctx, const Scene
   MDS_ASSIGN_OR_RETURN(m.mesh_path, use_mesh_sprites(ctx, settings.mesh_shaders));
   m.origin = scene.origin;
   m.bounds = scene.bounds;
+  m.clip_bounds = with_cell(m.bounds, settings.cell);
   m.meshlet_count = uint32_t(scene.meshlets.size());
   m.particle_count = scene.particle_count();
   m.max_meshlet = scene.max_meshlet_particles;
@@ -468,7 +479,7 @@ Result<FrameImage> Renderer::render(const Camera& camera_in, RenderStats* stats)
   m.coverage_probe_pending = false;
   const auto t0 = std::chrono::steady_clock::now();
   Camera camera = camera_in;
-  fit_clip_planes(camera, m.bounds);
+  fit_clip_planes(camera, m.clip_bounds);
   const uint32_t w = m.settings.width, h = m.settings.height;
   vk::TimestampPool fresh;
   MDS_ASSIGN_OR_RETURN(fresh, vk::TimestampPool::create(*m.ctx, m.timestamp_capacity()));

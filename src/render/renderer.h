@@ -27,12 +27,14 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
 #include <glm/glm.hpp>
 
+#include "core/cell.h"
 #include "core/result.h"
 #include "render/camera.h"
 #include "render/colormap.h"
@@ -186,6 +188,12 @@ struct RenderSettings {
   // auto and the default radius (cli/vulkan/render_options.cpp).
   double ao_radius = 0.0;
   double ao_strength = 0.0;
+  // The simulation cell's edges (render/cell_lines.h; docs/rendering.md, "Simulation cell"), in
+  // world coordinates: lines of cell_width_px pixels in cell_color_srgb, depth tested against the
+  // spheres; they occlude no particle for the culling. None: not drawn (the CLI resolves --cell).
+  std::optional<SimulationCell> cell;
+  glm::vec3 cell_color_srgb{0.75f, 0.75f, 0.75f};
+  float cell_width_px = 1.5f;
   // Sprite records the compute sprite path holds at once (48 B each, bound whole, so at most
   // maxStorageBufferRange / 48: 2.8 M on lavapipe). A draw list with more particles is turned
   // into sprites and drawn in chunks of capacity / max meshlet size entries, so neither the
@@ -474,6 +482,10 @@ class Renderer {
   // Statistics so far (pass times over the frames since the last set_view()).
   RenderStats stats() const;
   const Bounds& bounds() const;
+  // The bounds the views' clip planes are fitted to (fit_clip_planes): bounds() and the cell's
+  // corners where the cell is drawn (RenderSettings::cell). A caller comparing with
+  // read_last_depth() fits its camera to these.
+  const Bounds& clip_bounds() const;
   // The colormap's [lo, hi] with RenderSettings::color_by along an axis: the settings' range, or
   // the bounds of the particle centres along the axis when unset (a flat axis widened by 1e-9
   // of the extent so that lo < hi); (0, 0) when colouring by type.

@@ -26,6 +26,7 @@ struct Renderer::Impl {
   RenderSettings settings;
   glm::dvec3 origin{0.0};
   Bounds bounds;
+  Bounds clip_bounds;  // bounds with the cell drawn (cell_lines.h with_cell): the views' clip planes
   uint32_t meshlet_count = 0;
   uint64_t particle_count = 0;
   uint32_t max_meshlet = 0;
@@ -100,6 +101,7 @@ struct Renderer::Impl {
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkPipeline draw_list_pipe = VK_NULL_HANDLE, sprite_args_pipe = VK_NULL_HANDLE, prepass_pipe = VK_NULL_HANDLE,
              raster_pipe = VK_NULL_HANDLE, sphere_pipe = VK_NULL_HANDLE, point_pipe = VK_NULL_HANDLE,
+             cell_pipe = VK_NULL_HANDLE,  // the simulation cell's edges (cell_lines.vert), with settings.cell
              resolve_pipe = VK_NULL_HANDLE, full_resolve_pipe = VK_NULL_HANDLE, accum_pipe = VK_NULL_HANDLE,
              compact_pipe = VK_NULL_HANDLE;  // resolve_pipe: over the covered list
   // The pre-pass with the particle occlusion test compiled in (specialization constant 3), bound
@@ -210,7 +212,7 @@ struct Renderer::Impl {
   void record_sprite_prepass(VkCommandBuffer cmd, uint32_t chunk);
   void record_small_raster(VkCommandBuffer cmd);
   void record_sprite_draws(VkCommandBuffer cmd);
-  void record_draw_scope(VkCommandBuffer cmd, bool clear);
+  void record_draw_scope(VkCommandBuffer cmd, bool clear, bool last);
 };
 
 // Errc::invalid_argument for --color-by property on a store without a property, or --color-by

@@ -12,6 +12,7 @@
 #include <map>
 #include <vector>
 
+#include "render/cell_lines.h"
 #include "render/renderer_impl.h"
 #include "vk/staging.h"
 
@@ -80,6 +81,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create_streaming(vk::Context& ctx, c
   m.reader = &reader;
   m.origin = dir.origin;
   m.bounds = dir.bounds;
+  m.clip_bounds = with_cell(m.bounds, settings.cell);
   // The sprite records do not bound the pool: a draw list with more particles than they hold is
   // drawn in chunks (create_draw_buffers); the pool's own buffers do (NodePool::create).
   StreamSettings pool_stream = stream;
@@ -165,6 +167,7 @@ void Renderer::Impl::write_frame_uniforms(const Camera& camera, uint32_t sample,
     fu.occlusion = glm::vec4(float(cull->settings().c_occ), float(cull->settings().c_medium),
                              occlusion_test ? float(cull->pyramid_levels()) : 0.0f, 0.0f);
   if (ao_active()) fu.ao = glm::vec4(float(settings.ao_radius), float(settings.ao_strength), 0.0f, 0.0f);
+  cell_uniforms(settings.cell, origin, settings.cell_color_srgb, settings.cell_width_px, fu.cell);
   std::memcpy(frame_ubo.mapped(), &fu, sizeof(fu));
   frame_ubo.flush();
 }
@@ -230,7 +233,7 @@ void Renderer::Impl::after_iteration() {
 Status Renderer::set_view(const Camera& camera_in) {
   Impl& m = *impl_;
   Camera camera = camera_in;
-  fit_clip_planes(camera, m.bounds);
+  fit_clip_planes(camera, m.clip_bounds);
   if (m.has_view && !m.view_stale && identical_cameras(camera, m.view_camera)) return {};
   m.view_stale = false;
   MDS_TRY(m.slot.wait());  // the frame in flight belongs to the old view
@@ -475,7 +478,7 @@ static_assert(Renderer::kPathNextViews == uint32_t(streaming_gpu::StreamCache::k
 void Renderer::set_path_next(std::span<const Camera> next) {
   Impl& m = *impl_;
   m.path_next.assign(next.begin(), next.end());
-  for (Camera& c : m.path_next) fit_clip_planes(c, m.bounds);
+  for (Camera& c : m.path_next) fit_clip_planes(c, m.clip_bounds);
 }
 
 void Renderer::set_motion(bool moving, double sample_share) {
@@ -582,6 +585,7 @@ RenderStats Renderer::stats() const {
 }
 
 const Bounds& Renderer::bounds() const { return impl_->bounds; }
+const Bounds& Renderer::clip_bounds() const { return impl_->clip_bounds; }
 glm::dvec2 Renderer::color_range() const { return impl_->color_range(); }
 glm::dvec2 Renderer::Impl::color_range() const {
   const ColorBy& c = settings.color_by;

@@ -147,7 +147,9 @@ void Renderer::Impl::record_sprite_draws(VkCommandBuffer cmd) {
 
 // One rendering scope of the sprite draws (record_sprite_draws). Attachment route: colour and
 // depth cleared when `clear` (a frame's first chunk), else kept from the previous chunk's scope.
-void Renderer::Impl::record_draw_scope(VkCommandBuffer cmd, bool clear) {
+// The `last` chunk's scope also draws the simulation cell's edges (cell_lines.vert), depth tested
+// against every sphere of the frame.
+void Renderer::Impl::record_draw_scope(VkCommandBuffer cmd, bool clear, bool last) {
   const uint32_t w = settings.width, h = settings.height;
   VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
   ri.renderArea = {{0, 0}, {w, h}};
@@ -195,6 +197,12 @@ void Renderer::Impl::record_draw_scope(VkCommandBuffer cmd, bool clear) {
   vkCmdBeginRendering(cmd, &ri);
   vk::set_viewport_scissor(cmd, w, h);
   record_sprite_draws(cmd);
+  if (last && cell_pipe != VK_NULL_HANDLE) {
+    VkDescriptorSet ds = set.set();
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, cell_pipe);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &ds, 0, nullptr);
+    vkCmdDraw(cmd, 6 * 12, 1, 0, 0);  // 12 edges, a quad (6 vertices) each
+  }
   vkCmdEndRendering(cmd);
 }
 
@@ -272,7 +280,7 @@ void Renderer::Impl::record_pass(VkCommandBuffer cmd, bool first, bool accumulat
   for (uint32_t chunk = 0; chunk < sprite_chunks; ++chunk) {
     timed("prepass", [&] { record_sprite_prepass(cmd, chunk); });
     if (raster_pipe != VK_NULL_HANDLE) timed("raster", [&] { record_small_raster(cmd); });
-    timed("draw", [&] { record_draw_scope(cmd, chunk == 0); });
+    timed("draw", [&] { record_draw_scope(cmd, chunk == 0, chunk + 1 == sprite_chunks); });
   }
   if (!one_chunk) timestamps.end(cmd);
 

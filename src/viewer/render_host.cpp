@@ -26,6 +26,7 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
   h->type_radii_ = options.type_radii;
   h->type_colors_ = options.type_colors;
   h->color_by_ = options.render.color_by;
+  h->cell_mode_ = options.cell;
   h->store_arg_ = options.store;
   std::string store = options.store;
   if (store::is_series_path(options.store)) {
@@ -72,6 +73,7 @@ Status RenderHost::resolve_colors(const store::StoreReader& reader, render::Rend
   if (!colors) return make_error(Errc::invalid_argument, "--type-color: {}", colors.error().message);
   rs.color_by = c;
   rs.type_colors_srgb = std::move(*colors);
+  MDS_ASSIGN_OR_RETURN(rs.cell, render::resolve_cell(cell_mode_, reader));  // each frame of a series its own
   return {};
 }
 
@@ -127,6 +129,7 @@ Status RenderHost::set_series_position(size_t position) {
   const render::RenderSettings settings_before = settings_;
   settings_.color_by = rs.color_by;
   settings_.type_colors_srgb = rs.type_colors_srgb;
+  settings_.cell = rs.cell;  // this frame's cell
   Status st = recreate(settings_.width, settings_.height);
   if (st.ok()) {
     series_pos_ = position;

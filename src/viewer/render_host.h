@@ -127,6 +127,7 @@ class RenderHost {
   std::vector<store::TypeRadiusSpec> type_radii_;  // --type-radius
   std::vector<store::TypeColorSpec> type_colors_;  // --type-color
   render::ColorBy color_by_;                        // --color-by as given
+  render::CellMode cell_mode_ = render::CellMode::automatic;  // --cell, resolved per store (resolve_colors)
   std::string store_arg_;                          // the store or series as given
   std::optional<store::Series> series_;
   std::vector<int64_t> series_frames_;  // --series-frames picked

@@ -379,7 +379,7 @@ void Viewer::pick_at(glm::dvec2 cursor) {
   const glm::uvec2 px(uint32_t(std::clamp(std::floor(cursor.x), 0.0, double(w - 1))),
                       uint32_t(std::clamp(std::floor(cursor.y), 0.0, double(h - 1))));
   render::Camera cam = have_view_ ? view_camera_ : controller_.camera();
-  render::fit_clip_planes(cam, host_->bounds());
+  render::fit_clip_planes(cam, host_->renderer() ? host_->renderer()->clip_bounds() : host_->bounds());
   auto p = render::pick_particle(host_->reader(), cam, w, h, glm::dvec2(px) + 0.5, host_->scene_options());
   if (!p.ok()) {
     message_ = "pick: " + p.error().message;
@@ -430,7 +430,7 @@ Status Viewer::compose(const InputFrame& in) {
   display_ = image_;
   const uint32_t win_w = host_->settings().width, win_h = host_->settings().height;
   render::Camera cam = view_camera_;
-  render::fit_clip_planes(cam, host_->bounds());
+  render::fit_clip_planes(cam, host_->renderer() ? host_->renderer()->clip_bounds() : host_->bounds());
   render::culling::CullLoop* loop = host_->renderer() ? host_->renderer()->cull_loop() : nullptr;
   auto note = [&](const std::string& m) {
     if (hud_.message.empty()) hud_.message = m;

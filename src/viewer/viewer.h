@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/result.h"
+#include "render/cell_lines.h"
 #include "render/frame_pacer.h"
 #include "render/renderer.h"
 #include "shading/ambient_occlusion.h"
@@ -29,6 +30,7 @@ struct ViewerOptions {
   std::vector<store::TypeRadiusSpec> type_radii;  // --type-radius (in memory only)
   std::vector<store::Slice> slices;               // --slice (the keys , . / move and invert the last one)
   shading::AoSettings ao;                         // --ao, --ao-radius, --ao-strength
+  render::CellMode cell = render::CellMode::automatic;  // --cell, resolved against each store (render.cell_color_srgb, cell_width_px: --cell-color, --cell-width)
   render::StreamSettings stream;
   std::string camera;       // --camera spec, empty: default view `view`
   int view = 0;

@@ -331,7 +331,7 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
   nlohmann::json pick_answers = nlohmann::json::array();
   if (!picks.empty()) {
     render::Camera cam = camera;
-    render::fit_clip_planes(cam, renderer->bounds());
+    render::fit_clip_planes(cam, renderer->clip_bounds());
     for (const glm::uvec2 px : picks) {
       auto p = render::pick_particle(*reader, cam, o.width, o.height, glm::dvec2(px) + 0.5, so);
       if (!p.ok()) {
@@ -351,7 +351,7 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
   if (o.visible_reference) {
     MDS_ASSIGN_OR_RETURN(std::vector<float> depth, renderer->read_last_depth());
     render::Camera cam = camera;
-    render::fit_clip_planes(cam, renderer->bounds());
+    render::fit_clip_planes(cam, renderer->clip_bounds());
     MDS_ASSIGN_OR_RETURN(visible, render::visible_set(*reader, cam, renderer->width(), renderer->height(), depth, true));
     if (!streaming && renderer->cull_loop()) {
       MDS_ASSIGN_OR_RETURN(std::vector<uint32_t> mc, renderer->cull_loop()->read_meshlet_classes());

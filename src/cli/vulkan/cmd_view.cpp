@@ -38,6 +38,9 @@ Status run_view(ViewCliOptions& o) {
   v.type_radii = look.type_radii;
   v.slices = look.slices;
   v.ao = look.ao;
+  v.cell = look.cell;
+  v.render.cell_color_srgb = look.cell_color_srgb;
+  v.render.cell_width_px = look.cell_width_px;
   if (o.v.fov_y_deg <= 0.0 || o.v.fov_y_deg >= 180.0)
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.v.fov_y_deg);
   v.render.width = o.width;

@@ -148,6 +148,16 @@ void add_appearance_options(CLI::App& sub, AppearanceOptions& o) {
   sub.add_option("--ao-strength", o.ao_strength, "Ambient occlusion strength (SAO's sigma; 0: none)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  sub.add_option("--cell", o.cell,
+                 "Draw the simulation cell's edges (the box the input described: LAMMPS BOX BOUNDS, extended XYZ "
+                 "Lattice, H5MD box, MMPLD bounding box), depth tested against the particles, as OVITO does: auto "
+                 "(where the store has a cell), on (an error without one) or off")
+      ->capture_default_str();
+  sub.add_option("--cell-color", o.cell_color, "Colour of the cell's edges, r,g,b (sRGB, 0..1) or #rrggbb")
+      ->capture_default_str();
+  sub.add_option("--cell-width", o.cell_width, "Width of the cell's edges in pixels")
+      ->check(CLI::Range(0.5f, 64.0f))
+      ->capture_default_str();
 }
 
 Result<Appearance> parse_appearance_options(const AppearanceOptions& o) {
@@ -192,6 +202,13 @@ Result<Appearance> parse_appearance_options(const AppearanceOptions& o) {
   MDS_ASSIGN_OR_RETURN(a.ao.mode, render::parse_ao_mode(o.ao));
   a.ao.radius = o.ao_radius;
   a.ao.strength = o.ao_strength;
+  auto cell = render::parse_cell_mode(o.cell);
+  if (!cell) return make_error(Errc::invalid_argument, "--cell {}", cell.error().message);
+  a.cell = *cell;
+  auto cc = store::parse_srgb(o.cell_color);
+  if (!cc) return make_error(Errc::invalid_argument, "--cell-color {}", cc.error().message);
+  a.cell_color_srgb = {cc->r, cc->g, cc->b};
+  a.cell_width_px = o.cell_width;
   return a;
 }
 
@@ -209,6 +226,9 @@ Status apply_appearance(const Appearance& a, const store::StoreReader& reader, r
   rs.ao_radius = choice.on ? choice.radius : 0.0;
   rs.ao_strength = choice.strength;
   if (ao) *ao = choice;
+  MDS_ASSIGN_OR_RETURN(rs.cell, render::resolve_cell(a.cell, reader));
+  rs.cell_color_srgb = a.cell_color_srgb;
+  rs.cell_width_px = a.cell_width_px;
   return {};
 }
 

@@ -12,6 +12,7 @@
 
 #include "core/result.h"
 #include "render/ambient_occlusion_setup.h"
+#include "render/cell_lines.h"
 #include "render/renderer.h"
 #include "render/scene.h"
 #include "store/slice.h"
@@ -60,6 +61,9 @@ struct AppearanceOptions {
   std::string ao = "off";                      // --ao off|on|auto (shading/ambient_occlusion.h)
   double ao_radius = 0.0;                      // --ao-radius (0: 3 x the largest particle radius)
   double ao_strength = 1.0;                    // --ao-strength
+  std::string cell = "auto";                   // --cell off|on|auto (render/cell_lines.h)
+  std::string cell_color = "0.75,0.75,0.75";   // --cell-color r,g,b or #rrggbb
+  float cell_width = 1.5f;                     // --cell-width, pixels
 };
 
 struct Appearance {
@@ -70,6 +74,9 @@ struct Appearance {
   std::vector<store::Slice> slices;     // --slice
   render::ColorBy color_by;             // --color-by, --color-range, --colormap
   shading::AoSettings ao;               // --ao, --ao-radius, --ao-strength
+  render::CellMode cell = render::CellMode::automatic;  // --cell
+  glm::vec3 cell_color_srgb{0.75f};     // --cell-color
+  float cell_width_px = 1.5f;           // --cell-width
 };
 
 // Adds --background, --color-by, --color-range, and --type-color, --type-radius, --hide-type and
@@ -81,7 +88,8 @@ Result<Appearance> parse_appearance_options(const AppearanceOptions& o);
 // Sets rs.background_srgb, rs.color_by and rs.type_colors_srgb, the colours resolved against the store's
 // types; Errc::invalid_argument naming --type-color for a key that names no type.
 // Also resolves --color-by NAME against the store's property (render::resolve_color_by), and
-// --ao against the store (rs.ao_radius, rs.ao_strength; what was chosen in *ao when given).
+// --ao against the store (rs.ao_radius, rs.ao_strength; what was chosen in *ao when given), and
+// --cell (rs.cell: the store's cell unless off; --cell on without one is Errc::invalid_argument).
 Status apply_appearance(const Appearance& a, const store::StoreReader& reader, render::RenderSettings& rs,
                         render::AoChoice* ao = nullptr);
 // What render::load_scene keeps and how large it draws it (--hide-type, --type-radius, --slice):
