@@ -17,6 +17,7 @@
 
 #include "readers/h5md_module.h"
 #include "readers/reader_factories.h"
+#include "readers/wrap_reader.h"
 
 namespace mds {
 namespace {
@@ -164,7 +165,9 @@ Result<InputFormat> detect_format(const std::filesystem::path& path) {
                     name);
 }
 
-Result<std::unique_ptr<ParticleReader>> open_reader(const std::filesystem::path& path, const ReaderOptions& options) {
+namespace {
+
+Result<std::unique_ptr<ParticleReader>> open_format_reader(const std::filesystem::path& path, const ReaderOptions& options) {
   InputFormat f = options.format;
   if (f == InputFormat::automatic) {
     MDS_ASSIGN_OR_RETURN(f, detect_format(path));
@@ -187,6 +190,14 @@ Result<std::unique_ptr<ParticleReader>> open_reader(const std::filesystem::path&
     case InputFormat::automatic: break;
   }
   return make_error(Errc::internal, "{}: no reader for format {}", path.string(), input_format_name(f));
+}
+
+}  // namespace
+
+Result<std::unique_ptr<ParticleReader>> open_reader(const std::filesystem::path& path, const ReaderOptions& options) {
+  MDS_ASSIGN_OR_RETURN(std::unique_ptr<ParticleReader> r, open_format_reader(path, options));
+  if (options.wrap) return wrap_reader(std::move(r), path.string());
+  return r;
 }
 
 Result<std::vector<FrameEntry>> list_frames(const std::filesystem::path& path, const ReaderOptions& options) {

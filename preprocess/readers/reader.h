@@ -117,6 +117,9 @@ struct ReaderOptions {
   // global colour; not the FLOAT_I / DOUBLE_I intensities) and extended XYZ's `color:R:3`
   // (OVITO's "Color", channels in [0, 1]). A reader whose input has none fails at open.
   bool color = false;
+  // Wrap the positions into the frame's periodic cell (`convert --wrap`; readers/wrap_reader.h).
+  // An input without a cell, or with one that is flat or periodic along no vector, fails at open.
+  bool wrap = false;
 };
 
 // What is known about the frame after open (before reading particles).

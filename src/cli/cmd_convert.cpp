@@ -34,6 +34,7 @@ struct ConvertArgs {
   std::string h5md_group;
   std::string property;
   bool color = false;
+  bool wrap = false;
   uint32_t node_size = 10000;
   uint32_t meshlet_size = 16;
   std::string meshlet_builder = "pcl";
@@ -72,6 +73,7 @@ nlohmann::json report_json(const convert::ConvertReport& r, const convert::Conve
   j["density_dims"] = {r.density_dims[0], r.density_dims[1], r.density_dims[2]};
   j["per_particle_radius"] = r.per_particle_radius;
   j["color"] = r.color;
+  j["wrapped"] = o.reader.wrap;
   j["cell"] = r.cell ? cell_json(*r.cell) : nlohmann::json(nullptr);
   if (!r.property.empty()) j["property"] = {{"name", r.property}, {"min", r.property_min}, {"max", r.property_max}};
   j["spilled"] = r.spilled;
@@ -156,6 +158,7 @@ Result<convert::ConvertOptions> to_options(const ConvertArgs& a) {
   o.reader.h5md_group = a.h5md_group;
   o.reader.property = a.property;
   o.reader.color = a.color;
+  o.reader.wrap = a.wrap;
   o.node_size = a.node_size;
   o.meshlet_size = a.meshlet_size;
   auto mb = convert::parse_meshlet_builder(a.meshlet_builder);
@@ -267,6 +270,10 @@ void setup_convert(CLI::App& sub, int& exit_code) {
   sub.add_flag("--color", args->color,
                "Keep per-particle colours (RGBA, 8 bits a channel; render draws them): MMPLD's colours (UINT8/FLOAT/USHORT "
                "RGB(A), or a list's global colour) or extended XYZ's color:R:3 (OVITO's Color, channels in [0, 1])");
+  sub.add_flag("--wrap", args->wrap,
+               "Wrap the positions into the periodic simulation cell (along its periodic vectors, as OVITO's Wrap at "
+               "periodic boundaries; unwrapped coordinates such as LAMMPS' xu yu zu come out as LAMMPS wraps them); "
+               "an input without a periodic cell is an error");
   sub.add_option("--node-size", args->node_size, "Maximum particles per node (1..65535)")->capture_default_str();
   sub.add_option("--meshlet-size", args->meshlet_size, "Particles per meshlet (1..255)")->capture_default_str();
   sub.add_option("--meshlet-builder", args->meshlet_builder,
