@@ -608,6 +608,30 @@ TEST_F(ViewerWindow, ColourKeysShowWhatRenderDrawsWithThoseOptions) {
   expect_screenshot_matches(shot, ref, W, H);
 }
 
+// The key U turns the simulation cell on and off in place: started with --cell off, one press
+// shows what `render` draws by default (the store's cell), streaming through a budget; a second
+// and third press off and on again.
+TEST_F(ViewerWindow, CellKeyShowsWhatRenderDrawsWithTheCell) {
+  if (!have_program("xdotool")) GTEST_SKIP() << "xdotool is not installed (apt-get install xdotool)";
+  const uint32_t W = 160, H = 120;
+  const fs::path shot = dir_ / "view.png", ref = dir_ / "render.png", off = dir_ / "off.png";
+  const std::string look =
+      fmt::format("--width {} --height {} --spp 1 --no-cull --gpu-budget 256KiB --camera 60,-30,70,15,15,15", W, H);
+  std::string said;
+  ASSERT_NO_FATAL_FAILURE(said = view_keys_then_quit(
+                              env(), store() + " " + look + " --cell off --no-hud --screenshot " + shot.string(),
+                              {"u", "u", "u"}, dir_));
+  const size_t on1 = said.find("mdstream view: --cell on\n");
+  const size_t off1 = said.find("mdstream view: --cell off\n", on1 == std::string::npos ? 0 : on1);
+  const size_t on2 = said.find("mdstream view: --cell on\n", off1 == std::string::npos ? 0 : off1);
+  EXPECT_TRUE(on1 != std::string::npos && off1 != std::string::npos && on2 != std::string::npos) << said;
+  ASSERT_EQ(mdstream(fmt::format("render {} -o {} {}", store(), ref.string(), look)), 0) << err();
+  expect_screenshot_matches(shot, ref, W, H);
+  // The reference differs from the image without the cell: the test sees the lines.
+  ASSERT_EQ(mdstream(fmt::format("render {} -o {} {} --cell off", store(), off.string(), look)), 0) << err();
+  EXPECT_NE(slurp(ref), slurp(off));
+}
+
 // Streaming, the pool holds the particles' own colours only while they are drawn: V out of them
 // (to x) and, four presses later, back into them makes the cache again each time, and the window
 // then shows what `render` draws with its default (the colours) through the same budget.

@@ -388,15 +388,8 @@ Status Renderer::Impl::create_pipelines() {
     g.depth_format = kDepthFormat;
   }
   MDS_ASSIGN_OR_RETURN(sphere_pipe, ctx->pipelines().graphics(layout, g));
-  if (settings.cell) {  // the simulation cell's edges: quads, into the same targets as the spheres
-    vk::GraphicsPipelineDesc gc = g;
-    gc.vertex_shader = "cell_lines.vert";
-    gc.vertex_spec = nullptr;
-    gc.fragment_shader = vis_route ? "cell_lines_vis.frag" : "cell_lines.frag";
-    MDS_ASSIGN_OR_RETURN(cell_pipe, ctx->pipelines().graphics(layout, gc));
-  } else {
-    cell_pipe = VK_NULL_HANDLE;
-  }
+  cell_pipe = VK_NULL_HANDLE;
+  if (settings.cell) MDS_TRY(create_cell_pipeline());
   if (point_sprites) {
     vk::GraphicsPipelineDesc gp = g;
     gp.vertex_shader = "sphere_point.vert";
@@ -404,6 +397,23 @@ Status Renderer::Impl::create_pipelines() {
     gp.topology = VK_PRIMITIVE_TOPOLOGY_POINT_LIST;
     MDS_ASSIGN_OR_RETURN(point_pipe, ctx->pipelines().graphics(layout, gp));
   }
+  return {};
+}
+
+// The simulation cell's edges (cell_lines.vert): quads into the same targets as the spheres'.
+Status Renderer::Impl::create_cell_pipeline() {
+  vk::GraphicsPipelineDesc g;
+  g.vertex_shader = "cell_lines.vert";
+  if (vis_route) {  // no attachments: the fragments write the visibility buffer
+    g.fragment_shader = "cell_lines_vis.frag";
+    g.depth_test = false;
+    g.depth_write = false;
+  } else {
+    g.fragment_shader = "cell_lines.frag";
+    g.color_formats = {kColorFormat};
+    g.depth_format = kDepthFormat;
+  }
+  MDS_ASSIGN_OR_RETURN(cell_pipe, ctx->pipelines().graphics(layout, g));
   return {};
 }
 

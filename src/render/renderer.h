@@ -465,6 +465,11 @@ class Renderer {
   // (the property or the colours asked of a store without them); Errc::unsupported for the
   // colours on a streaming renderer whose pool holds none (StreamSettings::colors: re-create it).
   Status set_color_by(const ColorBy& color_by);
+  // The simulation cell drawn (RenderSettings::cell; none: not drawn), in place: the
+  // accumulation restarts, and the view restarts at the next step() with its clip planes fitted
+  // to the new clip_bounds() (culling starts again; the cache stays). Errc::invalid_argument for
+  // a cell with a non-finite value.
+  Status set_cell(const std::optional<SimulationCell>& cell);
   // The sample-area model (culling::CullSettings::coverage), in place like set_c_occ: with
   // culling, the current view restarts at the next step() with the new model.
   Status set_coverage(culling::Coverage coverage);

@@ -213,6 +213,7 @@ struct Renderer::Impl {
   void record_small_raster(VkCommandBuffer cmd);
   void record_sprite_draws(VkCommandBuffer cmd);
   void record_draw_scope(VkCommandBuffer cmd, bool clear, bool last);
+  Status create_cell_pipeline();  // cell_pipe for the current route
 };
 
 // Errc::invalid_argument for --color-by property on a store without a property, or --color-by

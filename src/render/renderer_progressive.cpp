@@ -509,6 +509,21 @@ Status Renderer::set_color_by(const ColorBy& c) {
   return {};
 }
 
+Status Renderer::set_cell(const std::optional<SimulationCell>& cell) {
+  Impl& m = *impl_;
+  if (cell && !cell->finite())
+    return make_error(Errc::invalid_argument, "simulation cell with a non-finite value: {}", describe(*cell));
+  m.settings.cell = cell;
+  m.clip_bounds = with_cell(m.bounds, cell);
+  if (cell && m.cell_pipe == VK_NULL_HANDLE) MDS_TRY(m.create_cell_pipeline());
+  m.samples = 0;  // the next frame clears the accumulation
+  if (m.has_view) {  // the clip planes fitted again: the view restarts at the next step()
+    m.view_camera.near = m.view_camera.far = 0.0;
+    m.view_stale = true;
+  }
+  return {};
+}
+
 Status Renderer::set_spp(uint32_t spp) {
   if (spp == 0) return make_error(Errc::invalid_argument, "spp {}: expected >= 1", spp);
   impl_->settings.spp = spp;

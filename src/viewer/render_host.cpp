@@ -238,6 +238,17 @@ Status RenderHost::set_color_by(const render::ColorBy& color_by, bool* remade) {
   return {};
 }
 
+Status RenderHost::set_cell_shown(bool on) {
+  if (on && !reader_->cell())
+    return make_error(Errc::invalid_argument, "{} has no simulation cell", reader_->path().filename().string());
+  // On: each store's own cell where it has one (a series' frames may differ), as --cell auto.
+  const std::optional<SimulationCell> cell = on ? reader_->cell() : std::nullopt;
+  if (renderer_) MDS_TRY(renderer_->set_cell(cell));
+  cell_mode_ = on ? render::CellMode::automatic : render::CellMode::off;
+  settings_.cell = cell;
+  return {};
+}
+
 Status RenderHost::set_slices(const std::vector<store::Slice>& slices) {
   MDS_ASSIGN_OR_RETURN(Loaded loaded, load(*reader_, slices));  // the current scene stays until this worked
   std::vector<store::Slice> before = stream_.slices;

@@ -44,6 +44,11 @@ class RenderHost {
   // the renderer is made again with a new cache (the pool holds colours only where they are
   // drawn; *remade says so: the new renderer needs a view). On an error the choice before stays.
   Status set_color_by(const render::ColorBy& color_by, bool* remade = nullptr);
+  // The simulation cell on or off (the viewer's key U; --cell): on draws the cell of each store
+  // shown (Renderer::set_cell, in place), off none. Errc::invalid_argument turning it on when the
+  // store shown has no cell; the choice before then stays.
+  Status set_cell_shown(bool on);
+  bool cell_shown() const { return settings_.cell.has_value(); }
   const std::vector<store::Slice>& slices() const { return stream_.slices; }  // in memory too
   // A series: which of its picked frames (--series-frames) is shown. set_series_position loads
   // that frame's store like set_slices (the slices and the camera stay); on an error the frame

@@ -301,6 +301,14 @@ void Viewer::handle_keys(const InputFrame& in, bool& recreate, bool& quit, doubl
         break;
       case GLFW_KEY_SLASH: slice_invert = !slice_invert; break;
       case GLFW_KEY_V: apply_color_key(false); break;
+      case GLFW_KEY_U: {  // the simulation cell on/off (--cell; render/cell_lines.h)
+        const bool on = !host_->cell_shown();
+        Status st = host_->set_cell_shown(on);
+        idle_ = false;
+        if (st.ok()) std::fprintf(stderr, "mdstream view: --cell %s\n", on ? "on" : "off");
+        say(!st.ok() ? st.error().message : on ? std::string("simulation cell on") : std::string("simulation cell off"));
+        break;
+      }
       case GLFW_KEY_M: apply_color_key(true); break;
       case GLFW_KEY_LEFT:
       case GLFW_KEY_RIGHT:
