@@ -42,7 +42,7 @@ TEST(CellWrap, FractionalCoordinatesModuloOne) {
   // A point 2a - b + 3c away from one inside comes back to it; one inside keeps its bits.
   const auto inside = c.at(0.25, 0.5, 0.75);
   double x = inside[0] + 2 * 10.0 - 3.0 + 3 * -2.0, y = inside[1] - 8.0 + 3 * 1.5, z = inside[2] + 3 * 6.0;
-  w->apply(x, y, z);
+  EXPECT_TRUE(w->apply(x, y, z));
   EXPECT_NEAR(x, inside[0], 1e-12);
   EXPECT_NEAR(y, inside[1], 1e-12);
   EXPECT_NEAR(z, inside[2], 1e-12);
@@ -56,6 +56,11 @@ TEST(CellWrap, FractionalCoordinatesModuloOne) {
   double fx = far[0], fy = far[1], fz = far[2];
   w->apply(fx, fy, fz);
   EXPECT_NEAR(fx, near[0], 1e-12);
+  // More than 2^50 cells away: refused, the point unchanged (whole-vector shifts would lose it).
+  double hx = 1e20, hy = 0.0, hz = 0.0;
+  EXPECT_FALSE(w->apply(hx, hy, hz));
+  EXPECT_EQ(hx, 1e20);
+  EXPECT_TRUE(w->apply(fx, fy, fz));
   // Along a vector that is not periodic nothing moves.
   SimulationCell open = c;
   open.periodic[2] = false;

@@ -22,12 +22,15 @@ struct CellWrap {
   SimulationCell cell;
   double inverse[3][3];  // A^-1, row-major: f_i = sum_k inverse[i][k] (x_k - o_k)
   static Result<CellWrap> make(const SimulationCell& cell, const std::string& file);
-  // Wraps one point in place (finite input stays finite).
-  void apply(double& x, double& y, double& z) const;
+  // Wraps one point in place; false (the point unchanged) when it lies more than 2^50 cells
+  // away along a vector (or a fractional coordinate is not finite), where whole-vector shifts
+  // lose the position's digits. Finite input stays finite.
+  bool apply(double& x, double& y, double& z) const;
 };
 
 // `inner` with every batch wrapped into its frame's cell (FrameInfo::cell). Errc::invalid_argument
-// naming `file` when the frame has no cell, or the cell cannot wrap (CellWrap::make).
+// naming `file` when the frame has no cell, or the cell cannot wrap (CellWrap::make); read() is
+// Errc::range naming the file and the position for a point apply() refuses.
 Result<std::unique_ptr<ParticleReader>> wrap_reader(std::unique_ptr<ParticleReader> inner, const std::string& file);
 
 }  // namespace mds
