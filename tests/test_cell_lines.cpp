@@ -214,6 +214,25 @@ TEST_F(CellLines, ACameraInsideTheCellDrawsLinesOnly) {
   EXPECT_LT(img[4 * (size_t(H / 2) * W + W / 2)], 0.02f);
 }
 
+// A series whose frames do not all have a cell: --cell on is refused before any frame is
+// written, and auto draws no cell in any frame (the cell does not come and go).
+TEST_F(CellLines, ASeriesDrawsTheCellOnlyWhenEveryFrameHasOne) {
+  const fs::path series = tmp_.p / "mixed.series";
+  std::ofstream(series) << R"({"file-series-version": "1.0", "files": [{"name": "box.mds", "time": 0}, )"
+                        << R"({"name": "plain.mds", "time": 1}]})";
+  const std::string look = " --width 64 --height 48 --spp 2 --no-cull --camera 24,18,30,5,5,5";
+  const fs::path frames = tmp_.p / "f_%d.exr";
+  EXPECT_EQ(run_mdstream("render " + series.string() + " -o " + frames.string() + look + " --cell on"), 2);
+  EXPECT_THAT(cli_stderr(), HasSubstr("--cell on: not every picked frame of " + series.string() + " has a simulation cell"));
+  EXPECT_FALSE(fs::exists(tmp_.p / "f_0.exr"));
+  ASSERT_EQ(run_mdstream("render " + series.string() + " -o " + frames.string() + look), 0) << cli_stderr();
+  const fs::path alone = tmp_.p / "alone.exr";
+  ASSERT_EQ(run_mdstream("render " + store_ + " -o " + alone.string() + look + " --cell off"), 0) << cli_stderr();
+  const std::vector<float> a = load_exr(tmp_.p / "f_0.exr"), b = load_exr(alone);
+  ASSERT_EQ(a.size(), size_t(4) * 64 * 48);
+  EXPECT_EQ(a, b);
+}
+
 TEST_F(CellLines, CellOptions) {
   const fs::path out = tmp_.p / "x.png";
   EXPECT_EQ(run_mdstream("render " + plain_ + " -o " + out.string() + " --width 32 --height 24 --spp 1 --cell on"), 2);

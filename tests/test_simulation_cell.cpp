@@ -184,7 +184,34 @@ TEST_F(CellStore, CorruptedAndTruncatedCellSectionsAreNamed) {
     SCOPED_TRACE(cut);
     auto b = good;
     b.resize(b.size() - cut);
-    EXPECT_THAT(open_error(b), HasSubstr("cell"));
+    const std::string e = open_error(b);
+    EXPECT_THAT(e, HasSubstr("field cell.bytes at byte 424"));
+    EXPECT_THAT(e, HasSubstr("runs past the end"));
+  }
+  {  // a reserved word of the record set
+    auto b = good;
+    b[at + 100 + 8] = 1;
+    store::FileHeader hh = h;
+    hh.cell.hash = store::hash_bytes({b.data() + at, 128});
+    reseal(b, hh);
+    EXPECT_THAT(open_error(b), HasSubstr("reserved at byte 108 of the record is not zero"));
+  }
+  {  // a value beyond float range (a renderer could not draw it)
+    auto b = good;
+    const double huge = 1e300;
+    std::memcpy(b.data() + at + 24, &huge, 8);
+    store::FileHeader hh = h;
+    hh.cell.hash = store::hash_bytes({b.data() + at, 128});
+    reseal(b, hh);
+    EXPECT_THAT(open_error(b), HasSubstr("vectors[0][0] at byte 24 of the record is 1e+300, beyond"));
+  }
+  {  // the flag without the section
+    auto b = good;
+    b.resize(b.size() - 128);
+    store::FileHeader hh = h;
+    hh.cell = {};
+    reseal(b, hh);
+    EXPECT_THAT(open_error(b), HasSubstr("field cell.offset at byte 416: cell section at byte 0, expected"));
   }
   {  // a wrong size in the header
     auto b = good;

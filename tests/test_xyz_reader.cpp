@@ -176,6 +176,12 @@ TEST_F(XyzReaderTest, OriginAndPbcOfTheCell) {
   auto e = read_all(open_xyz_reader(bad, frame_opt(0)));
   ASSERT_TRUE(e.error.has_value());
   EXPECT_NE(e.error->message.find("badpbc.xyz:2: bad pbc value 'T maybe F'"), std::string::npos) << e.error->message;
+  const fs::path four = scratch("fourpbc.xyz",
+                                "1\nLattice=\"4 0 0 0 5 0 0 0 6\" pbc=\"T T T F\" Properties=species:S:1:pos:R:3\n"
+                                "C 0 0 0\n");
+  auto e4 = read_all(open_xyz_reader(four, frame_opt(0)));
+  ASSERT_TRUE(e4.error.has_value());
+  EXPECT_NE(e4.error->message.find("fourpbc.xyz:2: bad pbc value 'T T T F'"), std::string::npos) << e4.error->message;
 }
 
 TEST_F(XyzReaderTest, MultiFrameAndGzip) {

@@ -213,6 +213,9 @@ Result<bool> read_header(TextSource& src, XyzHeader& h, const std::string& after
         else return make_error(Errc::format, "{}:{}: bad pbc value '{}' (three of T/F)", file, cline, excerpt(p->second));
         ps.remove_prefix(k);
       }
+      while (!ps.empty() && (is_blank(ps.front()) || ps.front() == ',')) ps.remove_prefix(1);
+      if (!ps.empty())
+        return make_error(Errc::format, "{}:{}: bad pbc value '{}' (three of T/F)", file, cline, excerpt(p->second));
     }
     for (int d = 0; d < 3; ++d) h.cell.periodic[d] = pbc[d];
     h.has_box = true;

@@ -1,5 +1,5 @@
 // The simulation cell (core/cell.h) in the commands' reports: one JSON object (`info --json`,
-// `convert --json-report`, render's stats) and one line of text.
+// `convert --json-report`) and one line of text.
 #pragma once
 
 #include <string>

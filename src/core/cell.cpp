@@ -19,9 +19,9 @@ SimulationCell SimulationCell::box(const double lo[3], const double hi[3]) {
 
 bool SimulationCell::finite() const {
   for (int d = 0; d < 3; ++d) {
-    if (!std::isfinite(origin[d])) return false;
+    if (!(std::abs(origin[d]) <= kMaxMagnitude)) return false;  // also NaN
     for (int k = 0; k < 3; ++k)
-      if (!std::isfinite(vectors[d][k])) return false;
+      if (!(std::abs(vectors[d][k]) <= kMaxMagnitude)) return false;
   }
   return true;
 }

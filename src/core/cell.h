@@ -18,8 +18,10 @@ struct SimulationCell {
 
   // An axis-aligned cell [lo, hi].
   static SimulationCell box(const double lo[3], const double hi[3]);
-  // Every value finite.
+  // Every value finite and at most kMaxMagnitude in size (float range, with room for the
+  // renderer's arithmetic: a cell beyond it is not kept).
   bool finite() const;
+  static constexpr double kMaxMagnitude = 1e30;
   // The point origin + f0 a + f1 b + f2 c.
   std::array<double, 3> at(double f0, double f1, double f2) const;
   // Corner k (bit 0: + a, bit 1: + b, bit 2: + c).

@@ -36,6 +36,8 @@ Result<SeriesLook> series_look(const store::Series& series, std::span<const int6
     look.has_property = first ? prop : look.has_property && prop;
     const bool color = (h.flags & store::kFlagColor) != 0;
     look.has_color = first ? color : look.has_color && color;
+    const bool cell = (h.flags & store::kFlagCell) != 0;
+    look.has_cell = first ? cell : look.has_cell && cell;
     first = false;
   }
   return look;
@@ -45,6 +47,13 @@ ColorBy series_color_by(const ColorBy& c, const SeriesLook& look) {
   ColorBy r = c;
   if (c.axis == kColorByAuto) r.axis = look.has_color ? kColorByColor : -1;
   return r;
+}
+
+Result<CellMode> series_cell_mode(CellMode mode, const SeriesLook& look, const std::string& series) {
+  if (mode == CellMode::on && !look.has_cell)
+    return make_error(Errc::invalid_argument, "--cell on: not every picked frame of {} has a simulation cell", series);
+  if (mode == CellMode::automatic) return look.has_cell ? CellMode::on : CellMode::off;
+  return mode;
 }
 
 glm::dvec2 series_color_range(const ColorBy& c, const SeriesLook& look) {

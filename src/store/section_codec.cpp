@@ -145,11 +145,18 @@ Result<SimulationCell> decode_cell(const CellRecord& r) {
     if (!std::isfinite(r.origin[d]))
       return make_error(Errc::format, "origin[{}] at byte {} of the record is not finite", d,
                         offsetof(CellRecord, origin) + 8 * d);
+    if (std::abs(r.origin[d]) > SimulationCell::kMaxMagnitude)
+      return make_error(Errc::format, "origin[{}] at byte {} of the record is {}, beyond {}", d,
+                        offsetof(CellRecord, origin) + 8 * d, r.origin[d], SimulationCell::kMaxMagnitude);
     c.origin[d] = r.origin[d];
     for (int k = 0; k < 3; ++k) {
       if (!std::isfinite(r.vectors[d][k]))
         return make_error(Errc::format, "vectors[{}][{}] at byte {} of the record is not finite", d, k,
                           offsetof(CellRecord, vectors) + 8 * (3 * d + k));
+      if (std::abs(r.vectors[d][k]) > SimulationCell::kMaxMagnitude)
+        return make_error(Errc::format, "vectors[{}][{}] at byte {} of the record is {}, beyond {}", d, k,
+                          offsetof(CellRecord, vectors) + 8 * (3 * d + k), r.vectors[d][k],
+                          SimulationCell::kMaxMagnitude);
       c.vectors[d][k] = r.vectors[d][k];
     }
     c.periodic[d] = (r.periodic >> d) & 1u;

@@ -410,7 +410,8 @@ Status check_summary(const std::string& name, const StoreSummary& sum) {
   if (sum.flags & ~kKnownFlags) return make_error(Errc::internal, "{}: unknown header flags {:#x}", name, sum.flags);
   if ((sum.flags & kFlagCell) && !sum.cell) return make_error(Errc::internal, "{}: flag kFlagCell without a cell", name);
   if (sum.cell && !sum.cell->finite())
-    return make_error(Errc::internal, "{}: cell with a non-finite value: {}", name, describe(*sum.cell));
+    return make_error(Errc::internal, "{}: cell with a non-finite value or one beyond {}: {}", name,
+                      SimulationCell::kMaxMagnitude, describe(*sum.cell));
   if (sum.flags & kFlagProperty) {
     if (sum.property_name.empty() || sum.property_name.size() >= kPropertyNameBytes ||
         sum.property_name.find('\0') != std::string::npos)

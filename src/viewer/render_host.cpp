@@ -42,6 +42,7 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
                         "--color-by color: not every picked frame of {} has per-particle colours (convert them with "
                         "--color)",
                         options.store);
+    MDS_ASSIGN_OR_RETURN(h->cell_mode_, render::series_cell_mode(h->cell_mode_, h->look_, options.store));
     h->series_frames_ = std::move(*picked);
     store = series.frames[size_t(h->series_frames_.front())].path.string();
     h->series_ = std::move(series);
@@ -239,12 +240,14 @@ Status RenderHost::set_color_by(const render::ColorBy& color_by, bool* remade) {
 }
 
 Status RenderHost::set_cell_shown(bool on) {
+  if (on && series_ && !look_.has_cell)
+    return make_error(Errc::invalid_argument, "not every picked frame of {} has a simulation cell", store_arg_);
   if (on && !reader_->cell())
     return make_error(Errc::invalid_argument, "{} has no simulation cell", reader_->path().filename().string());
-  // On: each store's own cell where it has one (a series' frames may differ), as --cell auto.
+  // On: each store's own cell (every frame of a series has one).
   const std::optional<SimulationCell> cell = on ? reader_->cell() : std::nullopt;
   if (renderer_) MDS_TRY(renderer_->set_cell(cell));
-  cell_mode_ = on ? render::CellMode::automatic : render::CellMode::off;
+  cell_mode_ = on ? render::CellMode::on : render::CellMode::off;
   settings_.cell = cell;
   return {};
 }

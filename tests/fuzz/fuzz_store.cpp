@@ -4,7 +4,8 @@
 // Random bytes rarely get past the header hash, so for inputs of odd length the harness first
 // recomputes every hash it can locate (payloads, sections, header): those inputs exercise the
 // semantic checks, even-length inputs the checksum paths.
-// Seed corpus: tests/data/store/golden_v2.mds and a store with a cell section (kFlagCell). Built only with -DMDSTREAM_FUZZ=ON (clang).
+// Seed corpus: tests/data/store/golden_v2.mds, and a store with a cell section (kFlagCell) that
+// `convert --node-size 2` writes from an extended XYZ with a Lattice. Built only with -DMDSTREAM_FUZZ=ON (clang).
 #include <cstring>
 #include <vector>
 
@@ -34,7 +35,7 @@ void fix_hashes(std::vector<uint8_t>& b) {
   }
   for (auto& s : h.sections)
     if (inside(s.offset, s.bytes)) s.hash = hash_bytes({b.data() + s.offset, size_t(s.bytes)});
-  if (inside(h.cell.offset, h.cell.bytes)) h.cell.hash = hash_bytes({b.data() + h.cell.offset, size_t(h.cell.bytes)});
+  if ((h.flags & kFlagCell) && inside(h.cell.offset, h.cell.bytes)) h.cell.hash = hash_bytes({b.data() + h.cell.offset, size_t(h.cell.bytes)});
   h.header_hash = 0;
   h.header_hash = hash_bytes({reinterpret_cast<const uint8_t*>(&h), sizeof(h)});
   std::memcpy(b.data(), &h, sizeof(h));

@@ -218,7 +218,10 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
   render::AoChoice ao;
   Appearance frame_look = look;
-  if (fs.look) frame_look.color_by = render::series_color_by(look.color_by, *fs.look);  // one choice for every frame
+  if (fs.look) {  // one choice for every frame
+    frame_look.color_by = render::series_color_by(look.color_by, *fs.look);
+    MDS_ASSIGN_OR_RETURN(frame_look.cell, render::series_cell_mode(look.cell, *fs.look, o.store));
+  }
   MDS_TRY(apply_appearance(frame_look, *reader, rs, &ao));
   if (*corner != overlay::LegendCorner::off && rs.color_by.by_color())
     return make_error(Errc::invalid_argument,
@@ -588,6 +591,10 @@ Status run_render_series(const RenderOptions& o) {
                       "--color-by color: not every picked frame of {} has per-particle colours (convert them with "
                       "--color)",
                       o.store);
+  {  // --cell on needs a cell in every picked frame: refused before any frame is written
+    auto cell_mode = render::parse_cell_mode(o.look.cell);
+    if (cell_mode.ok()) MDS_TRY(render::series_cell_mode(*cell_mode, look, o.store));
+  }
   if (o.fov <= 0.0 || o.fov >= 180.0)
     return make_error(Errc::invalid_argument, "--fov {}: expected degrees in (0, 180)", o.fov);
   render::Camera camera;
