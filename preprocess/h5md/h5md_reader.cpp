@@ -195,8 +195,11 @@ Result<std::vector<double>> read_box_element(hid_t file, const std::string& file
   return v;
 }
 
-// The box group's `boundary` attribute (H5MD 1.1: "periodic" or "none" per dimension), as
-// fixed- or variable-length strings. Absent: not periodic.
+// The box group's `boundary` attribute (H5MD 1.1: "periodic" or "none" per dimension). Absent:
+// not periodic. Fixed-length strings are read. Variable-length ones (MDAnalysis writes those) are
+// not: HDF5 1.10.8 follows their global-heap references without checking the object index and
+// crashes on a corrupted one (found by fuzz_h5md on 2026-12-07), so such a box counts as periodic
+// along all three, as the boxes MD codes write are.
 Status read_boundary(hid_t file, const std::string& file_name, const std::string& box, bool periodic[3]) {
   for (int d = 0; d < 3; ++d) periodic[d] = false;
   if (H5Aexists_by_name(file, box.c_str(), "boundary", H5P_DEFAULT) <= 0) return Status::success();
@@ -213,13 +216,9 @@ Status read_boundary(hid_t file, const std::string& file_name, const std::string
   std::string vals[3];
   Hid mem(H5Tcopy(H5T_C_S1), H5Tclose);
   H5Tset_cset(mem.get(), H5Tget_cset(type.get()));
-  if (H5Tis_variable_str(type.get()) > 0) {
-    H5Tset_size(mem.get(), H5T_VARIABLE);
-    char* ptrs[3] = {nullptr, nullptr, nullptr};
-    if (H5Aread(a.get(), mem.get(), ptrs) < 0)
-      return make_error(Errc::io, "{}: HDF5 cannot read attribute {}", file_name, where);
-    for (int d = 0; d < 3; ++d) vals[d] = ptrs[d] ? ptrs[d] : "";
-    H5Dvlen_reclaim(mem.get(), space.get(), H5P_DEFAULT, ptrs);
+  if (H5Tis_variable_str(type.get()) != 0) {  // not read (above); also when HDF5 cannot tell
+    for (int d = 0; d < 3; ++d) periodic[d] = true;
+    return Status::success();
   } else {
     const size_t size = H5Tget_size(type.get());
     if (size == 0 || size > 256)
