@@ -105,6 +105,20 @@ constexpr const char* kChannelNames[3] = {"red", "green", "blue"};  // of color:
 // malformed short file is left to the line checks, which give the better message).
 constexpr uint64_t kMinAtomLineBytes = 4;
 
+// The values of an extended-XYZ key (Lattice, Origin, pbc): separated by blanks or commas.
+std::vector<std::string_view> value_tokens(std::string_view s) {
+  std::vector<std::string_view> out;
+  size_t i = 0;
+  while (i < s.size()) {
+    while (i < s.size() && (is_blank(s[i]) || s[i] == ',')) ++i;
+    size_t j = i;
+    while (j < s.size() && !is_blank(s[j]) && s[j] != ',') ++j;
+    if (j > i) out.push_back(s.substr(i, j - i));
+    i = j;
+  }
+  return out;
+}
+
 std::string lower(std::string_view s) {
   std::string r(s);
   for (auto& c : r) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -167,33 +181,20 @@ Result<bool> read_header(TextSource& src, XyzHeader& h, const std::string& after
 
   if (auto it = lkv.find("lattice"); it != lkv.end()) {
     std::vector<double> v;
-    std::string_view s = it->second;
-    size_t i = 0;
-    while (i < s.size()) {
-      while (i < s.size() && (is_blank(s[i]) || s[i] == ',')) ++i;
-      size_t j = i;
-      while (j < s.size() && !is_blank(s[j]) && s[j] != ',') ++j;
-      if (j > i) {
-        double d;
-        if (!parse_double_exact(s.substr(i, j - i), d) || !std::isfinite(d))
-          return make_error(Errc::format, "{}:{}: bad Lattice value '{}'", file, cline, excerpt(s.substr(i, j - i)));
-        v.push_back(d);
-      }
-      i = j;
+    for (std::string_view t : value_tokens(it->second)) {
+      double d;
+      if (!parse_double_exact(t, d) || !std::isfinite(d))
+        return make_error(Errc::format, "{}:{}: bad Lattice value '{}'", file, cline, excerpt(t));
+      v.push_back(d);
     }
     if (v.size() != 9)
       return make_error(Errc::format, "{}:{}: Lattice needs 9 numbers, found {}", file, cline, v.size());
     double origin[3] = {0, 0, 0};
     if (auto o = lkv.find("origin"); o != lkv.end()) {
-      std::string_view os = o->second;
-      for (int d = 0; d < 3; ++d) {
-        while (!os.empty() && (is_blank(os.front()) || os.front() == ',')) os.remove_prefix(1);
-        size_t k = 0;
-        while (k < os.size() && !is_blank(os[k]) && os[k] != ',') ++k;
-        if (!parse_double_exact(os.substr(0, k), origin[d]) || !std::isfinite(origin[d]))
+      const std::vector<std::string_view> t = value_tokens(o->second);
+      for (int d = 0; d < 3; ++d)
+        if (size_t(d) >= t.size() || !parse_double_exact(t[size_t(d)], origin[d]) || !std::isfinite(origin[d]))
           return make_error(Errc::format, "{}:{}: bad Origin value '{}'", file, cline, excerpt(o->second));
-        os.remove_prefix(k);
-      }
     }
     for (int d = 0; d < 3; ++d) {
       h.cell.origin[d] = origin[d];
@@ -202,19 +203,14 @@ Result<bool> read_header(TextSource& src, XyzHeader& h, const std::string& after
     // pbc="T T F" (ASE, OVITO); without it a cell given by Lattice is periodic along all three.
     bool pbc[3] = {true, true, true};
     if (auto p = lkv.find("pbc"); p != lkv.end()) {
-      std::string_view ps = p->second;
-      for (int d = 0; d < 3; ++d) {
-        while (!ps.empty() && (is_blank(ps.front()) || ps.front() == ',')) ps.remove_prefix(1);
-        size_t k = 0;
-        while (k < ps.size() && !is_blank(ps[k]) && ps[k] != ',') ++k;
-        const std::string t = lower(ps.substr(0, k));
-        if (t == "t" || t == "true" || t == "1") pbc[d] = true;
-        else if (t == "f" || t == "false" || t == "0") pbc[d] = false;
-        else return make_error(Errc::format, "{}:{}: bad pbc value '{}' (three of T/F)", file, cline, excerpt(p->second));
-        ps.remove_prefix(k);
+      const std::vector<std::string_view> t = value_tokens(p->second);
+      bool ok = t.size() == 3;
+      for (size_t d = 0; ok && d < 3; ++d) {
+        const std::string b = lower(t[d]);
+        pbc[d] = b == "t" || b == "true" || b == "1";
+        ok = pbc[d] || b == "f" || b == "false" || b == "0";
       }
-      while (!ps.empty() && (is_blank(ps.front()) || ps.front() == ',')) ps.remove_prefix(1);
-      if (!ps.empty())
+      if (!ok)
         return make_error(Errc::format, "{}:{}: bad pbc value '{}' (three of T/F)", file, cline, excerpt(p->second));
     }
     for (int d = 0; d < 3; ++d) h.cell.periodic[d] = pbc[d];

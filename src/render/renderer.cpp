@@ -378,15 +378,7 @@ Status Renderer::Impl::create_pipelines() {
   vk::GraphicsPipelineDesc g;
   g.vertex_shader = "sphere.vert";
   g.vertex_spec = &quad_spec;
-  if (vis_route) {  // no attachments: the fragments write the visibility buffer
-    g.fragment_shader = "sphere_vis.frag";
-    g.depth_test = false;
-    g.depth_write = false;
-  } else {
-    g.fragment_shader = "sphere.frag";
-    g.color_formats = {kColorFormat};
-    g.depth_format = kDepthFormat;
-  }
+  set_pixel_targets(g, "sphere");
   MDS_ASSIGN_OR_RETURN(sphere_pipe, ctx->pipelines().graphics(layout, g));
   cell_pipe = VK_NULL_HANDLE;
   if (settings.cell) MDS_TRY(create_cell_pipeline());
@@ -400,19 +392,25 @@ Status Renderer::Impl::create_pipelines() {
   return {};
 }
 
+// The fragment stage `name`.frag and the targets of the route: on the visibility route no
+// attachments (`name`_vis.frag writes the visibility buffer), else colour and depth.
+void Renderer::Impl::set_pixel_targets(vk::GraphicsPipelineDesc& g, const std::string& name) const {
+  if (vis_route) {
+    g.fragment_shader = name + "_vis.frag";
+    g.depth_test = false;
+    g.depth_write = false;
+  } else {
+    g.fragment_shader = name + ".frag";
+    g.color_formats = {kColorFormat};
+    g.depth_format = kDepthFormat;
+  }
+}
+
 // The simulation cell's edges (cell_lines.vert): quads into the same targets as the spheres'.
 Status Renderer::Impl::create_cell_pipeline() {
   vk::GraphicsPipelineDesc g;
   g.vertex_shader = "cell_lines.vert";
-  if (vis_route) {  // no attachments: the fragments write the visibility buffer
-    g.fragment_shader = "cell_lines_vis.frag";
-    g.depth_test = false;
-    g.depth_write = false;
-  } else {
-    g.fragment_shader = "cell_lines.frag";
-    g.color_formats = {kColorFormat};
-    g.depth_format = kDepthFormat;
-  }
+  set_pixel_targets(g, "cell_lines");
   MDS_ASSIGN_OR_RETURN(cell_pipe, ctx->pipelines().graphics(layout, g));
   return {};
 }

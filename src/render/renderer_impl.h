@@ -6,6 +6,7 @@
 #include <chrono>
 #include <functional>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "render/renderer.h"
@@ -214,6 +215,7 @@ struct Renderer::Impl {
   void record_sprite_draws(VkCommandBuffer cmd);
   void record_draw_scope(VkCommandBuffer cmd, bool clear, bool last);
   Status create_cell_pipeline();  // cell_pipe for the current route
+  void set_pixel_targets(vk::GraphicsPipelineDesc& g, const std::string& name) const;
 };
 
 // Errc::invalid_argument for --color-by property on a store without a property, or --color-by
