@@ -17,6 +17,7 @@
 
 #include "readers/h5md_module.h"
 #include "readers/reader_factories.h"
+#include "readers/replicate_reader.h"
 #include "readers/wrap_reader.h"
 
 namespace mds {
@@ -196,7 +197,12 @@ Result<std::unique_ptr<ParticleReader>> open_format_reader(const std::filesystem
 
 Result<std::unique_ptr<ParticleReader>> open_reader(const std::filesystem::path& path, const ReaderOptions& options) {
   MDS_ASSIGN_OR_RETURN(std::unique_ptr<ParticleReader> r, open_format_reader(path, options));
-  if (options.wrap) return wrap_reader(std::move(r), path.string());
+  if (options.wrap) {
+    MDS_ASSIGN_OR_RETURN(r, wrap_reader(std::move(r), path.string()));
+  }
+  if (options.replicate != std::array<uint32_t, 3>{1, 1, 1}) {
+    MDS_ASSIGN_OR_RETURN(r, replicate_reader(std::move(r), options.replicate, path.string()));
+  }
   return r;
 }
 
@@ -208,6 +214,8 @@ Result<std::vector<FrameEntry>> list_frames(const std::filesystem::path& path, c
   ReaderOptions o = options;
   o.format = f;
   o.start = FrameMark{};
+  o.wrap = false;  // the frames as they are declared
+  o.replicate = {1, 1, 1};
   if (f == InputFormat::lammps) return list_lammps_frames(path, o);
   if (f == InputFormat::xyz) return list_xyz_frames(path, o);
   // Binary formats declare their frames: open the first, then each (H5MD's step, MMPLD's lists).

@@ -6,6 +6,7 @@
 // (line number for text, dataset path for HDF5, byte offset for binary formats).
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -120,6 +121,9 @@ struct ReaderOptions {
   // Wrap the positions into the frame's periodic cell (`convert --wrap`; readers/wrap_reader.h).
   // An input without a cell, or with one that is flat or periodic along no vector, fails at open.
   bool wrap = false;
+  // Periodic images along the cell vectors a, b, c (`convert --replicate`; readers/replicate_reader.h),
+  // after wrap; {1, 1, 1}: none. An input without a cell fails at open.
+  std::array<uint32_t, 3> replicate = {1, 1, 1};
 };
 
 // What is known about the frame after open (before reading particles).
@@ -171,7 +175,7 @@ Result<std::unique_ptr<ParticleReader>> open_reader(const std::filesystem::path&
 struct FrameEntry {
   int64_t index = 0;
   int64_t timestep = 0;         // the simulation step (the frame index where the format has none)
-  uint64_t particle_count = 0;  // as the frame declares it
+  uint64_t particle_count = 0;  // as the frame declares it (before ReaderOptions::replicate)
   FrameMark mark;               // text formats: where the frame starts (ReaderOptions::start)
 };
 

@@ -17,6 +17,7 @@
 #include "convert/series_convert.h"
 #include "core/frame_selection.h"
 #include "core/text_file.h"
+#include "readers/replicate_reader.h"
 #include "store/format.h"
 #include "store/series.h"
 
@@ -35,6 +36,7 @@ struct ConvertArgs {
   std::string property;
   bool color = false;
   bool wrap = false;
+  std::string replicate;
   uint32_t node_size = 10000;
   uint32_t meshlet_size = 16;
   std::string meshlet_builder = "pcl";
@@ -74,6 +76,7 @@ nlohmann::json report_json(const convert::ConvertReport& r, const convert::Conve
   j["per_particle_radius"] = r.per_particle_radius;
   j["color"] = r.color;
   j["wrapped"] = o.reader.wrap;
+  j["replicated"] = o.reader.replicate;
   j["cell"] = r.cell ? cell_json(*r.cell) : nlohmann::json(nullptr);
   if (!r.property.empty()) j["property"] = {{"name", r.property}, {"min", r.property_min}, {"max", r.property_max}};
   j["spilled"] = r.spilled;
@@ -128,6 +131,9 @@ void print_summary(const convert::ConvertReport& r, const convert::ConvertOption
                r.particles_per_second / 1e6, r.cpu_seconds, r.seconds_gather, r.seconds_meshlets, r.seconds_encode,
                r.seconds_append);
   if (r.color) std::fprintf(stderr, "  colours          RGBA8 per particle\n");
+  const auto& rep = o.reader.replicate;
+  if (rep != std::array<uint32_t, 3>{1, 1, 1})
+    std::fprintf(stderr, "  replicated       %ux%ux%u images of each input particle\n", rep[0], rep[1], rep[2]);
   if (r.cell) std::fprintf(stderr, "  cell             %s\n", cell_line(*r.cell).c_str());
   else if (r.cells_differ) std::fprintf(stderr, "  cell             none kept: the inputs' cells differ\n");
   if (!r.property.empty())
@@ -159,6 +165,9 @@ Result<convert::ConvertOptions> to_options(const ConvertArgs& a) {
   o.reader.property = a.property;
   o.reader.color = a.color;
   o.reader.wrap = a.wrap;
+  if (!a.replicate.empty()) {
+    MDS_ASSIGN_OR_RETURN(o.reader.replicate, parse_replicate_counts(a.replicate));
+  }
   o.node_size = a.node_size;
   o.meshlet_size = a.meshlet_size;
   auto mb = convert::parse_meshlet_builder(a.meshlet_builder);
@@ -274,6 +283,10 @@ void setup_convert(CLI::App& sub, int& exit_code) {
                "Wrap the positions into the periodic simulation cell (along its periodic vectors, as OVITO's Wrap at "
                "periodic boundaries; unwrapped coordinates such as LAMMPS' xu yu zu come out as LAMMPS wraps them); "
                "an input without a periodic cell is an error");
+  sub.add_option("--replicate", args->replicate,
+                 "Periodic images: NA,NB,NC (or NAxNBxNC) copies along the cell vectors a, b, c, as LAMMPS' replicate "
+                 "and OVITO's Replicate; the cell grows to NA a, NB b, NC c (after --wrap); an input without a cell is "
+                 "an error");
   sub.add_option("--node-size", args->node_size, "Maximum particles per node (1..65535)")->capture_default_str();
   sub.add_option("--meshlet-size", args->meshlet_size, "Particles per meshlet (1..255)")->capture_default_str();
   sub.add_option("--meshlet-builder", args->meshlet_builder,

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "readers/reader_factories.h"
+#include "readers/replicate_reader.h"
 #include "readers/wrap_reader.h"
 
 namespace mds::fuzz {
@@ -68,8 +69,8 @@ template <class Open>
 void run_reader(const uint8_t* data, size_t size, const char* tag, Open open, const DrainOptions& d = {}) {
   const auto& path = input_path(tag);
   write_input(path, data, size);
-  for (int64_t frame : d.frames) for (const int extra : {0, 1, 2, 3}) {  // nothing, the property, colours, wrapped
-    const bool with_property = extra == 1, with_color = extra == 2, wrapped = extra == 3;
+  for (int64_t frame : d.frames) for (const int extra : {0, 1, 2, 3, 4}) {  // nothing, the property, colours, wrapped, replicated
+    const bool with_property = extra == 1, with_color = extra == 2, wrapped = extra == 3, replicated = extra == 4;
     if ((with_property && d.property.empty()) || (with_color && !d.color)) continue;
     ReaderOptions o;
     o.format = d.format;
@@ -82,6 +83,10 @@ void run_reader(const uint8_t* data, size_t size, const char* tag, Open open, co
       r = wrap_reader(std::move(*r), path.string());
       if (!r.ok()) continue;
     }
+    if (replicated) {  // three periodic images (convert --replicate): finite in, finite out
+      r = replicate_reader(std::move(*r), {3, 1, 1}, path.string());
+      if (!r.ok()) continue;
+    }
     const bool has_property = (*r)->info().has_property, has_color = (*r)->info().has_color;
     if (has_property != with_property || has_color != with_color) std::abort();  // asked for and found, or an error at open
     ParticleBatch b;
@@ -91,7 +96,7 @@ void run_reader(const uint8_t* data, size_t size, const char* tag, Open open, co
       if (!n.ok() || *n == 0) break;
       if (b.property.size() != (has_property ? b.size() : 0) || b.color.size() != (has_color ? b.size() : 0))
         std::abort();
-      for (size_t i = 0; wrapped && i < b.size(); ++i)
+      for (size_t i = 0; (wrapped || replicated) && i < b.size(); ++i)
         if (!std::isfinite(b.x[i]) || !std::isfinite(b.y[i]) || !std::isfinite(b.z[i])) std::abort();
       if (d.check_counts) {
         if (*n != b.size() || b.type.size() != b.size()) std::abort();
