@@ -1,10 +1,10 @@
-// `mdstream export STORE -o OUT.xyz [--slice SPEC ...]`: decodes every node and writes extended
+// `mdstream export STORE -o OUT.xyz [--slice SPEC ...] [--threshold LO:HI]`: decodes every node and writes extended
 // XYZ (species, dequantized positions x = center_min + q * step, and the per-particle radius,
 // property and colour (color:R:3, alpha dropped) when the store has them). Numbers are printed
 // in shortest round-trip form (colours with 5 digits, which give the 8 bits back exactly), so
-// the export adds no error to the store's quantization error. With slices (store/slice.h) only
-// the particles they keep, the same ones `render --slice` draws; nodes they leave out are not
-// read. The output appears only when complete. `-o OUT.mmpld` writes MMPLD instead
+// the export adds no error to the store's quantization error. With slices (store/slice.h) and a
+// threshold (store/threshold.h) only the particles they keep, the same ones `render --slice
+// --threshold` draws; nodes the slices leave out are not read. The output appears only when complete. `-o OUT.mmpld` writes MMPLD instead
 // (export_mmpld.cpp).
 #include <cctype>
 #include <cstdio>
@@ -30,11 +30,12 @@ struct ExportOptions {
   std::string store;
   std::string output;
   std::vector<std::string> slices;  // --slice specs
+  std::string threshold;            // --threshold spec
 };
 
 Status export_xyz(const ExportOptions& o) {
-  MDS_ASSIGN_OR_RETURN(const std::vector<store::Slice> slices, store::parse_slices(o.slices));
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
+  MDS_ASSIGN_OR_RETURN(const ExportFilter filter, ExportFilter::make(o.slices, o.threshold, *reader));
   const store::FileHeader& h = reader->header();
   const bool radius = (h.flags & store::kFlagPerParticleRadius) != 0;
   const bool property = (h.flags & store::kFlagProperty) != 0;
@@ -54,19 +55,22 @@ Status export_xyz(const ExportOptions& o) {
   store::NodeData node;
   std::vector<uint8_t> scratch;
   const auto nodes = reader->nodes();
-  // With slices the count of the header line is known after a first pass over the nodes that
-  // the slices cut (the others count whole or not at all, from the directory).
+  // With a filter the count of the header line is known after a first pass over the nodes it
+  // may keep part of (the others count whole or not at all, from the directory).
   uint64_t count = h.particle_count;
-  if (!slices.empty()) {
+  if (filter.any()) {
     count = 0;
     for (uint32_t i = 0; i < nodes.size(); ++i) {
-      const store::SliceCover cover = node_cover(slices, nodes[i]);
-      if (cover == store::SliceCover::all) count += nodes[i].particle_count;
-      if (cover != store::SliceCover::some) continue;
+      const store::SliceCover cover = node_cover(filter.slices, nodes[i]);
+      if (cover == store::SliceCover::none) continue;
+      if (filter.keeps_whole(cover)) {
+        count += nodes[i].particle_count;
+        continue;
+      }
       MDS_TRY(reader->read_node(i, node, scratch));
-      for (size_t k = 0; k < node.particle_count(); ++k) count += store::slices_keep(slices, centre(nodes[i], node, k));
+      for (size_t k = 0; k < node.particle_count(); ++k) count += filter.keeps(cover, centre(nodes[i], node, k), node, k);
     }
-    if (count == 0) return make_error(Errc::invalid_argument, "{}: --slice leaves no particle of the store", o.store);
+    if (count == 0) return filter.nothing_kept(o.store);
   }
 
   MDS_ASSIGN_OR_RETURN(auto out, store::AtomicOutput::create(o.output));
@@ -87,12 +91,12 @@ Status export_xyz(const ExportOptions& o) {
   const double rstep = (double(h.radius_max) - double(h.radius_min)) / double(store::kQuantMax);
   for (uint32_t i = 0; i < nodes.size(); ++i) {
     const store::NodeEntry& e = nodes[i];
-    const store::SliceCover cover = node_cover(slices, e);
+    const store::SliceCover cover = node_cover(filter.slices, e);
     if (cover == store::SliceCover::none) continue;
     MDS_TRY(reader->read_node(i, node, scratch));
     for (size_t k = 0; k < node.particle_count(); ++k) {
       const std::array<double, 3> x = centre(e, node, k);
-      if (cover == store::SliceCover::some && !store::slices_keep(slices, x)) continue;
+      if (!filter.keeps(cover, x, node, k)) continue;
       auto it = std::back_inserter(buf);
       fmt::format_to(it, "{} {} {} {}", species[node.type_index[k]], x[0], x[1], x[2]);
       if (radius) fmt::format_to(it, " {}", double(h.radius_min) + double(node.radius_q[k]) * rstep);
@@ -115,9 +119,9 @@ Status export_xyz(const ExportOptions& o) {
 }
 
 Status export_mmpld_file(const ExportOptions& o) {
-  MDS_ASSIGN_OR_RETURN(const std::vector<store::Slice> slices, store::parse_slices(o.slices));
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
-  return export_mmpld(*reader, slices, o.output);
+  MDS_ASSIGN_OR_RETURN(const ExportFilter filter, ExportFilter::make(o.slices, o.threshold, *reader));
+  return export_mmpld(*reader, filter, o.output);
 }
 
 void setup_export(CLI::App& sub, int& exit_code) {
@@ -131,6 +135,9 @@ void setup_export(CLI::App& sub, int& exit_code) {
                  "NX,NY,NZ,D[,WIDTH][,invert]: only the particles the slice keeps, as render --slice (docs/rendering.md, "
                  "\"Slices\"); once per slice, all applied")
       ->allow_extra_args(false);
+  sub.add_option("--threshold", opt->threshold,
+                 "LO:HI[,invert]: only the particles whose per-particle property lies in [LO, HI] (an empty LO or HI: "
+                 "open; invert: the others), as render --threshold (docs/rendering.md, \"Thresholds\")");
   sub.callback([opt, &exit_code] {
     std::string ext = std::filesystem::path(opt->output).extension().string();
     for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));

@@ -41,8 +41,7 @@ struct ListOut {
 
 }  // namespace
 
-Status export_mmpld(const store::StoreReader& reader, std::span<const store::Slice> slices,
-                    const std::filesystem::path& output) {
+Status export_mmpld(const store::StoreReader& reader, const ExportFilter& filter, const std::filesystem::path& output) {
   const store::FileHeader& h = reader.header();
   const auto types = reader.types();
   const auto nodes = reader.nodes();
@@ -53,25 +52,24 @@ Status export_mmpld(const store::StoreReader& reader, std::span<const store::Sli
   const uint8_t colour = color ? kUint8Rgba : property ? kFloatI : kColourNone;
   const uint64_t stride = (radius ? 16 : 12) + (color || property ? 4 : 0);
 
-  // Particles per type: the directory's counts, or with slices the kept ones (a first pass
-  // decodes every node the slices keep any of: the directory has no per-type counts per node).
+  // Particles per type: the directory's counts, or with a filter the kept ones (a first pass
+  // decodes every node it may keep any of: the directory has no per-type counts per node).
   std::vector<uint64_t> counts(types.size(), 0);
   store::NodeData node;
   std::vector<uint8_t> scratch;
-  if (slices.empty()) {
+  if (!filter.any()) {
     for (size_t t = 0; t < types.size(); ++t) counts[t] = types[t].particle_count;
   } else {
     for (uint32_t i = 0; i < nodes.size(); ++i) {
-      const store::SliceCover cover = node_cover(slices, nodes[i]);
+      const store::SliceCover cover = node_cover(filter.slices, nodes[i]);
       if (cover == store::SliceCover::none) continue;
       MDS_TRY(reader.read_node(i, node, scratch));
       for (size_t k = 0; k < node.particle_count(); ++k)
-        if (cover == store::SliceCover::all || store::slices_keep(slices, centre(nodes[i], node, k)))
-          ++counts[node.type_index[k]];
+        if (filter.keeps(cover, centre(nodes[i], node, k), node, k)) ++counts[node.type_index[k]];
     }
     uint64_t total = 0;
     for (const uint64_t c : counts) total += c;
-    if (total == 0) return make_error(Errc::invalid_argument, "{}: --slice leaves no particle of the store", reader.path().string());
+    if (total == 0) return filter.nothing_kept(reader.path().string());
   }
 
   // Header, frame table and list headers; each list's particle bytes follow its header.
@@ -129,12 +127,12 @@ Status export_mmpld(const store::StoreReader& reader, std::span<const store::Sli
   std::vector<uint64_t> written(types.size(), 0);
   for (uint32_t i = 0; i < nodes.size(); ++i) {
     const store::NodeEntry& e = nodes[i];
-    const store::SliceCover cover = node_cover(slices, e);
+    const store::SliceCover cover = node_cover(filter.slices, e);
     if (cover == store::SliceCover::none) continue;
     MDS_TRY(reader.read_node(i, node, scratch));
     for (size_t k = 0; k < node.particle_count(); ++k) {
       const std::array<double, 3> x = centre(e, node, k);
-      if (cover == store::SliceCover::some && !store::slices_keep(slices, x)) continue;
+      if (!filter.keeps(cover, x, node, k)) continue;
       const uint8_t t = node.type_index[k];
       ListOut& l = lists[t];
       for (int a = 0; a < 3; ++a) put<float>(l.pending, float(x[size_t(a)]));

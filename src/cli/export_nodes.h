@@ -1,14 +1,20 @@
 // What `mdstream export` shares between its formats (cmd_export.cpp: extended XYZ,
-// export_mmpld.cpp: MMPLD): which nodes the slices cut, and the decoded centre of a particle.
+// export_mmpld.cpp: MMPLD): which nodes the slices cut, the decoded centre of a particle, and
+// which particles --slice and --threshold keep.
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <span>
+#include <string>
+#include <vector>
 
 #include "core/result.h"
 #include "store/slice.h"
 #include "store/store_reader.h"
+#include "store/threshold.h"
 
 namespace mds::cli {
 
@@ -27,15 +33,39 @@ inline std::array<double, 3> centre(const store::NodeEntry& e, const store::Node
   return x;
 }
 
-// Writes the particles of `reader` that the slices keep to `output` as MMPLD 1.0 (MegaMol's
+// The particles export writes: those every slice keeps by their centre and the threshold keeps by
+// their property value (the ones `render --slice --threshold` draws).
+struct ExportFilter {
+  std::vector<store::Slice> slices;
+  std::optional<store::Threshold> threshold;
+  std::vector<uint8_t> property_kept;  // store::threshold_table over the store's range; empty: no threshold
+
+  // From the --slice specs and the --threshold spec (empty: none) for `reader`'s store;
+  // Errc::invalid_argument naming the option for a bad spec, or --threshold on a store without a
+  // per-particle property.
+  static Result<ExportFilter> make(std::span<const std::string> slice_specs, const std::string& threshold,
+                                   const store::StoreReader& reader);
+  // Leaves particles out.
+  bool any() const { return !slices.empty() || threshold.has_value(); }
+  // Whether particle k (centre x) of a node the slices cover as `cover` (not none) is kept.
+  bool keeps(store::SliceCover cover, const std::array<double, 3>& x, const store::NodeData& node, size_t k) const {
+    if (cover == store::SliceCover::some && !store::slices_keep(slices, x)) return false;
+    return property_kept.empty() || property_kept[node.property_q[k]];
+  }
+  // Every particle of a node the slices cover as `cover` is kept, without decoding it.
+  bool keeps_whole(store::SliceCover cover) const { return cover == store::SliceCover::all && property_kept.empty(); }
+  // The error when nothing is kept, naming `store` and the options.
+  Error nothing_kept(const std::string& store) const;
+};
+
+// Writes the particles of `reader` that the filter keeps to `output` as MMPLD 1.0 (MegaMol's
 // particle list data; the layout is readers/mmpld_reader.h's): one frame, one list per type in
 // type-index order (a list may be empty), float32 positions; vertex type FLOAT_XYZ with the
 // type's radius as the list's global radius, or FLOAT_XYZR with per-particle radii; colour type
 // UINT8_RGBA with the store's colours (kFlagColor), else FLOAT_I with its property (kFlagProperty,
 // intensity range = the property's range), else NONE with the type's default colour. One pass
-// over the nodes (with slices, a first one decodes the nodes they keep any of, for the counts);
+// over the nodes (with a filter, a first one decodes the nodes it may keep any of, for the counts);
 // memory bounded by one write buffer per type. The file appears only when complete.
-Status export_mmpld(const store::StoreReader& reader, std::span<const store::Slice> slices,
-                    const std::filesystem::path& output);
+Status export_mmpld(const store::StoreReader& reader, const ExportFilter& filter, const std::filesystem::path& output);
 
 }  // namespace mds::cli

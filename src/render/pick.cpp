@@ -64,6 +64,9 @@ Result<std::optional<PickedParticle>> pick_particle(const store::StoreReader& re
     type_radius[t] = t < options.type_radius.size() ? double(options.type_radius[t]) : double(types[t].radius);
     if (t < options.type_radius.size()) largest_override = std::max(largest_override, type_radius[t]);
   }
+  const std::vector<uint8_t> property_kept =
+      options.threshold && has_property ? store::threshold_table(*options.threshold, h.property_min, h.property_max)
+                                        : std::vector<uint8_t>{};
   const auto shown = [&](uint8_t t) { return options.shown_types.empty() || t >= options.shown_types.size() || options.shown_types[t]; };
 
   // The nodes the ray enters, nearest entry first.
@@ -98,6 +101,7 @@ Result<std::optional<PickedParticle>> pick_particle(const store::StoreReader& re
       while (k >= meshlet_end && m + 1 < data.meshlet_size.size()) meshlet_end += data.meshlet_size[++m];
       const uint8_t type = data.type_index[k];
       if (!shown(type)) continue;
+      if (!property_kept.empty() && !property_kept[data.property_q[k]]) continue;
       const std::array<double, 3> p = {e.center_min[0] + double(data.qpos[3 * k]) * step[0],
                                        e.center_min[1] + double(data.qpos[3 * k + 1]) * step[1],
                                        e.center_min[2] + double(data.qpos[3 * k + 2]) * step[2]};

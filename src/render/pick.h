@@ -5,8 +5,9 @@
 //   - the ray is the renderer's (pixel_rays.h: from the near plane through the point);
 //   - a particle is its decoded centre (the arithmetic of `export` and the renderer's scene) at
 //     its type's radius (SceneOptions::type_radius when given) or its per-particle radius;
-//   - hidden types (SceneOptions::shown_types) and particles the slices leave out are skipped,
-//     as the renderer leaves them out; spheres wholly in front of the near plane too;
+//   - hidden types (SceneOptions::shown_types) and particles the slices or the threshold leave
+//     out are skipped, as the renderer leaves them out; spheres wholly in front of the near
+//     plane too;
 //   - nodes are visited in the order the ray enters their boxes, and the walk ends at the first
 //     box the ray enters behind the nearest hit so far: a dense view decodes one or two nodes.
 // The answer is what an unculled render shows at that point (a render whose culling dropped a

@@ -184,7 +184,7 @@ void filter_particles(const store::NodeData& in, const ParticleFilter& f, store:
   if (total != in.particle_count() || in.qpos.size() != 3 * total || in.type_index.size() != total ||
       (radius && in.radius_q.size() != total) || (property && in.property_q.size() != total) ||
       (color && in.color.size() != total) ||
-      (!f.slices.empty() && (!f.center_min || !f.center_max))) {
+      (!f.slices.empty() && (!f.center_min || !f.center_max)) || (!f.property_kept.empty() && !property)) {
     out = in;  // malformed: left whole for append_node to report
     return;
   }
@@ -197,6 +197,7 @@ void filter_particles(const store::NodeData& in, const ParticleFilter& f, store:
     for (size_t i = p; i < p + size; ++i) {
       const uint8_t t = in.type_index[i];
       if (t < f.shown.size() && !f.shown[t]) continue;
+      if (!f.property_kept.empty() && !f.property_kept[in.property_q[i]]) continue;
       if (!f.slices.empty()) {
         std::array<double, 3> c;  // the centre as append_node decodes it
         for (int a = 0; a < 3; ++a) c[a] = f.center_min[a] + double(in.qpos[3 * i + a]) * step[a];
@@ -253,6 +254,14 @@ Result<SceneData> load_scene(const store::StoreReader& reader, const SceneOption
   const bool hide = std::any_of(shown.begin(), shown.end(), [](uint8_t v) { return v == 0; });
   if (hide) s.shown_types.assign(shown.begin(), shown.end());
   s.slices = o.slices;
+  s.threshold = o.threshold;
+  std::vector<uint8_t> property_kept;
+  if (o.threshold) {
+    if (!s.has_property)
+      return make_error(Errc::invalid_argument, "{}: --threshold {}: the store has no per-particle property (convert "
+                        "--property NAME)", reader.path().string(), store::threshold_spec(*o.threshold));
+    property_kept = store::threshold_table(*o.threshold, h.property_min, h.property_max);
+  }
   const bool filter = s.left_out();
   store::NodeData kept;
   for (uint32_t i = 0; i < nodes.size(); ++i) {
@@ -265,11 +274,11 @@ Result<SceneData> load_scene(const store::StoreReader& reader, const SceneOption
       if (cover == store::SliceCover::none) continue;  // not read
     }
     MDS_TRY(reader.read_node(i, node, scratch));
-    if (hide || cover == store::SliceCover::some) {
+    if (hide || cover == store::SliceCover::some || o.threshold) {
       const ParticleFilter f{hide ? shown : std::span<const uint8_t>{},
                              cover == store::SliceCover::some ? std::span<const store::Slice>(o.slices)
                                                                : std::span<const store::Slice>{},
-                             e.center_min, e.center_max};
+                             e.center_min, e.center_max, property_kept};
       filter_particles(node, f, kept);
       if (kept.particle_count() == 0) continue;
     } else {
@@ -281,26 +290,38 @@ Result<SceneData> load_scene(const store::StoreReader& reader, const SceneOption
                                  i, st.error().message)
                     : make_error(st.error().code, "{}: {}", reader.path().string(), st.error().message);
   }
+  if (s.particle_count() == 0 && o.threshold && o.slices.empty())
+    return make_error(Errc::invalid_argument, "{}: --threshold {} leaves no particle of the store (its property '{}' "
+                      "lies in [{:g}, {:g}])", reader.path().string(), store::threshold_spec(*o.threshold),
+                      h.property_name, h.property_min, h.property_max);
   if (s.particle_count() == 0 && !o.slices.empty()) {
     std::string specs;
     for (const store::Slice& sl : o.slices) specs += (specs.empty() ? "" : "; ") + store::slice_spec(sl);
-    return make_error(Errc::invalid_argument, "{}: --slice leaves no particle of the store ({})", reader.path().string(),
-                      specs);
+    return make_error(Errc::invalid_argument, "{}: --slice leaves no particle of the store ({}){}", reader.path().string(),
+                      specs, o.threshold ? " with --threshold " + store::threshold_spec(*o.threshold) : std::string());
   }
   return s;
 }
 
 Result<SceneOptions> resolve_scene_options(const store::StoreReader& reader, std::span<const std::string> hide_keys,
                                            std::span<const store::TypeRadiusSpec> radii,
-                                           std::span<const store::Slice> slices, bool streaming) {
+                                           std::span<const store::Slice> slices, bool streaming,
+                                           const std::optional<store::Threshold>& threshold) {
   SceneOptions o;
   o.slices.assign(slices.begin(), slices.end());  // streaming: the cache applies them (StreamSettings::slices)
-  if (hide_keys.empty() && radii.empty()) return o;
-  const char* option = hide_keys.empty() ? "--type-radius" : "--hide-type";
+  if (hide_keys.empty() && radii.empty() && !threshold) return o;
+  const char* option = !hide_keys.empty() ? "--hide-type" : !radii.empty() ? "--type-radius" : "--threshold";
   if (streaming)
     return make_error(Errc::invalid_argument, "{} needs the whole store in memory (no --gpu-budget): the cache streams "
-                      "whole nodes, and the store's density volume and node boxes describe every type at its radius",
-                      option);
+                      "whole nodes, and the store's density volume and node boxes describe every particle at its "
+                      "radius", option);
+  if (threshold) {
+    const store::FileHeader& h = reader.header();
+    if (!(h.flags & store::kFlagProperty))
+      return make_error(Errc::invalid_argument, "--threshold {}: {} has no per-particle property (convert --property NAME)",
+                        store::threshold_spec(*threshold), reader.path().string());
+    o.threshold = threshold;
+  }
   auto shown = store::shown_types(reader.types(), hide_keys);
   if (!shown) return make_error(Errc::invalid_argument, "--hide-type: {}", shown.error().message);
   o.shown_types = std::move(*shown);

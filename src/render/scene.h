@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -19,6 +20,7 @@
 #include "store/format.h"
 #include "store/slice.h"
 #include "store/store_reader.h"
+#include "store/threshold.h"
 #include "store/type_style.h"
 
 namespace mds::render {
@@ -44,9 +46,11 @@ struct SceneData {
   std::vector<gpu::GpuType> types;
   std::vector<uint8_t> shown_types;  // per type, 0 = left out by load_scene; empty: every type
   std::vector<store::Slice> slices;  // what load_scene kept by position (--slice); empty: every position
-  // load_scene left particles out (types or slices): the store's density volume counts particles
-  // the scene lacks (culling::density_on_grid), its node directory boxes particles it lacks.
-  bool left_out() const { return !shown_types.empty() || !slices.empty(); }
+  std::optional<store::Threshold> threshold;  // what load_scene kept by property (--threshold); none: all
+  // load_scene left particles out (types, slices or a threshold): the store's density volume
+  // counts particles the scene lacks (culling::density_on_grid), its node directory boxes
+  // particles it lacks.
+  bool left_out() const { return !shown_types.empty() || !slices.empty() || threshold.has_value(); }
 
   uint64_t particle_count() const { return particles.size() / 4; }
 };
@@ -84,35 +88,39 @@ Status append_node(SceneData& scene, const double center_min[3], const double ce
                    const store::NodeData& node);
 
 // What load_scene keeps of a store and how large it draws the particles (--hide-type,
-// --type-radius; store/type_style.h; --slice, store/slice.h).
+// --type-radius; store/type_style.h; --slice, store/slice.h; --threshold, store/threshold.h).
 struct SceneOptions {
   std::vector<uint8_t> shown_types;  // one per type index, 0 = left out; empty: every type
   std::vector<float> type_radius;    // one per type index, replacing the store's; empty: the store's
   std::vector<store::Slice> slices;  // particles kept by their centre (store::slices_keep); empty: all
+  std::optional<store::Threshold> threshold;  // particles kept by their property value; none: all
 };
 
 // Decodes every node of the store (the store must fit in memory). With o.shown_types only the
-// particles of shown types, with o.slices only those whose decoded centre every slice keeps:
+// particles of shown types, with o.threshold only those whose decoded property value it keeps
+// (Errc::invalid_argument for a store without a property), with o.slices only those whose
+// decoded centre every slice keeps:
 // meshlets keep their particles in order, a meshlet or node left empty is dropped, so scene nodes
 // no longer match the store's node by node, and the store's density volume (which counts every
 // particle) no longer describes the scene: cull with culling::density_on_grid (the store's grid,
 // the scene's counts) when SceneData::left_out(). A node whose every centre the slices leave out
 // is not read. The bounds (of the centres) and the type table's order stay the store's;
-// SceneData::shown_types and slices record the options. Errc::invalid_argument when nothing is
-// left.
+// SceneData::shown_types, slices and threshold record the options. Errc::invalid_argument when
+// nothing is left.
 // With o.type_radius the particles take those radii (without per-particle radii): the meshlet
 // and node boxes and occupancy are computed from them, as they are from the store's.
 Result<SceneData> load_scene(const store::StoreReader& reader, const SceneOptions& o = {});
-// The SceneOptions of a user's --hide-type keys and --type-radius specs against the store's
-// types (store::shown_types, store::type_radii). Both change what the renderer holds, so they
-// need the store in memory: Errc::invalid_argument when `streaming` (the cache streams whole
-// nodes, and the store's density volume and node boxes describe every type at the store's
-// radii), and for --type-radius on a store with per-particle radii. Errors name the option.
-// Slices (--slice) are kept in both cases: load_scene applies them in memory, the streaming
-// cache (StreamSettings::slices) when streaming.
+// The SceneOptions of a user's --hide-type keys, --type-radius specs and --threshold against the
+// store (store::shown_types, store::type_radii). All three change what the renderer holds, so
+// they need the store in memory: Errc::invalid_argument when `streaming` (the cache streams whole
+// nodes, and the store's density volume and node boxes describe every particle at the store's
+// radii), for --type-radius on a store with per-particle radii and for --threshold on a store
+// without a property. Errors name the option. Slices (--slice) are kept in both cases: load_scene
+// applies them in memory, the streaming cache (StreamSettings::slices) when streaming.
 Result<SceneOptions> resolve_scene_options(const store::StoreReader& reader, std::span<const std::string> hide_keys,
                                            std::span<const store::TypeRadiusSpec> radii,
-                                           std::span<const store::Slice> slices, bool streaming);
+                                           std::span<const store::Slice> slices, bool streaming,
+                                           const std::optional<store::Threshold>& threshold = std::nullopt);
 
 // Which particles of a decoded node filter_particles keeps.
 struct ParticleFilter {
@@ -120,6 +128,9 @@ struct ParticleFilter {
   std::span<const store::Slice> slices;  // the decoded centre must be kept by each
   const double* center_min = nullptr;   // the node's quantization frame (3 each), needed with slices
   const double* center_max = nullptr;
+  // Per quantized property value (store::threshold_table, kQuantMax + 1 entries), 0 = left out;
+  // empty: every value. Needs the node's property_q.
+  std::span<const uint8_t> property_kept;
 };
 // The particles of `in` that f keeps, meshlet by meshlet, into `out`; meshlets left empty are
 // dropped. A centre is decoded as append_node decodes it.

@@ -24,6 +24,7 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
   h->stream_.gpu_budget = options.gpu_budget;
   h->hide_types_ = options.hide_types;
   h->type_radii_ = options.type_radii;
+  h->threshold_ = options.threshold;
   h->type_colors_ = options.type_colors;
   h->color_by_ = options.render.color_by;
   h->cell_mode_ = options.cell;
@@ -151,7 +152,7 @@ Result<RenderHost::Loaded> RenderHost::load(const store::StoreReader& reader,
   Loaded l;
   l.slices = slices;
   MDS_ASSIGN_OR_RETURN(const render::SceneOptions so,
-                       render::resolve_scene_options(reader, hide_types_, type_radii_, slices, streaming()));
+                       render::resolve_scene_options(reader, hide_types_, type_radii_, slices, streaming(), threshold_));
   l.shown_types = so.shown_types;
   l.type_radius = so.type_radius;
   // Bounds of the particle centres and the largest radius, from the node directory (the

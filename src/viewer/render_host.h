@@ -87,7 +87,7 @@ class RenderHost {
   // One entry per type, 0 = hidden (--hide-type); empty: every type drawn.
   std::span<const uint8_t> shown_types() const { return shown_types_; }
   // What the shown store was loaded with (hidden types, --type-radius, slices): for picking.
-  render::SceneOptions scene_options() const { return {shown_types_, type_radius_, stream_.slices}; }
+  render::SceneOptions scene_options() const { return {shown_types_, type_radius_, stream_.slices, threshold_}; }
   uint64_t meshlets() const;
   // Node boxes in world coordinates (from the store's node directory).
   const std::vector<Box>& node_boxes() const { return node_boxes_; }
@@ -130,6 +130,7 @@ class RenderHost {
   std::unique_ptr<store::StoreReader> reader_;
   std::vector<std::string> hide_types_;           // --hide-type
   std::vector<store::TypeRadiusSpec> type_radii_;  // --type-radius
+  std::optional<store::Threshold> threshold_;      // --threshold
   std::vector<store::TypeColorSpec> type_colors_;  // --type-color
   render::ColorBy color_by_;                        // --color-by as given
   render::CellMode cell_mode_ = render::CellMode::automatic;  // --cell, resolved per store (resolve_colors)

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -16,6 +17,7 @@
 #include "render/renderer.h"
 #include "shading/ambient_occlusion.h"
 #include "store/slice.h"
+#include "store/threshold.h"
 #include "store/type_style.h"
 
 namespace mds::viewer {
@@ -29,6 +31,7 @@ struct ViewerOptions {
   std::vector<std::string> hide_types;            // --hide-type keys (in memory only)
   std::vector<store::TypeRadiusSpec> type_radii;  // --type-radius (in memory only)
   std::vector<store::Slice> slices;               // --slice (the keys , . / move and invert the last one)
+  std::optional<store::Threshold> threshold;      // --threshold (in memory only)
   shading::AoSettings ao;                         // --ao, --ao-radius, --ao-strength
   render::CellMode cell = render::CellMode::automatic;  // --cell, resolved against each store (render.cell_color_srgb, cell_width_px: --cell-color, --cell-width)
   render::StreamSettings stream;

@@ -242,9 +242,9 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
   const bool streaming = !o.stream.gpu_budget.empty();
   MDS_ASSIGN_OR_RETURN(const render::SceneOptions so, scene_options(look, *reader, streaming));
   const std::vector<uint8_t>& shown = so.shown_types;
-  if ((!shown.empty() || !so.type_radius.empty() || !so.slices.empty()) && o.visible_reference)
+  if ((!shown.empty() || !so.type_radius.empty() || !so.slices.empty() || so.threshold) && o.visible_reference)
     return make_error(Errc::invalid_argument, "--visible-reference counts the store's particles at the store's radii: "
-                      "not with --hide-type, --type-radius or --slice");
+                      "not with --hide-type, --type-radius, --slice or --threshold");
   render::StreamSettings ss;
   if (streaming) {
     MDS_ASSIGN_OR_RETURN(ss, stream_settings(o.stream));
@@ -547,6 +547,7 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
     nlohmann::json slices = nlohmann::json::array();
     for (const store::Slice& sl : so.slices) slices.push_back(store::slice_spec(sl));
     j["slices"] = slices;  // as --slice reads them, the normal unit length
+    j["threshold"] = so.threshold ? nlohmann::json(store::threshold_spec(*so.threshold)) : nlohmann::json(nullptr);
     if (!so.type_radius.empty()) j["type_radius"] = so.type_radius;  // per type index, as drawn
     if (!picks.empty()) j["picks"] = pick_answers;
     j["validation"] = ctx->validation_enabled();

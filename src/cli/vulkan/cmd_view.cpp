@@ -37,6 +37,7 @@ Status run_view(ViewCliOptions& o) {
   v.hide_types = look.hide_types;
   v.type_radii = look.type_radii;
   v.slices = look.slices;
+  v.threshold = look.threshold;
   v.ao = look.ao;
   v.cell = look.cell;
   v.render.cell_color_srgb = look.cell_color_srgb;

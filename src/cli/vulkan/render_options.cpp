@@ -137,6 +137,10 @@ void add_appearance_options(CLI::App& sub, AppearanceOptions& o) {
                  "invert keeps the other part; once per slice, all applied; by the particle centre, as OVITO's Slice "
                  "(in memory, and streaming: nodes the slices leave out are never read)")
       ->allow_extra_args(false);
+  sub.add_option("--threshold", o.threshold,
+                 "LO:HI[,invert]: keep only the particles whose per-particle property (convert --property) lies in "
+                 "[LO, HI] (an empty LO or HI: open on that side; invert keeps the others), as ParaView's Threshold; "
+                 "the others are neither drawn nor occlude (the whole store in memory: not with --gpu-budget)");
   sub.add_option("--ao", o.ao,
                  "Screen-space ambient occlusion (SAO) of the spheres: off, on, or auto (on where the store's "
                  "particles are densely packed: packing fraction >= 0.1); the visibility route only")
@@ -177,6 +181,11 @@ Result<Appearance> parse_appearance_options(const AppearanceOptions& o) {
   }
   a.hide_types = o.hide_types;
   MDS_ASSIGN_OR_RETURN(a.slices, store::parse_slices(o.slices));
+  if (!o.threshold.empty()) {
+    auto t = store::parse_threshold(o.threshold);
+    if (!t) return make_error(Errc::invalid_argument, "--threshold {}", t.error().message);
+    a.threshold = *t;
+  }
   auto axis = render::parse_color_axis(o.color_by);
   if (axis) {
     a.color_by.axis = *axis;
@@ -233,7 +242,7 @@ Status apply_appearance(const Appearance& a, const store::StoreReader& reader, r
 }
 
 Result<render::SceneOptions> scene_options(const Appearance& a, const store::StoreReader& reader, bool streaming) {
-  return render::resolve_scene_options(reader, a.hide_types, a.type_radii, a.slices, streaming);
+  return render::resolve_scene_options(reader, a.hide_types, a.type_radii, a.slices, streaming, a.threshold);
 }
 
 }  // namespace mds::cli

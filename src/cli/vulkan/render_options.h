@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -16,6 +17,7 @@
 #include "render/renderer.h"
 #include "render/scene.h"
 #include "store/slice.h"
+#include "store/threshold.h"
 #include "store/type_style.h"
 
 namespace mds::cli {
@@ -55,6 +57,7 @@ struct AppearanceOptions {
   std::vector<std::string> type_radii;         // --type-radius TYPE=R (in memory only)
   std::vector<std::string> hide_types;         // --hide-type TYPE (in memory only)
   std::vector<std::string> slices;             // --slice NX,NY,NZ,D[,WIDTH][,invert] (in memory only)
+  std::string threshold;                       // --threshold LO:HI[,invert] (in memory only)
   std::string color_by = "auto";               // --color-by auto|type|color|x|y|z|property|NAME
   std::string color_range;                     // --color-range LO:HI (default: the data's bounds)
   std::string colormap = "viridis";            // --colormap (render::Colormap)
@@ -72,6 +75,7 @@ struct Appearance {
   std::vector<store::TypeRadiusSpec> type_radii;
   std::vector<std::string> hide_types;  // type keys (store::find_type)
   std::vector<store::Slice> slices;     // --slice
+  std::optional<store::Threshold> threshold;  // --threshold
   render::ColorBy color_by;             // --color-by, --color-range, --colormap
   shading::AoSettings ao;               // --ao, --ao-radius, --ao-strength
   render::CellMode cell = render::CellMode::automatic;  // --cell
@@ -92,7 +96,8 @@ Result<Appearance> parse_appearance_options(const AppearanceOptions& o);
 // --cell (rs.cell: the store's cell unless off; --cell on without one is Errc::invalid_argument).
 Status apply_appearance(const Appearance& a, const store::StoreReader& reader, render::RenderSettings& rs,
                         render::AoChoice* ao = nullptr);
-// What render::load_scene keeps and how large it draws it (--hide-type, --type-radius, --slice):
+// What render::load_scene keeps and how large it draws it (--hide-type, --type-radius, --slice,
+// --threshold):
 // render::resolve_scene_options.
 Result<render::SceneOptions> scene_options(const Appearance& a, const store::StoreReader& reader, bool streaming);
 
