@@ -102,6 +102,34 @@ TEST(Replicate, EachBatchOncePerImageInLammpsOrder) {
   EXPECT_EQ(total, 12 * n);
 }
 
+TEST(Replicate, HandsOutAtMostWhatIsAskedFor) {
+  const fs::path dir = textest::cached_lammps_run("in.replicate_small");
+  ASSERT_FALSE(dir.empty()) << "lmp failed on in.replicate_small";
+  const fs::path base = dir / "rep.base.lammpstrj";
+  const textest::ReadAll plain = textest::read_all(open_reader(base, lammps_options(false, {1, 1, 1})));
+  ASSERT_FALSE(plain.error);
+  auto opened = open_reader(base, lammps_options(false, {2, 1, 1}));
+  ASSERT_TRUE(opened.ok()) << opened.error().message;
+  ParticleReader& r = **opened;
+  const double* a = plain.info.cell.vectors[0];
+  // (asked, got, image, first particle): a batch of 100 read with the first call, its second
+  // image in two parts, then the next batch.
+  const size_t steps[][4] = {{100, 100, 0, 0}, {30, 30, 1, 0}, {1000, 70, 1, 30}, {100, 100, 0, 100}, {5, 5, 1, 100}};
+  ParticleBatch b;
+  for (const auto& s : steps) {
+    auto got = r.read(b, s[0]);
+    ASSERT_TRUE(got.ok()) << got.error().message;
+    ASSERT_EQ(*got, s[1]) << "asked " << s[0];
+    ASSERT_EQ(b.id.size(), s[1]);
+    for (size_t p = 0; p < s[1]; ++p) {
+      const size_t q = s[3] + p;
+      EXPECT_EQ(b.id[p], plain.all.id[q]);
+      EXPECT_EQ(b.x[p], plain.all.x[q] + (s[2] ? a[0] : 0.0));
+      EXPECT_EQ(b.y[p], plain.all.y[q] + (s[2] ? a[1] : 0.0));
+    }
+  }
+}
+
 TEST(Replicate, GivesTheAtomsOfLammpsOwnReplicate) {
   const fs::path dir = textest::cached_lammps_run("in.replicate_small");
   ASSERT_FALSE(dir.empty()) << "lmp failed on in.replicate_small";
@@ -214,7 +242,10 @@ TEST(Replicate, RefusesInputsItCannotReplicate) {
   const fs::path plain = tmp.path() / "plain.xyz", flat = tmp.path() / "flat.xyz";
   std::ofstream(plain) << "1\ncomment\nC 1 2 3\n";
   std::ofstream(flat) << "1\nLattice=\"4 0 0 0 4 0 0 0 0\" Properties=species:S:1:pos:R:3\nC 1 2 0\n";
-  const fs::path huge = tmp.path() / "huge.xyz";
+  const fs::path huge = tmp.path() / "huge.xyz", parallel = tmp.path() / "parallel.xyz";
+  const fs::path big = tmp.path() / "big.xyz";
+  std::ofstream(big) << "1\nLattice=\"4e26 0 0 0 4 0 0 0 4\" Properties=species:S:1:pos:R:3\nC 1 2 0\n";
+  std::ofstream(parallel) << "1\nLattice=\"4 0 0 -8 0 0 0 0 4\" Properties=species:S:1:pos:R:3\nC 1 2 0\n";
   std::ofstream(huge) << "1\nLattice=\"4e31 0 0 0 4 0 0 0 4\" Properties=species:S:1:pos:R:3\nC 1 2 0\n";
   // No cell; a zero vector with more than one image along it; bad counts; too many particles.
   EXPECT_EQ(run_mdstream("convert --replicate 2,2,2 " + plain.string() + " -o " + out.string()), 2);
@@ -223,6 +254,10 @@ TEST(Replicate, RefusesInputsItCannotReplicate) {
   EXPECT_THAT(cli_stderr(), HasSubstr(flat.string() + ": --replicate: the cell's vector c has zero length"));
   EXPECT_EQ(run_mdstream("convert --replicate 2,1,1 " + huge.string() + " -o " + out.string()), 2);
   EXPECT_THAT(cli_stderr(), HasSubstr(huge.string() + ": --replicate: the cell is not finite or beyond 1e+30"));
+  EXPECT_EQ(run_mdstream("convert --replicate 2,2,1 " + parallel.string() + " -o " + out.string()), 2);
+  EXPECT_THAT(cli_stderr(), HasSubstr(parallel.string() + ": --replicate: the cell's vectors ab are parallel"));
+  EXPECT_EQ(run_mdstream("convert --replicate 30000,1,1 " + big.string() + " -o " + out.string()), 2);
+  EXPECT_THAT(cli_stderr(), HasSubstr(big.string() + ": --replicate 30000x1x1: the grown cell is beyond 1e+30"));
   EXPECT_EQ(run_mdstream("convert --replicate 2,0,1 " + plain.string() + " -o " + out.string()), 2);
   EXPECT_THAT(cli_stderr(), HasSubstr("--replicate '2,0,1': expected three image counts"));
   const std::string base = (dir / "rep.base.lammpstrj").string();

@@ -53,7 +53,7 @@ TEST(Threshold, ParsesBoundsOpenEndsAndInvert) {
     EXPECT_EQ(*store::parse_threshold(store::threshold_spec(*t)), *t) << spec;
   }
   EXPECT_EQ(store::threshold_spec(*b), "0.1:,invert");
-  for (const char* bad : {"", ":", " : ", "1", "1:2:3", "2:1", "a:1", "1:inf", "nan:1", "1:2,inverted", "1:2,", "1e999:"})
+  for (const char* bad : {"", ":", " : ", "1", "1:2:3", "2:1", "a:1", "1:inf", "nan:1", "1:2,inverted", "1:2,", "1e999:", "+-5:", "--5:"})
     EXPECT_FALSE(store::parse_threshold(bad).ok()) << bad;
   EXPECT_THAT(store::parse_threshold("2:1").error().message, HasSubstr("LO 2 is greater than HI 1"));
   EXPECT_THAT(store::parse_threshold(":").error().message, HasSubstr("give LO, HI or both"));
@@ -238,6 +238,10 @@ TEST_F(ThresholdCli, CulledThresholdConvergesToItsReference) {
             0)
       << last_stderr();
   const nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
+  // Rows and reference draw the kept atoms only (LAMMPS' count above -6, as in the test above).
+  size_t kept = 0;
+  for (const Atom& a : last_frame(dump())) kept += a.pe >= -6.0;
+  EXPECT_EQ(j.at("particles"), kept);
   size_t checked = 0;
   for (const auto& r : j.at("rows")) {
     if (r.at("mode").get<std::string>() != "culled") continue;
@@ -287,7 +291,19 @@ TEST_F(ThresholdCli, ErrorsNameTheOptionAndWriteNothing) {
   EXPECT_THAT(last_stderr(), HasSubstr("--threshold '-6:x': HI 'x' is not a finite number"));
   EXPECT_EQ(run("render " + store() + " -o " + png.string() + " --threshold=-6: --visible-reference"), 2);
   EXPECT_THAT(last_stderr(), HasSubstr("not with --hide-type, --type-radius, --slice or --threshold"));
+  EXPECT_EQ(run("render " + store() + " -o " + png.string() + " --threshold=-6: --node-log " + (dir_ / "n.csv").string()), 2);
+  EXPECT_THAT(last_stderr(), HasSubstr("--node-log lists the store's nodes: in memory not with --hide-type, --slice or --threshold"));
   EXPECT_FALSE(fs::exists(png));
+  // A series with a frame that has no property: refused before any frame is written.
+  const fs::path series = dir_ / "mixed.series";
+  std::ofstream(series) << R"({"file-series-version": "1.0", "files": [{"name": "v.mds", "time": 0}, )"
+                        << R"({"name": "plain.mds", "time": 1}]})";
+  EXPECT_EQ(run("render " + series.string() + " -o " + (dir_ / "f_%d.png").string() + " --threshold=-6: --spp 1 "
+                "--width 32 --height 24"),
+            2);
+  EXPECT_THAT(last_stderr(), HasSubstr("--threshold: not every picked frame of " + series.string() +
+                                       " has a per-particle property"));
+  EXPECT_FALSE(fs::exists(dir_ / "f_0.png"));
   EXPECT_EQ(run("export " + plain.string() + " -o " + xyz.string() + " --threshold=-6:"), 2);
   EXPECT_THAT(last_stderr(), HasSubstr("has no per-particle property"));
   EXPECT_EQ(run("export " + store() + " -o " + xyz.string() + " --threshold 100:"), 2);

@@ -1,8 +1,10 @@
 // Periodic images of the particles (see replicate_reader.h).
 #include "readers/replicate_reader.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <vector>
 
 namespace mds {
 
@@ -35,6 +37,40 @@ SimulationCell replicated_cell(const SimulationCell& cell, const ReplicateCounts
 
 namespace {
 
+// Particles [begin, end) of `in`, every column it has, into `out` (capacity reused).
+template <class V>
+void copy_column(const V& in, size_t begin, size_t end, V& out) {
+  if (in.empty()) {
+    out.clear();
+    return;
+  }
+  out.assign(in.begin() + ptrdiff_t(begin), in.begin() + ptrdiff_t(end));
+}
+void copy_range(const ParticleBatch& in, size_t begin, size_t end, ParticleBatch& out) {
+  copy_column(in.x, begin, end, out.x);
+  copy_column(in.y, begin, end, out.y);
+  copy_column(in.z, begin, end, out.z);
+  copy_column(in.type, begin, end, out.type);
+  copy_column(in.radius, begin, end, out.radius);
+  copy_column(in.id, begin, end, out.id);
+  copy_column(in.property, begin, end, out.property);
+  copy_column(in.color, begin, end, out.color);
+}
+
+// The volume (3 vectors), area (2) or length (1) the vectors span, against the product of their
+// lengths: 0 for linearly dependent ones.
+double spanned(const std::vector<const double*>& v) {
+  auto len = [](const double* a) { return std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]); };
+  if (v.size() == 1) return len(v[0]) > 0.0 ? 1.0 : 0.0;
+  const double* a = v[0];
+  const double* b = v[1];
+  const double c[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+  double norm = len(a) * len(b);
+  if (v.size() == 2) return norm > 0.0 ? len(c) / norm : 0.0;
+  norm *= len(v[2]);
+  return norm > 0.0 ? std::abs(c[0] * v[2][0] + c[1] * v[2][1] + c[2] * v[2][2]) / norm : 0.0;
+}
+
 class ReplicateReader final : public ParticleReader {
  public:
   ReplicateReader(std::unique_ptr<ParticleReader> inner, const ReplicateCounts& counts, std::string file)
@@ -54,14 +90,23 @@ class ReplicateReader final : public ParticleReader {
         return size_t{0};
       }
       next_ = 0;
+      offset_ = 0;
     }
-    const uint64_t image = next_++;
+    const uint64_t image = next_;
+    // This call's part of the batch in this image: at most max_particles (a later call may ask
+    // for fewer than the batch holds).
+    const size_t begin = offset_, end = std::min(batch_.size(), begin + std::max<size_t>(max_particles, 1));
+    offset_ = end;
+    if (offset_ == batch_.size()) {
+      ++next_;
+      offset_ = 0;
+    }
     const uint64_t i = image % counts_[0], j = image / counts_[0] % counts_[1], k = image / counts_[0] / counts_[1];
     const SimulationCell& c = inner_->info().cell;
     double shift[3];
     for (int a = 0; a < 3; ++a)
       shift[a] = double(i) * c.vectors[0][a] + double(j) * c.vectors[1][a] + double(k) * c.vectors[2][a];
-    out = batch_;  // every column; capacity reused
+    copy_range(batch_, begin, end, out);
     if (image > 0) {
       bool finite = true;
       for (size_t p = 0; p < out.size(); ++p) {
@@ -76,7 +121,8 @@ class ReplicateReader final : public ParticleReader {
             return make_error(Errc::range,
                               "{}: --replicate: particle {} of the frame at ({:.17g}, {:.17g}, {:.17g}) leaves the "
                               "range of double in image ({}, {}, {})",
-                              file_, done_ + p, batch_.x[p], batch_.y[p], batch_.z[p], i, j, k);
+                              file_, done_ + begin + p, batch_.x[begin + p], batch_.y[begin + p],
+                              batch_.z[begin + p], i, j, k);
     }
     if (next_ == images_) done_ += batch_.size();
     return out.size();
@@ -90,7 +136,8 @@ class ReplicateReader final : public ParticleReader {
   std::string file_;
   uint64_t done_ = 0;  // particles of the input before batch_
   uint64_t images_ = 1;
-  uint64_t next_ = 0;   // the image of batch_ handed out next; images_: read a new batch
+  uint64_t next_ = 0;    // the image of batch_ handed out next; images_: read a new batch
+  size_t offset_ = 0;    // where in batch_ that image goes on
   ParticleBatch batch_;  // the input's current batch
 };
 
@@ -104,6 +151,9 @@ Result<std::unique_ptr<ParticleReader>> replicate_reader(std::unique_ptr<Particl
   if (!fi.cell.finite())
     return make_error(Errc::invalid_argument, "{}: --replicate: the cell is not finite or beyond {:g} ({})", file,
                       SimulationCell::kMaxMagnitude, describe(fi.cell));
+  // The vectors with more than one image must be independent, or images would coincide.
+  std::vector<const double*> repeated;
+  std::string names;
   for (int v = 0; v < 3; ++v) {
     const double* a = fi.cell.vectors[v];
     if (counts[v] > 1 && a[0] == 0.0 && a[1] == 0.0 && a[2] == 0.0)
@@ -111,7 +161,19 @@ Result<std::unique_ptr<ParticleReader>> replicate_reader(std::unique_ptr<Particl
                         "{}: --replicate: the cell's vector {} has zero length, so its {} images would lie on top of "
                         "each other ({})",
                         file, "abc"[v], counts[v], describe(fi.cell));
+    if (counts[v] > 1) {
+      repeated.push_back(a);
+      names += "abc"[v];
+    }
   }
+  if (repeated.size() > 1 && !(spanned(repeated) > 1e-12))
+    return make_error(Errc::invalid_argument,
+                      "{}: --replicate: the cell's vectors {} are {}, so images along them would lie on top of each "
+                      "other ({})",
+                      file, names, repeated.size() == 2 ? "parallel" : "coplanar", describe(fi.cell));
+  if (!replicated_cell(fi.cell, counts).finite())
+    return make_error(Errc::invalid_argument, "{}: --replicate {}x{}x{}: the grown cell is beyond {:g} ({})", file,
+                      counts[0], counts[1], counts[2], SimulationCell::kMaxMagnitude, describe(fi.cell));
   const uint64_t images = uint64_t(counts[0]) * counts[1] * counts[2];
   if (fi.particle_count > kMaxReplicatedParticles / images)
     return make_error(Errc::range, "{}: --replicate {}x{}x{}: {} particles x {} images is more than {}", file,

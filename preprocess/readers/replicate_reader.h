@@ -5,8 +5,8 @@
 // a small simulation box makes a store as large as the data sets the renderer is for (10^8-10^9
 // particles) from real simulation output.
 //
-// Streamed, with memory bounded by one batch: each batch of the input is handed out once per
-// image, the images in LAMMPS' order (i fastest, then j, then k: image index i + NA (j + NB k),
+// Streamed, with memory bounded by two batches (the input's and the one handed out): each batch
+// of the input is handed out once per image (in parts when a call asks for fewer particles), the images in LAMMPS' order (i fastest, then j, then k: image index i + NA (j + NB k),
 // the order LAMMPS numbers its replicated atom ids by). Image 0 is the batch as read, bit for
 // bit; the others add the image's shift, i a + j b + k c summed in double, to each position.
 // LAMMPS shifts the unwrapped position (its image flags added back) and wraps it into the new
@@ -42,9 +42,9 @@ Result<ReplicateCounts> parse_replicate_counts(const std::string& text);
 SimulationCell replicated_cell(const SimulationCell& cell, const ReplicateCounts& counts);
 
 // `inner` with every particle written once per image (see above). Errc::invalid_argument naming
-// `file` when the frame has no cell or one that is not finite (SimulationCell::finite), when a
-// vector along which there is more than one image has zero length (the images would lie on top
-// of each other); Errc::range when the replicated frame would have more than
+// `file` when the frame has no cell or one that is not finite (SimulationCell::finite), when the
+// vectors along which there is more than one image have zero length or are parallel or coplanar
+// (the images would lie on top of each other), or the grown cell is not finite; Errc::range when the replicated frame would have more than
 // kMaxReplicatedParticles particles. read() is Errc::range naming the file and the particle
 // whose shifted position is not finite.
 Result<std::unique_ptr<ParticleReader>> replicate_reader(std::unique_ptr<ParticleReader> inner,

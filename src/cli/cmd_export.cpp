@@ -70,7 +70,7 @@ Status export_xyz(const ExportOptions& o) {
       MDS_TRY(reader->read_node(i, node, scratch));
       for (size_t k = 0; k < node.particle_count(); ++k) count += filter.keeps(cover, centre(nodes[i], node, k), node, k);
     }
-    if (count == 0) return filter.nothing_kept(o.store);
+    if (count == 0) return filter.nothing_kept(*reader);
   }
 
   MDS_ASSIGN_OR_RETURN(auto out, store::AtomicOutput::create(o.output));

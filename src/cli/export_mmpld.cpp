@@ -69,7 +69,7 @@ Status export_mmpld(const store::StoreReader& reader, const ExportFilter& filter
     }
     uint64_t total = 0;
     for (const uint64_t c : counts) total += c;
-    if (total == 0) return filter.nothing_kept(reader.path().string());
+    if (total == 0) return filter.nothing_kept(reader);
   }
 
   // Header, frame table and list headers; each list's particle bytes follow its header.

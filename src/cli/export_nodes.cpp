@@ -20,10 +20,13 @@ Result<ExportFilter> ExportFilter::make(std::span<const std::string> slice_specs
   return f;
 }
 
-Error ExportFilter::nothing_kept(const std::string& store) const {
-  if (!threshold) return Error{Errc::invalid_argument, store + ": --slice leaves no particle of the store"};
-  return Error{Errc::invalid_argument, store + (slices.empty() ? ": --threshold " : ": --slice with --threshold ") +
-                                           store::threshold_spec(*threshold) + " leaves no particle of the store"};
+Error ExportFilter::nothing_kept(const store::StoreReader& reader) const {
+  const std::string store = reader.path().string();
+  if (!threshold) return make_error(Errc::invalid_argument, "{}: --slice leaves no particle of the store", store);
+  const store::FileHeader& h = reader.header();
+  return make_error(Errc::invalid_argument, "{}: {}--threshold {} leaves no particle of the store (its property '{}' "
+                    "lies in [{:g}, {:g}])", store, slices.empty() ? "" : "--slice with ", store::threshold_spec(*threshold),
+                    h.property_name, h.property_min, h.property_max);
 }
 
 }  // namespace mds::cli

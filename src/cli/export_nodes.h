@@ -54,8 +54,8 @@ struct ExportFilter {
   }
   // Every particle of a node the slices cover as `cover` is kept, without decoding it.
   bool keeps_whole(store::SliceCover cover) const { return cover == store::SliceCover::all && property_kept.empty(); }
-  // The error when nothing is kept, naming `store` and the options.
-  Error nothing_kept(const std::string& store) const;
+  // The error when nothing is kept, naming the store, the options and the property's range.
+  Error nothing_kept(const store::StoreReader& reader) const;
 };
 
 // Writes the particles of `reader` that the filter keeps to `output` as MMPLD 1.0 (MegaMol's

@@ -64,9 +64,12 @@ Result<std::optional<PickedParticle>> pick_particle(const store::StoreReader& re
     type_radius[t] = t < options.type_radius.size() ? double(options.type_radius[t]) : double(types[t].radius);
     if (t < options.type_radius.size()) largest_override = std::max(largest_override, type_radius[t]);
   }
+  if (options.threshold && !has_property)
+    return make_error(Errc::invalid_argument, "--threshold {}: {} has no per-particle property",
+                      store::threshold_spec(*options.threshold), reader.path().string());
   const std::vector<uint8_t> property_kept =
-      options.threshold && has_property ? store::threshold_table(*options.threshold, h.property_min, h.property_max)
-                                        : std::vector<uint8_t>{};
+      options.threshold ? store::threshold_table(*options.threshold, h.property_min, h.property_max)
+                        : std::vector<uint8_t>{};
   const auto shown = [&](uint8_t t) { return options.shown_types.empty() || t >= options.shown_types.size() || options.shown_types[t]; };
 
   // The nodes the ray enters, nearest entry first.

@@ -236,22 +236,25 @@ Result<SceneData> load_scene(const store::StoreReader& reader, const SceneOption
   }
   SceneData s = begin_scene({h.bounds_min[0], h.bounds_min[1], h.bounds_min[2]},
                             {h.bounds_max[0], h.bounds_max[1], h.bounds_max[2]}, radii, ppr, h.radius_min, h.radius_max);
+  const bool hide = std::any_of(shown.begin(), shown.end(), [](uint8_t v) { return v == 0; });
+  // Room for every particle, unless a filter keeps an unknown share (a threshold may keep a small
+  // part of a store beyond the in-memory limit).
+  const uint64_t reserve = hide || o.threshold ? 0 : h.particle_count;
   if (h.flags & store::kFlagProperty) {
     s.has_property = true;
     s.property_min = h.property_min;
     s.property_max = h.property_max;
-    s.property_q.reserve(h.particle_count);
+    s.property_q.reserve(reserve);
   }
   if (h.flags & store::kFlagColor) {
     s.has_color = true;
-    s.color.reserve(h.particle_count);
+    s.color.reserve(reserve);
   }
-  s.particles.reserve(4 * h.particle_count);
-  s.meshlets.reserve(h.meshlet_count);
+  s.particles.reserve(4 * reserve);
+  if (reserve) s.meshlets.reserve(h.meshlet_count);
   store::NodeData node;
   std::vector<uint8_t> scratch;
   const auto nodes = reader.nodes();
-  const bool hide = std::any_of(shown.begin(), shown.end(), [](uint8_t v) { return v == 0; });
   if (hide) s.shown_types.assign(shown.begin(), shown.end());
   s.slices = o.slices;
   s.threshold = o.threshold;
@@ -291,9 +294,9 @@ Result<SceneData> load_scene(const store::StoreReader& reader, const SceneOption
                     : make_error(st.error().code, "{}: {}", reader.path().string(), st.error().message);
   }
   if (s.particle_count() == 0 && o.threshold && o.slices.empty())
-    return make_error(Errc::invalid_argument, "{}: --threshold {} leaves no particle of the store (its property '{}' "
+    return make_error(Errc::invalid_argument, "{}: --threshold {}{} leaves no particle of the store (its property '{}' "
                       "lies in [{:g}, {:g}])", reader.path().string(), store::threshold_spec(*o.threshold),
-                      h.property_name, h.property_min, h.property_max);
+                      hide ? " with --hide-type" : "", h.property_name, h.property_min, h.property_max);
   if (s.particle_count() == 0 && !o.slices.empty()) {
     std::string specs;
     for (const store::Slice& sl : o.slices) specs += (specs.empty() ? "" : "; ") + store::slice_spec(sl);

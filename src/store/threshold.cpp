@@ -21,7 +21,10 @@ std::string_view trim(std::string_view s) {
 bool parse_bound(std::string_view field, double& v) {
   field = trim(field);
   if (field.empty()) return true;
-  if (field.front() == '+') field.remove_prefix(1);
+  if (field.front() == '+') {
+    field.remove_prefix(1);
+    if (!field.empty() && field.front() == '-') return false;  // "+-5"
+  }
   double x = 0.0;
   const auto [end, ec] = std::from_chars(field.data(), field.data() + field.size(), x);
   if (field.empty() || ec != std::errc() || end != field.data() + field.size() || !std::isfinite(x)) return false;

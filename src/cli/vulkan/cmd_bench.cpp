@@ -69,6 +69,7 @@ Status run_bench(const BenchOptions& o) {
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
   MDS_ASSIGN_OR_RETURN(const render::SceneOptions so, scene_options(look, *reader, false));
   MDS_ASSIGN_OR_RETURN(render::SceneData scene, render::load_scene(*reader, so));
+  const uint64_t particles = scene.particle_count();  // drawn (what --hide-type, --slice, --threshold keep)
   MDS_ASSIGN_OR_RETURN(render::Camera camera,
                        render::default_view(o.view, scene.bounds, o.fov, double(o.width) / double(o.height)));
   vk::ContextOptions copt = vk::ContextOptions::from_env();
@@ -179,6 +180,7 @@ Status run_bench(const BenchOptions& o) {
     j["view"] = o.view;
     j["width"] = o.width;
     j["height"] = o.height;
+    j["particles"] = particles;
     j["device"] = ref_stats.device;
     j["device_type"] = vk::device_type_name(ctx->info().type);  // "cpu" on lavapipe
     j["ambient_occlusion"] = {{"mode", render::ao_mode_name(look.ao.mode)}, {"on", ref_stats.ambient_occlusion},

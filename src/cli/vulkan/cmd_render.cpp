@@ -245,6 +245,11 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
   if ((!shown.empty() || !so.type_radius.empty() || !so.slices.empty() || so.threshold) && o.visible_reference)
     return make_error(Errc::invalid_argument, "--visible-reference counts the store's particles at the store's radii: "
                       "not with --hide-type, --type-radius, --slice or --threshold");
+  const bool drops_nodes = std::any_of(shown.begin(), shown.end(), [](uint8_t v) { return v == 0; }) ||
+                           !so.slices.empty() || so.threshold.has_value();
+  if (!streaming && drops_nodes && !o.node_log.empty())  // the scene's nodes no longer match the store's
+    return make_error(Errc::invalid_argument, "--node-log lists the store's nodes: in memory not with --hide-type, "
+                      "--slice or --threshold, which leave nodes out of the scene (streamed, --slice is fine)");
   render::StreamSettings ss;
   if (streaming) {
     MDS_ASSIGN_OR_RETURN(ss, stream_settings(o.stream));
@@ -591,6 +596,11 @@ Status run_render_series(const RenderOptions& o) {
     return make_error(Errc::invalid_argument,
                       "--color-by color: not every picked frame of {} has per-particle colours (convert them with "
                       "--color)",
+                      o.store);
+  if (!o.look.threshold.empty() && !look.has_property)  // before any frame is written
+    return make_error(Errc::invalid_argument,
+                      "--threshold: not every picked frame of {} has a per-particle property (convert them with "
+                      "--property NAME)",
                       o.store);
   {  // --cell on needs a cell in every picked frame: refused before any frame is written
     auto cell_mode = render::parse_cell_mode(o.look.cell);
