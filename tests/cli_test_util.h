@@ -7,6 +7,8 @@
 #include <tinyexr.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -50,6 +52,28 @@ inline std::vector<float> load_exr(const std::filesystem::path& p) {
   std::vector<float> v(rgba, rgba + size_t(4) * size_t(w) * size_t(h));
   std::free(rgba);
   return v;
+}
+
+// Two EXR renders of w x h pixels: the pixels the first covers, and those where any channel
+// differs by more than the renderer's tolerance of 0.1 (failures for unreadable or mismatched
+// images leave both counts 0).
+struct ExrDifference {
+  size_t covered = 0, differing = 0;
+};
+inline ExrDifference compare_exr(const std::filesystem::path& first, const std::filesystem::path& second, size_t w,
+                                 size_t h) {
+  const std::vector<float> a = load_exr(first), b = load_exr(second);
+  EXPECT_EQ(a.size(), 4 * w * h) << first;
+  EXPECT_EQ(b.size(), a.size()) << second;
+  ExrDifference d;
+  if (a.size() != 4 * w * h || b.size() != a.size()) return d;
+  for (size_t p = 0; p < a.size(); p += 4) {
+    d.covered += a[p + 3] > 0.0f;
+    float m = 0.0f;
+    for (size_t c = 0; c < 4; ++c) m = std::max(m, std::abs(a[p + c] - b[p + c]));
+    d.differing += m > 0.1f;
+  }
+  return d;
 }
 
 }  // namespace mds::testing

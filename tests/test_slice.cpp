@@ -22,6 +22,8 @@
 using namespace mds;
 using store::Slice;
 using store::SliceCover;
+using mds::testing::compare_exr;
+using mds::testing::ExrDifference;
 namespace fs = std::filesystem;
 
 TEST(Slice, ParsesNormalDistanceWidthAndInvert) {
@@ -230,27 +232,6 @@ size_t write_kept(const fs::path& xyz, const std::vector<Slice>& slices, const f
   o << kept.size() << "\nProperties=species:S:1:pos:R:3\n";
   for (const std::string& l : kept) o << l << "\n";
   return kept.size();
-}
-
-// Two EXR renders of w x h pixels: the pixels the first covers, and those where any channel
-// differs by more than the renderer's tolerance of 0.1 (failures for unreadable or mismatched
-// images leave both counts 0).
-struct ExrDifference {
-  size_t covered = 0, differing = 0;
-};
-ExrDifference compare_exr(const fs::path& first, const fs::path& second, size_t w, size_t h) {
-  const std::vector<float> a = mds::testing::load_exr(first), b = mds::testing::load_exr(second);
-  EXPECT_EQ(a.size(), 4 * w * h) << first;
-  EXPECT_EQ(b.size(), a.size()) << second;
-  ExrDifference d;
-  if (a.size() != 4 * w * h || b.size() != a.size()) return d;
-  for (size_t p = 0; p < a.size(); p += 4) {
-    d.covered += a[p + 3] > 0.0f;
-    float m = 0.0f;
-    for (size_t c = 0; c < 4; ++c) m = std::max(m, std::abs(a[p + c] - b[p + c]));
-    d.differing += m > 0.1f;
-  }
-  return d;
 }
 
 double stats_particles(const fs::path& json) {

@@ -27,6 +27,8 @@ namespace mds {
 namespace {
 
 using ::testing::HasSubstr;
+using testing::compare_exr;
+using testing::ExrDifference;
 namespace fs = std::filesystem;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
@@ -135,26 +137,6 @@ size_t xyz_count(const fs::path& xyz) {
   size_t n = 0;
   in >> n;
   return n;
-}
-
-// The pixels whose channels differ by more than the renderer's tolerance of 0.1, and those the
-// first image covers.
-struct ExrDifference {
-  size_t covered = 0, differing = 0;
-};
-ExrDifference compare_exr(const fs::path& first, const fs::path& second, size_t w, size_t h) {
-  const std::vector<float> a = testing::load_exr(first), b = testing::load_exr(second);
-  EXPECT_EQ(a.size(), 4 * w * h) << first;
-  EXPECT_EQ(b.size(), a.size()) << second;
-  ExrDifference d;
-  if (a.size() != 4 * w * h || b.size() != a.size()) return d;
-  for (size_t p = 0; p < a.size(); p += 4) {
-    d.covered += a[p + 3] > 0.0f;
-    float m = 0.0f;
-    for (size_t c = 0; c < 4; ++c) m = std::max(m, std::abs(a[p + c] - b[p + c]));
-    d.differing += m > 0.1f;
-  }
-  return d;
 }
 
 class ThresholdCli : public ::testing::Test {

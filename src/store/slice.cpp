@@ -1,29 +1,16 @@
 #include "store/slice.h"
 
 #include <algorithm>
-#include <charconv>
 #include <cmath>
 #include <vector>
 
 #include <fmt/format.h>
 
 #include "store/format.h"
+#include "store/spec_text.h"
 
 namespace mds::store {
 namespace {
-
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
-  return s;
-}
-
-bool parse_number(std::string_view field, double& v) {
-  field = trim(field);
-  if (!field.empty() && field.front() == '+') field.remove_prefix(1);
-  const auto [end, ec] = std::from_chars(field.data(), field.data() + field.size(), v);
-  return !field.empty() && ec == std::errc() && end == field.data() + field.size() && std::isfinite(v);
-}
 
 // The signed distance n.p - d, summed in one order for points and box corners alike: rounding
 // is monotonic, so a point inside a box never lies beyond the box's extreme corners.
@@ -48,7 +35,7 @@ Result<Slice> parse_slice(std::string_view text) {
     start = comma + 1;
   }
   Slice s;
-  if (!fields.empty() && trim(fields.back()) == "invert") {
+  if (!fields.empty() && trim_spec_field(fields.back()) == "invert") {
     s.invert = true;
     fields.pop_back();
   }
@@ -57,9 +44,9 @@ Result<Slice> parse_slice(std::string_view text) {
   double v[5] = {0, 0, 0, 0, 0};
   static constexpr const char* kField[5] = {"NX", "NY", "NZ", "DISTANCE", "WIDTH"};
   for (size_t i = 0; i < fields.size(); ++i)
-    if (!parse_number(fields[i], v[i]))
+    if (!parse_spec_number(fields[i], v[i]))
       return make_error(Errc::invalid_argument, "'{}': {} '{}' is not a finite number", text, kField[i],
-                        trim(fields[i]));
+                        trim_spec_field(fields[i]));
   const double length = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
   if (!(length > 0.0) || !std::isfinite(length))
     return make_error(Errc::invalid_argument, "'{}': the normal NX,NY,NZ must have a finite length > 0", text);

@@ -1,35 +1,19 @@
 // Thresholds on the per-particle property (see threshold.h).
 #include "store/threshold.h"
 
-#include <charconv>
 #include <cmath>
 
 #include <fmt/format.h>
 
 #include "store/format.h"
+#include "store/spec_text.h"
 
 namespace mds::store {
 namespace {
 
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
-  return s;
-}
-
 // An empty field: no bound (v keeps its value); else a finite number.
 bool parse_bound(std::string_view field, double& v) {
-  field = trim(field);
-  if (field.empty()) return true;
-  if (field.front() == '+') {
-    field.remove_prefix(1);
-    if (!field.empty() && field.front() == '-') return false;  // "+-5"
-  }
-  double x = 0.0;
-  const auto [end, ec] = std::from_chars(field.data(), field.data() + field.size(), x);
-  if (field.empty() || ec != std::errc() || end != field.data() + field.size() || !std::isfinite(x)) return false;
-  v = x;
-  return true;
+  return trim_spec_field(field).empty() || parse_spec_number(field, v);
 }
 
 }  // namespace
@@ -38,7 +22,7 @@ Result<Threshold> parse_threshold(std::string_view text) {
   Threshold t;
   std::string_view range = text;
   if (const size_t comma = text.find(','); comma != std::string_view::npos) {
-    if (trim(text.substr(comma + 1)) != "invert")
+    if (trim_spec_field(text.substr(comma + 1)) != "invert")
       return make_error(Errc::invalid_argument, "'{}': expected LO:HI[,invert], e.g. -3.5:-2 or 0.1: (an open end)", text);
     t.invert = true;
     range = text.substr(0, comma);
@@ -47,9 +31,9 @@ Result<Threshold> parse_threshold(std::string_view text) {
   if (colon == std::string_view::npos || range.find(':', colon + 1) != std::string_view::npos)
     return make_error(Errc::invalid_argument, "'{}': expected LO:HI[,invert], e.g. -3.5:-2 or 0.1: (an open end)", text);
   const std::string_view lo = range.substr(0, colon), hi = range.substr(colon + 1);
-  if (!parse_bound(lo, t.lo)) return make_error(Errc::invalid_argument, "'{}': LO '{}' is not a finite number", text, trim(lo));
-  if (!parse_bound(hi, t.hi)) return make_error(Errc::invalid_argument, "'{}': HI '{}' is not a finite number", text, trim(hi));
-  if (trim(lo).empty() && trim(hi).empty())
+  if (!parse_bound(lo, t.lo)) return make_error(Errc::invalid_argument, "'{}': LO '{}' is not a finite number", text, trim_spec_field(lo));
+  if (!parse_bound(hi, t.hi)) return make_error(Errc::invalid_argument, "'{}': HI '{}' is not a finite number", text, trim_spec_field(hi));
+  if (trim_spec_field(lo).empty() && trim_spec_field(hi).empty())
     return make_error(Errc::invalid_argument, "'{}': give LO, HI or both (LO:HI with neither bounds nothing)", text);
   if (t.lo > t.hi) return make_error(Errc::invalid_argument, "'{}': LO {} is greater than HI {}", text, t.lo, t.hi);
   return t;
