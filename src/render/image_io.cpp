@@ -35,7 +35,7 @@ Status commit(const std::filesystem::path& tmp, const std::filesystem::path& pat
 
 }  // namespace
 
-Status write_png(const std::filesystem::path& path, const FrameImage& image) {
+Status write_png(const std::filesystem::path& path, const FrameImage& image, bool alpha) {
   const auto tmp = temp_path(path);
   std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(tmp.c_str(), "wb"), &std::fclose);
   if (!f) return make_error(Errc::io, "{}: cannot open for writing", tmp.string());
@@ -46,7 +46,8 @@ Status write_png(const std::filesystem::path& path, const FrameImage& image) {
     std::filesystem::remove(tmp);
     return make_error(Errc::internal, "{}: libpng initialisation failed", path.string());
   }
-  std::vector<uint8_t> row(size_t(image.width) * 3);
+  const size_t channels = alpha ? 4 : 3;
+  std::vector<uint8_t> row(size_t(image.width) * channels);
   if (setjmp(png_jmpbuf(png))) {
     png_destroy_write_struct(&png, &info);
     f.reset();
@@ -54,15 +55,21 @@ Status write_png(const std::filesystem::path& path, const FrameImage& image) {
     return make_error(Errc::io, "{}: libpng write failed", path.string());
   }
   png_init_io(png, f.get());
-  png_set_IHDR(png, info, image.width, image.height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+  png_set_IHDR(png, info, image.width, image.height, 8, alpha ? PNG_COLOR_TYPE_RGB_ALPHA : PNG_COLOR_TYPE_RGB,
+               PNG_INTERLACE_NONE,
                PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
   png_set_sRGB_gAMA_and_cHRM(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
   png_write_info(png, info);
   for (uint32_t y = 0; y < image.height; ++y) {
     const float* src = &image.rgba[size_t(y) * image.width * 4];
-    for (uint32_t x = 0; x < image.width; ++x)
-      for (int c = 0; c < 3; ++c)
-        row[3 * x + c] = uint8_t(std::lround(linear_to_srgb(src[4 * x + c]) * 255.0f));
+    for (uint32_t x = 0; x < image.width; ++x) {
+      const float a = std::clamp(src[4 * x + 3], 0.0f, 1.0f);
+      // Straight colour: the premultiplied one over the alpha (none where nothing was met).
+      const float inv = alpha ? (a > 0.0f ? 1.0f / a : 0.0f) : 1.0f;
+      for (size_t c = 0; c < 3; ++c)
+        row[channels * x + c] = uint8_t(std::lround(linear_to_srgb(src[4 * x + c] * inv) * 255.0f));
+      if (alpha) row[channels * x + 3] = uint8_t(std::lround(a * 255.0f));
+    }
     png_write_row(png, row.data());
   }
   png_write_end(png, nullptr);
@@ -88,10 +95,10 @@ Status write_exr(const std::filesystem::path& path, const FrameImage& image) {
   return commit(tmp, path);
 }
 
-Status write_image(const std::filesystem::path& path, const FrameImage& image) {
+Status write_image(const std::filesystem::path& path, const FrameImage& image, bool alpha) {
   std::string ext = path.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  return ext == ".exr" ? write_exr(path, image) : write_png(path, image);
+  return ext == ".exr" ? write_exr(path, image) : write_png(path, image, alpha);
 }
 
 }  // namespace mds::render

@@ -323,6 +323,7 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
     }
     PathRenderOptions po{o.output, o.stats, streaming, uint64_t(ctx->limits().maxStorageBufferRange)};
     po.legend_corner = *corner;
+    po.transparent = look.transparent;
     po.legend = color_legend(rs, *renderer, *reader, shown);
     return render_path(*renderer, path, po);
   }
@@ -372,7 +373,7 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
   // The image last: a node log that cannot be written leaves no image behind (as a failed --pick).
   const overlay::PixelBox legend_box =
       overlay::overlay_color_legend(image, color_legend(rs, *renderer, *reader, shown), *corner);
-  MDS_TRY(render::write_image(o.output, image));
+  MDS_TRY(render::write_image(o.output, image, look.transparent));
   if (fs.prior_out) *fs.prior_out = renderer->prior_view();
 
 
@@ -534,6 +535,7 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
                    {"ortho", camera.ortho},          {"near", stats.near},
                    {"far", stats.far},               {"view", o.camera.empty() ? o.view : -1}};
     j["background_srgb"] = {rs.background_srgb.r, rs.background_srgb.g, rs.background_srgb.b};
+    j["transparent"] = look.transparent;  // --background transparent
     nlohmann::json type_colors = nlohmann::json::array();
     for (const glm::vec3& c : rs.type_colors_srgb) type_colors.push_back(store::srgb_hex({c.r, c.g, c.b}));
     j["type_colors_srgb"] = type_colors;

@@ -105,7 +105,10 @@ Status apply_culling_options(const CullingOptions& o, render::RenderSettings& rs
 }
 
 void add_appearance_options(CLI::App& sub, AppearanceOptions& o) {
-  sub.add_option("--background", o.background, "Background colour r,g,b (sRGB, 0..1) or #rrggbb")->capture_default_str();
+  sub.add_option("--background", o.background,
+                 "Background colour r,g,b (sRGB, 0..1) or #rrggbb, or transparent (render: a PNG with an alpha "
+                 "channel, an EXR with premultiplied alpha; the viewer shows it black)")
+      ->capture_default_str();
   sub.add_option("--type-color", o.type_colors,
                  "Colour of a particle type, TYPE=COLOR: TYPE its name or input id as `mdstream info` lists them, "
                  "COLOR #rrggbb or r,g,b (sRGB, 0..1); once per type (default: a palette by type index)")
@@ -166,9 +169,14 @@ void add_appearance_options(CLI::App& sub, AppearanceOptions& o) {
 
 Result<Appearance> parse_appearance_options(const AppearanceOptions& o) {
   Appearance a;
-  auto bg = store::parse_srgb(o.background);
-  if (!bg) return make_error(Errc::invalid_argument, "--background {}", bg.error().message);
-  a.background_srgb = {bg->r, bg->g, bg->b};
+  if (o.background == "transparent" || o.background == "none") {
+    a.transparent = true;
+    a.background_srgb = glm::vec3(0.0f);  // the colour premultiplied by the coverage (render/image_io.h)
+  } else {
+    auto bg = store::parse_srgb(o.background);
+    if (!bg) return make_error(Errc::invalid_argument, "--background {} (or transparent)", bg.error().message);
+    a.background_srgb = {bg->r, bg->g, bg->b};
+  }
   for (const std::string& t : o.type_colors) {
     auto spec = store::parse_type_color(t);
     if (!spec) return make_error(Errc::invalid_argument, "--type-color {}", spec.error().message);

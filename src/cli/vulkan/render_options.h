@@ -52,7 +52,7 @@ Status apply_culling_options(const CullingOptions& o, render::RenderSettings& rs
 // The look of the image, shared by `render`, `view` and `bench`: the background, the colour of
 // each particle type (store/type_style.h) and the types left out.
 struct AppearanceOptions {
-  std::string background = "0.12,0.12,0.13";  // --background r,g,b or #rrggbb
+  std::string background = "0.12,0.12,0.13";  // --background r,g,b, #rrggbb or transparent
   std::vector<std::string> type_colors;        // --type-color TYPE=COLOR, once per type
   std::vector<std::string> type_radii;         // --type-radius TYPE=R (in memory only)
   std::vector<std::string> hide_types;         // --hide-type TYPE (in memory only)
@@ -71,6 +71,7 @@ struct AppearanceOptions {
 
 struct Appearance {
   glm::vec3 background_srgb{0.0f};
+  bool transparent = false;  // --background transparent: black, and PNGs with alpha (render/image_io.h)
   std::vector<store::TypeColorSpec> type_colors;
   std::vector<store::TypeRadiusSpec> type_radii;
   std::vector<std::string> hide_types;  // type keys (store::find_type)

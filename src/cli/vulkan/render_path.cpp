@@ -58,7 +58,7 @@ Status render_path(render::Renderer& renderer, const render::CameraPath& path, c
     for (const std::string& w : cache_warnings(st.cache, o.max_storage_range))
       std::fprintf(stderr, "mdstream render: frame %u: warning: %s\n", f, w.c_str());
     overlay::overlay_color_legend(image, o.legend, o.legend_corner);
-    MDS_TRY(render::write_image(file, image));
+    MDS_TRY(render::write_image(file, image, o.transparent));
     const double culled = st.meshlets ? double(st.cull.meshlets_culled) / double(st.meshlets) : 0.0;
     std::string line = fmt::format("mdstream render: frame {}/{} -> {}: {:.0f} ms", f + 1, frames, file, st.wall_ms);
     if (st.cull.iterations > 0) line += fmt::format(", culled {:.1f} %", 100.0 * culled);

@@ -29,6 +29,7 @@ struct PathRenderOptions {
   uint64_t max_storage_range = 0;  // the device's, for cache_warnings
   overlay::LegendCorner legend_corner = overlay::LegendCorner::off;  // --color-legend
   overlay::ColorLegend legend;                                       //   ... drawn into every frame
+  bool transparent = false;  // --background transparent: PNG frames with alpha
 };
 
 // Renders every frame of `path` with `renderer` and writes frame_file_name(pattern, f) for each;
