@@ -21,6 +21,7 @@
 #include "cli_test_util.h"
 #include "readers/mmpld_reader.h"
 #include "store/type_style.h"
+#include "text_reader_test_util.h"
 
 namespace mds {
 namespace {
@@ -227,6 +228,50 @@ TEST(ExportMmpld, RadiiAndPropertyOrTheTypesColours) {
     EXPECT_EQ(l.global_colour, pack_rgba8(uint32_t(std::lround(c.r * 255)), uint32_t(std::lround(c.g * 255)),
                                           uint32_t(std::lround(c.b * 255))))
         << t;
+  }
+}
+
+// A store with a triclinic cell (LAMMPS' box): the MMPLD's bounding box is the cell's (as float),
+// which the MMPLD reader takes back as a cell that is not periodic; without a cell it is the
+// spheres' box (the test above). Every centre lies in the box.
+TEST(ExportMmpld, BoundingBoxIsTheSimulationCells) {
+  const fs::path lmp = textest::cached_lammps_run("in.triclinic_small", /*with_log=*/true);
+  ASSERT_FALSE(lmp.empty()) << "lmp failed on in.triclinic_small";
+  TempDir dir;
+  const fs::path store = dir / "t.mds", mmpld = dir / "t.mmpld";
+  ASSERT_EQ(run_mdstream("convert -q --wrap " + (lmp / "tri.xyz.lammpstrj").string() + " -o " + store.string() +
+                         " --json-report " + (dir / "r.json").string()),
+            0)
+      << cli_stderr();
+  ASSERT_EQ(run_mdstream("export " + store.string() + " -o " + mmpld.string()), 0) << cli_stderr();
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(dir / "r.json"));
+  ASSERT_FALSE(j["cell"].is_null());
+  SimulationCell c;
+  for (int d = 0; d < 3; ++d) {
+    c.origin[d] = j["cell"]["origin"][d];
+    for (int k = 0; k < 3; ++k) c.vectors[d][k] = j["cell"]["vectors"][d][k];
+  }
+  ASSERT_FALSE(c.orthogonal());
+  double lo[3], hi[3];
+  c.bounds(lo, hi);
+  auto r = open_reader(mmpld, {});
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const FrameInfo& fi = (*r)->info();
+  ASSERT_TRUE(fi.has_box);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(fi.box_lo[k], double(float(lo[k]))) << k;
+    EXPECT_EQ(fi.box_hi[k], double(float(hi[k]))) << k;
+    EXPECT_FALSE(fi.cell.periodic[k]);
+  }
+  auto all = testing::read_all(**r, 1000);
+  ASSERT_TRUE(all.ok()) << all.error().message;
+  ASSERT_GT(all->x.size(), 1000u);
+  for (size_t i = 0; i < all->x.size(); ++i) {
+    const double p[3] = {all->x[i], all->y[i], all->z[i]};
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_GE(p[k], fi.box_lo[k] - 1e-4) << i;
+      EXPECT_LE(p[k], fi.box_hi[k] + 1e-4) << i;
+    }
   }
 }
 

@@ -77,11 +77,26 @@ Status export_mmpld(const store::StoreReader& reader, const ExportFilter& filter
   head.insert(head.end(), {'M', 'M', 'P', 'L', 'D', '\0'});
   put<uint16_t>(head, 100);
   put<uint32_t>(head, 1);
-  const float pad = h.radius_max;  // the boxes hold the spheres, not only their centres
-  for (int k = 0; k < 2; ++k) {    // bounding box, then the clip box (the same)
-    for (int a = 0; a < 3; ++a) put<float>(head, float(h.bounds_min[a] - pad));
-    for (int a = 0; a < 3; ++a) put<float>(head, float(h.bounds_max[a] + pad));
+  // The bounding box: the simulation cell's where the store has one (MegaMol draws it as the data
+  // set's box; the MMPLD reader takes it back as a cell that is not periodic), else the spheres'.
+  // The clip box holds both.
+  const double pad = h.radius_max;  // the spheres, not only their centres
+  double clip_lo[3], clip_hi[3], box_lo[3], box_hi[3];
+  for (int a = 0; a < 3; ++a) {
+    box_lo[a] = clip_lo[a] = h.bounds_min[a] - pad;
+    box_hi[a] = clip_hi[a] = h.bounds_max[a] + pad;
   }
+  if (const auto& cell = reader.cell()) {
+    cell->bounds(box_lo, box_hi);
+    for (int a = 0; a < 3; ++a) {
+      clip_lo[a] = std::min(clip_lo[a], box_lo[a]);
+      clip_hi[a] = std::max(clip_hi[a], box_hi[a]);
+    }
+  }
+  for (int a = 0; a < 3; ++a) put<float>(head, float(box_lo[a]));
+  for (int a = 0; a < 3; ++a) put<float>(head, float(box_hi[a]));
+  for (int a = 0; a < 3; ++a) put<float>(head, float(clip_lo[a]));
+  for (int a = 0; a < 3; ++a) put<float>(head, float(clip_hi[a]));
   const size_t offsets_at = head.size();
   put<uint64_t>(head, kHeaderBytes);
   put<uint64_t>(head, 0);  // the end, below

@@ -59,7 +59,8 @@ struct ExportFilter {
 };
 
 // Writes the particles of `reader` that the filter keeps to `output` as MMPLD 1.0 (MegaMol's
-// particle list data; the layout is readers/mmpld_reader.h's): one frame, one list per type in
+// particle list data; the layout is readers/mmpld_reader.h's): one frame, its bounding box the
+// store's simulation cell's (else the spheres'), one list per type in
 // type-index order (a list may be empty), float32 positions; vertex type FLOAT_XYZ with the
 // type's radius as the list's global radius, or FLOAT_XYZR with per-particle radii; colour type
 // UINT8_RGBA with the store's colours (kFlagColor), else FLOAT_I with its property (kFlagProperty,
