@@ -197,6 +197,17 @@ TEST(ViewerHud, CacheLineCountsSlicedOutNodes) {
   EXPECT_TRUE(has(viewer::hud_lines(s), "sliced out 193  carried 12"));
 }
 
+// --threshold: a line of its own, with the property's name (none without a threshold).
+TEST(ViewerHud, ThresholdLine) {
+  viewer::HudState s;
+  s.store_name = "v.mds";
+  const size_t without = viewer::hud_lines(s).size();
+  s.threshold = "threshold c_pe -6:";
+  const auto lines = viewer::hud_lines(s);
+  ASSERT_EQ(lines.size(), without + 1);
+  EXPECT_EQ(lines[1], "threshold c_pe -6:");
+}
+
 // The picked particle's line stays on the HUD while the message row fades (and is not shown
 // twice while the message is the pick).
 TEST(ViewerHud, PickLineStaysAfterTheMessage) {

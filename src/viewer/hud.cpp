@@ -16,6 +16,7 @@ std::vector<std::string> hud_lines(const HudState& s) {
   l.push_back(fmt::format("{}  {}{}{}", s.store_name, s.streaming ? "streaming" : "in memory",
                           s.playing ? "  [play]" : "", s.recording ? "  [rec]" : ""));
   if (!s.series.empty()) l.push_back(s.series);
+  if (!s.threshold.empty()) l.push_back(s.threshold);
   l.push_back(fmt::format("frame {:.1f} ms ({:.0f} fps)  step {:.1f} ms  gpu {:.1f} ms", s.frame_ms,
                           s.frame_ms > 0 ? 1000.0 / s.frame_ms : 0.0, s.step_ms, r.gpu_ms));
   const char* state = s.idle ? (r.converged ? "converged (idle)" : "culling capped (idle)")

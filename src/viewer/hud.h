@@ -41,6 +41,7 @@ struct HudState {
   std::string view_name;
   double ao_radius = 0.0;     // ambient occlusion radius (key L; 0: off)
   std::string series;         // a series' frame line ("series frame K (i/n)  time T"); empty: not a series
+  std::string threshold;      // "threshold c_pe -6:" (--threshold); empty: none
   std::string message;        // transient status line (screenshot saved, errors)
   std::string pick;           // the picked particle (right click) while it is marked; empty: none
   render::FrameReport report;

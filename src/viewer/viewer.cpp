@@ -191,6 +191,9 @@ Status Viewer::setup() {
                                        : std::filesystem::path(o_.store).filename().string();
   hud_.streaming = host_->streaming();
   hud_.meshlets = host_->meshlets();
+  if (o_.threshold)  // the particles kept by their property (store/threshold.h)
+    hud_.threshold = fmt::format("threshold {} {}", host_->reader().header().property_name,
+                                 store::threshold_spec(*o_.threshold));
   update_legend();
   return {};
 }
