@@ -198,7 +198,20 @@ TEST_F(PropertyConvert, HeaderFieldsAreCheckedOnOpen) {
                 std::memset(h.property_name, 0, sizeof h.property_name);
                 h.property_min = h.property_max = 0.0f;
               }),
-              HasSubstr("payload_raw_bytes"));
+              HasSubstr("field flags at byte 16: property histograms without the property flag"));
+  EXPECT_THAT(with([](store::FileHeader& h) {
+                h.flags &= ~uint32_t(store::kFlagProperty | store::kFlagPropertyHistogram);
+                std::memset(h.property_name, 0, sizeof h.property_name);
+                h.property_min = h.property_max = 0.0f;
+              }),
+              HasSubstr("field property_histograms at byte 448: not zero without the property histogram flag"));
+  EXPECT_THAT(with([](store::FileHeader& h) {
+                h.flags &= ~uint32_t(store::kFlagProperty | store::kFlagPropertyHistogram);
+                std::memset(h.property_name, 0, sizeof h.property_name);
+                h.property_min = h.property_max = 0.0f;
+                h.property_histograms = {};
+              }),
+              HasSubstr("bytes after the last section"));
 }
 
 TEST_F(PropertyConvert, UsageErrors) {

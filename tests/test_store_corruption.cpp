@@ -247,9 +247,12 @@ TEST_F(Corruption, HeaderLies) {
   }
   // The lowest bit no flag uses (the known flags are bits 0 .. k).
   expect_open_error(with([](Image& im) { im.h.flags |= store::kKnownFlags + 1; }), Errc::unsupported, {"flags"});
-  expect_open_error(with([](Image& im) { im.h.reserved[10] = 1; }), Errc::format, {"reserved", "byte 458"});
+  expect_open_error(with([](Image& im) { im.h.reserved[10] = 1; }), Errc::format, {"reserved", "byte 490"});
   // The cell section's entry is reserved without kFlagCell.
   expect_open_error(with([](Image& im) { im.h.cell.bytes = 128; }), Errc::format, {"field cell at byte 424", "cell flag"});
+  // The property histograms' entry is reserved without kFlagPropertyHistogram.
+  expect_open_error(with([](Image& im) { im.h.property_histograms.hash = 5; }), Errc::format,
+                    {"field property_histograms at byte 472", "histogram flag"});
   // The property's fields are reserved bytes without kFlagProperty.
   expect_open_error(with([](Image& im) { im.h.property_name[3] = 'a'; }), Errc::format, {"property_name", "byte 363"});
   expect_open_error(with([](Image& im) { im.h.property_max = 1.0f; }), Errc::format, {"property_max", "byte 414"});

@@ -1,6 +1,7 @@
 // `mdstream info STORE [--json] [--verify]`: summary of a store (header, types, sizes,
 // quantization), as text or JSON. --verify also reads and decodes every node payload and
-// checks that its occupancy record holds its particles. For a series index (store/series.h):
+// checks that its occupancy record holds its particles and its property histogram is its own.
+// For a series index (store/series.h):
 // one line per frame (time, counts, bounds) and the totals; --verify checks every store.
 #include <algorithm>
 #include <bit>
@@ -45,7 +46,8 @@ Result<nlohmann::json> store_info(const store::StoreReader& r) {
   j["radius_min"] = h.radius_min;
   j["radius_max"] = h.radius_max;
   if (h.flags & store::kFlagProperty)
-    j["property"] = {{"name", std::string(h.property_name)}, {"min", h.property_min}, {"max", h.property_max}};
+    j["property"] = {{"name", std::string(h.property_name)}, {"min", h.property_min}, {"max", h.property_max},
+                     {"node_histograms", (h.flags & store::kFlagPropertyHistogram) != 0}};
   else
     j["property"] = nullptr;
   j["color"] = (h.flags & store::kFlagColor) != 0;
@@ -104,6 +106,7 @@ Status verify_payloads(const store::StoreReader& r) {
   for (uint32_t i = 0; i < r.nodes().size(); ++i) {
     MDS_TRY(r.read_node(i, node, scratch));
     MDS_TRY(r.verify_occupancy(i, node));
+    MDS_TRY(r.verify_property_histogram(i, node));
   }
   return {};
 }
@@ -131,8 +134,9 @@ std::string human(const nlohmann::json& j, const std::optional<SimulationCell>& 
                    j["radius_max"].get<double>());
   if (j["color"].get<bool>()) s += "colours          RGBA8 per particle\n";
   if (!j["property"].is_null())
-    s += fmt::format("property         {} in [{:.6g}, {:.6g}], 16 bits\n", j["property"]["name"].get<std::string>(),
-                     j["property"]["min"].get<double>(), j["property"]["max"].get<double>());
+    s += fmt::format("property         {} in [{:.6g}, {:.6g}], 16 bits{}\n", j["property"]["name"].get<std::string>(),
+                     j["property"]["min"].get<double>(), j["property"]["max"].get<double>(),
+                     j["property"]["node_histograms"].get<bool>() ? "; a histogram per node" : "");
   s += fmt::format("quantization     16 bit; step max {:.6g}, median {:.6g}; max error {:.6g} ({:.4f} of half a step)\n",
                    j["quantization_step"]["max"].get<double>(), j["quantization_step"]["median"].get<double>(),
                    j["max_quantization_error"].get<double>(), j["max_error_over_half_step"].get<double>());
@@ -148,7 +152,7 @@ std::string human(const nlohmann::json& j, const std::optional<SimulationCell>& 
     s += fmt::format("  [{}] id {:<6} name {:<10} radius {:<8.4g} colour {} particles {}\n", t["index"].get<size_t>(),
                      t["id"].get<int32_t>(), t["name"].get<std::string>().empty() ? "-" : t["name"].get<std::string>(),
                      t["radius"].get<double>(), t["color"].get<std::string>(), t["count"].get<uint64_t>());
-  if (verified) s += "verify           every node payload read, hash-checked and decoded, occupancy checked: ok\n";
+  if (verified) s += "verify           every node payload read, hash-checked and decoded, occupancy and property histograms checked: ok\n";
   return s;
 }
 
@@ -217,7 +221,7 @@ void setup_info(CLI::App& sub, int& exit_code) {
   sub.add_option("store", opt->store, "Store file (.mds) or series index (.series)")->required();
   sub.add_flag("--json", opt->json, "Print JSON instead of text");
   sub.add_flag("--verify", opt->verify,
-               "Also read, hash-check and decode every node payload and check its occupancy record");
+               "Also read, hash-check and decode every node payload and check its occupancy record and property histogram");
   sub.callback([opt, &exit_code] {
     if (store::is_series_path(opt->store)) {
       auto j = series_info(opt->store, opt->verify);

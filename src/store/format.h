@@ -10,6 +10,8 @@
 //   [section: voxel lists]            LZ4 block of VoxelRef[sum of NodeEntry::voxel_count] (delta + byte planes)
 //   [section: density volume]         LZ4 block of uint32 counts[dims.x*dims.y*dims.z] (byte planes)
 //   [section: occupancy]              uint8 occupancy[node_count][64]        (uncompressed; since version 2)
+//   [section: cell]                   CellRecord                             (with kFlagCell)
+//   [section: property histograms]    PropertyHistogram[node_count]          (with kFlagPropertyHistogram)
 // Every section and every payload carries an XXH3-64 hash of its stored bytes; the header
 // carries an XXH3-64 hash of itself (computed with header_hash = 0).
 #pragma once
@@ -32,9 +34,13 @@ enum HeaderFlags : uint32_t {
   kFlagPerParticleRadius = 1u << 0,  // node payloads carry uint16 radius_q[n]
   kFlagProperty = 1u << 1,           // node payloads carry uint16 property_q[n] (one scalar per particle)
   kFlagColor = 1u << 2,              // node payloads carry uint32 color[n] (RGBA8 per particle, R in bits 0-7)
-  kFlagCell = 1u << 3,               // the file ends with the cell section (FileHeader::cell, CellRecord)
+  kFlagCell = 1u << 3,               // the cell section follows the occupancy section (FileHeader::cell, CellRecord)
+  // Only with kFlagProperty: the file ends with one PropertyHistogram per node
+  // (FileHeader::property_histograms), after the cell section where there is one.
+  kFlagPropertyHistogram = 1u << 4,
 };
-inline constexpr uint32_t kKnownFlags = kFlagPerParticleRadius | kFlagProperty | kFlagColor | kFlagCell;
+inline constexpr uint32_t kKnownFlags =
+    kFlagPerParticleRadius | kFlagProperty | kFlagColor | kFlagCell | kFlagPropertyHistogram;
 inline constexpr uint32_t kPropertyNameBytes = 48;  // FileHeader::property_name, NUL-terminated
 
 enum SectionId : uint32_t {
@@ -83,9 +89,12 @@ struct FileHeader {
   float property_min;             // smallest value of the property in the store (finite)
   float property_max;             // largest (finite, >= property_min)
   // With kFlagCell: the cell section (one CellRecord, uncompressed) right after the occupancy
-  // section, at the end of the file. All zero without the flag.
+  // section. All zero without the flag.
   Section cell;
-  uint8_t reserved[56];           // zero
+  // With kFlagPropertyHistogram: PropertyHistogram[node_count] (uncompressed) at the end of the
+  // file, right after the cell section (or the occupancy section without a cell). All zero without.
+  Section property_histograms;
+  uint8_t reserved[24];           // zero
   uint64_t header_hash;           // XXH3-64 of these 512 bytes with header_hash = 0
 };
 static_assert(sizeof(FileHeader) == kHeaderBytes);
@@ -93,7 +102,8 @@ static_assert(offsetof(FileHeader, sections) == 200);
 static_assert(offsetof(FileHeader, property_name) == 360);
 static_assert(offsetof(FileHeader, property_min) == 408);
 static_assert(offsetof(FileHeader, cell) == 416);
-static_assert(offsetof(FileHeader, reserved) == 448);
+static_assert(offsetof(FileHeader, property_histograms) == 448);
+static_assert(offsetof(FileHeader, reserved) == 480);
 static_assert(offsetof(FileHeader, header_hash) == 504);
 
 // The simulation cell (core/cell.h) as stored: x = origin + f0 a + f1 b + f2 c, f in [0, 1].
@@ -144,6 +154,19 @@ static_assert(sizeof(NodeEntry) == 112);
 // (src/culling/node_occupancy.h). The renderer classifies a node that is not loaded by its
 // occupied cells (docs/streaming.md, "Sub-node occupancy"); a node has at least one bit set.
 inline constexpr uint32_t kOccupancyBytes = 64;  // per node: 512 cells, one bit each
+
+// Property histogram section (kFlagPropertyHistogram): per node, the range of its quantized
+// property values and how many of its particles fall into each of kPropertyBins equal parts of
+// that range (store/property_histogram.h has the bin rule). A streaming renderer decides from it,
+// without reading payloads, which nodes a --threshold leaves out, keeps whole, or keeps a share
+// of (docs/streaming.md, "Thresholds").
+inline constexpr uint32_t kPropertyBins = 30;  // 2 + 2 + 30 * 2 = 64 bytes per node (0.1 % of a 10000-particle node)
+struct PropertyHistogram {
+  uint16_t q_min;                  // smallest property_q of the node
+  uint16_t q_max;                  // largest (>= q_min)
+  uint16_t counts[kPropertyBins];  // particles per bin; sum = the node's particle_count (<= 65535)
+};
+static_assert(sizeof(PropertyHistogram) == 64);
 
 // A density voxel touched by a node, and how many of the node's particles it holds.
 // Subtracting a node's VoxelRefs from the density volume removes that node (paper 000, §4.4).

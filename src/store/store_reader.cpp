@@ -18,6 +18,7 @@
 #include "store/file_io.h"
 #include "store/hash.h"
 #include "store/payload_codec.h"
+#include "store/property_histogram.h"
 #include "store/series.h"
 #include "store/section_codec.h"
 
@@ -54,6 +55,7 @@ struct StoreReader::Impl {
   std::vector<uint32_t> density;
   std::vector<uint8_t> occupancy;  // kOccupancyBytes per node
   std::optional<SimulationCell> cell;  // with kFlagCell
+  std::vector<PropertyHistogram> histograms;  // with kFlagPropertyHistogram: one per node
 
   Status check_header();
   Status check_sections();
@@ -105,6 +107,16 @@ Status StoreReader::Impl::check_header() {
                                                         : "property_max";
         return make_error(Errc::format, "{}: field {} at byte {}: not zero without the property flag", name, field, at);
       }
+  }
+  if ((h.flags & kFlagPropertyHistogram) && !(h.flags & kFlagProperty))
+    return make_error(Errc::format, "{}: field flags at byte {}: property histograms without the property flag", name,
+                      HFIELD(flags));
+  if (!(h.flags & kFlagPropertyHistogram)) {
+    const auto* p = reinterpret_cast<const uint8_t*>(&h.property_histograms);
+    for (size_t i = 0; i < sizeof(h.property_histograms); ++i)
+      if (p[i] != 0)
+        return make_error(Errc::format, "{}: field property_histograms at byte {}: not zero without the property "
+                          "histogram flag", name, HFIELD(property_histograms) + i);
   }
   if (!(h.flags & kFlagCell)) {
     const auto* p = reinterpret_cast<const uint8_t*>(&h.cell);
@@ -199,6 +211,22 @@ Status StoreReader::Impl::check_sections() {
       return make_error(Errc::range, "{}: field cell.bytes at byte {}: cell section of {} bytes at byte {} runs past the end of the {}-byte file",
                         name, offsetof(FileHeader, cell) + offsetof(Section, bytes), c.bytes, c.offset, file_bytes);
     expected = c.offset + c.bytes;
+  }
+  if (h.flags & kFlagPropertyHistogram) {  // the property histograms, last
+    const Section& p = h.property_histograms;
+    const uint64_t want = uint64_t(h.node_count) * sizeof(PropertyHistogram);
+    if (p.offset != expected)
+      return make_error(Errc::range, "{}: field property_histograms.offset at byte {}: property histogram section at byte "
+                        "{}, expected {}", name, HFIELD(property_histograms) + offsetof(Section, offset), p.offset, expected);
+    if (p.bytes != want || p.raw_bytes != p.bytes)
+      return make_error(Errc::format, "{}: field property_histograms.bytes at byte {}: property histogram section has {} "
+                        "bytes ({} decoded), expected {} (node_count * 64)", name,
+                        HFIELD(property_histograms) + offsetof(Section, bytes), p.bytes, p.raw_bytes, want);
+    if (p.bytes > file_bytes - p.offset)
+      return make_error(Errc::range, "{}: field property_histograms.bytes at byte {}: property histogram section of {} "
+                        "bytes at byte {} runs past the end of the {}-byte file", name,
+                        HFIELD(property_histograms) + offsetof(Section, bytes), p.bytes, p.offset, file_bytes);
+    expected = p.offset + p.bytes;
   }
   if (expected != file_bytes)
     return make_error(Errc::format, "{}: {} bytes after the last section at byte {} (file has {} bytes)", name,
@@ -455,8 +483,21 @@ Result<std::unique_ptr<StoreReader>> StoreReader::open(const std::filesystem::pa
       return make_error(cell.error().code, "{}: cell section at byte {}: {}", s.name, h.cell.offset, cell.error().message);
     s.cell = *cell;
   }
+  if (h.flags & kFlagPropertyHistogram) {
+    const Section& p = h.property_histograms;
+    s.histograms.resize(h.node_count);  // bytes == 64 * node_count <= file size (checked)
+    MDS_TRY(s.file.pread_all(s.histograms.data(), static_cast<size_t>(p.bytes), p.offset));
+    if (hash_bytes({reinterpret_cast<const uint8_t*>(s.histograms.data()), static_cast<size_t>(p.bytes)}) != p.hash)
+      return make_error(Errc::checksum, "{}: property histogram section at byte {}: checksum mismatch", s.name, p.offset);
+  }
   MDS_TRY(s.check_types());
   MDS_TRY(s.check_directory());
+  for (uint32_t i = 0; i < s.histograms.size(); ++i) {
+    Status st = check_property_histogram(s.histograms[i], s.nodes[i].particle_count);
+    if (!st.ok())
+      return make_error(Errc::format, "{}: node {} property histogram at byte {}: {}", s.name, i,
+                        h.property_histograms.offset + uint64_t(i) * sizeof(PropertyHistogram), st.error().message);
+  }
   MDS_TRY(s.check_voxels_and_density(density_block));
   return r;
 }
@@ -469,6 +510,8 @@ std::span<const TypeEntry> StoreReader::types() const { return impl_->types; }
 std::span<const NodeEntry> StoreReader::nodes() const { return impl_->nodes; }
 std::span<const uint32_t> StoreReader::density_counts() const { return impl_->density; }
 const std::optional<SimulationCell>& StoreReader::cell() const { return impl_->cell; }
+
+std::span<const PropertyHistogram> StoreReader::property_histograms() const { return impl_->histograms; }
 
 std::span<const uint8_t> StoreReader::occupancy(uint32_t node) const {
   if (node >= impl_->nodes.size()) return {};
@@ -535,6 +578,27 @@ Status StoreReader::verify_occupancy(uint32_t i, const NodeData& node) const {
       return make_error(Errc::format,
                         "{}: node {} occupancy at byte {}: byte {} lacks bits {:#04x} that the node's particles reach",
                         s.name, i, at, c, unsigned(need[c] & ~rec[c]));
+  return {};
+}
+
+Status StoreReader::verify_property_histogram(uint32_t i, const NodeData& node) const {
+  const Impl& s = *impl_;
+  if (s.histograms.empty()) return {};
+  if (i >= s.nodes.size())
+    return make_error(Errc::invalid_argument, "{}: node {} does not exist ({} nodes)", s.name, i, s.nodes.size());
+  if (node.property_q.size() != s.nodes[i].particle_count)
+    return make_error(Errc::invalid_argument, "{}: node {}: {} decoded property values, the node has {} particles", s.name,
+                      i, node.property_q.size(), s.nodes[i].particle_count);
+  const PropertyHistogram want = make_property_histogram(node.property_q);
+  const PropertyHistogram& got = s.histograms[i];
+  const uint64_t at = s.header.property_histograms.offset + uint64_t(i) * sizeof(PropertyHistogram);
+  if (want.q_min != got.q_min || want.q_max != got.q_max)
+    return make_error(Errc::format, "{}: node {} property histogram at byte {}: range [{}, {}], the node's values span [{}, {}]",
+                      s.name, i, at, got.q_min, got.q_max, want.q_min, want.q_max);
+  for (uint32_t b = 0; b < kPropertyBins; ++b)
+    if (want.counts[b] != got.counts[b])
+      return make_error(Errc::format, "{}: node {} property histogram at byte {}: bin {} counts {}, the node has {} there",
+                        s.name, i, at + 4 + 2 * b, b, got.counts[b], want.counts[b]);
   return {};
 }
 

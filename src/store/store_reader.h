@@ -47,6 +47,9 @@ class StoreReader {
   std::span<const uint32_t> density_counts() const;      // dims.x*dims.y*dims.z particle counts
   // The simulation cell (kFlagCell; docs/store-format.md, "Cell section"), or none.
   const std::optional<SimulationCell>& cell() const;
+  // Per node, its property histogram (kFlagPropertyHistogram; store/property_histogram.h), each
+  // checked against its node's particle count; empty for a store without them.
+  std::span<const PropertyHistogram> property_histograms() const;
   // This node's occupancy record (kOccupancyBytes, format.h); empty for a node that does not exist.
   std::span<const uint8_t> occupancy(uint32_t node) const;
 
@@ -63,6 +66,11 @@ class StoreReader {
   // lacks one could make a renderer skip a visible node without reading it. Errc::format names
   // the node, the record's byte offset and the missing cell. Costs about as much as decoding.
   Status verify_occupancy(uint32_t i, const NodeData& node) const;
+  // Checks that node `i`'s property histogram is the one of its decoded property values (a wrong
+  // one could make a streaming renderer leave out a node a threshold keeps, unread). Errc::format
+  // names the node, the record's byte offset and the first bin that differs. OK for a store
+  // without histograms.
+  Status verify_property_histogram(uint32_t i, const NodeData& node) const;
 
  private:
   StoreReader() = default;

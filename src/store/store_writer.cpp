@@ -2,8 +2,9 @@
 // docs/store-format.md), appends them to "<path>.tmp.<pid>" through aligned 4 MiB blocks that a
 // background thread writes (O_DIRECT where possible, see BlockStream), then writes the type table,
 // the node directory, the LZ4-compressed voxel lists and density volume (section_codec.h) and the
-// occupancy records and, with a cell, the cell record, each with its XXH3-64 hash, and finally the header (hashed with header_hash = 0), fsync and
-// rename.
+// occupancy records, with a cell the cell record and with a property the per-node property
+// histograms (property_histogram.h), each with its XXH3-64 hash, and finally the header (hashed
+// with header_hash = 0), fsync and rename.
 #include "store/store_writer.h"
 
 #include <fcntl.h>
@@ -29,6 +30,7 @@
 #include "store/file_io.h"
 #include "store/hash.h"
 #include "store/payload_codec.h"
+#include "store/property_histogram.h"
 #include "store/section_codec.h"
 
 static_assert(std::endian::native == std::endian::little, "the store format is little-endian; port the I/O first");
@@ -120,6 +122,7 @@ Result<EncodedNode> encode_node(const NodeInput& node) {
   out.max_meshlet_size = max_meshlet;
   out.per_particle_radius = radius;
   out.property = !node.property_q.empty();
+  if (out.property) out.property_histogram = make_property_histogram(node.property_q);
   out.color = !node.color.empty();
   uint32_t counts[256] = {};  // n <= 65535
   uint32_t top = 0;
@@ -316,6 +319,7 @@ struct StoreWriter::Impl {
   std::vector<NodeEntry> entries;
   std::vector<VoxelRef> voxels;
   std::vector<uint8_t> occupancy;  // kOccupancyBytes per node
+  std::vector<PropertyHistogram> histograms;  // per node with a property
   std::vector<uint64_t> type_counts;
   uint64_t particles = 0;
   uint64_t meshlets = 0;
@@ -400,6 +404,7 @@ Status StoreWriter::append(EncodedNode&& node) {
   for (size_t t = 0; t < node.type_counts.size(); ++t) s.type_counts[t] += node.type_counts[t];
   s.voxels.insert(s.voxels.end(), node.voxels.begin(), node.voxels.end());
   s.occupancy.insert(s.occupancy.end(), node.occupancy.begin(), node.occupancy.end());
+  if (node.property) s.histograms.push_back(node.property_histogram);
   s.entries.push_back(e);
   return {};
 }
@@ -536,7 +541,8 @@ Status StoreWriter::finish(const StoreSummary& sum) {
   std::memcpy(h.magic, kMagic, sizeof(kMagic));
   h.version = kFormatVersion;
   h.header_bytes = kHeaderBytes;
-  h.flags = sum.flags | (sum.cell ? uint32_t(kFlagCell) : 0u);
+  h.flags = (sum.flags & ~uint32_t(kFlagPropertyHistogram)) | (sum.cell ? uint32_t(kFlagCell) : 0u) |
+            (property ? uint32_t(kFlagPropertyHistogram) : 0u);
   h.node_size_max = sum.node_size_max;
   h.meshlet_size_max = sum.meshlet_size_max;
   h.node_count = static_cast<uint32_t>(s.entries.size());
@@ -599,12 +605,20 @@ Status StoreWriter::finish(const StoreSummary& sum) {
   MDS_TRY(write_section(kSectionVoxels, voxel_block->data(), voxel_block->size(), s.voxels.size() * sizeof(VoxelRef)));
   MDS_TRY(write_section(kSectionDensity, density.data(), density.size(), density_raw));
   MDS_TRY(write_section(kSectionOccupancy, s.occupancy.data(), s.occupancy.size(), s.occupancy.size()));
-  if (sum.cell) {  // the cell section, last
+  if (sum.cell) {  // the cell section
     const CellRecord rec = encode_cell(*sum.cell);
     h.cell.offset = s.writer->offset();
     h.cell.bytes = h.cell.raw_bytes = sizeof(rec);
     h.cell.hash = hash_bytes({reinterpret_cast<const uint8_t*>(&rec), sizeof(rec)});
     MDS_TRY(s.writer->write(&rec, sizeof(rec)));
+  }
+  if (property) {  // the property histograms, last
+    const uint64_t bytes = s.histograms.size() * sizeof(PropertyHistogram);
+    Section& sec = h.property_histograms;
+    sec.offset = s.writer->offset();
+    sec.bytes = sec.raw_bytes = bytes;
+    sec.hash = hash_bytes({reinterpret_cast<const uint8_t*>(s.histograms.data()), static_cast<size_t>(bytes)});
+    MDS_TRY(s.writer->write(s.histograms.data(), static_cast<size_t>(bytes)));
   }
   MDS_TRY(s.writer->flush());
   sync_thread.join();

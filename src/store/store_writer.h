@@ -41,6 +41,7 @@ struct EncodedNode {
   NodeEntry entry;               // offsets/prefix sums/voxel_first filled in by append()
   std::vector<VoxelRef> voxels;
   std::array<uint8_t, kOccupancyBytes> occupancy{};  // the node's occupancy record (format.h)
+  PropertyHistogram property_histogram{};             // with a property: its histogram (format.h)
   // Filled by encode_node; the writer uses them to fill TypeEntry::particle_count and to
   // check the node against the build parameters in finish().
   std::vector<uint64_t> type_counts;  // particles per type index (size = largest index + 1)
