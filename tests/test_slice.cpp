@@ -357,7 +357,7 @@ TEST_F(SliceCli, StreamedSliceReadsOnlyWhatItKeepsAndMatchesInMemory) {
   EXPECT_TRUE(j.at("converged").get<bool>());
   EXPECT_FALSE(j.at("budget_exhausted").get<bool>());
   EXPECT_LE(j.at("gpu_peak_bytes").get<uint64_t>(), j.at("gpu_budget_bytes").get<uint64_t>());
-  const uint64_t sliced_out = j.at("nodes_sliced_out").get<uint64_t>();
+  const uint64_t sliced_out = j.at("nodes_left_out").get<uint64_t>();
   EXPECT_GT(sliced_out, 10u);  // the slab crosses a third of the 60 nodes
   EXPECT_GE(j.at("nodes_never_loaded").get<uint64_t>(), sliced_out);
   EXPECT_LT(j.at("bytes_read").get<uint64_t>(), j.at("store_payload_bytes").get<uint64_t>() * 3 / 4);
@@ -403,7 +403,7 @@ TEST_F(SliceCli, NodeEmptiedWhenReadLeavesTheClassification) {
       << last_stderr();
   const nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
   EXPECT_TRUE(j.at("converged").get<bool>());
-  const uint64_t nodes = j.at("nodes").get<uint64_t>(), sliced_out = j.at("nodes_sliced_out").get<uint64_t>();
+  const uint64_t nodes = j.at("nodes").get<uint64_t>(), sliced_out = j.at("nodes_left_out").get<uint64_t>();
   EXPECT_GE(sliced_out, 3u);  // the diagonal's 1000 particles: 4 nodes of 250
   EXPECT_LT(sliced_out, nodes);
   uint64_t classified = 0;

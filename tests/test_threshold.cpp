@@ -3,12 +3,15 @@
 // filter, and end to end on LAMMPS' own output: a crystal with a spherical void
 // (tests/data/lammps/in.void_small), thresholded on the atoms' potential energy (c_pe), keeps
 // the atoms on the void's surface; the render equals that of a store converted from just those
-// atoms; the culled view converges to its every-particle reference; picking skips what is left
-// out; and the errors name the option and write nothing.
+// atoms; the culled view converges to its every-particle reference; streamed, the nodes without
+// a kept atom are never read and the image is the in-memory one; picking skips what is left out;
+// and the errors name the option and write nothing.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -20,6 +23,8 @@
 #include "cli_test_util.h"
 #include "render/scene.h"
 #include "store/format.h"
+#include "store/hash.h"
+#include "store/store_reader.h"
 #include "store/threshold.h"
 #include "text_reader_test_util.h"
 
@@ -258,7 +263,112 @@ TEST_F(ThresholdCli, PickSkipsWhatTheThresholdLeavesOut) {
   EXPECT_GT(bulk, 0u);
 }
 
-// A store without a property, a threshold that keeps nothing, streaming, a malformed spec:
+// Streamed (--gpu-budget): the cache tells from the nodes' property histograms which nodes hold
+// no atom above -6 and never reads them; it reads and thins the others; the converged image is
+// the in-memory one. Checked against the payloads themselves: the nodes left out are exactly
+// those none of whose decoded values is kept, and the node log shows no read of any of them.
+// export skips them too (a damaged payload there goes unnoticed).
+// The pool (512 KiB) is below the store's pages (104 nodes of 50 atoms, a page each).
+TEST_F(ThresholdCli, StreamedReadsNoNodeItLeavesOutAndMatchesInMemory) {
+  const fs::path small = dir_ / "v50.mds";
+  ASSERT_EQ(run("convert -q --frame last --property c_pe --node-size 50 " + dump().string() + " -o " + small.string()), 0)
+      << last_stderr();
+  auto reader = store::StoreReader::open(small);
+  ASSERT_TRUE(reader.ok()) << reader.error().message;
+  const store::FileHeader& h = (*reader)->header();
+  ASSERT_TRUE(h.flags & store::kFlagPropertyHistogram);
+  std::vector<bool> holds_kept;
+  store::NodeData data;
+  std::vector<uint8_t> scratch;
+  for (uint32_t i = 0; i < (*reader)->nodes().size(); ++i) {
+    ASSERT_TRUE((*reader)->read_node(i, data, scratch).ok());
+    bool any = false;
+    for (uint16_t q : data.property_q) any = any || store::property_value(h.property_min, h.property_max, q) >= -6.0;
+    holds_kept.push_back(any);
+  }
+  const size_t left_out = size_t(std::count(holds_kept.begin(), holds_kept.end(), false));
+  ASSERT_GT(left_out, holds_kept.size() / 4);  // the bulk away from the void
+  ASSERT_LT(left_out, holds_kept.size());
+  const std::string look = " --spp 4 --width 160 --height 120 --background 0,0,0 --threshold=-6:";
+  for (const char* view : {"0", "2"}) {
+    SCOPED_TRACE(std::string("view ") + view);
+    const fs::path mem = dir_ / "mem.exr", streamed = dir_ / "streamed.exr", stats = dir_ / "s.json", log = dir_ / "n.csv";
+    ASSERT_EQ(run("render " + small.string() + " -o " + mem.string() + " --no-cull --view " + view + look), 0)
+        << last_stderr();
+    ASSERT_EQ(run("render " + small.string() + " -o " + streamed.string() + " --gpu-budget 512KiB --view " + view +
+                  " --stats " + stats.string() + " --node-log " + log.string() + look),
+              0)
+        << last_stderr();
+    const nlohmann::json j = nlohmann::json::parse(std::ifstream(stats));
+    EXPECT_TRUE(j.at("converged").get<bool>());
+    EXPECT_FALSE(j.at("budget_exhausted").get<bool>());
+    EXPECT_EQ(j.at("nodes_left_out").get<size_t>(), left_out);
+    EXPECT_LT(j.at("bytes_read").get<uint64_t>(), j.at("store_payload_bytes").get<uint64_t>());
+    EXPECT_EQ(j.at("threshold").get<std::string>(), "-6:");
+    const ExrDifference d = compare_exr(mem, streamed, 160, 120);
+    EXPECT_GT(d.covered, 500u);
+    EXPECT_EQ(d.differing, 0u);
+    // Node log: node,particles,payload_bytes,class,visible,carried,requests,reads,...
+    std::ifstream in(log);
+    std::string line;
+    std::getline(in, line);
+    size_t rows = 0;
+    while (std::getline(in, line)) {
+      std::vector<std::string> f;
+      std::stringstream ls(line);
+      for (std::string x; std::getline(ls, x, ',');) f.push_back(x);
+      ASSERT_GE(f.size(), 8u) << line;
+      const size_t node = std::stoul(f[0]);
+      ASSERT_LT(node, holds_kept.size());
+      if (!holds_kept[node]) {
+        EXPECT_EQ(f[7], "0") << "node " << node << " holds no kept atom but was read";
+      }
+      ++rows;
+    }
+    EXPECT_EQ(rows, holds_kept.size());
+  }
+  // export --threshold reads no node the histograms leave out either: with the payload of one
+  // such node damaged, it still writes every kept atom, where export without it names the damage.
+  const auto nodes = (*reader)->nodes();
+  const size_t bad = size_t(std::find(holds_kept.begin(), holds_kept.end(), false) - holds_kept.begin());
+  std::vector<uint8_t> b;
+  {
+    std::ifstream f(small, std::ios::binary);
+    b.assign(std::istreambuf_iterator<char>(f), {});
+  }
+  {
+    std::vector<uint8_t> damaged = b;
+    damaged[size_t(nodes[bad].payload_offset) + 3] ^= 0x40;
+    const fs::path p = dir_ / "damaged.mds";
+    std::ofstream(p, std::ios::binary).write(reinterpret_cast<const char*>(damaged.data()), std::streamsize(damaged.size()));
+    ASSERT_EQ(run("export " + p.string() + " -o " + (dir_ / "d.xyz").string() + " --threshold=-6:"), 0) << last_stderr();
+    ASSERT_EQ(run("export " + small.string() + " -o " + (dir_ / "s.xyz").string() + " --threshold=-6:"), 0)
+        << last_stderr();
+    EXPECT_EQ(xyz_count(dir_ / "d.xyz"), xyz_count(dir_ / "s.xyz"));
+    EXPECT_NE(run("export " + p.string() + " -o " + (dir_ / "all.xyz").string()), 0);
+    EXPECT_THAT(last_stderr(), HasSubstr("node " + std::to_string(bad) + " payload at byte"));
+  }
+  // A store converted before the histograms (here: the section taken off, the flag cleared):
+  // refused streamed, with what to do; in memory it renders.
+  store::FileHeader old;
+  std::memcpy(&old, b.data(), sizeof old);
+  b.resize(size_t(old.property_histograms.offset));
+  old.flags &= ~uint32_t(store::kFlagPropertyHistogram);
+  old.property_histograms = {};
+  old.header_hash = 0;
+  old.header_hash = store::hash_bytes({reinterpret_cast<const uint8_t*>(&old), sizeof old});
+  std::memcpy(b.data(), &old, sizeof old);
+  const fs::path before = dir_ / "before.mds";
+  std::ofstream(before, std::ios::binary).write(reinterpret_cast<const char*>(b.data()), std::streamsize(b.size()));
+  const fs::path png = dir_ / "old.png";
+  EXPECT_EQ(run("render " + before.string() + " -o " + png.string() + " --gpu-budget 512KiB" + look), 2);
+  EXPECT_THAT(last_stderr(), HasSubstr("--threshold -6: with --gpu-budget: " + before.string() +
+                                       " has no per-node property histograms"));
+  EXPECT_FALSE(fs::exists(png));
+  EXPECT_EQ(run("render " + before.string() + " -o " + png.string() + " --no-cull" + look), 0) << last_stderr();
+}
+
+// A store without a property, a threshold that keeps nothing (in memory and streamed), a malformed spec:
 // usage errors naming the option, no output.
 TEST_F(ThresholdCli, ErrorsNameTheOptionAndWriteNothing) {
   const fs::path plain = dir_ / "plain.mds", png = dir_ / "bad.png", xyz = dir_ / "bad.xyz";
@@ -267,8 +377,9 @@ TEST_F(ThresholdCli, ErrorsNameTheOptionAndWriteNothing) {
   EXPECT_THAT(last_stderr(), HasSubstr("--threshold -6:: " + plain.string() + " has no per-particle property"));
   EXPECT_EQ(run("render " + store() + " -o " + png.string() + " --threshold 100:"), 2);
   EXPECT_THAT(last_stderr(), HasSubstr(store() + ": --threshold 100: leaves no particle of the store (its property 'c_pe'"));
-  EXPECT_EQ(run("render " + store() + " -o " + png.string() + " --threshold=-6: --gpu-budget 1MiB"), 2);
-  EXPECT_THAT(last_stderr(), HasSubstr("--threshold needs the whole store in memory"));
+  // Streamed, the cache finds it from the nodes' property histograms, before any frame.
+  EXPECT_EQ(run("render " + store() + " -o " + png.string() + " --threshold 100: --gpu-budget 1MiB"), 2);
+  EXPECT_THAT(last_stderr(), HasSubstr(store() + ": --threshold 100: leaves no particle of the store"));
   EXPECT_EQ(run("render " + store() + " -o " + png.string() + " --threshold=-6:x"), 2);
   EXPECT_THAT(last_stderr(), HasSubstr("--threshold '-6:x': HI 'x' is not a finite number"));
   EXPECT_EQ(run("render " + store() + " -o " + png.string() + " --threshold=-6: --visible-reference"), 2);

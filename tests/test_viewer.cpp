@@ -208,6 +208,27 @@ class ViewerWindow : public ::testing::Test {
     fs::remove(store());
     ASSERT_EQ(mdstream(fmt::format("convert {} --color -q -o {}", (dir_ / "c.xyz").string(), store())), 0) << err();
   }
+  // The fixture's store replaced by 20000 particles whose property `r2` is their squared distance
+  // from the centre of the 30^3 box (convert --property r2).
+  void use_property_store() {
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> u(0.0, 30.0);
+    std::string text = "20000\nProperties=species:S:1:pos:R:3:r2:R:1\n";
+    for (int i = 0; i < 20000; ++i) {
+      const double x = u(rng), y = u(rng), z = u(rng);
+      text += fmt::format("A {:.5f} {:.5f} {:.5f} {:.4f}\n", x, y, z,
+                          (x - 15) * (x - 15) + (y - 15) * (y - 15) + (z - 15) * (z - 15));
+    }
+    {
+      std::ofstream f(dir_ / "p.xyz");
+      f << text;
+    }
+    fs::remove(store());
+    ASSERT_EQ(mdstream(fmt::format("convert {} --property r2 --node-size 2000 -q -o {}", (dir_ / "p.xyz").string(),
+                                   store())),
+              0)
+        << err();
+  }
   // A 6-frame orbit of the store for a W x H window, saved to path.txt.
   render::CameraPath orbit(uint32_t W, uint32_t H) {
     auto reader = store::StoreReader::open(store());
@@ -332,6 +353,15 @@ TEST_F(ViewerWindow, ColourByCoordinateScreenshotMatchesHeadlessRender) {
 TEST_F(ViewerWindow, OwnColoursScreenshotMatchesHeadlessRender) {
   ASSERT_NO_FATAL_FAILURE(use_colored_store());
   expect_window_like_render("", "", "--color-by type", "the window shows the type colours");
+}
+
+// --threshold while streaming: the viewer's cache leaves out the nodes whose property histogram
+// holds no kept value and thins the others, and the window shows what `render --threshold` draws
+// in memory (a ball of the particles within 10 of the centre), not the whole box.
+TEST_F(ViewerWindow, StreamedThresholdScreenshotMatchesInMemoryRender) {
+  ASSERT_NO_FATAL_FAILURE(use_property_store());
+  expect_window_like_render("--threshold :100 --gpu-budget 1MiB", "--threshold :100", "",
+                            "the window shows the whole box");
 }
 
 // A viewer started in the background under the fixture's Xvfb (ViewerWindow::start), killed if

@@ -188,13 +188,13 @@ TEST(ViewerHud, CacheLineCountsSlicedOutNodes) {
   const auto has = [](const std::vector<std::string>& lines, const std::string& text) {
     return std::any_of(lines.begin(), lines.end(), [&](const std::string& l) { return l.find(text) != std::string::npos; });
   };
-  EXPECT_FALSE(has(viewer::hud_lines(s), "sliced out"));
-  s.cache.nodes_sliced_out = 193;
-  EXPECT_TRUE(has(viewer::hud_lines(s), "nodes 0/305  in flight 0  sliced out 193"));
+  EXPECT_FALSE(has(viewer::hud_lines(s), "left out"));
+  s.cache.nodes_left_out = 193;
+  EXPECT_TRUE(has(viewer::hud_lines(s), "nodes 0/305  in flight 0  left out 193"));
   // ... and, after a series step, the nodes of the first wave carried from the frame before.
   EXPECT_FALSE(has(viewer::hud_lines(s), "carried"));
   s.cache.carried_nodes = 12;
-  EXPECT_TRUE(has(viewer::hud_lines(s), "sliced out 193  carried 12"));
+  EXPECT_TRUE(has(viewer::hud_lines(s), "left out 193  carried 12"));
 }
 
 // --threshold: a line of its own, with the property's name (none without a threshold).

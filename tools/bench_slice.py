@@ -86,7 +86,7 @@ def main():
                          "hit_rate_over_belady": j["hit_rate_over_belady"], "bytes_read": j["bytes_read"],
                          "store_payload_bytes": j.get("store_payload_bytes", info.get("payload_bytes", 0)),
                          "nodes": j.get("nodes", 0), "nodes_never_loaded": j["nodes_never_loaded"],
-                         "nodes_sliced_out": j["nodes_sliced_out"], "budget_exhausted": j["budget_exhausted"]})
+                         "nodes_left_out": j["nodes_left_out"], "budget_exhausted": j["budget_exhausted"]})
 
     write_csv(args.out, "slice", rows, sorted({k for r in rows for k in r}))
 
@@ -113,15 +113,15 @@ def main():
            f"porous {particles} (node size 1000), pool = store / 8 = {fmt_bytes(budget)}, 320x180, {frames} frames "
            "per path, the path known to the cache. Hit rate / Belady: the online cache against the offline Belady "
            "replay of the same requests at the sizes the nodes take in the pool (a cut node: what the slice keeps "
-           "of it). Never read: nodes the path never loaded; sliced out: of those, the nodes the slice removes "
+           "of it). Never read: nodes the path never loaded; left out: of those, the nodes the slice removes "
            "whole (or that kept nothing when read).", "",
-           "| slice | path | hit rate | hit rate / Belady | bytes read | never read / sliced out / nodes | pool held the view |",
+           "| slice | path | hit rate | hit rate / Belady | bytes read | never read / left out / nodes | pool held the view |",
            "|---|---|---:|---:|---:|---:|---|"]
     for r in rows:
         if r["part"] != "streaming":
             continue
         md.append(f"| {r['slice']} | {r['path']} | {r['hit_rate']:.3f} | {r['hit_rate_over_belady']:.3f} | "
-                  f"{fmt_bytes(r['bytes_read'])} | {r['nodes_never_loaded']} / {r['nodes_sliced_out']} / "
+                  f"{fmt_bytes(r['bytes_read'])} | {r['nodes_never_loaded']} / {r['nodes_left_out']} / "
                   f"{r['nodes'] or '-'} | {'no' if r['budget_exhausted'] else 'yes'} |")
     write_report(args.out, "slice", md)
 

@@ -4,7 +4,8 @@
 // in shortest round-trip form (colours with 5 digits, which give the 8 bits back exactly), so
 // the export adds no error to the store's quantization error. With slices (store/slice.h) and a
 // threshold (store/threshold.h) only the particles they keep, the same ones `render --slice
-// --threshold` draws; nodes the slices leave out are not read. The output appears only when complete. `-o OUT.mmpld` writes MMPLD instead
+// --threshold` draws; nodes the slices leave out, or whose property histogram holds no value the
+// threshold keeps, are not read. The output appears only when complete. `-o OUT.mmpld` writes MMPLD instead
 // (export_mmpld.cpp).
 #include <cctype>
 #include <cstdio>
@@ -61,7 +62,7 @@ Status export_xyz(const ExportOptions& o) {
   if (filter.any()) {
     count = 0;
     for (uint32_t i = 0; i < nodes.size(); ++i) {
-      const store::SliceCover cover = node_cover(filter.slices, nodes[i]);
+      const store::SliceCover cover = filter.cover(i, nodes[i]);
       if (cover == store::SliceCover::none) continue;
       if (filter.keeps_whole(cover)) {
         count += nodes[i].particle_count;
@@ -91,7 +92,7 @@ Status export_xyz(const ExportOptions& o) {
   const double rstep = (double(h.radius_max) - double(h.radius_min)) / double(store::kQuantMax);
   for (uint32_t i = 0; i < nodes.size(); ++i) {
     const store::NodeEntry& e = nodes[i];
-    const store::SliceCover cover = node_cover(filter.slices, e);
+    const store::SliceCover cover = filter.cover(i, e);
     if (cover == store::SliceCover::none) continue;
     MDS_TRY(reader->read_node(i, node, scratch));
     for (size_t k = 0; k < node.particle_count(); ++k) {

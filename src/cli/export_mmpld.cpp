@@ -61,7 +61,7 @@ Status export_mmpld(const store::StoreReader& reader, const ExportFilter& filter
     for (size_t t = 0; t < types.size(); ++t) counts[t] = types[t].particle_count;
   } else {
     for (uint32_t i = 0; i < nodes.size(); ++i) {
-      const store::SliceCover cover = node_cover(filter.slices, nodes[i]);
+      const store::SliceCover cover = filter.cover(i, nodes[i]);
       if (cover == store::SliceCover::none) continue;
       MDS_TRY(reader.read_node(i, node, scratch));
       for (size_t k = 0; k < node.particle_count(); ++k)
@@ -142,7 +142,7 @@ Status export_mmpld(const store::StoreReader& reader, const ExportFilter& filter
   std::vector<uint64_t> written(types.size(), 0);
   for (uint32_t i = 0; i < nodes.size(); ++i) {
     const store::NodeEntry& e = nodes[i];
-    const store::SliceCover cover = node_cover(filter.slices, e);
+    const store::SliceCover cover = filter.cover(i, e);
     if (cover == store::SliceCover::none) continue;
     MDS_TRY(reader.read_node(i, node, scratch));
     for (size_t k = 0; k < node.particle_count(); ++k) {

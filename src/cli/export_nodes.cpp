@@ -16,8 +16,21 @@ Result<ExportFilter> ExportFilter::make(std::span<const std::string> slice_specs
                         threshold, reader.path().string());
     f.threshold = *t;
     f.property_kept = store::threshold_table(*t, h.property_min, h.property_max);
+    if (h.flags & store::kFlagPropertyHistogram) {
+      f.kept_prefix = store::kept_prefix_sums(f.property_kept);
+      f.histograms = reader.property_histograms();
+    }
   }
   return f;
+}
+
+store::SliceCover ExportFilter::cover(uint32_t i, const store::NodeEntry& e) const {
+  const store::SliceCover by_slices = node_cover(slices, e);
+  if (property_kept.empty() || by_slices == store::SliceCover::none) return by_slices;
+  if (histograms.empty()) return store::SliceCover::some;  // a store without histograms: decode and test
+  const store::SliceCover by_value = store::property_cover(histograms[i], kept_prefix).cover;
+  if (by_value == store::SliceCover::none) return by_value;
+  return by_value == store::SliceCover::all ? by_slices : store::SliceCover::some;
 }
 
 Error ExportFilter::nothing_kept(const store::StoreReader& reader) const {

@@ -1,6 +1,7 @@
 // What `mdstream export` shares between its formats (cmd_export.cpp: extended XYZ,
 // export_mmpld.cpp: MMPLD): which nodes the slices cut, the decoded centre of a particle, and
-// which particles --slice and --threshold keep.
+// which particles --slice and --threshold keep (nodes whose property histogram holds no kept
+// value are not read).
 #pragma once
 
 #include <array>
@@ -12,6 +13,7 @@
 #include <vector>
 
 #include "core/result.h"
+#include "store/property_histogram.h"
 #include "store/slice.h"
 #include "store/store_reader.h"
 #include "store/threshold.h"
@@ -39,6 +41,10 @@ struct ExportFilter {
   std::vector<store::Slice> slices;
   std::optional<store::Threshold> threshold;
   std::vector<uint8_t> property_kept;  // store::threshold_table over the store's range; empty: no threshold
+  // With a threshold on a store with property histograms: store::kept_prefix_sums of
+  // property_kept and the store's histograms, so that nodes with no kept value are not read.
+  std::vector<uint32_t> kept_prefix;
+  std::span<const store::PropertyHistogram> histograms;
 
   // From the --slice specs and the --threshold spec (empty: none) for `reader`'s store;
   // Errc::invalid_argument naming the option for a bad spec, or --threshold on a store without a
@@ -47,13 +53,16 @@ struct ExportFilter {
                                    const store::StoreReader& reader);
   // Leaves particles out.
   bool any() const { return !slices.empty() || threshold.has_value(); }
-  // Whether particle k (centre x) of a node the slices cover as `cover` (not none) is kept.
+  // Whether particle k (centre x) of a node covered as `cover` (cover(), not none) is kept.
   bool keeps(store::SliceCover cover, const std::array<double, 3>& x, const store::NodeData& node, size_t k) const {
     if (cover == store::SliceCover::some && !store::slices_keep(slices, x)) return false;
     return property_kept.empty() || property_kept[node.property_q[k]];
   }
-  // Every particle of a node the slices cover as `cover` is kept, without decoding it.
-  bool keeps_whole(store::SliceCover cover) const { return cover == store::SliceCover::all && property_kept.empty(); }
+  // What the slices and the threshold do to node i (entry e): none (not read), all (every
+  // particle kept: a threshold whose histogram says so, or none), or some.
+  store::SliceCover cover(uint32_t i, const store::NodeEntry& e) const;
+  // Every particle of a node covered as `cover` (cover()) is kept, without decoding it.
+  bool keeps_whole(store::SliceCover cover) const { return cover == store::SliceCover::all; }
   // The error when nothing is kept, naming the store, the options and the property's range.
   Error nothing_kept(const store::StoreReader& reader) const;
 };

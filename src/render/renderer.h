@@ -45,6 +45,7 @@
 #include "render/scene.h"
 #include "store/slice.h"
 #include "store/store_reader.h"
+#include "store/threshold.h"
 #include "streaming/io_pool.h"
 #include "streaming/node_match.h"
 #include "streaming/residency.h"
@@ -60,6 +61,10 @@ struct StreamSettings {
   // the others lose the cut particles on the reader thread that decodes them; the density volume
   // and the nodes' voxel lists count what is kept (docs/streaming.md, "Slices").
   std::vector<store::Slice> slices;
+  // --threshold (store/threshold.h): from each node's property histogram (store kFlagPropertyHistogram),
+  // nodes with no value it keeps are never read, nodes it cuts are thinned on the reader thread,
+  // and their voxel counts scaled by the share it keeps (docs/streaming.md, "Thresholds").
+  std::optional<store::Threshold> threshold;
   // The pool holds the store's per-particle colours (store kFlagColor), 2 KiB a page more:
   // Renderer::create_streaming sets it where they are drawn (--color-by color).
   bool colors = false;
@@ -279,7 +284,7 @@ struct CacheStats {
   uint64_t nodes_loaded = 0;      // uploads (a node evicted and loaded again counts twice)
   uint64_t nodes_never_loaded = 0;
   uint64_t nodes_failed = 0;      // corrupted/unreadable, reported once and skipped
-  uint64_t nodes_sliced_out = 0;  // left out by --slice: every centre cut (never read), or none kept when read
+  uint64_t nodes_left_out = 0;  // left out by --slice or --threshold: nothing kept (never read), or none kept when read
   uint64_t cache_hits = 0;        // per frame, per wanted node (not O, in the frustum): resident
   uint64_t cache_misses = 0;      //   ... not resident
   uint64_t evictions[4] = {};     // by class at eviction: P, L, M, O

@@ -312,19 +312,19 @@ Result<SceneOptions> resolve_scene_options(const store::StoreReader& reader, std
                                            const std::optional<store::Threshold>& threshold) {
   SceneOptions o;
   o.slices.assign(slices.begin(), slices.end());  // streaming: the cache applies them (StreamSettings::slices)
-  if (hide_keys.empty() && radii.empty() && !threshold) return o;
-  const char* option = !hide_keys.empty() ? "--hide-type" : !radii.empty() ? "--type-radius" : "--threshold";
-  if (streaming)
-    return make_error(Errc::invalid_argument, "{} needs the whole store in memory (no --gpu-budget): the cache streams "
-                      "whole nodes, and the store's density volume and node boxes describe every particle at its "
-                      "radius", option);
-  if (threshold) {
+  if (threshold) {  // streaming: the cache applies it too (StreamSettings::threshold)
     const store::FileHeader& h = reader.header();
     if (!(h.flags & store::kFlagProperty))
       return make_error(Errc::invalid_argument, "--threshold {}: {} has no per-particle property (convert --property NAME)",
                         store::threshold_spec(*threshold), reader.path().string());
     o.threshold = threshold;
   }
+  if (hide_keys.empty() && radii.empty()) return o;
+  const char* option = !hide_keys.empty() ? "--hide-type" : "--type-radius";
+  if (streaming)
+    return make_error(Errc::invalid_argument, "{} needs the whole store in memory (no --gpu-budget): the cache streams "
+                      "whole nodes, and the store's density volume and node boxes describe every particle at its "
+                      "radius", option);
   auto shown = store::shown_types(reader.types(), hide_keys);
   if (!shown) return make_error(Errc::invalid_argument, "--hide-type: {}", shown.error().message);
   o.shown_types = std::move(*shown);

@@ -111,12 +111,13 @@ struct SceneOptions {
 // and node boxes and occupancy are computed from them, as they are from the store's.
 Result<SceneData> load_scene(const store::StoreReader& reader, const SceneOptions& o = {});
 // The SceneOptions of a user's --hide-type keys, --type-radius specs and --threshold against the
-// store (store::shown_types, store::type_radii). All three change what the renderer holds, so
-// they need the store in memory: Errc::invalid_argument when `streaming` (the cache streams whole
-// nodes, and the store's density volume and node boxes describe every particle at the store's
-// radii), for --type-radius on a store with per-particle radii and for --threshold on a store
-// without a property. Errors name the option. Slices (--slice) are kept in both cases: load_scene
-// applies them in memory, the streaming cache (StreamSettings::slices) when streaming.
+// store (store::shown_types, store::type_radii). Hidden types and type radii change what the
+// renderer holds, so they need the store in memory: Errc::invalid_argument when `streaming` (the
+// cache streams whole nodes, and the store's density volume and node boxes describe every
+// particle at the store's radii), for --type-radius on a store with per-particle radii and for
+// --threshold on a store without a property. Errors name the option. Slices (--slice) and the
+// threshold are kept in both cases: load_scene applies them in memory, the streaming cache
+// (StreamSettings::slices, ::threshold) when streaming.
 Result<SceneOptions> resolve_scene_options(const store::StoreReader& reader, std::span<const std::string> hide_keys,
                                            std::span<const store::TypeRadiusSpec> radii,
                                            std::span<const store::Slice> slices, bool streaming,

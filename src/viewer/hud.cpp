@@ -47,7 +47,7 @@ std::vector<std::string> hud_lines(const HudState& s) {
                             c.gpu_budget_bytes / 1e6,
                             c.gpu_budget_bytes ? 100.0 * double(c.resident_bytes) / double(c.gpu_budget_bytes) : 0.0,
                             c.nodes_resident, c.nodes, c.in_flight,
-                            c.nodes_sliced_out ? fmt::format("  sliced out {}", c.nodes_sliced_out) : std::string(),
+                            c.nodes_left_out ? fmt::format("  left out {}", c.nodes_left_out) : std::string(),
                             // a series step: the first wave carried from the frame before (docs/streaming.md)
                             c.carried_nodes ? fmt::format("  carried {}", c.carried_nodes) : std::string()));
     l.push_back(fmt::format("read {:.1f} MB/s  total {:.1f} MB  hits {}  misses {}{}", s.read_mb_s, c.bytes_read / 1e6,

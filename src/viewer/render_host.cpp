@@ -25,6 +25,7 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
   h->hide_types_ = options.hide_types;
   h->type_radii_ = options.type_radii;
   h->threshold_ = options.threshold;
+  h->stream_.threshold = options.threshold;  // streaming: the cache applies it (StreamSettings::threshold)
   h->type_colors_ = options.type_colors;
   h->color_by_ = options.render.color_by;
   h->cell_mode_ = options.cell;

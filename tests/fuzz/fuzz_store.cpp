@@ -4,15 +4,19 @@
 // Random bytes rarely get past the header hash, so for inputs of odd length the harness first
 // recomputes every hash it can locate (payloads, sections, header): those inputs exercise the
 // semantic checks, even-length inputs the checksum paths.
-// Seed corpus: tests/data/store/golden_v2.mds, and a store with a cell section (kFlagCell) that
-// `convert --node-size 2` writes from an extended XYZ with a Lattice. Built only with -DMDSTREAM_FUZZ=ON (clang).
+// Seed corpus: tests/data/store/golden_v2.mds, a store with a cell section (kFlagCell) that
+// `convert --node-size 2` writes from an extended XYZ with a Lattice, and one with a property and
+// its per-node histograms (kFlagPropertyHistogram: `convert --property c_pe --node-size 50` of
+// tests/data/lammps/in.void_small's dump). Built only with -DMDSTREAM_FUZZ=ON (clang).
 #include <cstring>
 #include <vector>
 
 #include "fuzz_harness.h"
 #include "store/format.h"
 #include "store/hash.h"
+#include "store/property_histogram.h"
 #include "store/store_reader.h"
+#include "store/threshold.h"
 
 namespace {
 
@@ -36,6 +40,9 @@ void fix_hashes(std::vector<uint8_t>& b) {
   for (auto& s : h.sections)
     if (inside(s.offset, s.bytes)) s.hash = hash_bytes({b.data() + s.offset, size_t(s.bytes)});
   if ((h.flags & kFlagCell) && inside(h.cell.offset, h.cell.bytes)) h.cell.hash = hash_bytes({b.data() + h.cell.offset, size_t(h.cell.bytes)});
+  const Section& ph = h.property_histograms;
+  if ((h.flags & kFlagPropertyHistogram) && inside(ph.offset, ph.bytes))
+    h.property_histograms.hash = hash_bytes({b.data() + ph.offset, size_t(ph.bytes)});
   h.header_hash = 0;
   h.header_hash = hash_bytes({reinterpret_cast<const uint8_t*>(&h), sizeof(h)});
   std::memcpy(b.data(), &h, sizeof(h));
@@ -55,9 +62,16 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     mds::store::NodeData node;
     std::vector<uint8_t> scratch;
     const auto& r = **reader;
+    // A threshold over the middle of the property's range, as a streaming render asks of each
+    // node's histogram.
+    const std::vector<uint32_t> prefix = mds::store::kept_prefix_sums(mds::store::threshold_table(
+        {double(r.header().property_min), 0.5 * (double(r.header().property_min) + double(r.header().property_max)), false},
+        r.header().property_min, r.header().property_max));
+    const auto histograms = r.property_histograms();
     for (uint32_t i = 0; i < r.nodes().size(); ++i) {
-      (void)r.read_node(i, node, scratch);
+      if (r.read_node(i, node, scratch).ok()) (void)r.verify_property_histogram(i, node);
       (void)r.voxels(i);
+      if (i < histograms.size()) (void)mds::store::property_cover(histograms[i], prefix);
     }
     (void)r.density_counts();
   }

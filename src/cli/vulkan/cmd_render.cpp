@@ -249,11 +249,12 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
                            !so.slices.empty() || so.threshold.has_value();
   if (!streaming && drops_nodes && !o.node_log.empty())  // the scene's nodes no longer match the store's
     return make_error(Errc::invalid_argument, "--node-log lists the store's nodes: in memory not with --hide-type, "
-                      "--slice or --threshold, which leave nodes out of the scene (streamed, --slice is fine)");
+                      "--slice or --threshold, which leave nodes out of the scene (streamed, --slice and --threshold are fine)");
   render::StreamSettings ss;
   if (streaming) {
     MDS_ASSIGN_OR_RETURN(ss, stream_settings(o.stream));
     ss.slices = so.slices;
+    ss.threshold = so.threshold;
   }
   // In memory the whole store is decoded; streaming, only the directory is read here.
   render::SceneData scene;
@@ -482,7 +483,7 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
       j["nodes_resident"] = c.nodes_resident;
       j["nodes_never_loaded"] = c.nodes_never_loaded;
       j["nodes_failed"] = c.nodes_failed;
-      j["nodes_sliced_out"] = c.nodes_sliced_out;
+      j["nodes_left_out"] = c.nodes_left_out;
       j["node_errors"] = c.errors;
       j["cache_hits"] = c.cache_hits;
       j["cache_misses"] = c.cache_misses;

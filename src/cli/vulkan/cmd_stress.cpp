@@ -36,6 +36,7 @@
 #include "render/visible_nodes.h"
 #include "store/slice.h"
 #include "store/store_reader.h"
+#include "store/threshold.h"
 #include "streaming/belady.h"
 #include "streaming/residency.h"
 #include "vk/context.h"
@@ -58,6 +59,7 @@ struct StressOptions {
   std::string node_log;  // --node-log CSV after the run (node_log.h)
   CullingOptions cull;
   std::vector<std::string> slices;  // --slice specs (store/slice.h)
+  std::string threshold;            // --threshold spec (store/threshold.h); empty: none
   int device = -1;
   bool quiet = false;
 };
@@ -98,6 +100,11 @@ Status run_stress(const StressOptions& o) {
   MDS_ASSIGN_OR_RETURN(render::StreamSettings ss, stream_settings(o.stream));
   ss.record_trace = true;
   MDS_ASSIGN_OR_RETURN(ss.slices, store::parse_slices(o.slices));
+  if (!o.threshold.empty()) {
+    auto t = store::parse_threshold(o.threshold);
+    if (!t) return make_error(Errc::invalid_argument, "--threshold {}", t.error().message);
+    ss.threshold = *t;
+  }
   const uint64_t budget = ss.gpu_budget;
   const streaming::Policy policy = ss.policy;
   const uint64_t bandwidth = uint64_t(ss.io.io_bandwidth);
@@ -359,7 +366,7 @@ Status run_stress(const StressOptions& o) {
   j["wanted_nodes"] = c.wanted_nodes;
   j["wanted_bytes"] = c.wanted_bytes;
   j["nodes_failed"] = c.nodes_failed;
-  j["nodes_sliced_out"] = c.nodes_sliced_out;
+  j["nodes_left_out"] = c.nodes_left_out;
   j["evictions"] = {{"O", c.evictions[3]}, {"M", c.evictions[2]}, {"L", c.evictions[1]}, {"P", c.evictions[0]}};
   j["upload_stalls"] = c.upload_stalls;
   j["late_arrivals_kept"] = c.late_arrivals_kept;
@@ -462,7 +469,7 @@ Status run_stress(const StressOptions& o) {
   row("hit rate LRU / FIFO (offline)", fmt::format("{} / {}", fmt_rate(bounds.lru.hit_rate()), fmt_rate(bounds.fifo.hit_rate())));
   row("bytes read / uploaded", fmt::format("{} ({:.2f}x store) / {}", fmt_bytes(c.bytes_read), j["bytes_read_over_store"].get<double>(), fmt_bytes(c.bytes_uploaded)));
   row("nodes loaded / never loaded / failed", fmt::format("{} / {} / {}", c.nodes_loaded, c.nodes_never_loaded, c.nodes_failed));
-  if (!o.slices.empty()) row("nodes sliced out (--slice)", fmt::format("{}", c.nodes_sliced_out));
+  if (!o.slices.empty() || !o.threshold.empty()) row("nodes left out (--slice, --threshold)", fmt::format("{}", c.nodes_left_out));
   row("evictions O / M / L / P", fmt::format("{} / {} / {} / {}", c.evictions[3], c.evictions[2], c.evictions[1], c.evictions[0]));
   row("upload stalls", fmt::format("{}", c.upload_stalls));
   row("late arrivals kept", fmt::format("{}", c.late_arrivals_kept));
@@ -535,6 +542,9 @@ void setup_stress(CLI::App& sub, int& exit_code) {
                  "NX,NY,NZ,D[,WIDTH][,invert]: stream only the particles the slice keeps, as render --slice (nodes it "
                  "leaves out are never read); once per slice")
       ->allow_extra_args(false);
+  sub.add_option("--threshold", opt->threshold,
+                 "LO:HI[,invert]: stream only the particles whose property lies in [LO, HI], as render --threshold "
+                 "(nodes whose property histogram holds no kept value are never read)");
   sub.add_flag("-q,--quiet", opt->quiet, "No progress on stderr");
   sub.callback([opt, &exit_code] {
     Status st = run_stress(*opt);

@@ -143,7 +143,8 @@ void add_appearance_options(CLI::App& sub, AppearanceOptions& o) {
   sub.add_option("--threshold", o.threshold,
                  "LO:HI[,invert]: keep only the particles whose per-particle property (convert --property) lies in "
                  "[LO, HI] (an empty LO or HI: open on that side; invert keeps the others), as ParaView's Threshold; "
-                 "the others are neither drawn nor occlude (the whole store in memory: not with --gpu-budget)");
+                 "the others are neither drawn nor occlude (in memory, and streaming: nodes whose property histogram "
+                 "holds no kept value are never read)");
   sub.add_option("--ao", o.ao,
                  "Screen-space ambient occlusion (SAO) of the spheres: off, on, or auto (on where the store's "
                  "particles are densely packed: packing fraction >= 0.1); the visibility route only")

@@ -11,6 +11,8 @@
 
 #include "culling/culling_constants.h"
 #include "render/scene.h"
+#include "store/property_histogram.h"
+#include "store/threshold.h"
 
 namespace mds::render::streaming_gpu {
 
@@ -58,6 +60,32 @@ void scale_voxel_counts(std::span<glm::uvec2> refs, store::SliceCover cover, std
     ref.y = uint32_t(std::llround(double(ref.y) * kept_share(slices, overlap ? vlo : lo, overlap ? vhi : hi)));
   }
 }
+
+// A node's voxel counts times `share` (a threshold's expected kept share of the node, from its
+// property histogram): the total rounded, spread by largest remainder, so that a small share
+// still counts its particles (rounding each voxel alone made most counts 0).
+void scale_voxel_counts(std::span<glm::uvec2> refs, double share) {
+  uint64_t total = 0;
+  for (const glm::uvec2& r : refs) total += r.y;
+  const uint64_t want = uint64_t(std::llround(double(total) * share));
+  std::vector<std::pair<double, uint32_t>> rest;  // (fraction, ref index)
+  rest.reserve(refs.size());
+  uint64_t have = 0;
+  for (uint32_t k = 0; k < refs.size(); ++k) {
+    const double v = double(refs[k].y) * share;
+    refs[k].y = uint32_t(std::floor(v));
+    have += refs[k].y;
+    rest.emplace_back(v - std::floor(v), k);
+  }
+  std::stable_sort(rest.begin(), rest.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  for (size_t k = 0; have < want && k < rest.size(); ++k, ++have) ++refs[rest[k].second].y;
+}
+
+store::SliceCover combine(store::SliceCover a, store::SliceCover b) {
+  if (a == store::SliceCover::none || b == store::SliceCover::none) return store::SliceCover::none;
+  if (a == store::SliceCover::all && b == store::SliceCover::all) return store::SliceCover::all;
+  return store::SliceCover::some;
+}
 }  // namespace
 
 
@@ -70,6 +98,18 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
   const auto nodes = reader.nodes();
   if (nodes.empty()) return make_error(Errc::invalid_argument, "{}: the store has no nodes", reader.path().string());
   const PoolLayout layout = pool_layout_for(h, settings.colors);
+  std::vector<uint32_t> kept_prefix;  // with a threshold: store::kept_prefix_sums of its table
+  if (settings.threshold) {
+    if (!(h.flags & store::kFlagProperty))
+      return make_error(Errc::invalid_argument, "--threshold {}: {} has no per-particle property (convert --property NAME)",
+                        store::threshold_spec(*settings.threshold), reader.path().string());
+    if (!(h.flags & store::kFlagPropertyHistogram))
+      return make_error(Errc::invalid_argument, "--threshold {} with --gpu-budget: {} has no per-node property histograms "
+                        "(a store converted before they were added); convert its input again, or render it without "
+                        "--gpu-budget", store::threshold_spec(*settings.threshold), reader.path().string());
+    c->property_kept_ = store::threshold_table(*settings.threshold, h.property_min, h.property_max);
+    kept_prefix = store::kept_prefix_sums(c->property_kept_);
+  }
 
   // Directory, sizes, voxel lists.
   c->directory_.resize(nodes.size());
@@ -78,8 +118,9 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
   c->node_meshlets_.resize(nodes.size());
   c->voxel_first_.assign(1, 0);
   c->cover_.assign(nodes.size(), uint8_t(store::SliceCover::all));
-  c->sliced_out_.assign(nodes.size(), 0);
+  c->left_out_.assign(nodes.size(), 0);
   c->measured_.assign(nodes.size(), 0);
+  c->thinned_.assign(nodes.size(), 1.0f);
   uint64_t largest = 0, store_bytes = 0;
   uint32_t largest_node = 0;
   for (uint32_t i = 0; i < nodes.size(); ++i) {
@@ -97,42 +138,62 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
     c->frames_[i] = node_frame(e);
     c->node_bytes_[i] = layout.node_bytes(e.particle_count, e.meshlet_count);
     c->node_meshlets_[i] = e.meshlet_count;
-    {
-      // Packing fraction bound: n spheres of at most max_radius in the culling box.
-      const glm::dvec3 ext = glm::dvec3(g.aabb_max) - glm::dvec3(g.aabb_min);
-      const double r = e.max_radius, volume = ext.x * ext.y * ext.z;
-      const double filled = double(e.particle_count) * (4.0 / 3.0) * 3.141592653589793 * r * r * r;
-      c->dense_.push_back(volume > 0.0 && filled >= kDenseNodePacking * volume ? 1 : 0);
-    }
-    if (c->node_bytes_[i] > largest) largest = c->node_bytes_[i], largest_node = i;
     store_bytes += e.payload_bytes;
     const size_t first_ref = c->voxel_refs_.size();
     for (const store::VoxelRef& v : reader.voxels(i)) c->voxel_refs_.push_back({v.voxel, v.count});
     c->voxel_first_.push_back(uint32_t(c->voxel_refs_.size()));
-    if (!settings.slices.empty()) {
-      // What the slices do to the node; its voxel counts become what it keeps: none, all, or
-      // (cut) each voxel's count times the share of the voxel's part of the node box they keep.
+    if (!settings.slices.empty() || settings.threshold) {
+      // What the slices and the threshold do to the node; its voxel counts become what it keeps:
+      // none, all, or (cut) each voxel's count times the share of the voxel's part of the node
+      // box the slices keep, times the share of the node's property values the threshold keeps
+      // (its histogram; docs/streaming.md, "Thresholds").
       std::array<double, 3> lo, hi;
       store::decoded_box(e.center_min, e.center_max, lo, hi);
-      const store::SliceCover cover = store::slices_cover(settings.slices, lo, hi);
+      const std::span<glm::uvec2> refs = std::span(c->voxel_refs_).subspan(first_ref);
+      store::SliceCover cover = store::slices_cover(settings.slices, lo, hi);
+      double share = cover == store::SliceCover::some ? kept_share(settings.slices, lo, hi) : 1.0;
+      scale_voxel_counts(refs, cover, settings.slices, lo, hi, h);
+      if (settings.threshold) {
+        const store::PropertyCover pc = store::property_cover(reader.property_histograms()[i], kept_prefix);
+        if (pc.cover == store::SliceCover::some) scale_voxel_counts(refs, pc.share);
+        if (pc.cover == store::SliceCover::none)
+          for (glm::uvec2& r : refs) r.y = 0;
+        cover = combine(cover, pc.cover);
+        share *= pc.share;
+        c->thinned_[i] = float(pc.share);
+      }
       c->cover_[i] = uint8_t(cover);
       if (cover == store::SliceCover::none) {
-        c->sliced_out_[i] = 1;
-        ++c->stats_.nodes_sliced_out;
+        c->left_out_[i] = 1;
+        ++c->stats_.nodes_left_out;
         g.flags |= gpu::kGpuNodeLeftOut;
       }
-      scale_voxel_counts(std::span(c->voxel_refs_).subspan(first_ref), cover, settings.slices, lo, hi, h);
       if (cover == store::SliceCover::some) {
-        // Planned at the share of its box the slices keep until it is read (then at what it
-        // keeps): at the directory's size a thin slab's cut nodes filled a fraction of the pool.
-        const double share = kept_share(settings.slices, lo, hi);
+        // Planned at the share the filters keep until it is read (then at what it keeps): at the
+        // directory's size a thin slab's cut nodes filled a fraction of the pool.
         c->node_bytes_[i] = layout.node_bytes(uint64_t(std::ceil(share * e.particle_count)),
                                               uint64_t(std::ceil(share * e.meshlet_count)));
       }
     }
   }
-  if (c->stats_.nodes_sliced_out == nodes.size())
-    return make_error(Errc::invalid_argument, "{}: --slice leaves no particle of the store", reader.path().string());
+  for (uint32_t i = 0; i < nodes.size(); ++i) {
+    // The largest node that may be read, at its directory size (a cut node may keep all of it):
+    // nodes the filters leave out are never read, so need no room.
+    const uint64_t full = layout.node_bytes(nodes[i].particle_count, nodes[i].meshlet_count);
+    if (!c->left_out_[i] && full > largest) largest = full, largest_node = i;
+    // Packing fraction bound: n spheres of at most max_radius in the culling box (n times the
+    // share a threshold keeps).
+    const gpu::GpuNode& g = c->directory_[i];
+    const glm::dvec3 ext = glm::dvec3(g.aabb_max) - glm::dvec3(g.aabb_min);
+    const double r = nodes[i].max_radius, volume = ext.x * ext.y * ext.z;
+    const double filled = c->thinned_[i] * double(nodes[i].particle_count) * (4.0 / 3.0) * 3.141592653589793 * r * r * r;
+    c->dense_.push_back(volume > 0.0 && filled >= kDenseNodePacking * volume ? 1 : 0);
+  }
+  if (c->stats_.nodes_left_out == nodes.size())
+    return make_error(Errc::invalid_argument, "{}: {} leaves no particle of the store", reader.path().string(),
+                      settings.slices.empty()   ? "--threshold " + store::threshold_spec(*settings.threshold)
+                      : settings.threshold ? "--slice with --threshold " + store::threshold_spec(*settings.threshold)
+                                           : std::string("--slice"));
   c->max_meshlet_ = std::max<uint32_t>(1, std::min<uint32_t>(h.meshlet_size_max, store::kMaxMeshletParticles));
   if (settings.gpu_budget < largest)
     return make_error(Errc::budget,
@@ -144,8 +205,11 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
 
   PoolScene ps = pool_scene_for(reader, layout, origin);
   const uint64_t staging = std::max<uint64_t>(settings.upload_bytes_per_frame, 2 * largest);
-  uint64_t store_pages = 0;  // every node resident at once
-  for (uint64_t b : c->node_bytes_) store_pages += b / layout.page_bytes();
+  // Every node resident at once, each at its directory size: a node the filters cut may keep
+  // more than planned, and the pool must hold the largest node whole (a pool sized by the plans
+  // of a threshold's thinned nodes was smaller than one node).
+  uint64_t store_pages = 0;
+  for (const store::NodeEntry& e : nodes) store_pages += layout.node_bytes(e.particle_count, e.meshlet_count) / layout.page_bytes();
   MDS_ASSIGN_OR_RETURN(c->pool_, NodePool::create(ctx, layout, std::move(ps), uint32_t(nodes.size()),
                                                   settings.gpu_budget, store_pages, staging));
   if (c->pool_->budget().pool_bytes() < largest)
@@ -162,10 +226,9 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
   const StreamCache* self = c.get();
   io.prepare = [self](uint32_t node, store::NodeData& data, mds::streaming::PreparedNode& out) -> Status {
     if (self->cover_[node] == uint8_t(store::SliceCover::some)) {
-      // The slices cut the node: keep its particles whose centre they keep (load_scene's filter).
+      // The slices or the threshold cut the node: keep its particles they keep (load_scene's filter).
       store::NodeData kept;
-      const NodeFrame& f = self->frames_[node];
-      filter_particles(data, ParticleFilter{{}, self->settings_.slices, f.center_min, f.center_max}, kept);
+      filter_particles(data, self->filter(node), kept);
       data = std::move(kept);
       if (data.particle_count() == 0) return Status{};  // nothing kept: update() leaves the node out
     }
@@ -281,7 +344,7 @@ void StreamCache::set_view(const Camera& camera, double aspect, std::span<const 
   const FrustumPlanes frustum(clip_from_world);
   for (uint32_t i = 0; i < directory_.size(); ++i) {
     const glm::dvec3 lo(directory_[i].aabb_min), hi(directory_[i].aabb_max);
-    const bool sliced_out = sliced_out_[i] != 0;  // in no view
+    const bool sliced_out = left_out_[i] != 0;  // in no view
     const bool in = !sliced_out && frustum.box_in(lo, hi);
     uint8_t frames_ahead = 0;
     for (const FrustumPlanes& a : ahead) frames_ahead += !sliced_out && a.box_in(lo, hi) ? 1 : 0;
@@ -389,17 +452,18 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
     if (cover_[i] == uint8_t(store::SliceCover::some)) {
       measured_[i] = 1;
       if (done->data.particle_count() == 0) {
-        // The slices cut every particle of the node (its box straddles them): never read again,
+        // The filters cut every particle of the node (its box straddles the slices, or none of
+        // its values in range passes the threshold): never read again,
         // and no longer classified (the renderer copies the flag to the device's directory).
-        sliced_out_[i] = 1;
-        ++stats_.nodes_sliced_out;
+        left_out_[i] = 1;
+        ++stats_.nodes_left_out;
         directory_[i].flags |= gpu::kGpuNodeLeftOut;
         out.left_out.push_back(i);
         MDS_TRY(table_->mark_failed(i));
         std::erase(requested_, i);
         continue;
       }
-      // What the slices kept takes fewer pages than the directory's counts planned: from now on
+      // What the filters kept takes fewer pages than the directory's counts planned: from now on
       // the node is planned at its size (every read of it keeps the same particles).
       const uint64_t bytes = pool_->layout().node_bytes(done->data.particle_count(), done->data.meshlet_size.size());
       if (bytes != node_bytes_[i]) MDS_TRY(table_->set_bytes(i, bytes));
@@ -595,7 +659,8 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
       ++requests_[i];
       if (first_request_[i] < 0) first_request_[i] = int64_t(frame);
       requested_.push_back(i);
-      if (waves) coverage += mds::streaming::screen_share(table_->node(i).projected_size, aspect_);
+      // A node a threshold thins covers its share of what its bounding sphere would.
+      if (waves) coverage += thinned_[i] * mds::streaming::screen_share(table_->node(i).projected_size, aspect_);
       if (waves && !carried && settings_.front_node_alone && rank == 1.0 && dense_[i] &&
           table_->node(i).projected_size >= kLoneFrontProjected) {
         pending = true;  // a large dense node first: alone in its wave (StreamSettings::front_node_alone)
@@ -627,17 +692,21 @@ Result<std::vector<uint64_t>> StreamCache::node_device_bytes_kept() const {
   store::NodeData data, kept;
   std::vector<uint8_t> scratch;
   for (uint32_t i = 0; i < bytes.size(); ++i) {
-    if (sliced_out_[i]) bytes[i] = 0;
-    if (cover_[i] != uint8_t(store::SliceCover::some) || measured_[i] || sliced_out_[i]) continue;
+    if (left_out_[i]) bytes[i] = 0;
+    if (cover_[i] != uint8_t(store::SliceCover::some) || measured_[i] || left_out_[i]) continue;
     MDS_TRY(reader_->read_node(i, data, scratch));
-    filter_particles(data, ParticleFilter{{}, settings_.slices, frames_[i].center_min, frames_[i].center_max}, kept);
+    filter_particles(data, filter(i), kept);
     bytes[i] = kept.particle_count() ? pool_->layout().node_bytes(kept.particle_count(), kept.meshlet_size.size()) : 0;
   }
   return bytes;
 }
 
-void StreamCache::slice_density(culling::DensityVolume& v) const {
-  if (settings_.slices.empty()) return;
+ParticleFilter StreamCache::filter(uint32_t node) const {
+  return ParticleFilter{{}, settings_.slices, frames_[node].center_min, frames_[node].center_max, property_kept_};
+}
+
+void StreamCache::kept_density(culling::DensityVolume& v) const {
+  if (settings_.slices.empty() && !settings_.threshold) return;
   std::fill(v.counts.begin(), v.counts.end(), 0);
   for (const glm::uvec2& r : voxel_refs_)
     if (r.x < v.counts.size()) v.counts[r.x] = int32_t(std::min<uint64_t>(uint64_t(v.counts[r.x]) + r.y, INT32_MAX));

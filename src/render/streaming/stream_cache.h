@@ -66,7 +66,7 @@ struct CacheFrame {
   bool complete = false;       // every wanted node resident (or failed / beyond the budget), nothing in flight
   std::vector<uint32_t> wanted;  // demand of this frame (StreamSettings::record_trace)
   std::vector<uint8_t> wanted_resident;  // parallel to wanted: 1 = resident for this frame (a hit)
-  // Nodes read this frame of which the slices kept nothing: directory() now has their
+  // Nodes read this frame of which the slices or the threshold kept nothing: directory() now has their
   // kGpuNodeLeftOut flag, which the caller copies to the device's node directory.
   std::vector<uint32_t> left_out;
 };
@@ -84,14 +84,15 @@ class StreamCache {
   // The node directory (GpuNode per store node: frame, bounds, counts), uploaded once by the renderer.
   const std::vector<gpu::GpuNode>& directory() const { return directory_; }
   // Per-node voxel lists of the density updates (CSR over nodes, CullScene::node_density). With
-  // slices, the counts of what each node keeps (estimated for a node the slices cut: its count
-  // in a voxel times the share of the voxel's part of the node box that they keep).
+  // slices or a threshold, the counts of what each node keeps (estimated for a node they cut: its
+  // count in a voxel times the share of the voxel's part of the node box that the slices keep,
+  // times the share of its particles its property histogram says the threshold keeps).
   const std::vector<uint32_t>& voxel_first() const { return voxel_first_; }
   const std::vector<glm::uvec2>& voxel_refs() const { return voxel_refs_; }
   uint32_t max_meshlet_particles() const { return max_meshlet_; }
-  // With slices, the counts of `v` (the store's grid) replaced by the sums of voxel_refs(), so
-  // that the volume and the nodes' subtractions agree; without, v unchanged.
-  void slice_density(culling::DensityVolume& v) const;
+  // With slices or a threshold, the counts of `v` (the store's grid) replaced by the sums of
+  // voxel_refs(), so that the volume and the nodes' subtractions agree; without, v unchanged.
+  void kept_density(culling::DensityVolume& v) const;
   uint64_t live_meshlets() const { return live_meshlets_; }
   // The pool still fills: its free room holds the store's largest node (it has not filled up).
   bool filling() const;
@@ -100,7 +101,7 @@ class StreamCache {
   // node of its frustum that no earlier view found O (a cold cache's view: all of them).
   bool holds_wanted() const;
   std::vector<uint64_t> node_device_bytes() const { return node_bytes_; }
-  // node_device_bytes() with every node the slices cut at the pages of what it keeps (0 when
+  // node_device_bytes() with every node the slices or the threshold cut at the pages of what it keeps (0 when
   // nothing): the cut nodes not read yet are read and thinned here, synchronously (StoreReader's
   // reads are positioned, safe beside the reader threads). For offline simulations that replay
   // the demand at the sizes the nodes would have had (stress); not counted in the stats.
@@ -168,13 +169,20 @@ class StreamCache {
   std::unique_ptr<mds::streaming::ResidencyTable> table_;
   std::vector<gpu::GpuNode> directory_;
   std::vector<uint8_t> dense_;  // per node: its spheres fill >= kDenseNodePacking of its box (waves)
-  // Per node, what StreamSettings::slices do to it (store::SliceCover; `all` without slices); set
-  // by create() and only read after (the reader threads filter by it).
+  // Per node: the share of its particles StreamSettings::threshold keeps, from its property
+  // histogram (1 without one): a wave's coverage and dense_ count a thinned node at that share.
+  std::vector<float> thinned_;
+  // Per node, what StreamSettings::slices and ::threshold do to it (store::SliceCover; `all`
+  // without them); set by create() and only read after (the reader threads filter by it).
   std::vector<uint8_t> cover_;
-  // Per node: the slices left it out (cover_ none, or no particle kept when it was read); set on
+  // Per node: the filters left it out (cover_ none, or no particle kept when it was read); set on
   // the render thread. Such a node is outside every view.
-  std::vector<uint8_t> sliced_out_;
-  std::vector<uint8_t> measured_;  // per node: node_bytes_ is what the slices keep of it (read once)
+  std::vector<uint8_t> left_out_;
+  std::vector<uint8_t> measured_;  // per node: node_bytes_ is what the filters keep of it (read once)
+  // With StreamSettings::threshold: store::threshold_table (kQuantMax + 1 entries); else empty.
+  std::vector<uint8_t> property_kept_;
+  // The in-memory filter (render/scene.h) of a node the slices or the threshold cut.
+  ParticleFilter filter(uint32_t node) const;
   std::vector<NodeFrame> frames_;
   std::vector<uint64_t> node_bytes_;
   std::vector<uint32_t> voxel_first_;
