@@ -43,6 +43,7 @@
 #include "viewer/hud.h"
 #include "viewer/path_recorder.h"
 #include "viewer/slice_keys.h"
+#include "viewer/threshold_keys.h"
 
 namespace fs = std::filesystem;
 using namespace mds;
@@ -678,6 +679,50 @@ TEST_F(ViewerWindow, ColourKeyIntoAndOutOfOwnColoursWhileStreaming) {
   for (const char* o : {"--color-by x\n", "--color-by y\n", "--color-by z\n", "--color-by type\n", "--color-by color\n"})
     EXPECT_NE(said.find(std::string("mdstream view: ") + o), std::string::npos) << o << said;
   ASSERT_EQ(mdstream(fmt::format("render {} -o {} {}", store(), ref.string(), look)), 0) << err();
+  expect_screenshot_matches(shot, ref, W, H);
+}
+
+// The threshold keys in the window, streaming: X 15 times raises the lower bound of a store's
+// property (r2, the squared distance from the centre) by 15 steps from its smallest value,
+// Shift+Z lowers the upper bound one step from its largest, I inverts it (a ball about the centre
+// and the box's corners are left); each change makes the
+// cache again. The viewer prints the option of the threshold it shows, which is the one
+// step_threshold gives, and the screenshot equals `mdstream render` with it in memory.
+TEST_F(ViewerWindow, ThresholdKeysMoveTheBoundsAsRenderDrawsThem) {
+  if (!have_program("xdotool")) GTEST_SKIP() << "xdotool is not installed (apt-get install xdotool)";
+  ASSERT_NO_FATAL_FAILURE(use_property_store());
+  const uint32_t W = 160, H = 120;
+  const fs::path shot = dir_ / "view.png", ref = dir_ / "render.png", log = dir_ / "viewer_err.txt";
+  const std::string look = fmt::format("--width {} --height {} --spp 1 --no-cull --camera 45,-20,50,15,15,15", W, H);
+  RunningViewer v;
+  ASSERT_NO_FATAL_FAILURE(start_viewer(
+      env(), store() + " " + look + " --gpu-budget 1MiB --no-hud --screenshot " + shot.string(), dir_, v));
+  const std::string x = env() + "timeout 20 xdotool windowfocus --sync " + v.window + " key ";
+  pause_for_viewer();
+  ASSERT_EQ(sh(x + "x x x x x x x x x x x x x x x"), 0);
+  pause_for_viewer();
+  ASSERT_EQ(sh(x + "shift+z"), 0);
+  pause_for_viewer();
+  ASSERT_EQ(sh(x + "i"), 0);
+  pause_for_viewer();
+  ASSERT_EQ(sh(x + "Escape"), 0);
+  ASSERT_TRUE(v.wait_exit()) << "the viewer did not exit on Esc\n" << slurp(log);
+  ASSERT_TRUE(WIFEXITED(v.status) && WEXITSTATUS(v.status) == 0) << slurp(log);
+
+  std::string option;
+  {
+    std::ifstream f(log);
+    for (std::string line; std::getline(f, line);)
+      if (line.rfind("mdstream view: --threshold ", 0) == 0) option = line.substr(std::string("mdstream view: ").size());
+  }
+  auto reader = store::StoreReader::open(store());
+  ASSERT_TRUE(reader.ok()) << reader.error().message;
+  const store::FileHeader& h = (*reader)->header();
+  const store::Threshold want = viewer::step_threshold(
+      viewer::step_threshold(std::nullopt, 15.0, -1.0, false, h.property_min, h.property_max), 0.0, 0.0, true,
+      h.property_min, h.property_max);
+  EXPECT_EQ(option, viewer::threshold_option(want)) << slurp(log);
+  ASSERT_EQ(mdstream(fmt::format("render {} -o {} {} {}", store(), ref.string(), look, option)), 0) << err();
   expect_screenshot_matches(shot, ref, W, H);
 }
 

@@ -26,6 +26,7 @@
 #include "viewer/hud.h"
 #include "viewer/path_recorder.h"
 #include "viewer/slice_keys.h"
+#include "viewer/threshold_keys.h"
 
 namespace fs = std::filesystem;
 using namespace mds;
@@ -328,6 +329,41 @@ TEST(ViewerSliceKeys, StepAlongTheNormalRoundedAndPrintedAsOptions) {
     auto again = store::parse_slice(store::slice_spec(s));
     ASSERT_TRUE(again.ok()) << store::slice_spec(s);
     EXPECT_EQ(*again, s);
+  }
+}
+
+// The threshold keys' arithmetic: a step is 1/50 of the property's range to two digits; pressed
+// one at a time the keys give what they give pressed together; an open end moves from
+// that end of the range, an unmoved end stays open; bounds are rounded to 1/1000 of a step and
+// stop at each other; `invert` toggles; the option reads back as the same threshold.
+TEST(ViewerThresholdKeys, StepTheBoundsOverThePropertysRange) {
+  const double pmin = -7.2228, pmax = -3.9343;  // step 3.2885 / 50 = 0.06577, to 2 digits 0.066
+  EXPECT_DOUBLE_EQ(viewer::threshold_step(pmin, pmax), 0.066);
+  EXPECT_DOUBLE_EQ(viewer::threshold_step(0.0, 641.3), 13.0);
+  EXPECT_EQ(viewer::threshold_step(2.0, 2.0), 0.0);
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  const store::Threshold up = viewer::step_threshold(std::nullopt, 2.0, 0.0, false, pmin, pmax);
+  EXPECT_EQ(up.lo, -7.0908);  // -7.2228 + 2 x 0.066, to 1/1000 of a step (5 decimals)
+  EXPECT_EQ(up.hi, inf);
+  EXPECT_FALSE(up.invert);
+  EXPECT_EQ(viewer::threshold_option(up), "--threshold -7.0908:");
+  const store::Threshold from_spec = viewer::step_threshold(store::Threshold{-6.0, inf, false}, 0.0, -1.0, true, pmin, pmax);
+  EXPECT_EQ(from_spec.lo, -6.0);
+  EXPECT_EQ(from_spec.hi, -4.0003);  // -3.9343 - 0.066
+  EXPECT_TRUE(from_spec.invert);
+  EXPECT_EQ(viewer::threshold_option(from_spec), "--threshold -6:-4.0003,invert");
+  // Seven presses one at a time (one a frame) equal seven at once.
+  std::optional<store::Threshold> one = std::nullopt;
+  for (int i = 0; i < 7; ++i) one = viewer::step_threshold(one, 1.0, 0.0, false, pmin, pmax);
+  EXPECT_EQ(one->lo, viewer::step_threshold(std::nullopt, 7.0, 0.0, false, pmin, pmax).lo);
+  // Past the other bound: stops at it.
+  const store::Threshold met = viewer::step_threshold(store::Threshold{-6.0, -5.9, false}, 5.0, 0.0, false, pmin, pmax);
+  EXPECT_EQ(met.lo, -5.9);
+  EXPECT_EQ(met.hi, -5.9);
+  for (const store::Threshold& t : {up, from_spec, met}) {
+    auto again = store::parse_threshold(store::threshold_spec(t));
+    ASSERT_TRUE(again.ok()) << store::threshold_spec(t);
+    EXPECT_EQ(*again, t);
   }
 }
 

@@ -24,7 +24,7 @@ struct FrameLogRow {
   double scale = 1.0;                          // dynamic resolution: render scale of this frame
   uint32_t render_width = 0, render_height = 0;  // the renderer's size this frame
   int64_t series_frame = -1;  // a series: the frame shown after this one (-1: no series)
-  double reload_ms = 0.0;     // of frame_ms: loading a store or slices (series step, slice keys)
+  double reload_ms = 0.0;     // of frame_ms: loading a store, slices or a threshold (series step, slice or threshold keys)
   bool held = false;          // the image shown is the frame before's (a series step streaming)
 };
 

@@ -24,8 +24,7 @@ Result<std::unique_ptr<RenderHost>> RenderHost::open(vk::Context& ctx, const Vie
   h->stream_.gpu_budget = options.gpu_budget;
   h->hide_types_ = options.hide_types;
   h->type_radii_ = options.type_radii;
-  h->threshold_ = options.threshold;
-  h->stream_.threshold = options.threshold;  // streaming: the cache applies it (StreamSettings::threshold)
+  h->stream_.threshold = options.threshold;  // in memory too; streaming, the cache applies it
   h->type_colors_ = options.type_colors;
   h->color_by_ = options.render.color_by;
   h->cell_mode_ = options.cell;
@@ -153,7 +152,8 @@ Result<RenderHost::Loaded> RenderHost::load(const store::StoreReader& reader,
   Loaded l;
   l.slices = slices;
   MDS_ASSIGN_OR_RETURN(const render::SceneOptions so,
-                       render::resolve_scene_options(reader, hide_types_, type_radii_, slices, streaming(), threshold_));
+                       render::resolve_scene_options(reader, hide_types_, type_radii_, slices, streaming(),
+                                                     stream_.threshold));
   l.shown_types = so.shown_types;
   l.type_radius = so.type_radius;
   // Bounds of the particle centres and the largest radius, from the node directory (the
@@ -265,6 +265,28 @@ Status RenderHost::set_slices(const std::vector<store::Slice>& slices) {
   // Streaming: the cache refuses slices that leave no node. Back to the slices before.
   auto back = load(*reader_, before);
   if (back) {
+    take(std::move(*back));
+    (void)recreate(settings_.width, settings_.height);
+  }
+  return st;
+}
+
+Status RenderHost::set_threshold(const std::optional<store::Threshold>& threshold) {
+  const std::optional<store::Threshold> before = stream_.threshold;
+  stream_.threshold = threshold;
+  Result<Loaded> loaded = load(*reader_, stream_.slices);  // the current scene stays until this worked
+  if (!loaded) {
+    stream_.threshold = before;
+    return loaded.error();
+  }
+  carry_prior();
+  renderer_.reset();  // before the scene it drew goes
+  take(std::move(*loaded));
+  Status st = recreate(settings_.width, settings_.height);
+  if (st.ok()) return st;
+  // Streaming: the cache refuses a threshold that leaves no node. Back to the one before.
+  stream_.threshold = before;
+  if (auto back = load(*reader_, stream_.slices); back) {
     take(std::move(*back));
     (void)recreate(settings_.width, settings_.height);
   }

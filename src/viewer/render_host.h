@@ -50,6 +50,11 @@ class RenderHost {
   Status set_cell_shown(bool on);
   bool cell_shown() const { return settings_.cell.has_value(); }
   const std::vector<store::Slice>& slices() const { return stream_.slices; }  // in memory too
+  // Another threshold (--threshold; the viewer's threshold keys), or none: the scene loaded again
+  // or the cache made again, as set_slices; on an error (one that keeps no particle) the
+  // threshold before stays, with a renderer.
+  Status set_threshold(const std::optional<store::Threshold>& threshold);
+  const std::optional<store::Threshold>& threshold() const { return stream_.threshold; }  // in memory too
   // A series: which of its picked frames (--series-frames) is shown. set_series_position loads
   // that frame's store like set_slices (the slices and the camera stay); on an error the frame
   // before stays.
@@ -87,7 +92,7 @@ class RenderHost {
   // One entry per type, 0 = hidden (--hide-type); empty: every type drawn.
   std::span<const uint8_t> shown_types() const { return shown_types_; }
   // What the shown store was loaded with (hidden types, --type-radius, slices): for picking.
-  render::SceneOptions scene_options() const { return {shown_types_, type_radius_, stream_.slices, threshold_}; }
+  render::SceneOptions scene_options() const { return {shown_types_, type_radius_, stream_.slices, stream_.threshold}; }
   uint64_t meshlets() const;
   // Node boxes in world coordinates (from the store's node directory).
   const std::vector<Box>& node_boxes() const { return node_boxes_; }
@@ -130,7 +135,6 @@ class RenderHost {
   std::unique_ptr<store::StoreReader> reader_;
   std::vector<std::string> hide_types_;           // --hide-type
   std::vector<store::TypeRadiusSpec> type_radii_;  // --type-radius
-  std::optional<store::Threshold> threshold_;      // --threshold
   std::vector<store::TypeColorSpec> type_colors_;  // --type-color
   render::ColorBy color_by_;                        // --color-by as given
   render::CellMode cell_mode_ = render::CellMode::automatic;  // --cell, resolved per store (resolve_colors)
@@ -146,7 +150,7 @@ class RenderHost {
   std::shared_ptr<const render::culling::DensityVolume> density_;
   std::shared_ptr<const render::culling::CullScene> cull_scene_;
   render::RenderSettings settings_;
-  render::StreamSettings stream_;
+  render::StreamSettings stream_;  // also the slices and threshold in memory (load_scene applies them there)
   render::Bounds bounds_;
   std::vector<Box> node_boxes_;
   std::unique_ptr<render::Renderer> renderer_;

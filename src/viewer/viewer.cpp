@@ -24,6 +24,7 @@
 #include "viewer/path_recorder.h"
 #include "viewer/render_host.h"
 #include "viewer/slice_keys.h"
+#include "viewer/threshold_keys.h"
 #include "viewer/window.h"
 
 namespace mds::viewer {
@@ -37,6 +38,8 @@ const char* key_help() {
          "B  node bounds on/off  Shift+D  density histogram of the pixel under the cursor\n"
          "C  culling on/off      [ ]  C_occ -/+ 0.01      - =  spp /2 *2      K  coverage auto/expected/exact\n"
          ", .  move the last --slice back/forward along its normal by 1/50 of the data (Shift: 1/500)   /  invert it\n"
+         "Z X  the --threshold's lower bound down/up by 1/50 of the property's range (Shift: its upper bound)   "
+         "I  invert it\n"
          "L  ambient occlusion on/off (--ao; radius --ao-radius)\n"
          "V  colour by: type / own colours / x / y / z / property      M  next colormap\n"
          "Left/Right  previous/next frame of a series (.series)   Home/End  first/last frame   "
@@ -74,10 +77,20 @@ class Viewer {
  private:
   Status setup();
   Status recreate_renderer();
-  // Key presses of one frame; slice keys add up in slice_steps / slice_invert (applied once).
-  void handle_keys(const InputFrame& in, bool& recreate, bool& quit, double& slice_steps, bool& slice_invert);
+  // What the slice and threshold keys of one frame add up to (applied once, after the keys).
+  struct FilterKeys {
+    double slice_steps = 0.0;  // , .
+    bool slice_invert = false;  // /
+    double lower_steps = 0.0, upper_steps = 0.0;  // Z X, Shift+Z Shift+X
+    bool threshold_invert = false;                // I
+  };
+  void handle_keys(const InputFrame& in, bool& recreate, bool& quit, FilterKeys& filter);
   // The last slice moved by `steps` key steps and inverted when `invert` (RenderHost::set_slices).
   void apply_slice_keys(double steps, bool invert);
+  // The threshold's bounds moved and inverted (threshold_keys.h step_threshold; RenderHost::set_threshold).
+  void apply_threshold_keys(const FilterKeys& k);
+  // The HUD's threshold line for the threshold shown (empty without one).
+  void update_threshold_line();
   // A series: shows its picked frame at `position` (RenderHost::set_series_position).
   void show_series_position(size_t position);
   // A right click at `cursor` (framebuffer pixels): the particle the pixel under it shows
@@ -191,9 +204,7 @@ Status Viewer::setup() {
                                        : std::filesystem::path(o_.store).filename().string();
   hud_.streaming = host_->streaming();
   hud_.meshlets = host_->meshlets();
-  if (o_.threshold)  // the particles kept by their property (store/threshold.h)
-    hud_.threshold = fmt::format("threshold {} {}", host_->reader().header().property_name,
-                                 store::threshold_spec(*o_.threshold));
+  update_threshold_line();
   update_legend();
   return {};
 }
@@ -247,7 +258,7 @@ Status Viewer::recreate_renderer() {
   return st;
 }
 
-void Viewer::handle_keys(const InputFrame& in, bool& recreate, bool& quit, double& slice_steps, bool& slice_invert) {
+void Viewer::handle_keys(const InputFrame& in, bool& recreate, bool& quit, FilterKeys& filter) {
   auto& rs = host_->settings();
   for (size_t i = 0; i < in.keys_pressed.size(); ++i) {
     const int key = in.keys_pressed[i];
@@ -300,9 +311,14 @@ void Viewer::handle_keys(const InputFrame& in, bool& recreate, bool& quit, doubl
       }
       case GLFW_KEY_COMMA:
       case GLFW_KEY_PERIOD:
-        slice_steps += (shift ? 0.1 : 1.0) * (key == GLFW_KEY_PERIOD ? 1.0 : -1.0);
+        filter.slice_steps += (shift ? 0.1 : 1.0) * (key == GLFW_KEY_PERIOD ? 1.0 : -1.0);
         break;
-      case GLFW_KEY_SLASH: slice_invert = !slice_invert; break;
+      case GLFW_KEY_SLASH: filter.slice_invert = !filter.slice_invert; break;
+      case GLFW_KEY_Z:
+      case GLFW_KEY_X:
+        (shift ? filter.upper_steps : filter.lower_steps) += key == GLFW_KEY_X ? 1.0 : -1.0;
+        break;
+      case GLFW_KEY_I: filter.threshold_invert = !filter.threshold_invert; break;
       case GLFW_KEY_V: apply_color_key(false); break;
       case GLFW_KEY_U: {  // the simulation cell on/off (--cell; render/cell_lines.h)
         const bool on = !host_->cell_shown();
@@ -352,6 +368,39 @@ void Viewer::handle_keys(const InputFrame& in, bool& recreate, bool& quit, doubl
     }
   }
   if (!message_.empty() && ms_since(message_time_) > 4000) message_.clear();
+}
+
+void Viewer::update_threshold_line() {
+  const auto& t = host_->threshold();  // the particles kept by their property (store/threshold.h)
+  hud_.threshold =
+      t ? fmt::format("threshold {} {}", host_->reader().header().property_name, store::threshold_spec(*t)) : "";
+}
+
+void Viewer::apply_threshold_keys(const FilterKeys& k) {
+  message_time_ = Clock::now();
+  const store::FileHeader& h = host_->reader().header();
+  if (!(h.flags & store::kFlagProperty)) {
+    message_ = "no property to threshold: convert with --property NAME";
+    return;
+  }
+  const store::Threshold t = step_threshold(host_->threshold(), k.lower_steps, k.upper_steps, k.threshold_invert,
+                                            double(h.property_min), double(h.property_max));
+  render_error_.reset();
+  const auto t0 = Clock::now();
+  const Status st = host_->set_threshold(t);  // in memory: the scene again; streaming: a new cache
+  reload_ms_ += ms_since(t0);
+  have_view_ = false;
+  idle_ = false;
+  if (!st.ok()) {
+    message_ = st.error().message;
+    return;
+  }
+  picked_.reset();  // the threshold may have left it out
+  picked_before_.reset();
+  update_threshold_line();
+  // On stderr too, for `render` with the same threshold.
+  message_ = threshold_option(t);
+  fmt::print(stderr, "mdstream view: {}\n", message_);
 }
 
 void Viewer::apply_slice_keys(double steps, bool invert) {
@@ -539,10 +588,10 @@ Status Viewer::run() {
     InputFrame in = input_->poll();
     if (window_->should_close()) break;
 
-    bool recreate = false, slice_invert = false;
-    double slice_steps = 0.0;
+    bool recreate = false;
+    FilterKeys filter;
     // Esc: this frame is still shown (and recorded), then the loop ends.
-    handle_keys(in, recreate, quit, slice_steps, slice_invert);
+    handle_keys(in, recreate, quit, filter);
     for (const glm::dvec2& c : in.picks) pick_at(c);
 
     // Camera: the path while playing, else the controller.
@@ -572,7 +621,8 @@ Status Viewer::run() {
       Status st = recreate_renderer();
       if (!st.ok()) return st;
     }
-    if (slice_steps != 0.0 || slice_invert) apply_slice_keys(slice_steps, slice_invert);
+    if (filter.slice_steps != 0.0 || filter.slice_invert) apply_slice_keys(filter.slice_steps, filter.slice_invert);
+    if (filter.lower_steps != 0.0 || filter.upper_steps != 0.0 || filter.threshold_invert) apply_threshold_keys(filter);
     if (series_goto_ || series_step_ != 0) {
       const int64_t n = int64_t(host_->series_positions());
       const int64_t p = series_goto_ ? int64_t(*series_goto_)

@@ -31,7 +31,7 @@ struct ViewerOptions {
   std::vector<std::string> hide_types;            // --hide-type keys (in memory only)
   std::vector<store::TypeRadiusSpec> type_radii;  // --type-radius (in memory only)
   std::vector<store::Slice> slices;               // --slice (the keys , . / move and invert the last one)
-  std::optional<store::Threshold> threshold;      // --threshold (in memory only)
+  std::optional<store::Threshold> threshold;      // --threshold (the keys Z X, Shift+Z Shift+X, I move and invert it)
   shading::AoSettings ao;                         // --ao, --ao-radius, --ao-strength
   render::CellMode cell = render::CellMode::automatic;  // --cell, resolved against each store (render.cell_color_srgb, cell_width_px: --cell-color, --cell-width)
   render::StreamSettings stream;
