@@ -272,6 +272,10 @@ Status RenderHost::set_slices(const std::vector<store::Slice>& slices) {
 }
 
 Status RenderHost::set_threshold(const std::optional<store::Threshold>& threshold) {
+  // A series' preload reads the threshold on its thread (load) and was made with the one before:
+  // wait for it and drop it (the next step loads its frame with this threshold).
+  if (preload_.valid()) preload_.wait();
+  preload_ = {};
   const std::optional<store::Threshold> before = stream_.threshold;
   stream_.threshold = threshold;
   Result<Loaded> loaded = load(*reader_, stream_.slices);  // the current scene stays until this worked

@@ -170,9 +170,14 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
       }
       if (cover == store::SliceCover::some) {
         // Planned at the share the filters keep until it is read (then at what it keeps): at the
-        // directory's size a thin slab's cut nodes filled a fraction of the pool.
+        // directory's size a thin slab's cut nodes filled a fraction of the pool. A slice keeps
+        // whole meshlets where it keeps a region; a threshold thins every meshlet, and one keeps
+        // its meshlet when any of its m particles passes: 1 - (1 - t)^m of them survive.
+        const double mean = double(e.particle_count) / double(e.meshlet_count);
+        const double t = double(c->thinned_[i]);
+        const double meshlet_share = t > 0.0 && t < 1.0 ? share / t * (1.0 - std::pow(1.0 - t, mean)) : share;
         c->node_bytes_[i] = layout.node_bytes(uint64_t(std::ceil(share * e.particle_count)),
-                                              uint64_t(std::ceil(share * e.meshlet_count)));
+                                              uint64_t(std::ceil(meshlet_share * e.meshlet_count)));
       }
     }
   }
@@ -209,7 +214,9 @@ Result<std::unique_ptr<StreamCache>> StreamCache::create(vk::Context& ctx, const
   // more than planned, and the pool must hold the largest node whole (a pool sized by the plans
   // of a threshold's thinned nodes was smaller than one node).
   uint64_t store_pages = 0;
-  for (const store::NodeEntry& e : nodes) store_pages += layout.node_bytes(e.particle_count, e.meshlet_count) / layout.page_bytes();
+  for (uint32_t i = 0; i < nodes.size(); ++i)
+    if (!c->left_out_[i])  // never read
+      store_pages += layout.node_bytes(nodes[i].particle_count, nodes[i].meshlet_count) / layout.page_bytes();
   MDS_ASSIGN_OR_RETURN(c->pool_, NodePool::create(ctx, layout, std::move(ps), uint32_t(nodes.size()),
                                                   settings.gpu_budget, store_pages, staging));
   if (c->pool_->budget().pool_bytes() < largest)
@@ -463,6 +470,9 @@ Result<CacheFrame> StreamCache::update(VkCommandBuffer cmd, uint64_t frame) {
         std::erase(requested_, i);
         continue;
       }
+      // A threshold's share of the node is known now (the waves' coverage counts it).
+      if (settings_.threshold)
+        thinned_[i] = float(double(done->data.particle_count()) / double(reader_->nodes()[i].particle_count));
       // What the filters kept takes fewer pages than the directory's counts planned: from now on
       // the node is planned at its size (every read of it keeps the same particles).
       const uint64_t bytes = pool_->layout().node_bytes(done->data.particle_count(), done->data.meshlet_size.size());
