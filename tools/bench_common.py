@@ -89,6 +89,13 @@ def sh(cmd, log, env=None, timeout=None):
     return r
 
 
+def timed(cmd, log):
+    """sh(cmd, log); returns its wall time in seconds."""
+    t0 = time.perf_counter()
+    sh(cmd, log)
+    return time.perf_counter() - t0
+
+
 def make_store(mds, work, scene, particles, node_size, log):
     """`mdstream synth` + `convert --node-size` into `work`, reused when it is already there."""
     store = os.path.join(work, f"{scene}_{particles}_{node_size}.mds")

@@ -22,10 +22,10 @@ import os
 import shutil
 import statistics
 import sys
-import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench_common import fmt_bytes, machine_info, newest_mdstream, open_work, sh, write_csv, write_report  # noqa: E402
+from bench_common import (fmt_bytes, machine_info, newest_mdstream, open_work, sh, timed, write_csv,  # noqa: E402
+                          write_report)
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -43,12 +43,6 @@ def split_frames(traj, out_dir):
             out.write(line)
     out.close()
     return paths
-
-
-def timed(cmd, log):
-    t0 = time.perf_counter()
-    sh(cmd, log)
-    return time.perf_counter() - t0
 
 
 def main():

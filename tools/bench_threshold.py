@@ -29,16 +29,10 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_common import (differing_fraction, fmt_bytes, machine_info, newest_mdstream, open_work,  # noqa: E402
-                          parse_count, sh, write_csv, write_report)
+                          parse_count, sh, timed, write_csv, write_report)
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SPEC = "-6:"
-
-
-def timed(cmd, log):
-    t0 = time.perf_counter()
-    sh(cmd, log)
-    return time.perf_counter() - t0
 
 
 def main():

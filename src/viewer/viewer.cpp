@@ -91,6 +91,12 @@ class Viewer {
   void apply_threshold_keys(const FilterKeys& k);
   // The HUD's threshold line for the threshold shown (empty without one).
   void update_threshold_line();
+  // After the slice or threshold keys' re-load (RenderHost::set_slices / set_threshold, begun at
+  // `started`) returned `st`: its time counted, the view restarted; an error becomes the message
+  // (false), else the picks go (the new filter may leave them out).
+  bool reload(const Status& st, Clock::time_point started);
+  // The message row shows the `render` option of what the window shows, and stderr prints it.
+  void say_option(const std::string& option);
   // A series: shows its picked frame at `position` (RenderHost::set_series_position).
   void show_series_position(size_t position);
   // A right click at `cursor` (framebuffer pixels): the particle the pixel under it shows
@@ -387,19 +393,26 @@ void Viewer::apply_threshold_keys(const FilterKeys& k) {
                                             double(h.property_min), double(h.property_max));
   render_error_.reset();
   const auto t0 = Clock::now();
-  const Status st = host_->set_threshold(t);  // in memory: the scene again; streaming: a new cache
-  reload_ms_ += ms_since(t0);
+  if (!reload(host_->set_threshold(t), t0)) return;  // in memory: the scene again; streaming: a new cache
+  update_threshold_line();
+  say_option(threshold_option(t));  // for `render` with the same threshold
+}
+
+bool Viewer::reload(const Status& st, Clock::time_point started) {
+  reload_ms_ += ms_since(started);
   have_view_ = false;
   idle_ = false;
   if (!st.ok()) {
     message_ = st.error().message;
-    return;
+    return false;
   }
-  picked_.reset();  // the threshold may have left it out
+  picked_.reset();  // the new filter may have left it out
   picked_before_.reset();
-  update_threshold_line();
-  // On stderr too, for `render` with the same threshold.
-  message_ = threshold_option(t);
+  return true;
+}
+
+void Viewer::say_option(const std::string& option) {
+  message_ = option;
   fmt::print(stderr, "mdstream view: {}\n", message_);
 }
 
@@ -414,19 +427,8 @@ void Viewer::apply_slice_keys(double steps, bool invert) {
   slices.back() = step_slice(slices.back(), steps, invert, h.bounds_min, h.bounds_max);
   render_error_.reset();
   const auto t0 = Clock::now();
-  const Status st = host_->set_slices(slices);  // in memory: the scene again; streaming: a new cache
-  reload_ms_ += ms_since(t0);
-  have_view_ = false;
-  idle_ = false;
-  if (!st.ok()) {
-    message_ = st.error().message;
-    return;
-  }
-  picked_.reset();  // the cut may have left it out
-  picked_before_.reset();
-  // On stderr too, for `render` with the same cut.
-  message_ = slice_options(host_->slices());
-  fmt::print(stderr, "mdstream view: {}\n", message_);
+  if (!reload(host_->set_slices(slices), t0)) return;  // in memory: the scene again; streaming: a new cache
+  say_option(slice_options(host_->slices()));  // for `render` with the same cut
 }
 
 void Viewer::pick_at(glm::dvec2 cursor) {
