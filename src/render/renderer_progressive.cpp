@@ -108,7 +108,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create_streaming(vk::Context& ctx, c
     } else {
       MDS_ASSIGN_OR_RETURN(vol, culling::density_from_store(reader, dir.origin));
     }
-    m.cache->kept_density(vol);  // with --slice: what the nodes keep
+    m.cache->kept_density(vol);  // with --slice or --threshold: what the nodes keep
     culling::CullScene cs;
     cs.origin = dir.origin;
     cs.meshlet_slots = m.meshlet_count;

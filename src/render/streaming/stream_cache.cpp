@@ -351,10 +351,10 @@ void StreamCache::set_view(const Camera& camera, double aspect, std::span<const 
   const FrustumPlanes frustum(clip_from_world);
   for (uint32_t i = 0; i < directory_.size(); ++i) {
     const glm::dvec3 lo(directory_[i].aabb_min), hi(directory_[i].aabb_max);
-    const bool sliced_out = left_out_[i] != 0;  // in no view
-    const bool in = !sliced_out && frustum.box_in(lo, hi);
+    const bool left_out = left_out_[i] != 0;  // in no view
+    const bool in = !left_out && frustum.box_in(lo, hi);
     uint8_t frames_ahead = 0;
-    for (const FrustumPlanes& a : ahead) frames_ahead += !sliced_out && a.box_in(lo, hi) ? 1 : 0;
+    for (const FrustumPlanes& a : ahead) frames_ahead += !left_out && a.box_in(lo, hi) ? 1 : 0;
     const bool is_ahead = !in && frames_ahead > 0;
     const glm::dvec3 nearest = glm::clamp(eye, lo, hi);
     const double dist = glm::length(nearest - eye);
