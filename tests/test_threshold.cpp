@@ -134,6 +134,11 @@ std::vector<Atom> last_frame(const fs::path& dump) {
   return atoms;
 }
 
+std::string slurp_text(const fs::path& p) {
+  std::ifstream f(p);
+  return std::string(std::istreambuf_iterator<char>(f), {});
+}
+
 double stats_particles(const fs::path& json) {
   return nlohmann::json::parse(std::ifstream(json)).at("particles").get<double>();
 }
@@ -366,6 +371,60 @@ TEST_F(ThresholdCli, StreamedReadsNoNodeItLeavesOutAndMatchesInMemory) {
                                        " has no per-node property histograms"));
   EXPECT_FALSE(fs::exists(png));
   EXPECT_EQ(run("render " + before.string() + " -o " + png.string() + " --no-cull" + look), 0) << last_stderr();
+}
+
+// `info --histogram N` (choosing a threshold): the counts of the values `export` writes, binned
+// by the rule the JSON's edges state, the same with nodes of 50 (with 3 bins, nodes whose values
+// fall into one bin are counted from their property histograms) as with one node read whole.
+TEST_F(ThresholdCli, InfoHistogramCountsTheExportedValues) {
+  const fs::path small = dir_ / "h50.mds", json = dir_ / "h.json";
+  ASSERT_EQ(run("convert -q --frame last --property c_pe --node-size 50 " + dump().string() + " -o " + small.string()), 0)
+      << last_stderr();
+  ASSERT_EQ(run("export " + small.string() + " -o " + (dir_ / "h.xyz").string()), 0) << last_stderr();
+  auto reader = store::StoreReader::open(small);
+  ASSERT_TRUE(reader.ok()) << reader.error().message;
+  const double lo = (*reader)->header().property_min, hi = (*reader)->header().property_max;
+  std::vector<double> values;
+  {
+    std::ifstream in(dir_ / "h.xyz");
+    std::string line;
+    std::getline(in, line);
+    std::getline(in, line);
+    while (std::getline(in, line)) {
+      std::istringstream ls(line);
+      std::string species;
+      double x, y, z, v;
+      ASSERT_TRUE(ls >> species >> x >> y >> z >> v) << line;
+      values.push_back(v);
+    }
+  }
+  for (const int bins : {12, 3}) {
+    std::vector<uint64_t> want(size_t(bins), 0);
+    for (const double v : values) ++want[size_t(std::clamp(std::floor((v - lo) / (hi - lo) * bins), 0.0, double(bins - 1)))];
+    for (const std::string& path : {small.string(), store()}) {
+      SCOPED_TRACE(path + " " + std::to_string(bins));
+      ASSERT_EQ(run("info " + path + " --json --histogram " + std::to_string(bins) + " > " + json.string()), 0)
+          << last_stderr();
+      const nlohmann::json j = nlohmann::json::parse(std::ifstream(json)).at("property_histogram");
+      EXPECT_EQ(j.at("name").get<std::string>(), "c_pe");
+      EXPECT_EQ(j.at("counts").get<std::vector<uint64_t>>(), want);
+      const auto edges = j.at("edges").get<std::vector<double>>();
+      ASSERT_EQ(edges.size(), size_t(bins + 1));
+      EXPECT_EQ(edges.front(), lo);
+      EXPECT_EQ(edges.back(), hi);
+      if (path == small.string() && bins == 3) {
+        EXPECT_LT(j.at("nodes_read").get<uint64_t>(), (*reader)->nodes().size());
+      }
+    }
+  }
+  // The text form and the errors.
+  ASSERT_EQ(run("info " + small.string() + " --histogram 4 > " + (dir_ / "h.txt").string()), 0) << last_stderr();
+  EXPECT_THAT(slurp_text(dir_ / "h.txt"), HasSubstr("histogram        c_pe, 4 bins ("));
+  EXPECT_EQ(run("info " + small.string() + " --histogram 0"), 2);
+  const fs::path plain = dir_ / "hplain.mds";
+  ASSERT_EQ(run("convert -q --frame last " + dump().string() + " -o " + plain.string()), 0) << last_stderr();
+  EXPECT_NE(run("info " + plain.string() + " --histogram 4"), 0);
+  EXPECT_THAT(last_stderr(), HasSubstr("--histogram: " + plain.string() + ": the store has no per-particle property"));
 }
 
 // A store without a property, a threshold that keeps nothing (in memory and streamed), a malformed spec:

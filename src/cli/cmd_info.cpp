@@ -1,8 +1,9 @@
-// `mdstream info STORE [--json] [--verify]`: summary of a store (header, types, sizes,
-// quantization), as text or JSON. --verify also reads and decodes every node payload and
+// `mdstream info STORE [--json] [--verify] [--histogram N]`: summary of a store (header, types,
+// sizes, quantization), as text or JSON. --verify also reads and decodes every node payload and
 // checks that its occupancy record holds its particles and its property histogram is its own.
-// For a series index (store/series.h):
-// one line per frame (time, counts, bounds) and the totals; --verify checks every store.
+// --histogram N counts the property's values in N bins (store/property_distribution.h). For a
+// series index (store/series.h): one line per frame (time, counts, bounds) and the totals;
+// --verify checks every store.
 #include <algorithm>
 #include <bit>
 #include <cstdio>
@@ -17,6 +18,7 @@
 #include "cli/cell_text.h"
 #include "cli/command.h"
 #include "store/series.h"
+#include "store/property_distribution.h"
 #include "store/store_reader.h"
 #include "store/type_style.h"
 
@@ -27,7 +29,32 @@ struct InfoOptions {
   std::string store;
   bool json = false;
   bool verify = false;
+  uint32_t histogram = 0;  // --histogram N: bins of the property's distribution (0: none)
 };
+
+// --histogram: the distribution of the property (store/property_distribution.h) as JSON.
+Result<nlohmann::json> histogram_json(const store::StoreReader& r, uint32_t bins) {
+  MDS_ASSIGN_OR_RETURN(const store::PropertyDistribution d, store::property_distribution(r, bins));
+  return nlohmann::json{{"name", std::string(r.header().property_name)}, {"bins", bins}, {"edges", d.edges},
+                        {"counts", d.counts}, {"nodes_read", d.nodes_read}};
+}
+
+// The histogram as text: one row per bin, its range, count and a bar (40 characters at the
+// largest count).
+std::string histogram_text(const nlohmann::json& hj, uint64_t nodes) {
+  const auto counts = hj["counts"].get<std::vector<uint64_t>>();
+  const auto edges = hj["edges"].get<std::vector<double>>();
+  const uint64_t top = counts.empty() ? 0 : *std::max_element(counts.begin(), counts.end());
+  std::string s = fmt::format("histogram        {}, {} bins ({} of {} nodes read; the others counted from their "
+                              "property histograms)\n",
+                              hj["name"].get<std::string>(), counts.size(), hj["nodes_read"].get<uint64_t>(), nodes);
+  for (size_t b = 0; b < counts.size(); ++b) {
+    const size_t bar = top ? size_t(std::llround(40.0 * double(counts[b]) / double(top))) : 0;
+    s += fmt::format("  [{:>11.6g}, {:>11.6g}{} {:>12} {}\n", edges[b], edges[b + 1], b + 1 == counts.size() ? "]" : ")",
+                     counts[b], std::string(bar, '#'));
+  }
+  return s;
+}
 
 nlohmann::json vec3(const double v[3]) { return nlohmann::json::array({v[0], v[1], v[2]}); }
 
@@ -222,7 +249,17 @@ void setup_info(CLI::App& sub, int& exit_code) {
   sub.add_flag("--json", opt->json, "Print JSON instead of text");
   sub.add_flag("--verify", opt->verify,
                "Also read, hash-check and decode every node payload and check its occupancy record and property histogram");
+  sub.add_option("--histogram", opt->histogram,
+                 "Also count the store's per-particle property (convert --property) in N equal bins over its range, "
+                 "as ParaView's Histogram: to choose a --threshold (nodes whose values fall into one bin are counted "
+                 "from their property histograms, the others read)")
+      ->check(CLI::Range(1u, 10000u));
   sub.callback([opt, &exit_code] {
+    if (store::is_series_path(opt->store) && opt->histogram) {
+      exit_code = report("info", make_error(Errc::invalid_argument, "--histogram takes one store, not the series {}",
+                                            opt->store));
+      return;
+    }
     if (store::is_series_path(opt->store)) {
       auto j = series_info(opt->store, opt->verify);
       if (!j.ok()) {
@@ -251,11 +288,21 @@ void setup_info(CLI::App& sub, int& exit_code) {
       exit_code = report("info", j.error());
       return;
     }
+    if (opt->histogram) {
+      auto hj = histogram_json(**reader, opt->histogram);
+      if (!hj.ok()) {
+        exit_code = report("info", make_error(hj.error().code, "--histogram: {}", hj.error().message));
+        return;
+      }
+      (*j)["property_histogram"] = std::move(*hj);
+    }
     if (opt->json) {
       if (opt->verify) (*j)["verified"] = true;
       std::fputs((j->dump(2) + "\n").c_str(), stdout);
     } else {
-      std::fputs(human(*j, (*reader)->cell(), opt->verify).c_str(), stdout);
+      std::string text = human(*j, (*reader)->cell(), opt->verify);
+      if (j->contains("property_histogram")) text += histogram_text((*j)["property_histogram"], (*reader)->nodes().size());
+      std::fputs(text.c_str(), stdout);
     }
     exit_code = 0;
   });
