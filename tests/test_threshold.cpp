@@ -332,6 +332,22 @@ TEST_F(ThresholdCli, StreamedReadsNoNodeItLeavesOutAndMatchesInMemory) {
     }
     EXPECT_EQ(rows, holds_kept.size());
   }
+  // stress --threshold along an orbit: the same nodes left out and never loaded; its report says
+  // which threshold it ran with.
+  {
+    const fs::path sj = dir_ / "stress.json";
+    ASSERT_EQ(run("stress " + small.string() + " --gpu-budget 512KiB --path orbit --frames 8 --width 96 --height 72 "
+                  "--threshold=-6: -q --json " + sj.string()),
+              0)
+        << last_stderr();
+    const nlohmann::json j = nlohmann::json::parse(std::ifstream(sj));
+    EXPECT_EQ(j.at("threshold").get<std::string>(), "-6:");
+    EXPECT_TRUE(j.at("slices").empty());
+    EXPECT_EQ(j.at("nodes_left_out").get<size_t>(), left_out);
+    EXPECT_GE(j.at("nodes_never_loaded").get<size_t>(), left_out);
+    EXPECT_GT(j.at("nodes_loaded").get<size_t>(), 0u);
+    EXPECT_GT(j.at("hit_rate_over_belady").get<double>(), 0.0);
+  }
   // export --threshold reads no node the histograms leave out either: with the payload of one
   // such node damaged, it still writes every kept atom, where export without it names the damage.
   const auto nodes = (*reader)->nodes();

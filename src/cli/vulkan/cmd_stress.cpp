@@ -327,6 +327,12 @@ Status run_stress(const StressOptions& o) {
   j["frames"] = path_frames;
   j["known_path"] = o.known_path;
   {
+    nlohmann::json slices = nlohmann::json::array();
+    for (const store::Slice& sl : ss.slices) slices.push_back(store::slice_spec(sl));
+    j["slices"] = slices;  // as --slice reads them (render --stats' keys)
+    j["threshold"] = ss.threshold ? nlohmann::json(store::threshold_spec(*ss.threshold)) : nlohmann::json(nullptr);
+  }
+  {
     std::vector<double> path_scales;
     for (const auto& f : frames)
       if (!f.settle) path_scales.push_back(f.scale);
