@@ -17,15 +17,15 @@ double extent_along(const store::Slice& s, const double lo[3], const double hi[3
 store::Slice step_slice(const store::Slice& s, double steps, bool invert, const double lo[3], const double hi[3]) {
   store::Slice out = s;
   const double step = extent_along(s, lo, hi) / kSliceStepsPerExtent;
-  out.distance += steps * step;
-  if (step > 0.0 && std::isfinite(out.distance)) {
-    // Rounded to the decimal places that resolve 1/1000 of a step (1/100 of a Shift step), so
-    // that the spec the viewer prints reads "0.349", not "0.34909999999999997".
-    const int decimals = std::clamp(int(std::ceil(-std::log10(0.001 * step))), 0, 17);
-    out.distance = std::strtod(fmt::format("{:.{}f}", out.distance, decimals).c_str(), nullptr);
-  }
+  out.distance = round_to_step(out.distance + steps * step, step);  // 1/100 of a Shift step
   if (invert) out.invert = !out.invert;
   return out;
+}
+
+double round_to_step(double v, double step) {
+  if (!(step > 0.0) || !std::isfinite(v)) return v;
+  const int decimals = std::clamp(int(std::ceil(-std::log10(0.001 * step))), 0, 17);
+  return std::strtod(fmt::format("{:.{}f}", v, decimals).c_str(), nullptr);
 }
 
 std::string slice_options(const std::vector<store::Slice>& slices) {

@@ -21,6 +21,11 @@ double extent_along(const store::Slice& s, const double lo[3], const double hi[3
 // of a step (3 for a step of 1.15); inverted when `invert`. Precondition: s.normal has unit length (parse_slice's).
 store::Slice step_slice(const store::Slice& s, double steps, bool invert, const double lo[3], const double hi[3]);
 
+// v rounded to the decimal places that resolve 1/1000 of `step` (so that a spec the viewer prints
+// reads "0.349", not "0.34909999999999997"); unchanged for a step that is not > 0 or a v that is
+// not finite. The slice and the threshold keys round what they move with it.
+double round_to_step(double v, double step);
+
 // "--slice A --slice B": the options that give `render` (and `view`) these slices.
 std::string slice_options(const std::vector<store::Slice>& slices);
 

@@ -1,22 +1,10 @@
 #include "viewer/threshold_keys.h"
 
-#include <algorithm>
 #include <cmath>
-#include <cstdlib>
 
-#include <fmt/format.h>
+#include "viewer/slice_keys.h"  // round_to_step
 
 namespace mds::viewer {
-
-namespace {
-// v rounded to the decimal places that resolve 1/1000 of `step` (so that the spec reads "-6.2",
-// not "-6.199999999999999"); unchanged for a zero step.
-double round_to_step(double v, double step) {
-  if (!(step > 0.0) || !std::isfinite(v)) return v;
-  const int decimals = std::clamp(int(std::ceil(-std::log10(0.001 * step))), 0, 17);
-  return std::strtod(fmt::format("{:.{}f}", v, decimals).c_str(), nullptr);
-}
-}  // namespace
 
 double threshold_step(double property_min, double property_max) {
   const double raw = (property_max - property_min) / kThresholdStepsPerRange;
