@@ -268,7 +268,7 @@ TEST_F(SeriesCli, AStreamedSeriesCarriesEachFramesViewToTheNext) {
                                          tmp("s.mds.series").string());
   for (const std::string wave : {"prior", "cold"}) {
     ASSERT_EQ(run_mdstream(fmt::format("{} --series-first-wave {} -o {} --stats {}", common, wave,
-                                       tmp(wave + "%d.png").string(), tmp(wave + ".json").string())),
+                                       tmp(wave + "%d.exr").string(), tmp(wave + ".json").string())),
               0)
         << cli_stderr();
     const auto j = nlohmann::json::parse(textest::read_text(tmp(wave + ".json")));
@@ -287,8 +287,15 @@ TEST_F(SeriesCli, AStreamedSeriesCarriesEachFramesViewToTheNext) {
       }
     }
   }
-  for (int k = 0; k < 3; ++k)
-    EXPECT_EQ(bytes_of(tmp(fmt::format("prior{}.png", k))), bytes_of(tmp(fmt::format("cold{}.png", k)))) << k;
+  // The same data drawn: the images agree within the renderer's tolerance. Not byte for byte: the
+  // culling classes depend on the order the nodes arrived in (the reader threads' timing), and a
+  // node classified occluded may hide a sphere's last pixel (on one loaded core, 1 of 3072 pixels
+  // differed in 9 of 54 cold runs).
+  for (int k = 0; k < 3; ++k) {
+    const auto d = mds::testing::compare_exr(tmp(fmt::format("prior{}.exr", k)), tmp(fmt::format("cold{}.exr", k)), 64, 48);
+    EXPECT_GT(d.covered, size_t(64 * 48) / 10) << k;
+    EXPECT_LE(d.differing, size_t(64 * 48) / 200) << k << ": " << d.differing << " of " << d.covered << " covered pixels";
+  }
   EXPECT_EQ(run_mdstream(fmt::format("{} --series-first-wave warm -o {}", common, tmp("w%d.png").string())), 2);
   EXPECT_THAT(cli_stderr(), HasSubstr("--series-first-wave"));
   EXPECT_FALSE(fs::exists(tmp("w0.png")));
