@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli_test_util.h"
+#include "overlay/text_label.h"
 #include "store/series.h"
 #include "text_reader_test_util.h"
 
@@ -445,6 +446,67 @@ TEST_F(SeriesCli, OrbitWhileTheFramesGo) {
     for (int d = 0; d < 3; ++d) EXPECT_EQ(target(i, d), target(0, d));
     EXPECT_TRUE(fs::exists(tmp(fmt::format("o{}.png", i))));
   }
+}
+
+// --label (overlay/text_label.h): each series frame's image carries its own time, drawn after the
+// colour legend in the corner they share: the labelled image is the unlabelled one with
+// overlay_text_label applied, to the bit, and the stats say the text and its box. A camera path
+// over one store numbers its frames; {time} on one store and an unknown placeholder are refused
+// before any image is written.
+TEST_F(SeriesCli, LabelsEachFrameWithItsTime) {
+  ASSERT_EQ(run_mdstream(fmt::format("convert {} --frames :3 -o {} -q", dump().string(), tmp("l.mds.series").string())), 0)
+      << cli_stderr();
+  const auto series = store::read_series(tmp("l.mds.series"));
+  ASSERT_TRUE(series.ok());
+  const std::string common = fmt::format("render {} --width 96 --height 64 --spp 1 --no-cull --color-legend top-left",
+                                         tmp("l.mds.series").string());
+  ASSERT_EQ(run_mdstream(fmt::format("{} -o {}", common, tmp("plain%d.exr").string())), 0) << cli_stderr();
+  ASSERT_EQ(run_mdstream(fmt::format("{} --label 'step {{time}} ({{frame}})' -o {} --stats {}", common,
+                                     tmp("lab%d.exr").string(), tmp("lab.json").string())),
+            0)
+      << cli_stderr();
+  const auto j = nlohmann::json::parse(textest::read_text(tmp("lab.json")));
+  ASSERT_EQ(j["frames"].size(), 3u);
+  std::vector<float> first_label;
+  for (size_t k = 0; k < 3; ++k) {
+    SCOPED_TRACE(k);
+    const std::string text = fmt::format("step {} ({})", series->frames[k].time, k);
+    const auto& f = j["frames"][k];
+    ASSERT_EQ(f["label"]["text"], text);
+    EXPECT_EQ(f["label"]["corner"], "top-left");
+    const overlay::PixelBox legend{f["color_legend"]["box"][0], f["color_legend"]["box"][1], f["color_legend"]["box"][2],
+                                   f["color_legend"]["box"][3]};
+    render::FrameImage plain{96, 64, mds::testing::load_exr(tmp(fmt::format("plain{}.exr", k)))};
+    const std::vector<float> labelled = mds::testing::load_exr(tmp(fmt::format("lab{}.exr", k)));
+    ASSERT_EQ(plain.rgba.size(), labelled.size());
+    EXPECT_NE(plain.rgba, labelled);
+    const overlay::PixelBox box = overlay::overlay_text_label(plain, text, overlay::LegendCorner::top_left, legend);
+    EXPECT_EQ(plain.rgba, labelled) << "not the unlabelled image with \"" << text << "\" drawn after the legend";
+    EXPECT_EQ(f["label"]["box"], nlohmann::json({box.x0, box.y0, box.x1, box.y1}));
+    EXPECT_GE(box.y0, legend.y1);
+  }
+  EXPECT_NE(series->frames[0].time, series->frames[1].time) << "the frames' labels should differ";
+
+  // A camera path over one store: {frame} is the path's frame; the stats list each frame's text.
+  const std::string store0 = series->frames[0].path.string();
+  ASSERT_EQ(run_mdstream(fmt::format("render {} --path orbit --frames 3 --width 48 --height 32 --spp 1 --no-cull "
+                                     "--label '{{store}} {{frame:02d}}' --label-corner bottom-right -o {} --stats {}",
+                                     store0, tmp("o%d.png").string(), tmp("o.json").string())),
+            0)
+      << cli_stderr();
+  const auto o = nlohmann::json::parse(textest::read_text(tmp("o.json")));
+  ASSERT_EQ(o["frame_stats"].size(), 3u);
+  for (size_t i = 0; i < 3; ++i)
+    EXPECT_EQ(o["frame_stats"][i]["label"], fmt::format("{} {:02d}", series->frames[0].path.filename().string(), i));
+
+  // Refused before any image: {time} of one store, an unknown placeholder in a series, a bad corner.
+  EXPECT_EQ(run_mdstream(fmt::format("render {} --spp 1 --label 'step {{time}}' -o {}", store0, tmp("bad.png").string())), 2);
+  EXPECT_THAT(cli_stderr(), HasSubstr("{time} is the time of a series frame"));
+  EXPECT_EQ(run_mdstream(fmt::format("{} --label 'at {{timestep}}' -o {}", common, tmp("bad%d.png").string())), 2);
+  EXPECT_THAT(cli_stderr(), HasSubstr("--label 'at {timestep}': argument not found"));
+  EXPECT_EQ(run_mdstream(fmt::format("{} --label x --label-corner middle -o {}", common, tmp("bad%d.png").string())), 2);
+  EXPECT_THAT(cli_stderr(), HasSubstr("--label-corner 'middle'"));
+  for (const auto& name : listing()) EXPECT_EQ(name.rfind("bad", 0), std::string::npos) << name << " was written";
 }
 
 }  // namespace

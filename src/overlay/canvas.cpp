@@ -192,6 +192,22 @@ glm::ivec2 Canvas::text(int x, int y, std::string_view s, Rgba8 c, int scale) {
   return text_size(s, scale);
 }
 
+void draw_on_linear(render::FrameImage& image, PixelBox box, const std::function<void(Canvas&)>& draw) {
+  if (box.empty()) return;
+  const uint32_t bw = uint32_t(box.x1 - box.x0), bh = uint32_t(box.y1 - box.y0);
+  Canvas canvas(bw, bh);
+  for (uint32_t py = 0; py < bh; ++py)
+    for (uint32_t px = 0; px < bw; ++px) {
+      const float* p = &image.rgba[4 * (size_t(box.y0 + int(py)) * image.width + size_t(box.x0 + int(px)))];
+      canvas.at(px, py) = Rgba8(linear_to_srgb8(p[0]), linear_to_srgb8(p[1]), linear_to_srgb8(p[2]), 255);
+    }
+  draw(canvas);
+  const render::FrameImage drawn = canvas.to_linear();
+  for (uint32_t py = 0; py < bh; ++py)
+    std::copy_n(&drawn.rgba[4 * size_t(py) * bw], 4 * size_t(bw),
+                &image.rgba[4 * (size_t(box.y0 + int(py)) * image.width + size_t(box.x0))]);  // alpha 1 (to_linear)
+}
+
 Status write_canvas_png(const std::filesystem::path& path, const Canvas& canvas) {
   if (canvas.width() == 0 || canvas.height() == 0)
     return make_error(Errc::internal, "{}: no frame to save yet", path.string());

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string_view>
 #include <vector>
 
@@ -17,6 +18,17 @@
 namespace mds::overlay {
 
 using Rgba8 = glm::u8vec4;
+
+// The panels drawn into rendered images (colour legend, text label): translucent black, light text.
+inline const Rgba8 kPanelFill{0, 0, 0, 150};
+inline const Rgba8 kPanelText{235, 235, 235, 255};
+
+// Pixels [x0, x1) x [y0, y1) of an image; empty when x0 >= x1 or y0 >= y1.
+struct PixelBox {
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  bool empty() const { return x0 >= x1 || y0 >= y1; }
+  bool operator==(const PixelBox&) const = default;
+};
 
 class Canvas {
  public:
@@ -54,6 +66,14 @@ class Canvas {
 
 // Lookup: sRGB 8-bit value of a linear intensity (same as lround(linear_to_srgb(v) * 255)).
 uint8_t linear_to_srgb8(float v);
+
+// Draws on the pixels of `box` of a linear image (render::FrameImage, as Renderer::render returns
+// it), for the panels written into rendered images (colour legend, text label): the box's pixels
+// become 8-bit sRGB (linear_to_srgb8, as Canvas::set_from_linear) on a canvas of the box alone,
+// `draw` paints on it with (0, 0) at the box's top-left corner, and they go back in linear with
+// coverage (alpha) 1; every other pixel stays as it was, to the bit, and only the box is
+// converted. Precondition: the box lies inside the image (nothing is drawn for an empty box).
+void draw_on_linear(render::FrameImage& image, PixelBox box, const std::function<void(Canvas&)>& draw);
 
 // Writes the canvas as an 8-bit PNG (render::write_png, atomically).
 Status write_canvas_png(const std::filesystem::path& path, const Canvas& canvas);

@@ -131,8 +131,8 @@ namespace {
 // Draws the panel with its top-left corner at `o` in the canvas's coordinates (clipped to it).
 void draw_panel(Canvas& canvas, const ColorLegend& legend, const Layout& y, glm::ivec2 o) {
   const int s = y.s;
-  const Rgba8 text_color{235, 235, 235, 255};
-  canvas.fill_rect(o.x, o.y, o.x + y.w, o.y + y.h, {0, 0, 0, 150});
+  const Rgba8 text_color = kPanelText;
+  canvas.fill_rect(o.x, o.y, o.x + y.w, o.y + y.h, kPanelFill);
   canvas.text(o.x + y.pad, o.y + y.pad, legend.title, text_color, s);
   const int x = o.x + y.pad;
   if (legend.colormap) {
@@ -170,21 +170,10 @@ PixelBox draw_color_legend(Canvas& canvas, const ColorLegend& legend, LegendCorn
 PixelBox overlay_color_legend(render::FrameImage& image, const ColorLegend& legend, LegendCorner corner) {
   const PixelBox box = legend_box(legend, image.width, image.height, corner);
   if (box.empty()) return box;
-  // A canvas of the box alone: the box's pixels in 8-bit sRGB, the panel drawn at its place
-  // relative to the box, and back in linear (the rest of the image is not converted).
-  const uint32_t bw = uint32_t(box.x1 - box.x0), bh = uint32_t(box.y1 - box.y0);
-  Canvas canvas(bw, bh);
-  for (uint32_t py = 0; py < bh; ++py)
-    for (uint32_t px = 0; px < bw; ++px) {
-      const float* p = &image.rgba[4 * (size_t(box.y0 + int(py)) * image.width + size_t(box.x0 + int(px)))];
-      canvas.at(px, py) = Rgba8(linear_to_srgb8(p[0]), linear_to_srgb8(p[1]), linear_to_srgb8(p[2]), 255);
-    }
   const Layout y = layout(legend, image.height);
-  draw_panel(canvas, legend, y, origin(y, image.width, image.height, corner) - glm::ivec2(box.x0, box.y0));
-  const render::FrameImage drawn = canvas.to_linear();
-  for (uint32_t py = 0; py < bh; ++py)
-    std::copy_n(&drawn.rgba[4 * size_t(py) * bw], 4 * size_t(bw),
-                &image.rgba[4 * (size_t(box.y0 + int(py)) * image.width + size_t(box.x0))]);  // alpha 1 (to_linear)
+  draw_on_linear(image, box, [&](Canvas& canvas) {
+    draw_panel(canvas, legend, y, origin(y, image.width, image.height, corner) - glm::ivec2(box.x0, box.y0));
+  });
   return box;
 }
 

@@ -53,12 +53,6 @@ struct ColorLegend {
 };
 inline constexpr size_t kLegendRowsMax = 24;
 
-// Pixels [x0, x1) x [y0, y1) of an image; empty when x0 >= x1 or y0 >= y1.
-struct PixelBox {
-  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
-  bool empty() const { return x0 >= x1 || y0 >= y1; }
-};
-
 // Where the legend's panel goes in a width x height image: in `corner`, a margin from its edges,
 // sized by the content at a text scale of max(1, height / 400) (clipped to the image; empty for
 // LegendCorner::off). The colour bar is max(5 rows of text, 30 % of the height) tall.

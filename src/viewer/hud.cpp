@@ -64,7 +64,7 @@ void draw_hud(Canvas& canvas, const HudState& s) {
   const auto lines = hud_lines(s);
   const int scale = canvas.width() >= 800 ? 2 : 1;
   const int line_h = 10 * scale;
-  const Rgba8 text_color{235, 235, 235, 255};
+  const Rgba8 text_color = overlay::kPanelText;
   // The legend row: per type a swatch of the text's height, a gap, the label, a wider gap.
   const int swatch = 7 * scale, gap = 3 * scale, sep = 8 * scale;
   const size_t shown = std::min(s.legend.size(), kHudLegendMax);
@@ -75,7 +75,7 @@ void draw_hud(Canvas& canvas, const HudState& s) {
   int w = legend_w;
   for (const auto& t : lines) w = std::max(w, Canvas::text_size(t, scale).x);
   const int rows = int(lines.size()) + (shown > 0 ? 1 : 0);
-  canvas.fill_rect(0, 0, w + 8 * scale, rows * line_h + 4 * scale, {0, 0, 0, 150});
+  canvas.fill_rect(0, 0, w + 8 * scale, rows * line_h + 4 * scale, overlay::kPanelFill);
   int y = 3 * scale;
   for (const auto& t : lines) {
     canvas.text(4 * scale, y, t, text_color, scale);

@@ -39,6 +39,7 @@
 #include "store/series.h"
 #include "render/visible_nodes.h"
 #include "overlay/color_legend.h"
+#include "overlay/text_label.h"
 #include "store/store_reader.h"
 #include "vk/context.h"
 
@@ -66,6 +67,8 @@ struct RenderOptions {
   std::vector<std::string> picks;     // --pick X,Y: the particle a pixel shows (render/pick.h)
   std::string node_log;               // --node-log CSV (write_node_log)
   std::string color_legend = "off";   // --color-legend CORNER (overlay/color_legend.h)
+  std::string label;                  // --label TEXT with placeholders (overlay/text_label.h)
+  std::string label_corner = "top-left";  // --label-corner CORNER
 };
 
 // What a series render fixes for every frame (run_render_series); empty for one store.
@@ -79,6 +82,7 @@ struct FrameSetup {
   std::shared_ptr<const streaming::PriorView> prior;
   std::shared_ptr<const streaming::PriorView>* prior_out = nullptr;
   std::optional<int64_t> series_frame;  // the series index of the frame (--pick answers name it)
+  std::optional<double> time;           // the series frame's time (--label's {time})
 };
 
 // What a streaming cache that reads whole nodes would read for this converged view, at two
@@ -198,6 +202,10 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
   MDS_ASSIGN_OR_RETURN(const std::vector<glm::uvec2> picks, pick_pixels(o));
   auto corner = overlay::parse_legend_corner(o.color_legend);
   if (!corner.ok()) return make_error(Errc::invalid_argument, "--color-legend {}", corner.error().message);
+  auto label_corner = overlay::parse_legend_corner(o.label_corner);
+  if (!label_corner.ok() || *label_corner == overlay::LegendCorner::off)
+    return make_error(Errc::invalid_argument, "--label-corner '{}': expected top-left, top-right, bottom-left or bottom-right",
+                      o.label_corner);
   // --path: an animation (render_path.h). A path file is read before any other work.
   std::optional<render::BuiltinPath> builtin;
   render::CameraPath path;
@@ -216,6 +224,15 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
   }
   const auto setup_start = std::chrono::steady_clock::now();  // stats "setup_ms"
   MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
+  // --label: expanded here, so that a bad placeholder is refused before any image is written.
+  const overlay::LabelFields label_fields{fs.time, fs.series_frame.value_or(0), reader->header().particle_count,
+                                          std::filesystem::path(o.store).filename().string()};
+  std::string label;
+  if (!o.label.empty()) {
+    auto l = overlay::expand_label(o.label, label_fields);
+    if (!l.ok()) return make_error(Errc::invalid_argument, "--label {}", l.error().message);
+    label = std::move(*l);
+  }
   render::AoChoice ao;
   Appearance frame_look = look;
   if (fs.look) {  // one choice for every frame
@@ -323,9 +340,12 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
       }
     }
     PathRenderOptions po{o.output, o.stats, streaming, uint64_t(ctx->limits().maxStorageBufferRange)};
-    po.legend_corner = *corner;
+    po.panels.legend_corner = *corner;
+    po.panels.legend = color_legend(rs, *renderer, *reader, shown);
+    po.panels.label_corner = *label_corner;
+    po.label_pattern = o.label;
+    po.label_fields = label_fields;
     po.transparent = look.transparent;
-    po.legend = color_legend(rs, *renderer, *reader, shown);
     return render_path(*renderer, path, po);
   }
   render::RenderStats stats;
@@ -372,8 +392,8 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
     MDS_TRY(write_node_log(o.node_log, *reader, *renderer, visible ? std::span<const uint8_t>(visible->nodes)
                                                                    : std::span<const uint8_t>()));
   // The image last: a node log that cannot be written leaves no image behind (as a failed --pick).
-  const overlay::PixelBox legend_box =
-      overlay::overlay_color_legend(image, color_legend(rs, *renderer, *reader, shown), *corner);
+  const overlay::PanelBoxes boxes = overlay::overlay_panels(
+      image, {color_legend(rs, *renderer, *reader, shown), *corner, label, *label_corner});
   MDS_TRY(render::write_image(o.output, image, look.transparent));
   if (fs.prior_out) *fs.prior_out = renderer->prior_view();
 
@@ -390,7 +410,11 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
     j["accumulation"] = stats.accumulation_buffer ? "buffer" : "image";
     if (*corner != overlay::LegendCorner::off)
       j["color_legend"] = {{"corner", overlay::legend_corner_name(*corner)},
-                           {"box", {legend_box.x0, legend_box.y0, legend_box.x1, legend_box.y1}}};
+                           {"box", {boxes.legend.x0, boxes.legend.y0, boxes.legend.x1, boxes.legend.y1}}};
+    if (!label.empty())
+      j["label"] = {{"text", label},
+                    {"corner", overlay::legend_corner_name(*label_corner)},
+                    {"box", {boxes.label.x0, boxes.label.y0, boxes.label.x1, boxes.label.y1}}};
     j["ambient_occlusion"] = {{"mode", render::ao_mode_name(look.ao.mode)}, {"on", stats.ambient_occlusion},
                               {"radius", ao.radius},  {"strength", ao.strength}};
     if (ao.packing >= 0.0) j["ambient_occlusion"]["packing_fraction"] = ao.packing;
@@ -659,6 +683,7 @@ Status run_render_series(const RenderOptions& o) {
     }
     fs.prior = std::move(prior);
     fs.series_frame = k;
+    fs.time = f.time;
     nlohmann::json fj;
     Status st = render_store(fo, fs, ctx, o.stats.empty() ? nullptr : &fj);
     if (!st.ok()) {
@@ -724,6 +749,15 @@ void setup_render(CLI::App& sub, int& exit_code) {
                  "Draw what the colours mean into the image, in a corner: off, top-left, top-right, bottom-left or "
                  "bottom-right; the types and their colours, or with --color-by the colormap as a bar with its "
                  "values (OVITO's colour legend; docs/rendering.md, \"Colours, radii and hidden types\")")
+      ->capture_default_str();
+  sub.add_option("--label", opt->label,
+                 "Draw a line of text into each image (OVITO's text label, ParaView's Annotate Time), with "
+                 "placeholders in fmt's syntax: {time} (a series frame's time: its simulation step), {frame} (the "
+                 "number -o's %d gets), {particles}, {store} (the file name); a format may follow a colon "
+                 "({frame:04d}, {time:.1f}); e.g. \"step {time}\" (docs/rendering.md, \"Text label\")");
+  sub.add_option("--label-corner", opt->label_corner,
+                 "Where --label goes: top-left, top-right, bottom-left or bottom-right (after the colour legend when "
+                 "both take one corner)")
       ->capture_default_str();
   sub.add_option("--node-log", opt->node_log,
                  "Write one CSV row per node of the store after the last frame: its particles, payload bytes, "

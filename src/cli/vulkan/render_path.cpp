@@ -57,7 +57,13 @@ Status render_path(render::Renderer& renderer, const render::CameraPath& path, c
     for (const std::string& e : st.cache.errors) std::fprintf(stderr, "mdstream render: skipped node: %s\n", e.c_str());
     for (const std::string& w : cache_warnings(st.cache, o.max_storage_range))
       std::fprintf(stderr, "mdstream render: frame %u: warning: %s\n", f, w.c_str());
-    overlay::overlay_color_legend(image, o.legend, o.legend_corner);
+    overlay::ImagePanels panels = o.panels;
+    if (!o.label_pattern.empty()) {
+      overlay::LabelFields fields = o.label_fields;
+      fields.frame = f;
+      MDS_ASSIGN_OR_RETURN(panels.label, overlay::expand_label(o.label_pattern, fields));
+    }
+    overlay::overlay_panels(image, panels);
     MDS_TRY(render::write_image(file, image, o.transparent));
     const double culled = st.meshlets ? double(st.cull.meshlets_culled) / double(st.meshlets) : 0.0;
     std::string line = fmt::format("mdstream render: frame {}/{} -> {}: {:.0f} ms", f + 1, frames, file, st.wall_ms);
@@ -71,6 +77,7 @@ Status render_path(render::Renderer& renderer, const render::CameraPath& path, c
                         {"wall_ms", st.wall_ms},
                         {"gpu_ms", st.frame_ms_median},
                         {"pass_ms_median", st.pass_ms_median}};
+    if (!panels.label.empty()) r["label"] = panels.label;
     if (st.cull.iterations > 0) {
       r["culled_fraction"] = culled;
       r["culling_converged"] = st.cull.converged;
