@@ -29,6 +29,35 @@ SimulationCell LammpsBox::cell(const bool periodic[3]) const {
   return c;
 }
 
+Result<LammpsBox> lammps_box_from_cell(const SimulationCell& c) {
+  const auto& v = c.vectors;
+  if (!(v[0][0] > 0.0 && v[1][1] > 0.0 && v[2][2] > 0.0 && v[0][1] == 0.0 && v[0][2] == 0.0 && v[1][2] == 0.0))
+    return make_error(Errc::unsupported,
+                      "the cell's edge vectors a = ({:g}, {:g}, {:g}), b = ({:g}, {:g}, {:g}), c = ({:g}, {:g}, {:g}) are "
+                      "not a LAMMPS box (a along +x, b in the xy plane, each with a positive length along its axis)",
+                      v[0][0], v[0][1], v[0][2], v[1][0], v[1][1], v[1][2], v[2][0], v[2][1], v[2][2]);
+  LammpsBox b;
+  for (int d = 0; d < 3; ++d) {
+    b.lo[d] = c.origin[d];
+    b.hi[d] = c.origin[d] + v[d][d];
+  }
+  b.xy = v[1][0];
+  b.xz = v[2][0];
+  b.yz = v[2][1];
+  b.triclinic = b.xy != 0.0 || b.xz != 0.0 || b.yz != 0.0;
+  for (int d = 0; d < 3; ++d) {
+    b.bound_lo[d] = b.lo[d];
+    b.bound_hi[d] = b.hi[d];
+  }
+  if (b.triclinic) {  // the bounding box, as lammps_box_from_bounds undoes it
+    b.bound_lo[0] += std::min({0.0, b.xy, b.xz, b.xy + b.xz});
+    b.bound_hi[0] += std::max({0.0, b.xy, b.xz, b.xy + b.xz});
+    b.bound_lo[1] += std::min(0.0, b.yz);
+    b.bound_hi[1] += std::max(0.0, b.yz);
+  }
+  return b;
+}
+
 void lammps_periodic_from_flags(const std::vector<std::string_view>& flags, bool periodic[3]) {
   int axis = 0;
   for (std::string_view f : flags) {

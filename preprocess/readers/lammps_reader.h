@@ -48,4 +48,10 @@ void lammps_periodic_from_flags(const std::vector<std::string_view>& flags, bool
 // read when triclinic; the tilts are xy, xz, yz in line order).
 LammpsBox lammps_box_from_bounds(const double bounds[3][3], bool triclinic);
 
+// The inverse of LammpsBox::cell, for writing a dump: the box of a cell LAMMPS can hold, a
+// restricted triclinic one (a = (lx, 0, 0), b = (xy, ly, 0), c = (xz, yz, lz), lx, ly, lz > 0),
+// triclinic when a tilt is not zero, with the bounding box the dump writes. Errc::unsupported
+// naming the edge vectors for any other cell (rotated, left-handed or flat).
+Result<LammpsBox> lammps_box_from_cell(const SimulationCell& cell);
+
 }  // namespace mds

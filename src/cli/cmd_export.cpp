@@ -6,7 +6,7 @@
 // threshold (store/threshold.h) only the particles they keep, the same ones `render --slice
 // --threshold` draws; nodes the slices leave out, or whose property histogram holds no value the
 // threshold keeps, are not read. The output appears only when complete. `-o OUT.mmpld` writes MMPLD instead
-// (export_mmpld.cpp).
+// (export_mmpld.cpp), `-o OUT.lammpstrj` (or .dump) a LAMMPS dump (export_lammps.cpp).
 #include <cctype>
 #include <cstdio>
 #include <filesystem>
@@ -53,26 +53,7 @@ Status export_xyz(const ExportOptions& o) {
     species.push_back(std::move(name));
   }
 
-  store::NodeData node;
-  std::vector<uint8_t> scratch;
-  const auto nodes = reader->nodes();
-  // With a filter the count of the header line is known after a first pass over the nodes it
-  // may keep part of (the others count whole or not at all, from the directory).
-  uint64_t count = h.particle_count;
-  if (filter.any()) {
-    count = 0;
-    for (uint32_t i = 0; i < nodes.size(); ++i) {
-      const store::SliceCover cover = filter.cover(i, nodes[i]);
-      if (cover == store::SliceCover::none) continue;
-      if (filter.keeps_whole(cover)) {
-        count += nodes[i].particle_count;
-        continue;
-      }
-      MDS_TRY(reader->read_node(i, node, scratch));
-      for (size_t k = 0; k < node.particle_count(); ++k) count += filter.keeps(cover, centre(nodes[i], node, k), node, k);
-    }
-    if (count == 0) return filter.nothing_kept(*reader);
-  }
+  MDS_ASSIGN_OR_RETURN(const uint64_t count, kept_count(*reader, filter));
 
   MDS_ASSIGN_OR_RETURN(auto out, store::AtomicOutput::create(o.output));
   store::BufferedWriter w(out.file(), size_t(8) << 20);
@@ -90,30 +71,26 @@ Status export_xyz(const ExportOptions& o) {
   fmt::format_to(std::back_inserter(buf), "{}\n{}Properties=species:S:1:pos:R:3{}{}{} mdstream_format={}\n", count,
                  cell_keys, radius ? ":radius:R:1" : "", property_column, color ? ":color:R:3" : "", h.version);
   const double rstep = (double(h.radius_max) - double(h.radius_min)) / double(store::kQuantMax);
-  for (uint32_t i = 0; i < nodes.size(); ++i) {
-    const store::NodeEntry& e = nodes[i];
-    const store::SliceCover cover = filter.cover(i, e);
-    if (cover == store::SliceCover::none) continue;
-    MDS_TRY(reader->read_node(i, node, scratch));
-    for (size_t k = 0; k < node.particle_count(); ++k) {
-      const std::array<double, 3> x = centre(e, node, k);
-      if (!filter.keeps(cover, x, node, k)) continue;
-      auto it = std::back_inserter(buf);
-      fmt::format_to(it, "{} {} {} {}", species[node.type_index[k]], x[0], x[1], x[2]);
-      if (radius) fmt::format_to(it, " {}", double(h.radius_min) + double(node.radius_q[k]) * rstep);
-      if (property) fmt::format_to(it, " {}", store::property_value(h.property_min, h.property_max, node.property_q[k]));
-      if (color) {  // channels in [0, 1] (OVITO's Color); 5 digits give the 8-bit value back exactly
-        const uint32_t c = node.color[k];
-        fmt::format_to(it, " {:.5g} {:.5g} {:.5g}", double(c & 0xffu) / 255.0, double((c >> 8) & 0xffu) / 255.0,
-                       double((c >> 16) & 0xffu) / 255.0);
-      }
-      buf.push_back('\n');
+  const auto write_particle = [&](const store::NodeEntry&, const store::NodeData& node, size_t k,
+                                  const std::array<double, 3>& x) {
+    auto it = std::back_inserter(buf);
+    fmt::format_to(it, "{} {} {} {}", species[node.type_index[k]], x[0], x[1], x[2]);
+    if (radius) fmt::format_to(it, " {}", double(h.radius_min) + double(node.radius_q[k]) * rstep);
+    if (property) fmt::format_to(it, " {}", store::property_value(h.property_min, h.property_max, node.property_q[k]));
+    if (color) {  // channels in [0, 1] (OVITO's Color); 5 digits give the 8-bit value back exactly
+      const uint32_t c = node.color[k];
+      fmt::format_to(it, " {:.5g} {:.5g} {:.5g}", double(c & 0xffu) / 255.0, double((c >> 8) & 0xffu) / 255.0,
+                     double((c >> 16) & 0xffu) / 255.0);
     }
-    if (buf.size() > (size_t(1) << 20)) {
-      MDS_TRY(w.write(buf.data(), buf.size()));
-      buf.clear();
-    }
-  }
+    buf.push_back('\n');
+  };
+  const auto flush_full = [&]() -> Status {
+    if (buf.size() <= (size_t(1) << 20)) return {};
+    MDS_TRY(w.write(buf.data(), buf.size()));
+    buf.clear();
+    return {};
+  };
+  MDS_TRY(for_each_kept(*reader, filter, write_particle, flush_full));
   MDS_TRY(w.write(buf.data(), buf.size()));
   MDS_TRY(w.flush());
   return out.commit();
@@ -125,12 +102,19 @@ Status export_mmpld_file(const ExportOptions& o) {
   return export_mmpld(*reader, filter, o.output);
 }
 
+Status export_lammps_file(const ExportOptions& o) {
+  MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
+  MDS_ASSIGN_OR_RETURN(const ExportFilter filter, ExportFilter::make(o.slices, o.threshold, *reader));
+  return export_lammps(*reader, filter, o.output);
+}
+
 void setup_export(CLI::App& sub, int& exit_code) {
   auto opt = std::make_shared<ExportOptions>();
   sub.add_option("store", opt->store, "Store file (.mds)")->required();
   sub.add_option("-o,--output", opt->output,
-                 "Output file: extended XYZ, or MMPLD 1.0 for MegaMol when it ends in .mmpld (one list per type, "
-                 "the store's colours, property or type colours)")
+                 "Output file: extended XYZ; a LAMMPS dump (id type x y z, radius, property, element) when it ends "
+                 "in .lammpstrj or .dump; MMPLD 1.0 for MegaMol when it ends in .mmpld (one list per type, the "
+                 "store's colours, property or type colours)")
       ->required();
   sub.add_option("--slice", opt->slices,
                  "NX,NY,NZ,D[,WIDTH][,invert]: only the particles the slice keeps, as render --slice (docs/rendering.md, "
@@ -142,12 +126,14 @@ void setup_export(CLI::App& sub, int& exit_code) {
   sub.callback([opt, &exit_code] {
     std::string ext = std::filesystem::path(opt->output).extension().string();
     for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-    Status st = ext == ".mmpld" ? export_mmpld_file(*opt) : export_xyz(*opt);
+    Status st = ext == ".mmpld"                         ? export_mmpld_file(*opt)
+                : ext == ".lammpstrj" || ext == ".dump" ? export_lammps_file(*opt)
+                                                        : export_xyz(*opt);
     exit_code = st.ok() ? 0 : report("export", st.error());
   });
 }
 
-Registrar reg("export", "Decode a store (.mds) to extended XYZ or MMPLD", setup_export);
+Registrar reg("export", "Decode a store (.mds) to extended XYZ, a LAMMPS dump or MMPLD", setup_export);
 
 }  // namespace
 }  // namespace mds::cli

@@ -33,6 +33,26 @@ store::SliceCover ExportFilter::cover(uint32_t i, const store::NodeEntry& e) con
   return by_value == store::SliceCover::all ? by_slices : store::SliceCover::some;
 }
 
+Result<uint64_t> kept_count(const store::StoreReader& reader, const ExportFilter& filter) {
+  if (!filter.any()) return reader.header().particle_count;
+  uint64_t count = 0;
+  store::NodeData node;
+  std::vector<uint8_t> scratch;
+  const auto nodes = reader.nodes();
+  for (uint32_t i = 0; i < nodes.size(); ++i) {
+    const store::SliceCover cover = filter.cover(i, nodes[i]);
+    if (cover == store::SliceCover::none) continue;
+    if (filter.keeps_whole(cover)) {
+      count += nodes[i].particle_count;
+      continue;
+    }
+    MDS_TRY(reader.read_node(i, node, scratch));
+    for (size_t k = 0; k < node.particle_count(); ++k) count += filter.keeps(cover, centre(nodes[i], node, k), node, k);
+  }
+  if (count == 0) return filter.nothing_kept(reader);
+  return count;
+}
+
 Error ExportFilter::nothing_kept(const store::StoreReader& reader) const {
   const std::string store = reader.path().string();
   if (!threshold) return make_error(Errc::invalid_argument, "{}: --slice leaves no particle of the store", store);

@@ -67,6 +67,45 @@ struct ExportFilter {
   Error nothing_kept(const store::StoreReader& reader) const;
 };
 
+// The particles the filter keeps: the store's count without a filter; with one, nodes kept whole
+// or left out count from the directory and the others are decoded. Errc::invalid_argument
+// (nothing_kept) when it is 0 with a filter.
+Result<uint64_t> kept_count(const store::StoreReader& reader, const ExportFilter& filter);
+
+// Calls particle(e, node, k, x) for every particle the filter keeps, in store order (node entry
+// e, its decoded data, the particle's index in it and its centre), and node_done() -> Status after
+// each node it read; nodes the filter leaves out are not read. Read errors are returned.
+template <class Particle, class NodeDone>
+Status for_each_kept(const store::StoreReader& reader, const ExportFilter& filter, Particle&& particle,
+                     NodeDone&& node_done) {
+  store::NodeData node;
+  std::vector<uint8_t> scratch;
+  const auto nodes = reader.nodes();
+  for (uint32_t i = 0; i < nodes.size(); ++i) {
+    const store::NodeEntry& e = nodes[i];
+    const store::SliceCover cover = filter.cover(i, e);
+    if (cover == store::SliceCover::none) continue;
+    MDS_TRY(reader.read_node(i, node, scratch));
+    for (size_t k = 0; k < node.particle_count(); ++k) {
+      const std::array<double, 3> x = centre(e, node, k);
+      if (filter.keeps(cover, x, node, k)) particle(e, node, k, x);
+    }
+    MDS_TRY(node_done());
+  }
+  return {};
+}
+
+// Writes the particles of `reader` that the filter keeps to `output` as a LAMMPS text dump (dump
+// custom: ITEM: TIMESTEP 0, NUMBER OF ATOMS, BOX BOUNDS, ATOMS id type x y z [radius] [property]
+// [element]), readable by LAMMPS' read_dump, OVITO and `mdstream convert`. The box is the store's
+// cell when LAMMPS can hold it (pp for a periodic axis, else ff; triclinic with its tilts), else
+// the bounds of the particle centres (ff), and an error for a cell it cannot (a rotated one: .xyz
+// keeps it). Types are the store's input ids when each is a distinct positive integer, else
+// 1 + the type index; `element` holds the types' names when any has one. Ids number the written
+// particles 1..N in store order (the store keeps no input ids). Numbers in shortest round-trip
+// form. The file appears only when complete.
+Status export_lammps(const store::StoreReader& reader, const ExportFilter& filter, const std::filesystem::path& output);
+
 // Writes the particles of `reader` that the filter keeps to `output` as MMPLD 1.0 (MegaMol's
 // particle list data; the layout is readers/mmpld_reader.h's): one frame, its bounding box the
 // store's simulation cell's (else the spheres'), one list per type in
