@@ -168,10 +168,12 @@ TEST_F(SeriesCli, InfoListsTheFrames) {
   EXPECT_EQ(j["frames"][2]["name"], "i.0002.mds");
   EXPECT_TRUE(j["verified"].get<bool>());
   // Commands that take one store say so, and name one.
-  EXPECT_EQ(run_mdstream(fmt::format("export {} -o {}", tmp("i.mds.series").string(), tmp("x.xyz").string())), 2);
+  EXPECT_EQ(run_mdstream(fmt::format("stress {} --gpu-budget 4MiB --path orbit --frames 2 --csv {}", tmp("i.mds.series").string(),
+                                     tmp("x.csv").string())),
+            2);
   EXPECT_THAT(cli_stderr(), HasSubstr("a store series index, not a store"));
   EXPECT_THAT(cli_stderr(), HasSubstr(tmp("i.0000.mds").string()));
-  EXPECT_FALSE(fs::exists(tmp("x.xyz")));
+  EXPECT_FALSE(fs::exists(tmp("x.csv")));
   // A store of the series gone: the error names the series, the frame and the store.
   fs::remove(tmp("i.0001.mds"));
   EXPECT_NE(run_mdstream(fmt::format("info {}", tmp("i.mds.series").string())), 0);
@@ -446,6 +448,82 @@ TEST_F(SeriesCli, OrbitWhileTheFramesGo) {
     for (int d = 0; d < 3; ++d) EXPECT_EQ(target(i, d), target(0, d));
     EXPECT_TRUE(fs::exists(tmp(fmt::format("o{}.png", i))));
   }
+}
+
+// `export SERIES`: one XYZ or LAMMPS dump file with a frame per picked store, each the store's own
+// export with the series time (XYZ: a Time key; dump: the timestep, or ITEM: TIME for a time that
+// is not a whole number), read back by convert as a series with those times; MMPLD takes one
+// frame; a filter that keeps nothing in every frame is refused, leaving no file.
+TEST_F(SeriesCli, ExportWritesAFramePerStore) {
+  ASSERT_EQ(run_mdstream(fmt::format("convert {} --frames :3 -o {} -q", dump().string(), tmp("e.mds.series").string())), 0)
+      << cli_stderr();
+  const auto series = store::read_series(tmp("e.mds.series"));
+  ASSERT_TRUE(series.ok());
+  std::string want_xyz, want_dump;
+  for (size_t k = 0; k < 3; ++k) {
+    const std::string store = series->frames[k].path.string();
+    ASSERT_EQ(run_mdstream(fmt::format("export {} -o {}", store, tmp(fmt::format("f{}.xyz", k)).string())), 0) << cli_stderr();
+    std::string x = bytes_of(tmp(fmt::format("f{}.xyz", k)));
+    const size_t key = x.find(" mdstream_format=");
+    ASSERT_NE(key, std::string::npos);
+    want_xyz += x.insert(key, fmt::format(" Time={}", series->frames[k].time));
+    if (k == 0) continue;
+    ASSERT_EQ(run_mdstream(fmt::format("export {} -o {}", store, tmp(fmt::format("f{}.dump", k)).string())), 0) << cli_stderr();
+    std::string d = bytes_of(tmp(fmt::format("f{}.dump", k)));
+    ASSERT_EQ(d.rfind("ITEM: TIMESTEP\n0\n", 0), 0u);
+    want_dump += fmt::format("ITEM: TIMESTEP\n{}\n", series->frames[k].time) + d.substr(17);
+  }
+  ASSERT_EQ(run_mdstream(fmt::format("export {} -o {}", tmp("e.mds.series").string(), tmp("all.xyz").string())), 0)
+      << cli_stderr();
+  EXPECT_EQ(bytes_of(tmp("all.xyz")), want_xyz);
+  ASSERT_EQ(run_mdstream(fmt::format("export {} --series-frames 1: -o {}", tmp("e.mds.series").string(),
+                                     tmp("late.lammpstrj").string())),
+            0)
+      << cli_stderr();
+  EXPECT_EQ(bytes_of(tmp("late.lammpstrj")), want_dump);
+  // convert reads the dump's frames back with their steps as times.
+  ASSERT_EQ(run_mdstream(fmt::format("convert {} --frames : -o {} -q", tmp("late.lammpstrj").string(),
+                                     tmp("back.mds.series").string())),
+            0)
+      << cli_stderr();
+  const auto back = store::read_series(tmp("back.mds.series"));
+  ASSERT_TRUE(back.ok());
+  ASSERT_EQ(back->frames.size(), 2u);
+  EXPECT_EQ(back->frames[0].time, series->frames[1].time);
+  EXPECT_EQ(back->frames[1].time, series->frames[2].time);
+
+  // A time that is not a whole step: ITEM: TIME, and the series index as the timestep.
+  textest::write_text(tmp("half.series"), fmt::format("{{\"file-series-version\": \"1.0\", \"files\": [{{\"name\": "
+                                                      "\"e.0000.mds\", \"time\": 0.5}}, {{\"name\": \"e.0002.mds\", "
+                                                      "\"time\": 7}}]}}"));
+  ASSERT_EQ(run_mdstream(fmt::format("export {} -o {}", tmp("half.series").string(), tmp("half.dump").string())), 0)
+      << cli_stderr();
+  const std::string half = bytes_of(tmp("half.dump"));
+  EXPECT_EQ(half.rfind("ITEM: TIME\n0.5\nITEM: TIMESTEP\n0\n", 0), 0u) << half.substr(0, 60);
+  EXPECT_THAT(half, HasSubstr("\nITEM: TIMESTEP\n7\n"));
+
+  // MMPLD holds one frame: a series of several is refused, one picked frame is its store's export.
+  EXPECT_EQ(run_mdstream(fmt::format("export {} -o {}", tmp("e.mds.series").string(), tmp("bad.mmpld").string())), 2);
+  EXPECT_THAT(cli_stderr(), HasSubstr("an MMPLD export holds one frame"));
+  ASSERT_EQ(run_mdstream(fmt::format("export {} --series-frames 2 -o {}", tmp("e.mds.series").string(),
+                                     tmp("two.mmpld").string())),
+            0)
+      << cli_stderr();
+  ASSERT_EQ(run_mdstream(fmt::format("export {} -o {}", series->frames[2].path.string(), tmp("two_store.mmpld").string())), 0);
+  EXPECT_EQ(bytes_of(tmp("two.mmpld")), bytes_of(tmp("two_store.mmpld")));
+  // A slice that keeps nothing in any frame; --threshold without a property; --series-frames of one store.
+  EXPECT_EQ(run_mdstream(fmt::format("export {} --slice 0,0,1,-100 -o {}", tmp("e.mds.series").string(),
+                                     tmp("bad.xyz").string())),
+            2);
+  EXPECT_THAT(cli_stderr(), HasSubstr("in every picked frame"));
+  EXPECT_EQ(run_mdstream(fmt::format("export {} --threshold 0:1 -o {}", tmp("e.mds.series").string(), tmp("bad.xyz").string())),
+            2);
+  EXPECT_THAT(cli_stderr(), HasSubstr("frame 0 (e.0000.mds): --threshold 0:1"));
+  EXPECT_EQ(run_mdstream(fmt::format("export {} --series-frames 1 -o {}", series->frames[0].path.string(),
+                                     tmp("bad.xyz").string())),
+            2);
+  EXPECT_THAT(cli_stderr(), HasSubstr("is one store, not a series"));
+  for (const auto& name : listing()) EXPECT_EQ(name.rfind("bad", 0), std::string::npos) << name << " was written";
 }
 
 // --label (overlay/text_label.h): each series frame's image carries its own time, drawn after the

@@ -1,18 +1,17 @@
-// `mdstream export STORE -o OUT.xyz [--slice SPEC ...] [--threshold LO:HI]`: decodes every node and writes extended
-// XYZ (species, dequantized positions x = center_min + q * step, and the per-particle radius,
-// property and colour (color:R:3, alpha dropped) when the store has them). Numbers are printed
-// in shortest round-trip form (colours with 5 digits, which give the 8 bits back exactly), so
-// the export adds no error to the store's quantization error. With slices (store/slice.h) and a
-// threshold (store/threshold.h) only the particles they keep, the same ones `render --slice
+// `mdstream export STORE|SERIES -o OUT [--slice SPEC ...] [--threshold LO:HI] [--series-frames SEL]`:
+// decodes the nodes and writes their particles as extended XYZ (export_xyz.cpp), a LAMMPS dump
+// (-o OUT.lammpstrj or .dump, export_lammps.cpp) or MMPLD (-o OUT.mmpld, export_mmpld.cpp).
+// Positions are dequantized (x = center_min + q * step) and printed in shortest round-trip form,
+// so the export adds no error to the store's quantization error. With slices (store/slice.h) and
+// a threshold (store/threshold.h) only the particles they keep, the same ones `render --slice
 // --threshold` draws; nodes the slices leave out, or whose property histogram holds no value the
-// threshold keeps, are not read. The output appears only when complete. `-o OUT.mmpld` writes MMPLD instead
-// (export_mmpld.cpp), `-o OUT.lammpstrj` (or .dump) a LAMMPS dump (export_lammps.cpp).
+// threshold keeps, are not read. A series (store/series.h) goes to one XYZ or dump file, a frame
+// per picked store in order. The output appears only when complete.
 #include <cctype>
 #include <cstdio>
 #include <filesystem>
-#include <array>
 #include <memory>
-#include <span>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,8 +19,9 @@
 
 #include "cli/command.h"
 #include "cli/export_nodes.h"
+#include "core/frame_selection.h"
 #include "store/file_io.h"
-#include "store/slice.h"
+#include "store/series.h"
 #include "store/store_reader.h"
 
 namespace mds::cli {
@@ -32,85 +32,103 @@ struct ExportOptions {
   std::string output;
   std::vector<std::string> slices;  // --slice specs
   std::string threshold;            // --threshold spec
+  std::string series_frames = "all";  // --series-frames of a .series STORE
 };
 
-Status export_xyz(const ExportOptions& o) {
-  MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
-  MDS_ASSIGN_OR_RETURN(const ExportFilter filter, ExportFilter::make(o.slices, o.threshold, *reader));
-  const store::FileHeader& h = reader->header();
-  const bool radius = (h.flags & store::kFlagPerParticleRadius) != 0;
-  const bool property = (h.flags & store::kFlagProperty) != 0;
-  const bool color = (h.flags & store::kFlagColor) != 0;
-  std::string property_name = property ? std::string(h.property_name) : "";
-  for (char& c : property_name)  // a token of the Properties triples (an H5MD element may hold these)
-    if (c == ':' || c == '=' || c == '"' || c == ' ' || c == '\t') c = '_';
-  const std::string property_column = property ? fmt::format(":{}:R:1", property_name) : "";
-  std::vector<std::string> species;
-  for (const auto& t : reader->types()) {
-    std::string name = t.name[0] ? std::string(t.name) : std::to_string(t.input_id);
-    for (char& c : name)
-      if (c == ' ' || c == '\t' || c == '\n' || c == '\r') c = '_';  // one token per column
-    species.push_back(std::move(name));
-  }
+enum class Format { xyz, lammps, mmpld };
 
-  MDS_ASSIGN_OR_RETURN(const uint64_t count, kept_count(*reader, filter));
+Format format_of(const std::string& output) {
+  std::string ext = std::filesystem::path(output).extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  if (ext == ".mmpld") return Format::mmpld;
+  if (ext == ".lammpstrj" || ext == ".dump") return Format::lammps;
+  return Format::xyz;
+}
 
-  MDS_ASSIGN_OR_RETURN(auto out, store::AtomicOutput::create(o.output));
-  store::BufferedWriter w(out.file(), size_t(8) << 20);
-  fmt::memory_buffer buf;
-  // The cell as OVITO and ASE write it (Lattice: a, b, c; Origin; pbc), %.17g: read back exactly.
-  std::string cell_keys;
-  if (const auto& c = reader->cell()) {
-    const auto& v = c->vectors;
-    cell_keys = fmt::format(
-        "Lattice=\"{:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g}\" Origin=\"{:.17g} {:.17g} "
-        "{:.17g}\" pbc=\"{} {} {}\" ",
-        v[0][0], v[0][1], v[0][2], v[1][0], v[1][1], v[1][2], v[2][0], v[2][1], v[2][2], c->origin[0], c->origin[1],
-        c->origin[2], c->periodic[0] ? 'T' : 'F', c->periodic[1] ? 'T' : 'F', c->periodic[2] ? 'T' : 'F');
+// A store to export: its path, and its series time and index when it is a series frame.
+struct Source {
+  std::filesystem::path path;
+  std::optional<double> time;
+  int64_t index = 0;
+  std::string label;  // "SERIES: frame K (NAME)" for messages; empty for one store
+};
+
+Result<std::vector<Source>> sources(const ExportOptions& o) {
+  if (!store::is_series_path(o.store)) {
+    if (o.series_frames != "all")
+      return make_error(Errc::invalid_argument, "--series-frames {}: {} is one store, not a series", o.series_frames, o.store);
+    return std::vector<Source>{{o.store, std::nullopt, 0, ""}};
   }
-  fmt::format_to(std::back_inserter(buf), "{}\n{}Properties=species:S:1:pos:R:3{}{}{} mdstream_format={}\n", count,
-                 cell_keys, radius ? ":radius:R:1" : "", property_column, color ? ":color:R:3" : "", h.version);
-  const double rstep = (double(h.radius_max) - double(h.radius_min)) / double(store::kQuantMax);
-  const auto write_particle = [&](const store::NodeEntry&, const store::NodeData& node, size_t k,
-                                  const std::array<double, 3>& x) {
-    auto it = std::back_inserter(buf);
-    fmt::format_to(it, "{} {} {} {}", species[node.type_index[k]], x[0], x[1], x[2]);
-    if (radius) fmt::format_to(it, " {}", double(h.radius_min) + double(node.radius_q[k]) * rstep);
-    if (property) fmt::format_to(it, " {}", store::property_value(h.property_min, h.property_max, node.property_q[k]));
-    if (color) {  // channels in [0, 1] (OVITO's Color); 5 digits give the 8-bit value back exactly
-      const uint32_t c = node.color[k];
-      fmt::format_to(it, " {:.5g} {:.5g} {:.5g}", double(c & 0xffu) / 255.0, double((c >> 8) & 0xffu) / 255.0,
-                     double((c >> 16) & 0xffu) / 255.0);
-    }
-    buf.push_back('\n');
-  };
-  const auto flush_full = [&]() -> Status {
-    if (buf.size() <= (size_t(1) << 20)) return {};
-    MDS_TRY(w.write(buf.data(), buf.size()));
-    buf.clear();
-    return {};
-  };
-  MDS_TRY(for_each_kept(*reader, filter, write_particle, flush_full));
-  MDS_TRY(w.write(buf.data(), buf.size()));
-  MDS_TRY(w.flush());
-  return out.commit();
+  MDS_ASSIGN_OR_RETURN(const store::Series series, store::read_series(o.store));
+  auto sel = parse_frame_selection(o.series_frames);
+  if (!sel.ok()) return make_error(Errc::invalid_argument, "--series-frames {}", sel.error().message);
+  auto picked = select_frames(*sel, int64_t(series.frames.size()));
+  if (!picked.ok()) return make_error(Errc::invalid_argument, "{}: --series-frames {}", o.store, picked.error().message);
+  std::vector<Source> v;
+  for (const int64_t k : *picked) {
+    const store::SeriesFrame& f = series.frames[size_t(k)];
+    v.push_back({f.path, f.time, k, fmt::format("{}: frame {} ({})", o.store, k, f.name)});
+  }
+  return v;
+}
+
+Error in_frame(const Source& s, Error e) {
+  if (!s.label.empty()) e.message = s.label + ": " + e.message;
+  return e;
+}
+
+// XYZ and LAMMPS dumps: every picked store a frame of one file. A store whose particles the
+// filter all leaves out is an error; in a series such a frame is written empty, and the error
+// comes only when every frame is.
+Status export_text(const ExportOptions& o, Format format) {
+  MDS_ASSIGN_OR_RETURN(const std::vector<Source> src, sources(o));
+  std::optional<store::AtomicOutput> out;
+  std::optional<store::BufferedWriter> w;
+  uint64_t total = 0;
+  std::optional<Error> nothing;
+  for (const Source& s : src) {
+    auto frame = [&]() -> Status {
+      MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(s.path));
+      MDS_ASSIGN_OR_RETURN(const ExportFilter filter, ExportFilter::make(o.slices, o.threshold, *reader));
+      MDS_ASSIGN_OR_RETURN(const uint64_t count, kept_count(*reader, filter));
+      if (count == 0 && filter.any()) {
+        if (src.size() == 1) return filter.nothing_kept(*reader);
+        if (!nothing) nothing = filter.nothing_kept(*reader);
+      }
+      total += count;
+      if (!out) {  // the file is made once the first frame is known to be writable
+        MDS_ASSIGN_OR_RETURN(auto created, store::AtomicOutput::create(o.output));
+        out.emplace(std::move(created));
+        w.emplace(out->file(), size_t(8) << 20);
+      }
+      const ExportFrame f{*reader, filter, count, s.time, s.index};
+      return format == Format::lammps ? write_lammps_frame(f, *w) : write_xyz_frame(f, *w);
+    };
+    if (Status st = frame(); !st.ok()) return in_frame(s, st.error());
+  }
+  if (total == 0 && nothing)
+    return make_error(Errc::invalid_argument, "{}: in every picked frame: {}", o.store, nothing->message);
+  MDS_TRY(w->flush());
+  return out->commit();
 }
 
 Status export_mmpld_file(const ExportOptions& o) {
-  MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
+  MDS_ASSIGN_OR_RETURN(const std::vector<Source> src, sources(o));
+  if (src.size() != 1)
+    return make_error(Errc::invalid_argument,
+                      "{}: an MMPLD export holds one frame: pick one with --series-frames K (or export the series to "
+                      ".xyz or .lammpstrj)",
+                      o.store);
+  MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(src[0].path));
   MDS_ASSIGN_OR_RETURN(const ExportFilter filter, ExportFilter::make(o.slices, o.threshold, *reader));
-  return export_mmpld(*reader, filter, o.output);
-}
-
-Status export_lammps_file(const ExportOptions& o) {
-  MDS_ASSIGN_OR_RETURN(auto reader, store::StoreReader::open(o.store));
-  MDS_ASSIGN_OR_RETURN(const ExportFilter filter, ExportFilter::make(o.slices, o.threshold, *reader));
-  return export_lammps(*reader, filter, o.output);
+  if (Status st = export_mmpld(*reader, filter, o.output); !st.ok()) return in_frame(src[0], st.error());
+  return {};
 }
 
 void setup_export(CLI::App& sub, int& exit_code) {
   auto opt = std::make_shared<ExportOptions>();
-  sub.add_option("store", opt->store, "Store file (.mds)")->required();
+  sub.add_option("store", opt->store, "Store file (.mds), or a series index (.series: one frame per picked store)")
+      ->required();
   sub.add_option("-o,--output", opt->output,
                  "Output file: extended XYZ; a LAMMPS dump (id type x y z, radius, property, element) when it ends "
                  "in .lammpstrj or .dump; MMPLD 1.0 for MegaMol when it ends in .mmpld (one list per type, the "
@@ -123,17 +141,18 @@ void setup_export(CLI::App& sub, int& exit_code) {
   sub.add_option("--threshold", opt->threshold,
                  "LO:HI[,invert]: only the particles whose per-particle property lies in [LO, HI] (an empty LO or HI: "
                  "open; invert: the others), as render --threshold (docs/rendering.md, \"Thresholds\")");
+  sub.add_option("--series-frames", opt->series_frames,
+                 "Frames of a series to export, in order, as the frames of one XYZ or dump file: all, last, K, or a "
+                 "slice A:B[:S] (as render --series-frames)")
+      ->capture_default_str();
   sub.callback([opt, &exit_code] {
-    std::string ext = std::filesystem::path(opt->output).extension().string();
-    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-    Status st = ext == ".mmpld"                         ? export_mmpld_file(*opt)
-                : ext == ".lammpstrj" || ext == ".dump" ? export_lammps_file(*opt)
-                                                        : export_xyz(*opt);
+    const Format f = format_of(opt->output);
+    Status st = f == Format::mmpld ? export_mmpld_file(*opt) : export_text(*opt, f);
     exit_code = st.ok() ? 0 : report("export", st.error());
   });
 }
 
-Registrar reg("export", "Decode a store (.mds) to extended XYZ, a LAMMPS dump or MMPLD", setup_export);
+Registrar reg("export", "Decode a store (.mds) or a series to extended XYZ, a LAMMPS dump or MMPLD", setup_export);
 
 }  // namespace
 }  // namespace mds::cli

@@ -2,6 +2,7 @@
 // The box conventions are the reader's (readers/lammps_reader.h: a triclinic dump writes the
 // bounding box and the tilts, lammps_box_from_cell).
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <set>
 #include <string>
@@ -25,7 +26,8 @@ std::string token(std::string s) {
 
 }  // namespace
 
-Status export_lammps(const store::StoreReader& reader, const ExportFilter& filter, const std::filesystem::path& output) {
+Status write_lammps_frame(const ExportFrame& f, store::BufferedWriter& w) {
+  const store::StoreReader& reader = f.reader;
   const store::FileHeader& h = reader.header();
   const auto types = reader.types();
   // The box: the store's cell, else the bounds of the particle centres (not periodic).
@@ -62,12 +64,20 @@ Status export_lammps(const store::StoreReader& reader, const ExportFilter& filte
   const bool radius = (h.flags & store::kFlagPerParticleRadius) != 0;
   const bool property = (h.flags & store::kFlagProperty) != 0;
 
-  MDS_ASSIGN_OR_RETURN(const uint64_t count, kept_count(reader, filter));
-  MDS_ASSIGN_OR_RETURN(auto out, store::AtomicOutput::create(output));
-  store::BufferedWriter w(out.file(), size_t(8) << 20);
   fmt::memory_buffer buf;
   auto it = std::back_inserter(buf);
-  fmt::format_to(it, "ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n{}\nITEM: BOX BOUNDS {}{} {} {}\n", count,
+  // A whole time is the step (a LAMMPS input's); another goes to ITEM: TIME, the index to TIMESTEP.
+  int64_t step = 0;
+  if (f.time) {
+    const double t = *f.time;
+    if (t == std::floor(t) && std::fabs(t) < 9.0e18) {
+      step = int64_t(t);
+    } else {
+      step = f.index;
+      fmt::format_to(it, "ITEM: TIME\n{}\n", t);
+    }
+  }
+  fmt::format_to(it, "ITEM: TIMESTEP\n{}\nITEM: NUMBER OF ATOMS\n{}\nITEM: BOX BOUNDS {}{} {} {}\n", step, f.count,
                  box.triclinic ? "xy xz yz " : "", periodic[0] ? "pp" : "ff", periodic[1] ? "pp" : "ff",
                  periodic[2] ? "pp" : "ff");
   const double tilt[3] = {box.xy, box.xz, box.yz};
@@ -96,10 +106,8 @@ Status export_lammps(const store::StoreReader& reader, const ExportFilter& filte
     buf.clear();
     return {};
   };
-  MDS_TRY(for_each_kept(reader, filter, write_particle, flush_full));
-  MDS_TRY(w.write(buf.data(), buf.size()));
-  MDS_TRY(w.flush());
-  return out.commit();
+  MDS_TRY(for_each_kept(reader, f.filter, write_particle, flush_full));
+  return w.write(buf.data(), buf.size());
 }
 
 }  // namespace mds::cli

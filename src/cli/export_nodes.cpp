@@ -49,7 +49,6 @@ Result<uint64_t> kept_count(const store::StoreReader& reader, const ExportFilter
     MDS_TRY(reader.read_node(i, node, scratch));
     for (size_t k = 0; k < node.particle_count(); ++k) count += filter.keeps(cover, centre(nodes[i], node, k), node, k);
   }
-  if (count == 0) return filter.nothing_kept(reader);
   return count;
 }
 

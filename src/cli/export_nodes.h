@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "core/result.h"
+#include "store/file_io.h"
 #include "store/property_histogram.h"
 #include "store/slice.h"
 #include "store/store_reader.h"
@@ -68,8 +69,7 @@ struct ExportFilter {
 };
 
 // The particles the filter keeps: the store's count without a filter; with one, nodes kept whole
-// or left out count from the directory and the others are decoded. Errc::invalid_argument
-// (nothing_kept) when it is 0 with a filter.
+// or left out count from the directory and the others are decoded.
 Result<uint64_t> kept_count(const store::StoreReader& reader, const ExportFilter& filter);
 
 // Calls particle(e, node, k, x) for every particle the filter keeps, in store order (node entry
@@ -95,16 +95,33 @@ Status for_each_kept(const store::StoreReader& reader, const ExportFilter& filte
   return {};
 }
 
-// Writes the particles of `reader` that the filter keeps to `output` as a LAMMPS text dump (dump
-// custom: ITEM: TIMESTEP 0, NUMBER OF ATOMS, BOX BOUNDS, ATOMS id type x y z [radius] [property]
-// [element]), readable by LAMMPS' read_dump, OVITO and `mdstream convert`. The box is the store's
-// cell when LAMMPS can hold it (pp for a periodic axis, else ff; triclinic with its tilts), else
-// the bounds of the particle centres (ff), and an error for a cell it cannot (a rotated one: .xyz
-// keeps it). Types are the store's input ids when each is a distinct positive integer, else
-// 1 + the type index; `element` holds the types' names when any has one. Ids number the written
-// particles 1..N in store order (the store keeps no input ids). Numbers in shortest round-trip
-// form. The file appears only when complete.
-Status export_lammps(const store::StoreReader& reader, const ExportFilter& filter, const std::filesystem::path& output);
+// One frame of a text export (extended XYZ, LAMMPS dump): a store, what its filter keeps, and
+// where it stands in a series.
+struct ExportFrame {
+  const store::StoreReader& reader;
+  const ExportFilter& filter;
+  uint64_t count = 0;          // kept_count(reader, filter)
+  std::optional<double> time;  // the series frame's time (none for one store)
+  int64_t index = 0;           // the series index (0 for one store)
+};
+
+// Appends the frame as extended XYZ (export_xyz.cpp): the count line, the comment line (the cell
+// as Lattice, Origin and pbc; Properties=species:S:1:pos:R:3 then radius, the property and
+// color:R:3 where the store has them; Time=<time> in a series), one line per kept particle in
+// store order. Numbers in shortest round-trip form, colours with 5 digits (the 8 bits back exactly).
+Status write_xyz_frame(const ExportFrame& f, store::BufferedWriter& w);
+
+// Appends the frame as a LAMMPS text dump (export_lammps.cpp; dump custom: ITEM: TIMESTEP,
+// NUMBER OF ATOMS, BOX BOUNDS, ATOMS id type x y z [radius] [property] [element]), readable by
+// LAMMPS' read_dump, OVITO and `mdstream convert`. The timestep is the series time when it is a
+// whole number (a LAMMPS input's step), else the series index after an ITEM: TIME with the time;
+// 0 for one store. The box is the store's cell when LAMMPS can hold it (pp for a periodic axis,
+// else ff; triclinic with its tilts), else the bounds of the particle centres (ff), and an error
+// for a cell it cannot (a rotated one: .xyz keeps it). Types are the store's input ids when each
+// is a distinct positive integer, else 1 + the type index; `element` holds the types' names when
+// any has one. Ids number the frame's particles 1..N in store order (the store keeps no input
+// ids: they do not follow a particle across frames). Numbers in shortest round-trip form.
+Status write_lammps_frame(const ExportFrame& f, store::BufferedWriter& w);
 
 // Writes the particles of `reader` that the filter keeps to `output` as MMPLD 1.0 (MegaMol's
 // particle list data; the layout is readers/mmpld_reader.h's): one frame, its bounding box the

@@ -429,10 +429,10 @@ Status StoreReader::Impl::check_voxels_and_density(std::span<const uint8_t> bloc
 
 Result<std::unique_ptr<StoreReader>> StoreReader::open(const std::filesystem::path& path) {
   if (is_series_path(path)) {
-    // A series index where one store is wanted (export, bench, stress): say which stores it lists.
+    // A series index where one store is wanted (bench, stress): say which stores it lists.
     auto series = read_series(path);
     return make_error(Errc::invalid_argument, "{}: a store series index, not a store: this command takes one of "
-                      "its stores{} (render, view and info take the index)", path.string(),
+                      "its stores{} (render, view, info and export take the index)", path.string(),
                       series.ok() ? fmt::format(", e.g. {}", series->frames.front().path.string()) : std::string());
   }
   std::unique_ptr<StoreReader> r(new StoreReader());
