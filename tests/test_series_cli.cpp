@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli_test_util.h"
+#include "overlay/axis_tripod.h"
 #include "overlay/text_label.h"
 #include "store/series.h"
 #include "text_reader_test_util.h"
@@ -527,8 +528,8 @@ TEST_F(SeriesCli, ExportWritesAFramePerStore) {
 }
 
 // --label (overlay/text_label.h): each series frame's image carries its own time, drawn after the
-// colour legend in the corner they share: the labelled image is the unlabelled one with
-// overlay_text_label applied, to the bit, and the stats say the text and its box. A camera path
+// colour legend in the corner they share, and --axes the tripod after both: the labelled image is
+// the unlabelled one with overlay_text_label and overlay_tripod (the frame's camera) applied, to the bit, and the stats say the text and its box. A camera path
 // over one store numbers its frames; {time} on one store and an unknown placeholder are refused
 // before any image is written.
 TEST_F(SeriesCli, LabelsEachFrameWithItsTime) {
@@ -536,10 +537,10 @@ TEST_F(SeriesCli, LabelsEachFrameWithItsTime) {
       << cli_stderr();
   const auto series = store::read_series(tmp("l.mds.series"));
   ASSERT_TRUE(series.ok());
-  const std::string common = fmt::format("render {} --width 96 --height 64 --spp 1 --no-cull --color-legend top-left",
+  const std::string common = fmt::format("render {} --width 120 --height 180 --spp 1 --no-cull --color-legend top-left",
                                          tmp("l.mds.series").string());
   ASSERT_EQ(run_mdstream(fmt::format("{} -o {}", common, tmp("plain%d.exr").string())), 0) << cli_stderr();
-  ASSERT_EQ(run_mdstream(fmt::format("{} --label 'step {{time}} ({{frame}})' -o {} --stats {}", common,
+  ASSERT_EQ(run_mdstream(fmt::format("{} --label 'step {{time}} ({{frame}})' --axes top-left -o {} --stats {}", common,
                                      tmp("lab%d.exr").string(), tmp("lab.json").string())),
             0)
       << cli_stderr();
@@ -554,14 +555,26 @@ TEST_F(SeriesCli, LabelsEachFrameWithItsTime) {
     EXPECT_EQ(f["label"]["corner"], "top-left");
     const overlay::PixelBox legend{f["color_legend"]["box"][0], f["color_legend"]["box"][1], f["color_legend"]["box"][2],
                                    f["color_legend"]["box"][3]};
-    render::FrameImage plain{96, 64, mds::testing::load_exr(tmp(fmt::format("plain{}.exr", k)))};
+    render::FrameImage plain{120, 180, mds::testing::load_exr(tmp(fmt::format("plain{}.exr", k)))};
     const std::vector<float> labelled = mds::testing::load_exr(tmp(fmt::format("lab{}.exr", k)));
     ASSERT_EQ(plain.rgba.size(), labelled.size());
     EXPECT_NE(plain.rgba, labelled);
     const overlay::PixelBox box = overlay::overlay_text_label(plain, text, overlay::LegendCorner::top_left, legend);
-    EXPECT_EQ(plain.rgba, labelled) << "not the unlabelled image with \"" << text << "\" drawn after the legend";
+    // The tripod of the frame's camera after the label.
+    const auto& cam = f["camera"];
+    render::Camera c;
+    for (int d = 0; d < 3; ++d) {
+      c.eye[d] = cam["eye"][d];
+      c.target[d] = cam["target"][d];
+      c.up[d] = cam["up"][d];
+    }
+    const overlay::PixelBox axes = overlay::overlay_tripod(plain, c, overlay::LegendCorner::top_left, box);
+    EXPECT_EQ(plain.rgba, labelled) << "not the unlabelled image with \"" << text << "\" and the tripod after the legend";
     EXPECT_EQ(f["label"]["box"], nlohmann::json({box.x0, box.y0, box.x1, box.y1}));
+    EXPECT_EQ(f["axes"]["box"], nlohmann::json({axes.x0, axes.y0, axes.x1, axes.y1}));
     EXPECT_GE(box.y0, legend.y1);
+    EXPECT_FALSE(axes.empty());
+    EXPECT_GE(axes.y0, box.y1);
   }
   EXPECT_NE(series->frames[0].time, series->frames[1].time) << "the frames' labels should differ";
 

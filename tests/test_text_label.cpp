@@ -8,6 +8,7 @@
 
 #include "overlay/canvas.h"
 #include "overlay/color_legend.h"
+#include "overlay/image_panels.h"
 #include "overlay/text_label.h"
 
 namespace mds {

@@ -105,11 +105,4 @@ PixelBox overlay_text_label(render::FrameImage& image, std::string_view text, Le
   return box;
 }
 
-PanelBoxes overlay_panels(render::FrameImage& image, const ImagePanels& p) {
-  PanelBoxes b;
-  b.legend = overlay_color_legend(image, p.legend, p.legend_corner);
-  b.label = overlay_text_label(image, p.label, p.label_corner, p.label_corner == p.legend_corner ? b.legend : PixelBox{});
-  return b;
-}
-
 }  // namespace mds::overlay

@@ -40,17 +40,4 @@ PixelBox label_box(std::string_view text, uint32_t width, uint32_t height, Legen
 // stays as it was, to the bit). Returns the box.
 PixelBox overlay_text_label(render::FrameImage& image, std::string_view text, LegendCorner corner, PixelBox after = {});
 
-// The panels of one rendered image: the colour legend (off: none), then the label (empty: none),
-// after the legend when both take one corner.
-struct ImagePanels {
-  ColorLegend legend;
-  LegendCorner legend_corner = LegendCorner::off;
-  std::string label;  // expanded (expand_label)
-  LegendCorner label_corner = LegendCorner::top_left;
-};
-struct PanelBoxes {
-  PixelBox legend, label;
-};
-PanelBoxes overlay_panels(render::FrameImage& image, const ImagePanels& panels);
-
 }  // namespace mds::overlay

@@ -39,7 +39,7 @@
 #include "store/series.h"
 #include "render/visible_nodes.h"
 #include "overlay/color_legend.h"
-#include "overlay/text_label.h"
+#include "overlay/image_panels.h"
 #include "store/store_reader.h"
 #include "vk/context.h"
 
@@ -69,6 +69,7 @@ struct RenderOptions {
   std::string color_legend = "off";   // --color-legend CORNER (overlay/color_legend.h)
   std::string label;                  // --label TEXT with placeholders (overlay/text_label.h)
   std::string label_corner = "top-left";  // --label-corner CORNER
+  std::string axes = "off";               // --axes CORNER: the coordinate tripod (overlay/axis_tripod.h)
 };
 
 // What a series render fixes for every frame (run_render_series); empty for one store.
@@ -206,6 +207,8 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
   if (!label_corner.ok() || *label_corner == overlay::LegendCorner::off)
     return make_error(Errc::invalid_argument, "--label-corner '{}': expected top-left, top-right, bottom-left or bottom-right",
                       o.label_corner);
+  auto axes_corner = overlay::parse_legend_corner(o.axes);
+  if (!axes_corner.ok()) return make_error(Errc::invalid_argument, "--axes {}", axes_corner.error().message);
   // --path: an animation (render_path.h). A path file is read before any other work.
   std::optional<render::BuiltinPath> builtin;
   render::CameraPath path;
@@ -343,6 +346,7 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
     po.panels.legend_corner = *corner;
     po.panels.legend = color_legend(rs, *renderer, *reader, shown);
     po.panels.label_corner = *label_corner;
+    po.panels.axes_corner = *axes_corner;
     po.label_pattern = o.label;
     po.label_fields = label_fields;
     po.transparent = look.transparent;
@@ -393,7 +397,7 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
                                                                    : std::span<const uint8_t>()));
   // The image last: a node log that cannot be written leaves no image behind (as a failed --pick).
   const overlay::PanelBoxes boxes = overlay::overlay_panels(
-      image, {color_legend(rs, *renderer, *reader, shown), *corner, label, *label_corner});
+      image, {color_legend(rs, *renderer, *reader, shown), *corner, label, *label_corner, *axes_corner, camera});
   MDS_TRY(render::write_image(o.output, image, look.transparent));
   if (fs.prior_out) *fs.prior_out = renderer->prior_view();
 
@@ -415,6 +419,9 @@ Status render_store(const RenderOptions& o, const FrameSetup& fs, std::unique_pt
       j["label"] = {{"text", label},
                     {"corner", overlay::legend_corner_name(*label_corner)},
                     {"box", {boxes.label.x0, boxes.label.y0, boxes.label.x1, boxes.label.y1}}};
+    if (*axes_corner != overlay::LegendCorner::off)
+      j["axes"] = {{"corner", overlay::legend_corner_name(*axes_corner)},
+                   {"box", {boxes.axes.x0, boxes.axes.y0, boxes.axes.x1, boxes.axes.y1}}};
     j["ambient_occlusion"] = {{"mode", render::ao_mode_name(look.ao.mode)}, {"on", stats.ambient_occlusion},
                               {"radius", ao.radius},  {"strength", ao.strength}};
     if (ao.packing >= 0.0) j["ambient_occlusion"]["packing_fraction"] = ao.packing;
@@ -758,6 +765,11 @@ void setup_render(CLI::App& sub, int& exit_code) {
   sub.add_option("--label-corner", opt->label_corner,
                  "Where --label goes: top-left, top-right, bottom-left or bottom-right (after the colour legend when "
                  "both take one corner)")
+      ->capture_default_str();
+  sub.add_option("--axes", opt->axes,
+                 "Draw the coordinate tripod (the data's x, y, z axes as the camera sees them: red, green, blue) in "
+                 "a corner: off, top-left, top-right, bottom-left or bottom-right (OVITO's coordinate tripod, "
+                 "ParaView's orientation axes; after the legend and the label in a shared corner)")
       ->capture_default_str();
   sub.add_option("--node-log", opt->node_log,
                  "Write one CSV row per node of the store after the last frame: its particles, payload bytes, "

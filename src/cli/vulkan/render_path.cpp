@@ -58,6 +58,7 @@ Status render_path(render::Renderer& renderer, const render::CameraPath& path, c
     for (const std::string& w : cache_warnings(st.cache, o.max_storage_range))
       std::fprintf(stderr, "mdstream render: frame %u: warning: %s\n", f, w.c_str());
     overlay::ImagePanels panels = o.panels;
+    panels.camera = path.at(f);
     if (!o.label_pattern.empty()) {
       overlay::LabelFields fields = o.label_fields;
       fields.frame = f;

@@ -10,7 +10,7 @@
 
 #include "core/result.h"
 #include "overlay/color_legend.h"
-#include "overlay/text_label.h"
+#include "overlay/image_panels.h"
 #include "render/camera.h"
 #include "render/camera_path.h"
 #include "render/renderer.h"
@@ -28,7 +28,7 @@ struct PathRenderOptions {
   std::string stats;           // --stats JSON ("" = none)
   bool streaming = false;
   uint64_t max_storage_range = 0;  // the device's, for cache_warnings
-  overlay::ImagePanels panels;  // --color-legend, --label-corner: drawn into every frame
+  overlay::ImagePanels panels;  // --color-legend, --label-corner, --axes: drawn into every frame (the tripod with its camera)
   std::string label_pattern;    // --label ("" = none): expanded per frame with label_fields, {frame} the frame's number
   overlay::LabelFields label_fields;
   bool transparent = false;  // --background transparent: PNG frames with alpha
