@@ -366,11 +366,21 @@ TEST_F(SliceCli, StreamedSliceReadsOnlyWhatItKeepsAndMatchesInMemory) {
   uint64_t classified = 0;
   for (const auto& [cls, count] : j.at("node_class_counts").items()) classified += count.get<uint64_t>();
   EXPECT_EQ(classified, j.at("nodes").get<uint64_t>() - sliced_out);
-  // The pool holds every node the slab keeps: the resident nodes and their meshlets are the
-  // in-memory scene's (a cut node counts the meshlets it kept).
+  // The pool holds every node the slab keeps: streamed without culling (which reads every kept
+  // node in view, whatever order they arrive in), the resident nodes and their meshlets are the
+  // in-memory scene's (a cut node counts the meshlets it kept). Culled, a node found occluded
+  // before its read is never read: at most those.
   const nlohmann::json mem = nlohmann::json::parse(std::ifstream(mem_json));
-  EXPECT_EQ(j.at("nodes_resident").get<uint64_t>(), mem.at("nodes").get<uint64_t>());
-  EXPECT_EQ(j.at("meshlets").get<uint64_t>(), mem.at("meshlets").get<uint64_t>());
+  const fs::path all_json = dir_ / "streamed_all.json";
+  ASSERT_EQ(run("render " + small + " --no-cull --gpu-budget 200KiB -o " + (dir_ / "streamed_all.exr").string() + look +
+                " --stats " + all_json.string()),
+            0)
+      << last_stderr();
+  const nlohmann::json all = nlohmann::json::parse(std::ifstream(all_json));
+  EXPECT_EQ(all.at("nodes_resident").get<uint64_t>(), mem.at("nodes").get<uint64_t>());
+  EXPECT_EQ(all.at("meshlets").get<uint64_t>(), mem.at("meshlets").get<uint64_t>());
+  EXPECT_LE(j.at("nodes_resident").get<uint64_t>(), mem.at("nodes").get<uint64_t>());
+  EXPECT_LE(j.at("meshlets").get<uint64_t>(), mem.at("meshlets").get<uint64_t>());
   const ExrDifference d = compare_exr(dir_ / "mem.exr", dir_ / "streamed.exr", 96, 72);
   EXPECT_GT(d.covered, size_t(96 * 72) / 10);
   EXPECT_LE(d.differing, size_t(96 * 72) / 100) << d.differing << " of " << d.covered << " covered pixels";
@@ -409,7 +419,8 @@ TEST_F(SliceCli, NodeEmptiedWhenReadLeavesTheClassification) {
   uint64_t classified = 0;
   for (const auto& [cls, count] : j.at("node_class_counts").items()) classified += count.get<uint64_t>();
   EXPECT_EQ(classified, nodes - sliced_out);
+  // Within the renderer's tolerance: the streamed culling's classes follow the nodes' arrival order.
   const ExrDifference d = compare_exr(dir_ / "diag_mem.exr", dir_ / "diag.exr", 64, 48);
   EXPECT_GT(d.covered, 0u);
-  EXPECT_EQ(d.differing, 0u);
+  EXPECT_LE(d.differing, size_t(64 * 48) / 200) << d.differing << " of " << d.covered << " covered pixels";
 }

@@ -310,9 +310,12 @@ TEST_F(ThresholdCli, StreamedReadsNoNodeItLeavesOutAndMatchesInMemory) {
     EXPECT_EQ(j.at("nodes_left_out").get<size_t>(), left_out);
     EXPECT_LT(j.at("bytes_read").get<uint64_t>(), j.at("store_payload_bytes").get<uint64_t>());
     EXPECT_EQ(j.at("threshold").get<std::string>(), "-6:");
+    // Within the renderer's tolerance, not to the pixel: the culling classes follow the order the
+    // reader threads deliver the nodes in, and a node classified occluded may hide a sphere's
+    // last pixel (0 pixels differed when measured; test_series_cli's prior/cold images, 1).
     const ExrDifference d = compare_exr(mem, streamed, 160, 120);
     EXPECT_GT(d.covered, 500u);
-    EXPECT_EQ(d.differing, 0u);
+    EXPECT_LE(d.differing, size_t(160 * 120) / 200) << d.differing << " of " << d.covered << " covered pixels";
     // Node log: node,particles,payload_bytes,class,visible,carried,requests,reads,...
     std::ifstream in(log);
     std::string line;
