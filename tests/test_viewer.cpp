@@ -37,6 +37,7 @@
 #include "store/store_reader.h"
 #include "viewer/camera_controller.h"
 #include "viewer/color_keys.h"
+#include "overlay/axis_tripod.h"
 #include "overlay/canvas.h"
 #include "overlay/color_legend.h"
 #include "viewer/debug_views.h"
@@ -437,8 +438,9 @@ TEST_F(ViewerWindow, XdotoolInputMovesTheCamera) {
   if (!have_program("xdotool")) GTEST_SKIP() << "xdotool is not installed (apt-get install xdotool)";
   const fs::path rec = dir_ / "rec.txt", log = dir_ / "viewer_err.txt";
   RunningViewer v;
+  const fs::path shot = dir_ / "hud.png";
   ASSERT_NO_FATAL_FAILURE(start_viewer(env(), store() + " --width 160 --height 120 --spp 1 --no-cull --record " +
-                                                  rec.string(), dir_, v));
+                                                  rec.string() + " --screenshot " + shot.string(), dir_, v));
   const std::string x = env() + "timeout 20 xdotool ", wid = v.window;
   pause_for_viewer();
   // Left drag to the right (orbit), then wheel up twice (zoom in), then 'r', then Esc.
@@ -471,6 +473,30 @@ TEST_F(ViewerWindow, XdotoolInputMovesTheCamera) {
   EXPECT_TRUE(orbited) << "no keyframe orbits the start camera\n" << path->to_text();
   EXPECT_TRUE(zoomed) << "no keyframe is closer to the target\n" << path->to_text();
   EXPECT_TRUE(viewer::same_camera(keys.back().camera, home)) << "'r' did not reset the view\n" << path->to_text();
+  // With the HUD the coordinate tripod of the camera shown sits in the bottom-left corner: the
+  // start view looks along -z, so x (red) points right of the panel's centre and y (green) up.
+  const Png png = read_png(shot);
+  ASSERT_GT(png.width, 0u) << shot;
+  const auto at = [&](int px, int py) {
+    const uint8_t* p = &png.rgb[3 * (size_t(py) * png.width + size_t(px))];
+    return overlay::Rgba8(p[0], p[1], p[2], 255);
+  };
+  const overlay::PixelBox b = overlay::tripod_box(png.width, png.height, overlay::LegendCorner::bottom_left);
+  ASSERT_FALSE(b.empty());
+  const auto axes = overlay::tripod_axes(home);
+  const auto color_of = [&](char name) {
+    for (const auto& a : axes)
+      if (a.name == name) return a.color;
+    return overlay::Rgba8{};
+  };
+  const int cx = (b.x0 + b.x1) / 2, cy = (b.y0 + b.y1) / 2;
+  int red_right = 0, green_up = 0;
+  for (int d = 4; d < 18; ++d) {
+    red_right += at(cx + d, cy) == color_of('x');
+    green_up += at(cx, cy - d) == color_of('y');
+  }
+  EXPECT_GE(red_right, 10);
+  EXPECT_GE(green_up, 10);
 }
 
 // The slice keys in the window: '.' three times and ',' once move the slab two steps up its

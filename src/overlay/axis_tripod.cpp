@@ -59,26 +59,40 @@ PixelBox tripod_box(uint32_t width, uint32_t height, LegendCorner corner, PixelB
   return b;
 }
 
+namespace {
+
+// The panel with its top-left corner at `o` in the canvas's coordinates (clipped to it).
+void draw_panel(Canvas& canvas, const render::Camera& camera, const Layout& y, glm::ivec2 o) {
+  canvas.fill_rect(o.x, o.y, o.x + y.side, o.y + y.side, kPanelFill);
+  const glm::dvec2 c = glm::dvec2(o) + glm::dvec2(y.side / 2);
+  for (const TripodAxis& a : tripod_axes(camera)) {
+    const glm::dvec2 tip = c + a.screen * double(y.len);
+    for (int dy = 0; dy < y.s + 1; ++dy)  // s + 1 pixels wide
+      for (int dx = 0; dx < y.s + 1; ++dx) canvas.line(c + glm::dvec2(dx, dy), tip + glm::dvec2(dx, dy), a.color);
+    // The label beyond the tip, centred on the axis's direction (at the centre for an axis
+    // pointing at the viewer).
+    const glm::ivec2 t = Canvas::text_size(std::string(1, a.name), y.s);
+    const glm::dvec2 at = c + a.screen * double(y.len + y.gap + std::max(t.x, t.y) / 2) - glm::dvec2(t) / 2.0;
+    canvas.text(int(std::lround(at.x)), int(std::lround(at.y)), std::string(1, a.name), a.color, y.s);
+  }
+}
+
+}  // namespace
+
+PixelBox draw_tripod(Canvas& canvas, const render::Camera& camera, LegendCorner corner, PixelBox after) {
+  const PixelBox box = tripod_box(canvas.width(), canvas.height(), corner, after);
+  if (box.empty()) return box;
+  const Layout y = layout(canvas.height());
+  draw_panel(canvas, camera, y, origin(y, canvas.width(), canvas.height(), corner, after));
+  return box;
+}
+
 PixelBox overlay_tripod(render::FrameImage& image, const render::Camera& camera, LegendCorner corner, PixelBox after) {
   const PixelBox box = tripod_box(image.width, image.height, corner, after);
   if (box.empty()) return box;
   const Layout y = layout(image.height);
   const glm::ivec2 o = origin(y, image.width, image.height, corner, after) - glm::ivec2(box.x0, box.y0);
-  const auto axes = tripod_axes(camera);
-  draw_on_linear(image, box, [&](Canvas& canvas) {
-    canvas.fill_rect(o.x, o.y, o.x + y.side, o.y + y.side, kPanelFill);
-    const glm::dvec2 c = glm::dvec2(o) + glm::dvec2(y.side / 2);
-    for (const TripodAxis& a : axes) {
-      const glm::dvec2 tip = c + a.screen * double(y.len);
-      for (int dy = 0; dy < y.s + 1; ++dy)  // s + 1 pixels wide
-        for (int dx = 0; dx < y.s + 1; ++dx) canvas.line(c + glm::dvec2(dx, dy), tip + glm::dvec2(dx, dy), a.color);
-      // The label beyond the tip, centred on the axis's direction (at the centre for an axis
-      // pointing at the viewer).
-      const glm::ivec2 t = Canvas::text_size(std::string(1, a.name), y.s);
-      const glm::dvec2 at = c + a.screen * double(y.len + y.gap + std::max(t.x, t.y) / 2) - glm::dvec2(t) / 2.0;
-      canvas.text(int(std::lround(at.x)), int(std::lround(at.y)), std::string(1, a.name), a.color, y.s);
-    }
-  });
+  draw_on_linear(image, box, [&](Canvas& canvas) { draw_panel(canvas, camera, y, o); });
   return box;
 }
 

@@ -34,6 +34,8 @@ std::array<TripodAxis, 3> tripod_axes(const render::Camera& camera);
 // max(1, height / 400): axes 20 s pixels long, room for the labels), placed as label_box places a
 // label after `after`. Empty for LegendCorner::off; clipped to the image.
 PixelBox tripod_box(uint32_t width, uint32_t height, LegendCorner corner, PixelBox after = {});
+// Draws the tripod on an 8-bit canvas in tripod_box (the viewer's HUD). Returns the box.
+PixelBox draw_tripod(Canvas& canvas, const render::Camera& camera, LegendCorner corner, PixelBox after = {});
 // Draws the tripod over a linear image in tripod_box (draw_on_linear: every pixel outside the box
 // stays as it was, to the bit). Returns the box.
 PixelBox overlay_tripod(render::FrameImage& image, const render::Camera& camera, LegendCorner corner,

@@ -16,6 +16,7 @@
 #include "render/pick.h"
 #include "viewer/camera_controller.h"
 #include "viewer/color_keys.h"
+#include "overlay/axis_tripod.h"
 #include "overlay/canvas.h"
 #include "viewer/debug_views.h"
 #include "viewer/frame_log.h"
@@ -565,7 +566,10 @@ Status Viewer::compose(const InputFrame& in) {
     const auto b = picked_before_ ? mark(*picked_before_, {255, 140, 255, 255}) : std::nullopt;
     if (a && b) display_.line(*a, *b, {255, 0, 255, 110});
   }
-  if (vs_.hud) draw_hud(display_, hud_);
+  if (vs_.hud) {
+    draw_hud(display_, hud_);
+    overlay::draw_tripod(display_, cam, overlay::LegendCorner::bottom_left);  // OVITO's viewport tripod
+  }
   return {};
 }
 
