@@ -432,6 +432,25 @@ std::string view_keys_then_quit(const std::string& display_env, const std::strin
   return slurp(log);
 }
 
+// --screenshot after Esc waits for the view to settle: a streamed view on a slow disk (150 ms a
+// read) quit the moment its window shows still saves the image `render` draws through the same
+// budget, not the frame shown when the key came.
+TEST_F(ViewerWindow, ScreenshotWaitsForASlowStreamedViewToSettle) {
+  if (!have_program("xdotool")) GTEST_SKIP() << "xdotool is not installed (apt-get install xdotool)";
+  const uint32_t W = 160, H = 120;
+  const fs::path shot = dir_ / "slow.png", ref = dir_ / "slow_render.png", log = dir_ / "viewer_err.txt";
+  const std::string look =
+      fmt::format("--width {} --height {} --spp 1 --no-cull --gpu-budget 256KiB --camera 45,-20,50,15,15,15", W, H);
+  RunningViewer v;
+  ASSERT_NO_FATAL_FAILURE(start_viewer(env(), store() + " " + look + " --io-latency-ms 150 --no-hud --screenshot " +
+                                                  shot.string(), dir_, v));
+  ASSERT_EQ(sh(env() + "timeout 20 xdotool windowfocus --sync " + v.window + " key Escape"), 0);
+  ASSERT_TRUE(v.wait_exit()) << "the viewer did not exit on Esc\n" << slurp(log);
+  ASSERT_TRUE(WIFEXITED(v.status) && WEXITSTATUS(v.status) == 0) << slurp(log);
+  ASSERT_EQ(mdstream(fmt::format("render {} -o {} {}", store(), ref.string(), look)), 0) << err();
+  expect_screenshot_matches(shot, ref, W, H);
+}
+
 // Input events (X11, through xdotool) move the camera: a left drag orbits, the wheel zooms,
 // 'r' resets; the recorded path shows all three.
 TEST_F(ViewerWindow, XdotoolInputMovesTheCamera) {

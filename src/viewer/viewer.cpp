@@ -30,6 +30,10 @@
 
 namespace mds::viewer {
 
+// After Esc, how long a --screenshot waits at most for the view to settle (a streamed view on a
+// slow disk, culling capped at --max-iterations: both settle well within it on lavapipe).
+constexpr double kScreenshotSettleS = 30.0;
+
 const char* key_help() {
   return "Mouse: left drag orbit, middle or shift+left drag pan, wheel zoom, right click names the particle under the "
          "cursor (a second one: their distance)\n"
@@ -583,6 +587,7 @@ Status Viewer::run() {
   double read_rate = 0.0;
   auto last_iter = Clock::now();
   bool quit = false;
+  std::optional<Clock::time_point> quit_at;  // when Esc came, while a --screenshot view settles
   for (;;) {
     const auto t0 = Clock::now();
     reload_ms_ = 0.0;
@@ -776,7 +781,14 @@ Status Viewer::run() {
       log_->add(row);
     }
     ++frame;
-    if (quit) break;
+    if (quit) {
+      // --screenshot: a view still refining (a streamed view loading, culling, samples to come)
+      // goes on until it settles, so that the file shows the settled image, not the frame the
+      // key arrived in (held while loading); at most kScreenshotSettleS after Esc.
+      if (o_.screenshot.empty() || idle_ || render_error_) break;
+      if (!quit_at) quit_at = Clock::now();
+      if (std::chrono::duration<double>(Clock::now() - *quit_at).count() > kScreenshotSettleS) break;
+    }
     if (o_.exit_after_frames > 0 && frame >= o_.exit_after_frames) break;
     if (o_.exit_after_frames == 0 && play_ && frame >= play_->frame_count() && idle_) break;
   }

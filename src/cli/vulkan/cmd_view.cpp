@@ -85,7 +85,8 @@ void setup_view(CLI::App& sub, int& exit_code) {
   sub.add_flag("--play-series", opt->v.play_series,
                "A series (.series) plays from the start: each frame once it has refined, looping (key Space stops)");
   sub.add_option("--record", opt->v.record, "Save the session's camera path to this file when the viewer exits");
-  sub.add_option("--screenshot", opt->v.screenshot, "Save the last displayed frame as PNG when the viewer exits");
+  sub.add_option("--screenshot", opt->v.screenshot, "Save the last displayed frame as PNG when the viewer exits (after Esc a view still refining "
+                 "settles first, at most 30 s: a streamed view finishes loading)");
   sub.add_option("--exit-after-frames", opt->v.exit_after_frames,
                  "Exit after this many displayed frames (default: run until closed, or until a --play path ended "
                  "and the view converged)");
