@@ -90,24 +90,16 @@ Status write_lammps_frame(const ExportFrame& f, store::BufferedWriter& w) {
                  property ? " " + token(h.property_name) : "", any_name ? " element" : "");
   const double rstep = (double(h.radius_max) - double(h.radius_min)) / double(store::kQuantMax);
   uint64_t id = 0;
-  const auto write_particle = [&](const store::NodeEntry&, const store::NodeData& node, size_t k,
-                                  const std::array<double, 3>& x) {
-    auto o = std::back_inserter(buf);
+  const auto line = [&](fmt::memory_buffer& b, const store::NodeData& node, size_t k, const std::array<double, 3>& x) {
+    auto o = std::back_inserter(b);
     const uint8_t t = node.type_index[k];
     fmt::format_to(o, "{} {} {} {} {}", ++id, type_id[t], x[0], x[1], x[2]);
     if (radius) fmt::format_to(o, " {}", double(h.radius_min) + double(node.radius_q[k]) * rstep);
     if (property) fmt::format_to(o, " {}", store::property_value(h.property_min, h.property_max, node.property_q[k]));
     if (any_name) fmt::format_to(o, " {}", element[t]);
-    buf.push_back('\n');
+    b.push_back('\n');
   };
-  const auto flush_full = [&]() -> Status {
-    if (buf.size() <= (size_t(1) << 20)) return {};
-    MDS_TRY(w.write(buf.data(), buf.size()));
-    buf.clear();
-    return {};
-  };
-  MDS_TRY(for_each_kept(reader, f.filter, write_particle, flush_full));
-  return w.write(buf.data(), buf.size());
+  return write_kept_lines(reader, f.filter, w, buf, line);
 }
 
 }  // namespace mds::cli

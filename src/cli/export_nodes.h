@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
+
 #include "core/result.h"
 #include "store/file_io.h"
 #include "store/property_histogram.h"
@@ -93,6 +95,23 @@ Status for_each_kept(const store::StoreReader& reader, const ExportFilter& filte
     MDS_TRY(node_done());
   }
   return {};
+}
+
+// The text writers' loop (XYZ, LAMMPS dump): line(buf, node, k, x) appends the line of every kept
+// particle to `buf`, which goes to `w` whenever it passes 1 MiB and at the end.
+template <class Line>
+Status write_kept_lines(const store::StoreReader& reader, const ExportFilter& filter, store::BufferedWriter& w,
+                        fmt::memory_buffer& buf, Line&& line) {
+  const auto particle = [&](const store::NodeEntry&, const store::NodeData& node, size_t k,
+                            const std::array<double, 3>& x) { line(buf, node, k, x); };
+  const auto flush_full = [&]() -> Status {
+    if (buf.size() <= (size_t(1) << 20)) return {};
+    MDS_TRY(w.write(buf.data(), buf.size()));
+    buf.clear();
+    return {};
+  };
+  MDS_TRY(for_each_kept(reader, filter, particle, flush_full));
+  return w.write(buf.data(), buf.size());
 }
 
 // One frame of a text export (extended XYZ, LAMMPS dump): a store, what its filter keeps, and

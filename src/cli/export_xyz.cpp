@@ -42,9 +42,8 @@ Status write_xyz_frame(const ExportFrame& f, store::BufferedWriter& w) {
                  cell_keys, radius ? ":radius:R:1" : "", property_column, color ? ":color:R:3" : "", time_key,
                  h.version);
   const double rstep = (double(h.radius_max) - double(h.radius_min)) / double(store::kQuantMax);
-  const auto write_particle = [&](const store::NodeEntry&, const store::NodeData& node, size_t k,
-                                  const std::array<double, 3>& x) {
-    auto it = std::back_inserter(buf);
+  const auto line = [&](fmt::memory_buffer& b, const store::NodeData& node, size_t k, const std::array<double, 3>& x) {
+    auto it = std::back_inserter(b);
     fmt::format_to(it, "{} {} {} {}", species[node.type_index[k]], x[0], x[1], x[2]);
     if (radius) fmt::format_to(it, " {}", double(h.radius_min) + double(node.radius_q[k]) * rstep);
     if (property) fmt::format_to(it, " {}", store::property_value(h.property_min, h.property_max, node.property_q[k]));
@@ -53,16 +52,9 @@ Status write_xyz_frame(const ExportFrame& f, store::BufferedWriter& w) {
       fmt::format_to(it, " {:.5g} {:.5g} {:.5g}", double(c & 0xffu) / 255.0, double((c >> 8) & 0xffu) / 255.0,
                      double((c >> 16) & 0xffu) / 255.0);
     }
-    buf.push_back('\n');
+    b.push_back('\n');
   };
-  const auto flush_full = [&]() -> Status {
-    if (buf.size() <= (size_t(1) << 20)) return {};
-    MDS_TRY(w.write(buf.data(), buf.size()));
-    buf.clear();
-    return {};
-  };
-  MDS_TRY(for_each_kept(reader, f.filter, write_particle, flush_full));
-  return w.write(buf.data(), buf.size());
+  return write_kept_lines(reader, f.filter, w, buf, line);
 }
 
 }  // namespace mds::cli
