@@ -380,7 +380,7 @@ TEST_F(StressCli, FlyingIntoTheBlockKeepsWantingTheNodesAhead) {
   }
   const uint64_t budget = fs::file_size(store()) / 4;
   ASSERT_EQ(run("stress " + store() + " --gpu-budget " + std::to_string(budget) + " --path " + cam.string() +
-                " --settle-frames 40 --json " + js.string() + small()),
+                " --settle-frames 120 --json " + js.string() + small()),
             0)
       << last_stderr();
   std::ifstream f(js);
@@ -625,7 +625,7 @@ TEST_F(StressCli, HeldDefaultViewFromAColdCache) {
     EXPECT_GT(rep["nodes_loaded"].get<uint64_t>(), 0u);
     return rep;
   };
-  held_view0("view0_nowaves", "--settle-frames 40 --wave-settle-frames 0");  // no waves
+  held_view0("view0_nowaves", "--settle-frames 120 --wave-settle-frames 0");  // no waves
   // Nodes of the first wave: the reads the first frame that requested any submitted. Planned
   // before anything arrives, so it does not depend on when the reader threads finish (the bytes
   // read by a given frame do: a wave's second read may land a frame later under load).
@@ -656,7 +656,7 @@ TEST_F(StressCli, CloseUpReadsTheLargeDenseFrontNodeAlone) {
   auto first_read = [&](const std::string& options) -> uint32_t {
     const fs::path out = dir_ / "closeup.json";
     EXPECT_EQ(run("stress " + store() + " --gpu-budget " + std::to_string(budget) +
-                  " --path view2 --frames 1 --settle-frames 60 " + options + " --json " + out.string() + small()),
+                  " --path view2 --frames 1 --settle-frames 120 " + options + " --json " + out.string() + small()),
               0)
         << last_stderr();
     std::ifstream in(out);
