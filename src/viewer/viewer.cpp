@@ -593,7 +593,7 @@ Status Viewer::run() {
     reload_ms_ = 0.0;
     const double dt = std::min(std::chrono::duration<double>(t0 - last_iter).count(), 0.25);
     last_iter = t0;
-    const bool playing = play_ && frame < play_->frame_count();
+    const bool playing = play_ && frame < play_->frame_count() && !quit_at;  // Esc holds the camera shown
     if (idle_ && !playing) glfwWaitEventsTimeout(0.1);
     else glfwPollEvents();
     InputFrame in = input_->poll();
@@ -787,6 +787,7 @@ Status Viewer::run() {
       // key arrived in (held while loading); at most kScreenshotSettleS after Esc.
       if (o_.screenshot.empty() || idle_ || render_error_) break;
       if (!quit_at) quit_at = Clock::now();
+      series_playing_ = false;  // the frame shown is the one saved
       if (std::chrono::duration<double>(Clock::now() - *quit_at).count() > kScreenshotSettleS) break;
     }
     if (o_.exit_after_frames > 0 && frame >= o_.exit_after_frames) break;
