@@ -1,7 +1,7 @@
-// `mdstream export STORE -o OUT.lammpstrj` (cli/export_lammps.cpp): a LAMMPS text dump. LAMMPS
-// itself reads it (read_dump into a box of the dump's, write_dump back: the same box to the bit,
-// every atom at its position up to LAMMPS' wrapping into the periodic box), orthogonal and
-// triclinic; mdstream's own reader reads it back as the extended XYZ export's particles with the
+// `mdstream export STORE -o OUT.lammpstrj` and `-o OUT.data` (cli/export_lammps.cpp): a LAMMPS
+// text dump and data file. LAMMPS itself reads them (read_dump into a box of the dump's, or
+// read_data; write_dump back: the same box to the bit, every atom at its position up to LAMMPS'
+// wrapping into the periodic box), orthogonal and triclinic, atomic and sphere (diameters); mdstream's own reader reads it back as the extended XYZ export's particles with the
 // store's cell, radii and property; types from input ids or names (the element column); slices
 // and a threshold; and a cell LAMMPS cannot hold is refused, leaving no file.
 #include <gmock/gmock.h>
@@ -87,14 +87,9 @@ bool run_lmp(const fs::path& dir, const std::string& deck) {
 
 // LAMMPS reads the export back: the same box, to the bit, and every atom where the export put it
 // up to whole periods of the box (read_dump wraps atoms into a periodic box).
-void expect_lammps_reads(const fs::path& dir, const fs::path& dump, const std::string& region, size_t count) {
-  const std::string deck = fmt::format(
-      "units lj\natom_style atomic\nregion box {}\ncreate_box 2 box\nmass * 1.0\n"
-      "read_dump {} 0 x y z box yes add keep\n"
-      "write_dump all custom back.dump id type x y z modify sort id format float %.17g\n",
-      region, dump.string());
-  ASSERT_TRUE(run_lmp(dir, deck)) << "lmp could not read " << dump;
-  const Dump ours = read_dump_text(dump), back = read_dump_text(dir / "back.dump");
+// `back` (LAMMPS' write_dump) against our dump of the same atoms: the same box, and every atom
+// where ours put it up to whole periods of the box.
+void expect_same_atoms(const Dump& ours, const Dump& back, size_t count) {
   ASSERT_EQ(ours.atoms.size(), count);
   ASSERT_EQ(back.atoms.size(), count);
   EXPECT_EQ(ours.header[4], back.header[4]) << "ITEM: BOX BOUNDS flags";
@@ -118,6 +113,26 @@ void expect_lammps_reads(const fs::path& dir, const fs::path& dump, const std::s
     wrapped += std::round(dx) != 0 || std::round(dy) != 0 || std::round(dz) != 0;
   }
   EXPECT_LT(wrapped, count / 10);
+}
+
+void expect_lammps_reads(const fs::path& dir, const fs::path& dump, const std::string& region, size_t count) {
+  const std::string deck = fmt::format(
+      "units lj\natom_style atomic\nregion box {}\ncreate_box 2 box\nmass * 1.0\n"
+      "read_dump {} 0 x y z box yes add keep\n"
+      "write_dump all custom back.dump id type x y z modify sort id format float %.17g\n",
+      region, dump.string());
+  ASSERT_TRUE(run_lmp(dir, deck)) << "lmp could not read " << dump;
+  expect_same_atoms(read_dump_text(dump), read_dump_text(dir / "back.dump"), count);
+}
+
+// LAMMPS' read_data takes our data file: the atoms and box of our dump of the same store.
+void expect_read_data_matches(const fs::path& dir, const fs::path& data, const fs::path& dump, size_t count) {
+  const std::string deck = fmt::format(
+      "units lj\natom_style atomic\nboundary p p p\nread_data {}\nmass * 1.0\n"
+      "write_dump all custom back_data.dump id type x y z modify sort id format float %.17g\n",
+      data.string());
+  ASSERT_TRUE(run_lmp(dir, deck)) << "lmp could not read " << data;
+  expect_same_atoms(read_dump_text(dump), read_dump_text(dir / "back_data.dump"), count);
 }
 
 // lammps_box_from_cell undoes LammpsBox::cell: a cell, its dump bounds, and the box read from
@@ -162,6 +177,7 @@ TEST(ExportLammps, TheBoxOfACellIsTheInverseOfTheReaders) {
   }
 }
 
+// LAMMPS reads the dump (read_dump) and the data file (read_data) back, orthogonal and triclinic.
 TEST(ExportLammps, LammpsReadsAnOrthogonalAndATriclinicBox) {
   TempDir dir;
   const fs::path lj = textest::cached_lammps_run("in.lj_small");
@@ -178,6 +194,9 @@ TEST(ExportLammps, LammpsReadsAnOrthogonalAndATriclinicBox) {
   {
     SCOPED_TRACE("orthogonal");
     expect_lammps_reads(dir.path(), dir / "lj.lammpstrj", "block 0 1 0 1 0 1", 4000);
+    ASSERT_EQ(run_mdstream("export " + (dir / "lj.mds").string() + " -o " + (dir / "lj.data").string()), 0)
+        << cli_stderr();
+    expect_read_data_matches(dir.path(), dir / "lj.data", dir / "lj.lammpstrj", 4000);
   }
   ASSERT_EQ(run_mdstream("convert -q --frame 2 " + (tri / "tri.xyz.lammpstrj").string() + " -o " + (dir / "tri.mds").string()), 0)
       << cli_stderr();
@@ -205,6 +224,9 @@ TEST(ExportLammps, LammpsReadsAnOrthogonalAndATriclinicBox) {
   {
     SCOPED_TRACE("triclinic");
     expect_lammps_reads(dir.path(), dir / "tri.dump", "prism 0 1 0 1 0 1 0 0 0", tri_dump.atoms.size());
+    ASSERT_EQ(run_mdstream("export " + (dir / "tri.mds").string() + " -o " + (dir / "tri.data").string()), 0)
+        << cli_stderr();
+    expect_read_data_matches(dir.path(), dir / "tri.data", dir / "tri.dump", tri_dump.atoms.size());
   }
 }
 
@@ -273,12 +295,14 @@ TEST(ExportLammps, ConvertReadsBackTheXyzExportsParticles) {
   std::getline(xyz, line);
   EXPECT_THAT(line, HasSubstr("Properties=species:S:1:pos:R:3:radius:R:1:c_pe:R:1"));
   size_t i = 0;
+  std::vector<double> radii;
   for (; std::getline(xyz, line); ++i) {
     ASSERT_LT(i, all->x.size());
     std::istringstream ls(line);
     int species;
     double x, y, z, radius, pe;
     ls >> species >> x >> y >> z >> radius >> pe;
+    radii.push_back(radius);
     EXPECT_EQ(all->type[i], species) << i;
     EXPECT_EQ(all->x[i], x) << i;
     EXPECT_EQ(all->y[i], y) << i;
@@ -287,6 +311,23 @@ TEST(ExportLammps, ConvertReadsBackTheXyzExportsParticles) {
     EXPECT_EQ(all->property[i], float(pe)) << i;
   }
   EXPECT_EQ(i, src.atoms.size());
+
+  // Per-particle radii make the data file atom_style sphere: LAMMPS reads the diameters back
+  // (id i + 1 is the store's particle i), and the positions as the dump has them.
+  ASSERT_EQ(run_mdstream("export " + store.string() + " -o " + (dir / "p.data").string()), 0) << cli_stderr();
+  EXPECT_THAT(textest::read_text(dir / "p.data"), HasSubstr("\nAtoms # sphere\n"));
+  ASSERT_TRUE(run_lmp(dir.path(), fmt::format("units lj\natom_style sphere\nboundary p p p\nread_data {}\n"
+                                              "write_dump all custom back_s.dump id type x y z diameter modify sort id "
+                                              "format float %.17g\n",
+                                              (dir / "p.data").string())));
+  const Dump back = read_dump_text(dir / "back_s.dump");
+  ASSERT_EQ(back.atoms.size(), radii.size());
+  for (size_t k = 0; k < radii.size(); ++k) {
+    const Atom& a = back.atoms.at(long(k) + 1);
+    ASSERT_EQ(a.rest.size(), 1u);
+    EXPECT_DOUBLE_EQ(std::stod(a.rest[0]), 2.0 * radii[k]) << k;
+  }
+  expect_same_atoms(dump, back, radii.size());
 }
 
 // Names: an XYZ input's species go to the element column, its types numbered 1, 2 in the store's
@@ -306,10 +347,19 @@ TEST(ExportLammps, ElementNamesFiltersAndCellsLammpsCannotHold) {
       << cli_stderr();
   const Dump d = read_dump_text(dir / "a.lammpstrj");
   EXPECT_EQ(d.atoms_line, "ITEM: ATOMS id type x y z q element");
+  // No cell: the spheres' box, the centres' bounds (x 0..2, z 0..5.9) grown by the radius.
   EXPECT_EQ(d.header[4], "ITEM: BOX BOUNDS ff ff ff");
-  EXPECT_EQ(d.bound[0][0], 0.0);
-  EXPECT_EQ(d.bound[0][1], 2.0);
-  EXPECT_EQ(d.bound[2][1], 5.9);
+  const double r = -d.bound[0][0];
+  EXPECT_GT(r, 0.0);
+  EXPECT_DOUBLE_EQ(d.bound[0][1], 2.0 + r);
+  EXPECT_DOUBLE_EQ(d.bound[2][1], 5.9 + r);
+  // ... which a non-periodic LAMMPS box takes with every atom (none on its faces).
+  ASSERT_EQ(run_mdstream("export " + (dir / "a.mds").string() + " -o " + (dir / "a.data").string()), 0)
+      << cli_stderr();
+  ASSERT_TRUE(run_lmp(dir.path(), fmt::format("units lj\natom_style atomic\nboundary f f f\nread_data {}\nmass * 1.0\n"
+                                              "write_dump all custom back_f.dump id type x y z modify sort id\n",
+                                              (dir / "a.data").string())));
+  EXPECT_EQ(read_dump_text(dir / "back_f.dump").atoms.size(), 60u);
   ASSERT_EQ(d.atoms.size(), 60u);
   std::map<int, std::string> names;
   for (const auto& [id, a] : d.atoms) {

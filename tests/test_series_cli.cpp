@@ -512,6 +512,15 @@ TEST_F(SeriesCli, ExportWritesAFramePerStore) {
       << cli_stderr();
   ASSERT_EQ(run_mdstream(fmt::format("export {} -o {}", series->frames[2].path.string(), tmp("two_store.mmpld").string())), 0);
   EXPECT_EQ(bytes_of(tmp("two.mmpld")), bytes_of(tmp("two_store.mmpld")));
+  // A LAMMPS data file too: several frames refused, one picked frame is its store's export.
+  EXPECT_EQ(run_mdstream(fmt::format("export {} -o {}", tmp("e.mds.series").string(), tmp("bad.data").string())), 2);
+  EXPECT_THAT(cli_stderr(), HasSubstr("a LAMMPS data file holds one frame"));
+  ASSERT_EQ(run_mdstream(fmt::format("export {} --series-frames 1 -o {}", tmp("e.mds.series").string(),
+                                     tmp("one.data").string())),
+            0)
+      << cli_stderr();
+  ASSERT_EQ(run_mdstream(fmt::format("export {} -o {}", series->frames[1].path.string(), tmp("one_store.data").string())), 0);
+  EXPECT_EQ(bytes_of(tmp("one.data")), bytes_of(tmp("one_store.data")));
   // A slice that keeps nothing in any frame; --threshold without a property; --series-frames of one store.
   EXPECT_EQ(run_mdstream(fmt::format("export {} --slice 0,0,1,-100 -o {}", tmp("e.mds.series").string(),
                                      tmp("bad.xyz").string())),

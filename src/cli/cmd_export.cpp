@@ -1,6 +1,7 @@
 // `mdstream export STORE|SERIES -o OUT [--slice SPEC ...] [--threshold LO:HI] [--series-frames SEL]`:
 // decodes the nodes and writes their particles as extended XYZ (export_xyz.cpp), a LAMMPS dump
-// (-o OUT.lammpstrj or .dump, export_lammps.cpp) or MMPLD (-o OUT.mmpld, export_mmpld.cpp).
+// (-o OUT.lammpstrj or .dump) or data file (-o OUT.data; export_lammps.cpp) or MMPLD (-o
+// OUT.mmpld, export_mmpld.cpp).
 // Positions are dequantized (x = center_min + q * step) and printed in shortest round-trip form,
 // so the export adds no error to the store's quantization error. With slices (store/slice.h) and
 // a threshold (store/threshold.h) only the particles they keep, the same ones `render --slice
@@ -35,13 +36,14 @@ struct ExportOptions {
   std::string series_frames = "all";  // --series-frames of a .series STORE
 };
 
-enum class Format { xyz, lammps, mmpld };
+enum class Format { xyz, lammps, lammps_data, mmpld };
 
 Format format_of(const std::string& output) {
   std::string ext = std::filesystem::path(output).extension().string();
   for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
   if (ext == ".mmpld") return Format::mmpld;
   if (ext == ".lammpstrj" || ext == ".dump") return Format::lammps;
+  if (ext == ".data") return Format::lammps_data;
   return Format::xyz;
 }
 
@@ -82,6 +84,11 @@ Error in_frame(const Source& s, Error e) {
 // comes only when every frame is.
 Status export_text(const ExportOptions& o, Format format) {
   MDS_ASSIGN_OR_RETURN(const std::vector<Source> src, sources(o));
+  if (format == Format::lammps_data && src.size() != 1)
+    return make_error(Errc::invalid_argument,
+                      "{}: a LAMMPS data file holds one frame: pick one with --series-frames K (or export the series "
+                      "to .lammpstrj)",
+                      o.store);
   std::optional<store::AtomicOutput> out;
   std::optional<store::BufferedWriter> w;
   uint64_t total = 0;
@@ -102,7 +109,9 @@ Status export_text(const ExportOptions& o, Format format) {
         w.emplace(out->file(), size_t(8) << 20);
       }
       const ExportFrame f{*reader, filter, count, s.time, s.index};
-      return format == Format::lammps ? write_lammps_frame(f, *w) : write_xyz_frame(f, *w);
+      return format == Format::lammps        ? write_lammps_frame(f, *w)
+             : format == Format::lammps_data ? write_lammps_data(f, *w)
+                                             : write_xyz_frame(f, *w);
     };
     if (Status st = frame(); !st.ok()) return in_frame(s, st.error());
   }
@@ -131,7 +140,8 @@ void setup_export(CLI::App& sub, int& exit_code) {
       ->required();
   sub.add_option("-o,--output", opt->output,
                  "Output file: extended XYZ; a LAMMPS dump (id type x y z, radius, property, element) when it ends "
-                 "in .lammpstrj or .dump; MMPLD 1.0 for MegaMol when it ends in .mmpld (one list per type, the "
+                 "in .lammpstrj or .dump; a LAMMPS data file (read_data: atomic, or sphere with per-particle radii) "
+                 "when it ends in .data; MMPLD 1.0 for MegaMol when it ends in .mmpld (one list per type, the "
                  "store's colours, property or type colours)")
       ->required();
   sub.add_option("--slice", opt->slices,

@@ -1,4 +1,5 @@
-// `mdstream export STORE -o OUT.lammpstrj`: the store as a LAMMPS text dump; see export_nodes.h.
+// `mdstream export STORE -o OUT.lammpstrj` (or OUT.data): the store as a LAMMPS text dump or data
+// file; see export_nodes.h.
 // The box conventions are the reader's (readers/lammps_reader.h: a triclinic dump writes the
 // bounding box and the tilts, lammps_box_from_cell).
 #include <algorithm>
@@ -24,26 +25,34 @@ std::string token(std::string s) {
   return s;
 }
 
-}  // namespace
-
-Status write_lammps_frame(const ExportFrame& f, store::BufferedWriter& w) {
-  const store::StoreReader& reader = f.reader;
-  const store::FileHeader& h = reader.header();
-  const auto types = reader.types();
-  // The box: the store's cell, else the bounds of the particle centres (not periodic).
+// What a LAMMPS file (dump or data) says of the store beside its atoms: the box, the periodic
+// axes, and the LAMMPS type (and element name) of each store type.
+struct LammpsLayout {
   LammpsBox box;
   bool periodic[3] = {false, false, false};
+  std::vector<int64_t> type_id;      // per type index
+  std::vector<std::string> element;  // per type index, when any type has a name (else empty)
+  int64_t type_count = 0;            // the largest type id (a data file's "atom types")
+};
+
+// `what` names the file kind for the error of a cell LAMMPS cannot hold.
+Result<LammpsLayout> lammps_layout(const store::StoreReader& reader, const char* what) {
+  const store::FileHeader& h = reader.header();
+  const auto types = reader.types();
+  LammpsLayout l;
+  // The box: the store's cell, else the spheres' box (the centres' bounds grown by the largest
+  // radius, as the MMPLD export's: every atom inside it), not periodic.
   if (const auto& c = reader.cell()) {
     auto b = lammps_box_from_cell(*c);
     if (!b.ok())
-      return make_error(Errc::unsupported, "{}: {}; a LAMMPS dump cannot hold it (export to .xyz keeps the cell)",
-                        reader.path().string(), b.error().message);
-    box = *b;
-    std::copy_n(c->periodic, 3, periodic);
+      return make_error(Errc::unsupported, "{}: {}; a LAMMPS {} cannot hold it (export to .xyz keeps the cell)",
+                        reader.path().string(), b.error().message, what);
+    l.box = *b;
+    std::copy_n(c->periodic, 3, l.periodic);
   } else {
     for (int d = 0; d < 3; ++d) {
-      box.lo[d] = box.bound_lo[d] = h.bounds_min[d];
-      box.hi[d] = box.bound_hi[d] = h.bounds_max[d];
+      l.box.lo[d] = l.box.bound_lo[d] = h.bounds_min[d] - double(h.radius_max);
+      l.box.hi[d] = l.box.bound_hi[d] = h.bounds_max[d] + double(h.radius_max);
     }
   }
   // LAMMPS types: the input ids when each is a distinct positive integer, else 1 + the index.
@@ -54,13 +63,26 @@ Status write_lammps_frame(const ExportFrame& f, store::BufferedWriter& w) {
     any_name = any_name || t.name[0] != '\0';
   }
   const bool input_ids = ids.size() == types.size();
-  std::vector<int64_t> type_id;       // per type index
-  std::vector<std::string> element;   // per type index, when any type has a name
   for (size_t i = 0; i < types.size(); ++i) {
-    type_id.push_back(input_ids ? int64_t(types[i].input_id) : int64_t(i) + 1);
+    l.type_id.push_back(input_ids ? int64_t(types[i].input_id) : int64_t(i) + 1);
+    l.type_count = std::max(l.type_count, l.type_id.back());
     const std::string name(types[i].name, strnlen(types[i].name, sizeof(types[i].name)));
-    if (any_name) element.push_back(token(name.empty() ? std::to_string(types[i].input_id) : name));
+    if (any_name) l.element.push_back(token(name.empty() ? std::to_string(types[i].input_id) : name));
   }
+  return l;
+}
+
+}  // namespace
+
+Status write_lammps_frame(const ExportFrame& f, store::BufferedWriter& w) {
+  const store::StoreReader& reader = f.reader;
+  const store::FileHeader& h = reader.header();
+  MDS_ASSIGN_OR_RETURN(const LammpsLayout l, lammps_layout(reader, "dump"));
+  const LammpsBox& box = l.box;
+  const bool* periodic = l.periodic;
+  const bool any_name = !l.element.empty();
+  const std::vector<int64_t>& type_id = l.type_id;
+  const std::vector<std::string>& element = l.element;
   const bool radius = (h.flags & store::kFlagPerParticleRadius) != 0;
   const bool property = (h.flags & store::kFlagProperty) != 0;
 
@@ -98,6 +120,30 @@ Status write_lammps_frame(const ExportFrame& f, store::BufferedWriter& w) {
     if (property) fmt::format_to(o, " {}", store::property_value(h.property_min, h.property_max, node.property_q[k]));
     if (any_name) fmt::format_to(o, " {}", element[t]);
     b.push_back('\n');
+  };
+  return write_kept_lines(reader, f.filter, w, buf, line);
+}
+
+Status write_lammps_data(const ExportFrame& f, store::BufferedWriter& w) {
+  const store::StoreReader& reader = f.reader;
+  const store::FileHeader& h = reader.header();
+  MDS_ASSIGN_OR_RETURN(const LammpsLayout l, lammps_layout(reader, "data file"));
+  const bool sphere = (h.flags & store::kFlagPerParticleRadius) != 0;
+  fmt::memory_buffer buf;
+  auto it = std::back_inserter(buf);
+  fmt::format_to(it, "LAMMPS data file from mdstream export of {}\n\n{} atoms\n{} atom types\n\n",
+                 reader.path().filename().string(), f.count, l.type_count);
+  const char* axis[3] = {"x", "y", "z"};
+  for (int d = 0; d < 3; ++d) fmt::format_to(it, "{} {} {}lo {}hi\n", l.box.lo[d], l.box.hi[d], axis[d], axis[d]);
+  if (l.box.triclinic) fmt::format_to(it, "{} {} {} xy xz yz\n", l.box.xy, l.box.xz, l.box.yz);
+  fmt::format_to(it, "\nAtoms # {}\n\n", sphere ? "sphere" : "atomic");
+  const double rstep = (double(h.radius_max) - double(h.radius_min)) / double(store::kQuantMax);
+  uint64_t id = 0;
+  const auto line = [&](fmt::memory_buffer& b, const store::NodeData& node, size_t k, const std::array<double, 3>& x) {
+    auto o = std::back_inserter(b);
+    fmt::format_to(o, "{} {}", ++id, l.type_id[node.type_index[k]]);
+    if (sphere) fmt::format_to(o, " {} 1", 2.0 * (double(h.radius_min) + double(node.radius_q[k]) * rstep));  // diameter, density
+    fmt::format_to(o, " {} {} {}\n", x[0], x[1], x[2]);
   };
   return write_kept_lines(reader, f.filter, w, buf, line);
 }

@@ -135,12 +135,19 @@ Status write_xyz_frame(const ExportFrame& f, store::BufferedWriter& w);
 // LAMMPS' read_dump, OVITO and `mdstream convert`. The timestep is the series time when it is a
 // whole number (a LAMMPS input's step), else the series index after an ITEM: TIME with the time;
 // 0 for one store. The box is the store's cell when LAMMPS can hold it (pp for a periodic axis,
-// else ff; triclinic with its tilts), else the bounds of the particle centres (ff), and an error
-// for a cell it cannot (a rotated one: .xyz keeps it). Types are the store's input ids when each
+// else ff; triclinic with its tilts), else the spheres' box (the centres' bounds grown by the
+// largest radius; ff), and an error for a cell it cannot (a rotated one: .xyz keeps it). Types are the store's input ids when each
 // is a distinct positive integer, else 1 + the type index; `element` holds the types' names when
 // any has one. Ids number the frame's particles 1..N in store order (the store keeps no input
 // ids: they do not follow a particle across frames). Numbers in shortest round-trip form.
 Status write_lammps_frame(const ExportFrame& f, store::BufferedWriter& w);
+
+// Writes the frame as a LAMMPS data file (read_data): "N atoms", "M atom types" (M the largest
+// type id), the box as write_frame's (lo hi per axis, "xy xz yz" when tilted; a data file has no
+// periodicity: the input's `boundary` sets it), then "Atoms # atomic" (id type x y z) or, with
+// per-particle radii, "Atoms # sphere" (id type diameter density=1 x y z). Types and ids as in
+// the dump. One frame per file.
+Status write_lammps_data(const ExportFrame& f, store::BufferedWriter& w);
 
 // Writes the particles of `reader` that the filter keeps to `output` as MMPLD 1.0 (MegaMol's
 // particle list data; the layout is readers/mmpld_reader.h's): one frame, its bounding box the
