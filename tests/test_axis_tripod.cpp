@@ -4,6 +4,7 @@
 // panel changed.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <string>
 
 #include "overlay/axis_tripod.h"
@@ -58,6 +59,15 @@ TEST(AxisTripod, AxesAsKnownCamerasSeeThem) {
   }
   EXPECT_LE(ob[0].toward, ob[1].toward);
   EXPECT_LE(ob[1].toward, ob[2].toward);
+}
+
+// An up along the view direction (a path's interpolation can give one): finite axes, still unit
+// vectors split between the image plane and the view direction.
+TEST(AxisTripod, UpAlongTheViewStillGivesAxes) {
+  for (const auto& a : overlay::tripod_axes(camera({0, 10, 0}, {0, 1, 0}))) {
+    EXPECT_TRUE(std::isfinite(a.screen.x) && std::isfinite(a.screen.y) && std::isfinite(a.toward)) << a.name;
+    EXPECT_NEAR(glm::dot(a.screen, a.screen) + a.toward * a.toward, 1.0, 1e-12) << a.name;
+  }
 }
 
 TEST(AxisTripod, ThePanelSitsInItsCornerAfterTheOthers) {

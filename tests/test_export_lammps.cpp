@@ -410,5 +410,69 @@ TEST(ExportLammps, ElementNamesFiltersAndCellsLammpsCannotHold) {
   ASSERT_EQ(run_mdstream("export " + (dir / "rot.mds").string() + " -o " + (dir / "rot.xyz2.xyz").string()), 0);
 }
 
+// A series keeps each type's number in every frame, though its XYZ frames list the species in
+// another order (each frame's store numbers them as it meets them).
+TEST(ExportLammps, ASeriesNumbersTheTypesAlikeInEveryFrame) {
+  TempDir dir;
+  textest::write_text(dir / "w.xyz",
+                      "3\nProperties=species:S:1:pos:R:3\nO 0 0 0\nH 1 0 0\nH 0 1 0\n"
+                      "4\nProperties=species:S:1:pos:R:3\nH 0 0 1\nC 2 2 2\nO 1 1 1\nH 2 2 0\n");
+  ASSERT_EQ(run_mdstream("convert -q --frames : " + (dir / "w.xyz").string() + " -o " + (dir / "w.mds.series").string()), 0)
+      << cli_stderr();
+  ASSERT_EQ(run_mdstream("export " + (dir / "w.mds.series").string() + " -o " + (dir / "w.lammpstrj").string()), 0)
+      << cli_stderr();
+  std::map<int, std::string> element_of;
+  size_t atoms = 0, frames = 0;
+  std::istringstream in(textest::read_text(dir / "w.lammpstrj"));
+  bool in_atoms = false;
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("ITEM:", 0) == 0) {
+      in_atoms = line == "ITEM: ATOMS id type x y z element";
+      frames += line == "ITEM: TIMESTEP";
+      continue;
+    }
+    if (!in_atoms) continue;
+    std::istringstream ls(line);
+    long id;
+    int type;
+    double x, y, z;
+    std::string element;
+    ls >> id >> type >> x >> y >> z >> element;
+    const auto [it, fresh] = element_of.emplace(type, element);
+    EXPECT_EQ(it->second, element) << "type " << type << " is " << it->second << " and " << element;
+    ++atoms;
+  }
+  EXPECT_EQ(frames, 2u);
+  EXPECT_EQ(atoms, 7u);
+  EXPECT_EQ(element_of.size(), 3u);  // O, H, C: 1, 2, 3 in the order the frames list them
+  EXPECT_EQ(element_of[1], "O");
+  EXPECT_EQ(element_of[2], "H");
+  EXPECT_EQ(element_of[3], "C");
+}
+
+// A cell that is not periodic along an axis holds the atoms beyond it in LAMMPS' box (a molecule
+// drawn in a box too small), so that read_data under `boundary f f f` keeps them all.
+TEST(ExportLammps, ANonPeriodicCellGrowsToHoldItsAtoms) {
+  TempDir dir;
+  textest::write_text(dir / "m.xyz", "3\nLattice=\"10 0 0 0 10 0 0 0 10\" pbc=\"F F T\" Properties=species:S:1:pos:R:3\n"
+                                     "C -1 5 5\nC 5 11 5\nC 5 5 5\n");
+  ASSERT_EQ(run_mdstream("convert -q " + (dir / "m.xyz").string() + " -o " + (dir / "m.mds").string()), 0) << cli_stderr();
+  ASSERT_EQ(run_mdstream("export " + (dir / "m.mds").string() + " -o " + (dir / "m.lammpstrj").string()), 0)
+      << cli_stderr();
+  const Dump d = read_dump_text(dir / "m.lammpstrj");
+  EXPECT_EQ(d.header[4], "ITEM: BOX BOUNDS ff ff pp");
+  EXPECT_LT(d.bound[0][0], -1.0);  // x grew below the cell
+  EXPECT_EQ(d.bound[0][1], 10.0);
+  EXPECT_EQ(d.bound[1][0], 0.0);
+  EXPECT_GT(d.bound[1][1], 11.0);  // y grew above it
+  EXPECT_EQ(d.bound[2][0], 0.0);   // z periodic: the cell's
+  EXPECT_EQ(d.bound[2][1], 10.0);
+  ASSERT_EQ(run_mdstream("export " + (dir / "m.mds").string() + " -o " + (dir / "m.data").string()), 0) << cli_stderr();
+  ASSERT_TRUE(run_lmp(dir.path(), fmt::format("units lj\natom_style atomic\nboundary f f p\nread_data {}\nmass * 1.0\n"
+                                              "write_dump all custom back_m.dump id type x y z modify sort id\n",
+                                              (dir / "m.data").string())));
+  EXPECT_EQ(read_dump_text(dir / "back_m.dump").atoms.size(), 3u);
+}
+
 }  // namespace
 }  // namespace mds

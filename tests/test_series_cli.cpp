@@ -493,7 +493,8 @@ TEST_F(SeriesCli, ExportWritesAFramePerStore) {
   EXPECT_EQ(back->frames[0].time, series->frames[1].time);
   EXPECT_EQ(back->frames[1].time, series->frames[2].time);
 
-  // A time that is not a whole step: ITEM: TIME, and the series index as the timestep.
+  // A time that is not a whole step: every frame has ITEM: TIME and its series index as the
+  // timestep (one rule for the file: steps never repeat or mix with indices).
   textest::write_text(tmp("half.series"), fmt::format("{{\"file-series-version\": \"1.0\", \"files\": [{{\"name\": "
                                                       "\"e.0000.mds\", \"time\": 0.5}}, {{\"name\": \"e.0002.mds\", "
                                                       "\"time\": 7}}]}}"));
@@ -501,7 +502,7 @@ TEST_F(SeriesCli, ExportWritesAFramePerStore) {
       << cli_stderr();
   const std::string half = bytes_of(tmp("half.dump"));
   EXPECT_EQ(half.rfind("ITEM: TIME\n0.5\nITEM: TIMESTEP\n0\n", 0), 0u) << half.substr(0, 60);
-  EXPECT_THAT(half, HasSubstr("\nITEM: TIMESTEP\n7\n"));
+  EXPECT_THAT(half, HasSubstr("\nITEM: TIME\n7\nITEM: TIMESTEP\n1\n"));
 
   // MMPLD holds one frame: a series of several is refused, one picked frame is its store's export.
   EXPECT_EQ(run_mdstream(fmt::format("export {} -o {}", tmp("e.mds.series").string(), tmp("bad.mmpld").string())), 2);

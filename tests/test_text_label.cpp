@@ -49,6 +49,20 @@ TEST(TextLabel, PlaceholdersExpandWithFmtSpecs) {
       << no_time;
 }
 
+// Text outside printable ASCII (a degree sign in UTF-8, a tab) is drawn as '?', as the font has
+// no glyph for it (it used to index past the font's table); an expansion over kLabelMaxBytes is refused.
+TEST(TextLabel, BytesOutsideAsciiAndHugeWidths) {
+  Canvas a(200, 40, {0, 0, 0, 255}), b(200, 40, {0, 0, 0, 255});
+  const overlay::Rgba8 white{255, 255, 255, 255};
+  EXPECT_EQ(a.text(2, 2, "T = 300 \xC2\xB0""C\tx", white), b.text(2, 2, "T = 300 ??C?x", white));
+  for (uint32_t y = 0; y < 40; ++y)
+    for (uint32_t x = 0; x < 200; ++x) ASSERT_EQ(a.at(x, y), b.at(x, y)) << x << "," << y;
+  EXPECT_EQ(Canvas::text_size("\xff\x01"), Canvas::text_size("??"));
+  const std::string e = expand("{frame:99999}");
+  EXPECT_NE(e.find("more than 4096"), std::string::npos) << e.substr(0, 80);
+  EXPECT_EQ(expand("{frame:9999999999999}").rfind("error: ", 0), 0u);
+}
+
 TEST(TextLabel, BadPatternsAreRefusedQuotingThem) {
   for (const char* bad : {"{timestep}", "{frame:q}", "open {frame", "close }", "{}", "{0}"}) {
     const std::string e = expand(bad);

@@ -9,10 +9,12 @@
 // threshold keeps, are not read. A series (store/series.h) goes to one XYZ or dump file, a frame
 // per picked store in order. The output appears only when complete.
 #include <cctype>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -89,6 +91,23 @@ Status export_text(const ExportOptions& o, Format format) {
                       "{}: a LAMMPS data file holds one frame: pick one with --series-frames K (or export the series "
                       "to .lammpstrj)",
                       o.store);
+  // LAMMPS files: one type numbering over every picked store, and one timestep rule.
+  std::optional<LammpsTypes> types;
+  bool time_is_step = true;
+  if (format != Format::xyz) {
+    std::vector<std::vector<store::TypeEntry>> tables;
+    std::set<double> times;
+    for (const Source& s : src) {
+      auto reader = store::StoreReader::open(s.path);
+      if (!reader.ok()) return in_frame(s, reader.error());
+      tables.emplace_back((*reader)->types().begin(), (*reader)->types().end());
+      if (s.time) {
+        const double t = *s.time;
+        time_is_step = time_is_step && t == std::floor(t) && t >= 0.0 && t < 9.0e18 && times.insert(t).second;
+      }
+    }
+    types = lammps_types(tables);
+  }
   std::optional<store::AtomicOutput> out;
   std::optional<store::BufferedWriter> w;
   uint64_t total = 0;
@@ -108,7 +127,7 @@ Status export_text(const ExportOptions& o, Format format) {
         out.emplace(std::move(created));
         w.emplace(out->file(), size_t(8) << 20);
       }
-      const ExportFrame f{*reader, filter, count, s.time, s.index};
+      const ExportFrame f{*reader, filter, count, s.time, s.index, time_is_step, types ? &*types : nullptr};
       return format == Format::lammps        ? write_lammps_frame(f, *w)
              : format == Format::lammps_data ? write_lammps_data(f, *w)
                                              : write_xyz_frame(f, *w);

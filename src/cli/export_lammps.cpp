@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 #include <set>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -31,17 +32,18 @@ struct LammpsLayout {
   LammpsBox box;
   bool periodic[3] = {false, false, false};
   std::vector<int64_t> type_id;      // per type index
-  std::vector<std::string> element;  // per type index, when any type has a name (else empty)
+  std::vector<std::string> element;  // per type index, when some type has a name (else empty)
   int64_t type_count = 0;            // the largest type id (a data file's "atom types")
 };
 
-// `what` names the file kind for the error of a cell LAMMPS cannot hold.
-Result<LammpsLayout> lammps_layout(const store::StoreReader& reader, const char* what) {
+// `what` names the file kind for the error of a cell LAMMPS cannot hold; `types`: the export's
+// numbering (nullptr: this store's alone).
+Result<LammpsLayout> lammps_layout(const store::StoreReader& reader, const LammpsTypes* types, const char* what) {
   const store::FileHeader& h = reader.header();
-  const auto types = reader.types();
   LammpsLayout l;
-  // The box: the store's cell, else the spheres' box (the centres' bounds grown by the largest
-  // radius, as the MMPLD export's: every atom inside it), not periodic.
+  // The spheres' box: the centres' bounds grown by the largest radius (0.5 without radii, so that
+  // a flat sheet still has a thickness), as the MMPLD export's: every atom inside it.
+  const double pad = h.radius_max > 0.0f ? double(h.radius_max) : 0.5;
   if (const auto& c = reader.cell()) {
     auto b = lammps_box_from_cell(*c);
     if (!b.ok())
@@ -49,35 +51,69 @@ Result<LammpsLayout> lammps_layout(const store::StoreReader& reader, const char*
                         reader.path().string(), b.error().message, what);
     l.box = *b;
     std::copy_n(c->periodic, 3, l.periodic);
+    // A non-periodic axis of an orthogonal cell holds the atoms beyond the cell too (a molecule
+    // in a box drawn for it): LAMMPS loses atoms outside a non-periodic box.
+    if (!l.box.triclinic)
+      for (int d = 0; d < 3; ++d)
+        if (!l.periodic[d]) {
+          l.box.lo[d] = l.box.bound_lo[d] = std::min(l.box.lo[d], h.bounds_min[d] - pad);
+          l.box.hi[d] = l.box.bound_hi[d] = std::max(l.box.hi[d], h.bounds_max[d] + pad);
+        }
   } else {
     for (int d = 0; d < 3; ++d) {
-      l.box.lo[d] = l.box.bound_lo[d] = h.bounds_min[d] - double(h.radius_max);
-      l.box.hi[d] = l.box.bound_hi[d] = h.bounds_max[d] + double(h.radius_max);
+      l.box.lo[d] = l.box.bound_lo[d] = h.bounds_min[d] - pad;
+      l.box.hi[d] = l.box.bound_hi[d] = h.bounds_max[d] + pad;
     }
   }
-  // LAMMPS types: the input ids when each is a distinct positive integer, else 1 + the index.
-  std::set<int32_t> ids;
-  bool any_name = false;
-  for (const auto& t : types) {
-    if (t.input_id >= 1) ids.insert(t.input_id);
-    any_name = any_name || t.name[0] != '\0';
+  const auto entries = reader.types();
+  LammpsTypes own;
+  if (!types) {
+    own = lammps_types(std::vector<std::vector<store::TypeEntry>>{{entries.begin(), entries.end()}});
+    types = &own;
   }
-  const bool input_ids = ids.size() == types.size();
-  for (size_t i = 0; i < types.size(); ++i) {
-    l.type_id.push_back(input_ids ? int64_t(types[i].input_id) : int64_t(i) + 1);
-    l.type_count = std::max(l.type_count, l.type_id.back());
-    const std::string name(types[i].name, strnlen(types[i].name, sizeof(types[i].name)));
-    if (any_name) l.element.push_back(token(name.empty() ? std::to_string(types[i].input_id) : name));
+  for (const auto& t : entries) {
+    l.type_id.push_back(types->id_of.at(lammps_type_key(t)));
+    const std::string name(t.name, strnlen(t.name, sizeof(t.name)));
+    if (types->names) l.element.push_back(token(name.empty() ? std::to_string(t.input_id) : name));
   }
+  l.type_count = types->count;
   return l;
 }
 
 }  // namespace
 
+std::string lammps_type_key(const store::TypeEntry& t) {
+  const std::string name(t.name, strnlen(t.name, sizeof(t.name)));
+  return name.empty() ? "\t#" + std::to_string(t.input_id) : name;  // a tab: in no name
+}
+
+LammpsTypes lammps_types(std::span<const std::vector<store::TypeEntry>> stores) {
+  LammpsTypes l;
+  std::vector<std::string> keys;  // in the order the stores list them
+  std::set<std::string> seen;
+  int64_t max_id = 0;
+  bool by_id = true;
+  for (const auto& types : stores)
+    for (const auto& t : types) {
+      const std::string k = lammps_type_key(t);
+      if (k[0] != '\t') l.names = true;
+      if (t.input_id < 1) by_id = false;
+      max_id = std::max<int64_t>(max_id, t.input_id);
+      if (seen.insert(k).second) keys.push_back(k);
+    }
+  by_id = by_id && !l.names && max_id <= 4 * int64_t(keys.size()) + 16;
+  for (size_t i = 0; i < keys.size(); ++i) {
+    const int64_t id = by_id ? std::stoll(keys[i].substr(2)) : int64_t(i) + 1;
+    l.id_of[keys[i]] = id;
+    l.count = std::max(l.count, id);
+  }
+  return l;
+}
+
 Status write_lammps_frame(const ExportFrame& f, store::BufferedWriter& w) {
   const store::StoreReader& reader = f.reader;
   const store::FileHeader& h = reader.header();
-  MDS_ASSIGN_OR_RETURN(const LammpsLayout l, lammps_layout(reader, "dump"));
+  MDS_ASSIGN_OR_RETURN(const LammpsLayout l, lammps_layout(reader, f.types, "dump"));
   const LammpsBox& box = l.box;
   const bool* periodic = l.periodic;
   const bool any_name = !l.element.empty();
@@ -91,12 +127,11 @@ Status write_lammps_frame(const ExportFrame& f, store::BufferedWriter& w) {
   // A whole time is the step (a LAMMPS input's); another goes to ITEM: TIME, the index to TIMESTEP.
   int64_t step = 0;
   if (f.time) {
-    const double t = *f.time;
-    if (t == std::floor(t) && std::fabs(t) < 9.0e18) {
-      step = int64_t(t);
+    if (f.time_is_step) {
+      step = int64_t(*f.time);
     } else {
       step = f.index;
-      fmt::format_to(it, "ITEM: TIME\n{}\n", t);
+      fmt::format_to(it, "ITEM: TIME\n{}\n", *f.time);
     }
   }
   fmt::format_to(it, "ITEM: TIMESTEP\n{}\nITEM: NUMBER OF ATOMS\n{}\nITEM: BOX BOUNDS {}{} {} {}\n", step, f.count,
@@ -108,8 +143,11 @@ Status write_lammps_frame(const ExportFrame& f, store::BufferedWriter& w) {
     if (box.triclinic) fmt::format_to(it, " {}", tilt[d]);
     buf.push_back('\n');
   }
+  std::string property_column = property ? token(h.property_name) : "";
+  for (const char* taken : {"id", "type", "x", "y", "z", "radius", "element"})
+    if (property_column == taken) property_column = "p_" + property_column;
   fmt::format_to(it, "ITEM: ATOMS id type x y z{}{}{}\n", radius ? " radius" : "",
-                 property ? " " + token(h.property_name) : "", any_name ? " element" : "");
+                 property ? " " + property_column : "", any_name ? " element" : "");
   const double rstep = (double(h.radius_max) - double(h.radius_min)) / double(store::kQuantMax);
   uint64_t id = 0;
   const auto line = [&](fmt::memory_buffer& b, const store::NodeData& node, size_t k, const std::array<double, 3>& x) {
@@ -127,7 +165,7 @@ Status write_lammps_frame(const ExportFrame& f, store::BufferedWriter& w) {
 Status write_lammps_data(const ExportFrame& f, store::BufferedWriter& w) {
   const store::StoreReader& reader = f.reader;
   const store::FileHeader& h = reader.header();
-  MDS_ASSIGN_OR_RETURN(const LammpsLayout l, lammps_layout(reader, "data file"));
+  MDS_ASSIGN_OR_RETURN(const LammpsLayout l, lammps_layout(reader, f.types, "data file"));
   const bool sphere = (h.flags & store::kFlagPerParticleRadius) != 0;
   fmt::memory_buffer buf;
   auto it = std::back_inserter(buf);

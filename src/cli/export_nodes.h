@@ -7,6 +7,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <span>
 #include <string>
@@ -116,12 +117,29 @@ Status write_kept_lines(const store::StoreReader& reader, const ExportFilter& fi
 
 // One frame of a text export (extended XYZ, LAMMPS dump): a store, what its filter keeps, and
 // where it stands in a series.
+// The LAMMPS type of each particle type over every store of an export (dump, data file), so
+// that a type keeps its number in every frame of a series: a type is known by its name, else by
+// its input id. The input ids are the numbers when no type has a name and the ids are positive
+// and at most 4 x their count + 16 (a data file declares as many types as the largest); else the
+// keys are numbered 1, 2, .. in the order the stores list them.
+struct LammpsTypes {
+  std::map<std::string, int64_t> id_of;  // key (lammps_type_key) -> LAMMPS type
+  bool names = false;                    // some type has a name: the element column
+  int64_t count = 0;                     // the largest LAMMPS type
+};
+std::string lammps_type_key(const store::TypeEntry& t);
+LammpsTypes lammps_types(std::span<const std::vector<store::TypeEntry>> stores);
+
 struct ExportFrame {
   const store::StoreReader& reader;
   const ExportFilter& filter;
   uint64_t count = 0;          // kept_count(reader, filter)
   std::optional<double> time;  // the series frame's time (none for one store)
   int64_t index = 0;           // the series index (0 for one store)
+  // Dump: TIMESTEP is the time (every picked time a whole, distinct number: a LAMMPS input's
+  // steps), else the series index after ITEM: TIME with the time, in every frame alike.
+  bool time_is_step = false;
+  const LammpsTypes* types = nullptr;  // dump, data file: every picked store's numbering (nullptr: this store's)
 };
 
 // Appends the frame as extended XYZ (export_xyz.cpp): the count line, the comment line (the cell
@@ -132,13 +150,13 @@ Status write_xyz_frame(const ExportFrame& f, store::BufferedWriter& w);
 
 // Appends the frame as a LAMMPS text dump (export_lammps.cpp; dump custom: ITEM: TIMESTEP,
 // NUMBER OF ATOMS, BOX BOUNDS, ATOMS id type x y z [radius] [property] [element]), readable by
-// LAMMPS' read_dump, OVITO and `mdstream convert`. The timestep is the series time when it is a
-// whole number (a LAMMPS input's step), else the series index after an ITEM: TIME with the time;
+// LAMMPS' read_dump, OVITO and `mdstream convert`. The timestep: see ExportFrame::time_is_step;
 // 0 for one store. The box is the store's cell when LAMMPS can hold it (pp for a periodic axis,
-// else ff; triclinic with its tilts), else the spheres' box (the centres' bounds grown by the
-// largest radius; ff), and an error for a cell it cannot (a rotated one: .xyz keeps it). Types are the store's input ids when each
-// is a distinct positive integer, else 1 + the type index; `element` holds the types' names when
-// any has one. Ids number the frame's particles 1..N in store order (the store keeps no input
+// else ff, widened along a non-periodic axis of an orthogonal cell to hold the spheres; triclinic
+// with its tilts), else the spheres' box (the centres' bounds grown by the largest radius, 0.5
+// without radii; ff), and an error for a cell it cannot (a rotated one: .xyz keeps it). Types as
+// LammpsTypes numbers them; `element` holds the types' names when any has one. A property named
+// like another column (id, type, x, y, z, radius, element) is written as p_<name>. Ids number the frame's particles 1..N in store order (the store keeps no input
 // ids: they do not follow a particle across frames). Numbers in shortest round-trip form.
 Status write_lammps_frame(const ExportFrame& f, store::BufferedWriter& w);
 

@@ -37,7 +37,13 @@ glm::ivec2 origin(const Layout& y, uint32_t width, uint32_t height, LegendCorner
 
 std::array<TripodAxis, 3> tripod_axes(const render::Camera& camera) {
   const glm::dvec3 f = glm::normalize(camera.target - camera.eye);
-  const glm::dvec3 r = glm::normalize(glm::cross(f, camera.up));
+  glm::dvec3 side = glm::cross(f, camera.up);
+  if (!(glm::length(side) > 1e-12)) {  // up along the view (a path's interpolation): the axis least along it
+    const glm::dvec3 a = glm::abs(f);
+    const glm::dvec3 up = a.x <= a.y && a.x <= a.z ? glm::dvec3(1, 0, 0) : a.y <= a.z ? glm::dvec3(0, 1, 0) : glm::dvec3(0, 0, 1);
+    side = glm::cross(f, up);
+  }
+  const glm::dvec3 r = glm::normalize(side);
   const glm::dvec3 u = glm::cross(r, f);
   std::array<TripodAxis, 3> a;
   const Rgba8 colors[3] = {{230, 70, 70, 255}, {90, 200, 90, 255}, {90, 140, 255, 255}};

@@ -27,7 +27,7 @@ struct TripodAxis {
 
 // The three axes in drawing order: the one pointing farthest away first, so nearer ones cover it.
 // The camera's orientation alone counts (eye, target, up; not the projection). Precondition:
-// eye != target and up not parallel to the view direction (parse_camera and default_view ensure it).
+// eye != target; an up along the view direction is replaced by the axis least along it.
 std::array<TripodAxis, 3> tripod_axes(const render::Camera& camera);
 
 // Where the tripod's square panel goes in a width x height image (the legend's text scale s =

@@ -165,13 +165,28 @@ void Canvas::circle(glm::dvec2 center, double radius, Rgba8 c) {
     }
 }
 
+namespace {
+
+// stb_easy_font looks every byte up in a table of the printable ASCII characters (32..126) without
+// a range check: any other byte (UTF-8, a tab, DEL) becomes '?', a newline stays.
+std::string printable(std::string_view s) {
+  std::string out(s);
+  for (char& ch : out) {
+    const unsigned char u = static_cast<unsigned char>(ch);
+    if (ch != '\n' && (u < 32 || u > 126)) ch = '?';
+  }
+  return out;
+}
+
+}  // namespace
+
 glm::ivec2 Canvas::text_size(std::string_view s, int scale) {
-  std::string str(s);
+  std::string str = printable(s);
   return {stb_easy_font_width(str.data()) * scale, stb_easy_font_height(str.data()) * scale};
 }
 
 glm::ivec2 Canvas::text(int x, int y, std::string_view s, Rgba8 c, int scale) {
-  std::string str(s);
+  std::string str = printable(s);
   // stb_easy_font: ~270 bytes of vertices per character at most; 4 vertices of 16 bytes per quad.
   std::vector<char> buf(str.size() * 300 + 64);
   unsigned char col[4] = {c.r, c.g, c.b, c.a};

@@ -54,7 +54,8 @@ class Canvas {
   void fill_rect(int x0, int y0, int x1, int y1, Rgba8 c);  // [x0, x1) x [y0, y1)
   void line(glm::dvec2 a, glm::dvec2 b, Rgba8 c);           // clipped to the canvas
   void circle(glm::dvec2 center, double radius, Rgba8 c);    // filled disc, blended
-  // Text with stb_easy_font at (x, y) top-left, `scale` pixels per font unit; '\n' starts a line.
+  // Text with stb_easy_font at (x, y) top-left, `scale` pixels per font unit; '\n' starts a line,
+  // a byte outside printable ASCII (UTF-8, a tab) is drawn as '?'.
   // Returns the bounding box size in pixels.
   glm::ivec2 text(int x, int y, std::string_view s, Rgba8 c, int scale = 1);
   static glm::ivec2 text_size(std::string_view s, int scale = 1);

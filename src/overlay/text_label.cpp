@@ -31,8 +31,11 @@ Result<std::string> format_with(std::string_view pattern, const LabelFields& f, 
   args.push_back(fmt::arg("particles", f.particles));
   args.push_back(fmt::arg("store", f.store));
   try {
-    return fmt::vformat(pattern, args);
-  } catch (const fmt::format_error& e) {
+    std::string out = fmt::vformat(pattern, args);
+    if (out.size() > kLabelMaxBytes)
+      return make_error(Errc::invalid_argument, "{} bytes expanded, more than {}", out.size(), kLabelMaxBytes);
+    return out;
+  } catch (const std::exception& e) {  // fmt::format_error, or a width too large to allocate
     return make_error(Errc::invalid_argument, "{}", e.what());
   }
 }

@@ -30,6 +30,7 @@ struct LabelFields {
 // are braces. A newline starts another line. Errc::invalid_argument quoting the pattern for an
 // unknown placeholder or a bad spec, and for {time} when fields.time is empty.
 Result<std::string> expand_label(std::string_view pattern, const LabelFields& fields);
+inline constexpr size_t kLabelMaxBytes = 4096;  // an expanded label longer than this is refused ({frame:999999})
 
 // Where the label's panel goes in a width x height image: in `corner` (not off), a margin from
 // its edges, sized by the text at the legend's text scale (max(1, height / 400)); when `after`

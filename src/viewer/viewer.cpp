@@ -702,7 +702,7 @@ Status Viewer::run() {
       step_ms = ms_since(ts);
     }
     // Playing a series: the next frame once this one has refined (the last one loops).
-    if (series_playing_ && idle_ && !render_error_ && host_->series_positions() > 1) {
+    if (series_playing_ && !quit && idle_ && !render_error_ && host_->series_positions() > 1) {
       show_series_position((host_->series_position() + 1) % host_->series_positions());
       r = host_->renderer();  // a new renderer for the new store
     }
