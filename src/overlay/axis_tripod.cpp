@@ -26,11 +26,7 @@ Layout layout(uint32_t height) {
 }
 
 glm::ivec2 origin(const Layout& y, uint32_t width, uint32_t height, LegendCorner corner, PixelBox after) {
-  const bool left = corner == LegendCorner::top_left || corner == LegendCorner::bottom_left;
-  const bool top = corner == LegendCorner::top_left || corner == LegendCorner::top_right;
-  const int x = left ? y.margin : int(width) - y.margin - y.side;
-  if (top) return {x, after.empty() ? y.margin : after.y1 + y.gap};
-  return {x, (after.empty() ? int(height) - y.margin : after.y0 - y.gap) - y.side};
+  return corner_origin({y.side, y.side}, y.margin, y.gap, width, height, corner, after);
 }
 
 }  // namespace
@@ -59,10 +55,7 @@ std::array<TripodAxis, 3> tripod_axes(const render::Camera& camera) {
 PixelBox tripod_box(uint32_t width, uint32_t height, LegendCorner corner, PixelBox after) {
   if (corner == LegendCorner::off || width == 0 || height == 0) return {};
   const Layout y = layout(height);
-  const glm::ivec2 o = origin(y, width, height, corner, after);
-  PixelBox b{std::max(o.x, 0), std::max(o.y, 0), std::min(o.x + y.side, int(width)), std::min(o.y + y.side, int(height))};
-  if (b.empty()) return {};
-  return b;
+  return clipped_box(origin(y, width, height, corner, after), {y.side, y.side}, width, height);
 }
 
 namespace {

@@ -67,9 +67,7 @@ Layout layout(const ColorLegend& l, uint32_t height) {
 
 // The panel's unclipped top-left corner.
 glm::ivec2 origin(const Layout& y, uint32_t width, uint32_t height, LegendCorner corner) {
-  const bool left = corner == LegendCorner::top_left || corner == LegendCorner::bottom_left;
-  const bool top = corner == LegendCorner::top_left || corner == LegendCorner::top_right;
-  return {left ? y.margin : int(width) - y.margin - y.w, top ? y.margin : int(height) - y.margin - y.h};
+  return corner_origin({y.w, y.h}, y.margin, 0, width, height, corner);
 }
 
 }  // namespace
@@ -117,13 +115,24 @@ const char* legend_corner_name(LegendCorner c) {
   return "off";
 }
 
+glm::ivec2 corner_origin(glm::ivec2 size, int margin, int gap, uint32_t width, uint32_t height, LegendCorner corner,
+                         PixelBox after) {
+  const bool left = corner == LegendCorner::top_left || corner == LegendCorner::bottom_left;
+  const bool top = corner == LegendCorner::top_left || corner == LegendCorner::top_right;
+  const int x = left ? margin : int(width) - margin - size.x;
+  if (top) return {x, after.empty() ? margin : after.y1 + gap};
+  return {x, (after.empty() ? int(height) - margin : after.y0 - gap) - size.y};
+}
+
+PixelBox clipped_box(glm::ivec2 o, glm::ivec2 size, uint32_t width, uint32_t height) {
+  const PixelBox b{std::max(o.x, 0), std::max(o.y, 0), std::min(o.x + size.x, int(width)), std::min(o.y + size.y, int(height))};
+  return b.empty() ? PixelBox{} : b;
+}
+
 PixelBox legend_box(const ColorLegend& legend, uint32_t width, uint32_t height, LegendCorner corner) {
   if (corner == LegendCorner::off || width == 0 || height == 0) return {};
   const Layout y = layout(legend, height);
-  const glm::ivec2 o = origin(y, width, height, corner);
-  PixelBox b{std::max(o.x, 0), std::max(o.y, 0), std::min(o.x + y.w, int(width)), std::min(o.y + y.h, int(height))};
-  if (b.empty()) return {};
-  return b;
+  return clipped_box(origin(y, width, height, corner), {y.w, y.h}, width, height);
 }
 
 namespace {

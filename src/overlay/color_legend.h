@@ -38,6 +38,14 @@ std::vector<LegendEntry> colormap_legend(const std::string& name, glm::dvec2 ran
 std::string colormap_tick(glm::dvec2 range, int k);
 
 enum class LegendCorner : uint8_t { off, top_left, top_right, bottom_left, bottom_right };
+
+// Where a panel of `size` pixels goes in a width x height image (legend, label, tripod): in
+// `corner` (not off), `margin` in from its edges; when `after` (the panel before it in the same
+// corner) is not empty, `gap` below it in a top corner or above it in a bottom one. Unclipped.
+glm::ivec2 corner_origin(glm::ivec2 size, int margin, int gap, uint32_t width, uint32_t height, LegendCorner corner,
+                         PixelBox after = {});
+// The panel at `origin` of `size` clipped to the image; empty when nothing of it is inside.
+PixelBox clipped_box(glm::ivec2 origin, glm::ivec2 size, uint32_t width, uint32_t height);
 // "off", "top-left", "top-right", "bottom-left", "bottom-right"; Errc::invalid_argument naming
 // them otherwise.
 Result<LegendCorner> parse_legend_corner(std::string_view s);

@@ -60,11 +60,7 @@ Layout layout(std::string_view text, uint32_t height) {
 
 // The panel's unclipped top-left corner.
 glm::ivec2 origin(const Layout& y, uint32_t width, uint32_t height, LegendCorner corner, PixelBox after) {
-  const bool left = corner == LegendCorner::top_left || corner == LegendCorner::bottom_left;
-  const bool top = corner == LegendCorner::top_left || corner == LegendCorner::top_right;
-  const int x = left ? y.margin : int(width) - y.margin - y.w;
-  if (top) return {x, after.empty() ? y.margin : after.y1 + y.gap};
-  return {x, (after.empty() ? int(height) - y.margin : after.y0 - y.gap) - y.h};
+  return corner_origin({y.w, y.h}, y.margin, y.gap, width, height, corner, after);
 }
 
 }  // namespace
@@ -90,10 +86,7 @@ Result<std::string> expand_label(std::string_view pattern, const LabelFields& fi
 PixelBox label_box(std::string_view text, uint32_t width, uint32_t height, LegendCorner corner, PixelBox after) {
   if (corner == LegendCorner::off || text.empty() || width == 0 || height == 0) return {};
   const Layout y = layout(text, height);
-  const glm::ivec2 o = origin(y, width, height, corner, after);
-  PixelBox b{std::max(o.x, 0), std::max(o.y, 0), std::min(o.x + y.w, int(width)), std::min(o.y + y.h, int(height))};
-  if (b.empty()) return {};
-  return b;
+  return clipped_box(origin(y, width, height, corner, after), {y.w, y.h}, width, height);
 }
 
 PixelBox overlay_text_label(render::FrameImage& image, std::string_view text, LegendCorner corner, PixelBox after) {
