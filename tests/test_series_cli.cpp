@@ -294,7 +294,7 @@ TEST_F(SeriesCli, AStreamedSeriesCarriesEachFramesViewToTheNext) {
   // The same data drawn: the images agree within the renderer's tolerance. Not byte for byte: the
   // culling classes depend on the order the nodes arrived in (the reader threads' timing), and a
   // node classified occluded may hide a sphere's last pixel (on one loaded core, 1 of 3072 pixels
-  // differed in 9 of 54 cold runs).
+  // differed in 9 of 75 cold runs).
   for (int k = 0; k < 3; ++k) {
     const auto d = mds::testing::compare_exr(tmp(fmt::format("prior{}.exr", k)), tmp(fmt::format("cold{}.exr", k)), 64, 48);
     EXPECT_GT(d.covered, size_t(64 * 48) / 10) << k;
